@@ -1,0 +1,96 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "ced/neighborhoods.hpp"
+
+namespace ced {
+
+/// The norm a centroid distance is measured in.
+enum class norm_type { l1, l2, linf };
+
+/// Parses "l1", "l2" or "linf"; throws std::invalid_argument otherwise.
+norm_type parse_norm(const std::string& text);
+
+/// The CED saliency of a `Dims`-dimensional per-point value: the distance, in
+/// the given norm, from a point's value v_i to the mean of its neighbours'
+/// values, with every dimension d scaled by `scale[d]` (the normalisation):
+///
+///     s_i = || scale ⊙ ( mean_{j ∈ N(i)} v_j − v_i ) ||
+///
+/// The mean is accumulated as the mean of differences (v_j − v_i) in double,
+/// which is exact for integer channels and stable for large coordinates.
+/// `Dims` = 0 means the dimension is chosen at run time.
+///
+/// This is the evaluator most modalities return from `bind()`: a callable
+/// `float(const neighborhood&)`. Threading: const, safe to share.
+template <int Dims = 0>
+class centroid_distance {
+ public:
+  /// `values` holds N×dims floats (row-major); `scale` has dims entries.
+  centroid_distance(std::vector<float> values, std::vector<double> scale, norm_type norm)
+      : m_values(std::move(values)), m_scale(std::move(scale)), m_norm(norm), m_dims(m_scale.size()) {
+    if (m_dims == 0 || (Dims != 0 && m_dims != std::size_t(Dims)))
+      throw std::invalid_argument("centroid_distance: wrong number of dimensions");
+    if (m_values.size() % m_dims != 0) throw std::invalid_argument("centroid_distance: values not a multiple of dims");
+  }
+
+  std::size_t dims() const noexcept { return Dims != 0 ? std::size_t(Dims) : m_dims; }
+  const std::vector<float>& values() const noexcept { return m_values; }
+
+  float operator()(const neighborhood& nb) const noexcept {
+    if constexpr (Dims != 0) {
+      std::array<double, Dims> acc{};
+      const float* vi = m_values.data() + std::size_t(Dims) * nb.point;
+      for (std::uint32_t j : nb) {
+        const float* vj = m_values.data() + std::size_t(Dims) * j;
+        for (int d = 0; d < Dims; ++d) acc[std::size_t(d)] += static_cast<double>(vj[d] - vi[d]);
+      }
+      return finish(acc.data(), std::size_t(Dims), nb.size);
+    } else {
+      // Dimension-outer so that any number of bands needs no buffer.
+      const std::size_t dims = m_dims;
+      const float* vi = m_values.data() + dims * nb.point;
+      double result = 0;
+      for (std::size_t d = 0; d < dims; ++d) {
+        double acc = 0;
+        for (std::uint32_t j : nb) acc += static_cast<double>(m_values[dims * j + d] - vi[d]);
+        result = combine(result, acc / nb.size * m_scale[d]);
+      }
+      return static_cast<float>(m_norm == norm_type::l2 ? std::sqrt(result) : result);
+    }
+  }
+
+ private:
+  double combine(double so_far, double m) const noexcept {
+    switch (m_norm) {
+      case norm_type::l1:
+        return so_far + std::abs(m);
+      case norm_type::l2:
+        return so_far + m * m;
+      case norm_type::linf:
+        return std::max(so_far, std::abs(m));
+    }
+    return so_far;
+  }
+  float finish(const double* acc, std::size_t dims, std::uint32_t n) const noexcept {
+    double result = 0;
+    for (std::size_t d = 0; d < dims; ++d) result = combine(result, acc[d] / n * m_scale[d]);
+    return static_cast<float>(m_norm == norm_type::l2 ? std::sqrt(result) : result);
+  }
+
+  std::vector<float> m_values;
+  std::vector<double> m_scale;
+  norm_type m_norm;
+  std::size_t m_dims;
+};
+
+}  // namespace ced

@@ -1,0 +1,47 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <array>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "ced/cloud.hpp"
+
+namespace ced {
+
+/// A value range [lo, hi] that a channel is normalised by: v' = (v - lo) / (hi - lo).
+struct value_range {
+  double lo = 0.0;
+  double hi = 1.0;
+};
+
+/// How a modality normalises a field: its type's natural range (integers:
+/// [0, 255] for uint8 ...; floats: used as they are), a fixed range, or the
+/// data's own min..max ("auto").
+struct range_policy {
+  enum class kind { natural, fixed, data } how = kind::natural;
+  value_range fixed;
+
+  /// Parses "LO..HI" (e.g. "0..255", "-1..1") or "auto"; throws
+  /// std::invalid_argument naming `option` otherwise.
+  static range_policy parse(std::string_view text, const std::string& option = "range");
+};
+
+/// The range `policy` gives for `f` (a degenerate data range becomes [lo, lo+1]).
+value_range resolve_range(const field& f, const range_policy& policy);
+
+/// N×D floats, row-major: the raw values of `fields` (D = fields.size()).
+std::vector<float> interleave(const std::vector<const field*>& fields);
+
+/// The fields of `cloud` named in `names` (exact name first, then any case);
+/// throws std::invalid_argument naming `modality`, the missing field and the
+/// fields present.
+std::vector<const field*> require_fields(const point_cloud& cloud, const std::vector<std::string>& names,
+                                         const std::string& modality);
+
+/// sRGB in [0,1] to CIELAB (D65 white): L in [0,100], a and b about [-128,127].
+std::array<float, 3> srgb_to_lab(float r, float g, float b) noexcept;
+
+}  // namespace ced

@@ -1,0 +1,20 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <cstddef>
+#include <functional>
+
+namespace ced::detail {
+
+/// Number of threads to use for a request of `threads` (0 = all cores).
+unsigned resolve_threads(unsigned threads) noexcept;
+
+/// Calls `body(begin, end)` on disjoint chunks covering [0, n), on up to
+/// `threads` threads (0 = all cores), and returns when all are done. Chunks
+/// hold at least `grain` items. Exceptions thrown by `body` are rethrown.
+/// Which thread runs a chunk is unspecified, so `body` must write only to
+/// locations owned by its items for the result to be deterministic.
+void parallel_for(std::size_t n, unsigned threads, std::size_t grain,
+                  const std::function<void(std::size_t, std::size_t)>& body);
+
+}  // namespace ced::detail

@@ -1,0 +1,89 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "ced/cloud.hpp"
+#include "ced/modality.hpp"
+#include "ced/params.hpp"
+
+namespace ced {
+
+/// Wall-clock time of each stage, in milliseconds.
+struct stage_times {
+  double index_ms = 0;     ///< kd-tree build and spatial blocks
+  double saliency_ms = 0;  ///< neighbourhoods and all modalities' saliencies
+  double nms_ms = 0;       ///< candidates and multi-modal non-maximum suppression
+  double total_ms() const noexcept { return index_ms + saliency_ms + nms_ms; }
+};
+
+/// Everything a caller needs to see why a point was (not) chosen.
+struct detection_result {
+  /// Keypoint indices into the input cloud, ascending.
+  std::vector<std::uint32_t> keypoints;
+  /// One entry per modality, in the order given.
+  std::vector<std::string> names;
+  /// Absolute thresholds (xyz: ratio × radius).
+  std::vector<double> thresholds;
+  /// saliency[m][i]: saliency of point i in modality m (0 when point i has
+  /// fewer than min_neighbors neighbours).
+  std::vector<std::vector<float>> saliency;
+  /// candidate[i] != 0 when some modality reaches its threshold at point i.
+  std::vector<std::uint8_t> candidate;
+  /// Number of neighbours of each point within the radius (itself included).
+  std::vector<std::uint32_t> neighbor_count;
+  stage_times times;
+};
+
+/// Detects keypoints with modalities chosen at run time (CLI, config).
+/// Throws std::invalid_argument for bad parameters, a non-finite coordinate,
+/// an empty modality list, or a modality whose fields the cloud lacks.
+/// Deterministic: the same result for any `params.threads`.
+detection_result detect(const point_cloud& cloud, const detect_params& params,
+                        const std::vector<any_modality>& modalities);
+
+namespace detail {
+/// The non-template part of detection, shared by both composition paths.
+class detection_context {
+ public:
+  detection_context(const point_cloud& cloud, const detect_params& params, std::vector<std::string> names,
+                    std::vector<double> thresholds);
+  ~detection_context();
+  /// Calls `f(block, columns)` for every spatial block, in parallel; columns[m]
+  /// is modality m's saliency column, to be written at the block's points.
+  void compute_saliency(const std::function<void(const neighbor_block&, float* const*)>& f);
+  /// Candidates, products and NMS; moves the result out.
+  detection_result finish();
+
+ private:
+  struct impl;
+  std::unique_ptr<impl> m_impl;
+};
+}  // namespace detail
+
+/// Detects keypoints with modalities fixed at compile time, e.g.
+/// `ced::detect(cloud, params, ced::xyz{0.2}, ced::rgb{0.1}, my_band{...})`.
+/// Each modality's evaluator is inlined into the neighbourhood loop; there are
+/// no virtual calls. Same semantics and result as the runtime overload.
+template <class... M, class = std::enable_if_t<(sizeof...(M) > 0) && (is_modality_v<M> && ...)>>
+detection_result detect(const point_cloud& cloud, const detect_params& params, const M&... modalities) {
+  detail::detection_context ctx(cloud, params, {std::string(modalities.name())...},
+                                {double(modalities.threshold(params))...});
+  const auto evaluators = std::make_tuple(modalities.bind(cloud, params)...);
+  ctx.compute_saliency([&](const neighbor_block& block, float* const* columns) {
+    std::apply(
+        [&](const auto&... e) {
+          std::size_t m = 0;
+          (evaluate_block(e, block, params.min_neighbors, columns[m++]), ...);
+        },
+        evaluators);
+  });
+  return ctx.finish();
+}
+
+}  // namespace ced

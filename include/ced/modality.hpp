@@ -1,0 +1,194 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include "ced/centroid_distance.hpp"
+#include "ced/cloud.hpp"
+#include "ced/neighborhoods.hpp"
+#include "ced/params.hpp"
+
+namespace ced {
+
+// ---------------------------------------------------------------------------
+// The Modality concept
+//
+// A modality is a small value type `M` with
+//   std::string name() const;                       // e.g. "rgb", "bands(nir,red)"
+//   double threshold(const detect_params&) const;   // absolute, in saliency units
+//   E bind(const point_cloud&, const detect_params&) const;
+// where the evaluator E returned by bind() is callable as
+//   float E::operator()(const neighborhood&) const; // the saliency of one point
+// E owns whatever per-point data it prepared (normalised channel values...)
+// and must be safe to call concurrently. Most modalities return a
+// `centroid_distance<D>`; a modality that measures saliency differently
+// (a circular mean, a median) returns its own callable.
+//
+// To be usable from strings (CLI, config), M also provides
+//   static constexpr const char* spec_name = "rgb";
+//   static M from_spec(modality_spec&);
+// and is registered once with register_modality<M>().
+// ---------------------------------------------------------------------------
+
+template <class M>
+using evaluator_t =
+    decltype(std::declval<const M&>().bind(std::declval<const point_cloud&>(), std::declval<const detect_params&>()));
+
+namespace detail {
+template <class M, class = void>
+struct is_modality : std::false_type {};
+template <class M>
+struct is_modality<
+    M, std::void_t<decltype(std::string(std::declval<const M&>().name())),
+                   decltype(double(std::declval<const M&>().threshold(std::declval<const detect_params&>()))),
+                   decltype(float(std::declval<const evaluator_t<M>&>()(std::declval<const neighborhood&>())))>>
+    : std::true_type {};
+}  // namespace detail
+
+/// True when M models the Modality concept above.
+template <class M>
+inline constexpr bool is_modality_v = detail::is_modality<M>::value;
+
+#ifdef __cpp_concepts
+template <class M>
+concept Modality = is_modality_v<M>;
+#endif
+
+/// Saliency of every point of a block into column[point] (0 for points with
+/// fewer than `min_neighbors` neighbours). Shared by both composition paths.
+template <class Evaluator>
+void evaluate_block(const Evaluator& e, const neighbor_block& block, std::uint32_t min_neighbors, float* column) {
+  for (std::size_t k = 0; k < block.size(); ++k) {
+    const neighborhood nb = block[k];
+    column[nb.point] = nb.size < min_neighbors ? 0.0f : static_cast<float>(e(nb));
+  }
+}
+
+// ---------------------------------------------------------------------------
+// Runtime composition: type erasure
+// ---------------------------------------------------------------------------
+
+/// A modality bound to a cloud, behind one virtual call per block.
+class bound_modality {
+ public:
+  virtual ~bound_modality() = default;
+  virtual void evaluate(const neighbor_block& block, std::uint32_t min_neighbors, float* column) const = 0;
+};
+
+/// Any modality, type-erased (value semantics, like std::function).
+class any_modality {
+ public:
+  any_modality() = default;
+  template <class M,
+            class = std::enable_if_t<is_modality_v<std::decay_t<M>> && !std::is_same_v<std::decay_t<M>, any_modality>>>
+  any_modality(M m)  // NOLINT(google-explicit-constructor): like std::function
+      : m_self(std::make_shared<model<std::decay_t<M>>>(std::move(m))) {}
+
+  explicit operator bool() const noexcept { return m_self != nullptr; }
+  std::string name() const { return m_self->name(); }
+  double threshold(const detect_params& p) const { return m_self->threshold(p); }
+  std::unique_ptr<bound_modality> bind(const point_cloud& c, const detect_params& p) const {
+    return m_self->bind(c, p);
+  }
+
+ private:
+  struct concept_t {
+    virtual ~concept_t() = default;
+    virtual std::string name() const = 0;
+    virtual double threshold(const detect_params&) const = 0;
+    virtual std::unique_ptr<bound_modality> bind(const point_cloud&, const detect_params&) const = 0;
+  };
+  template <class M>
+  struct model final : concept_t {
+    explicit model(M m) : modality(std::move(m)) {}
+    struct bound final : bound_modality {
+      explicit bound(evaluator_t<M> e) : evaluator(std::move(e)) {}
+      void evaluate(const neighbor_block& b, std::uint32_t k, float* column) const override {
+        evaluate_block(evaluator, b, k, column);
+      }
+      evaluator_t<M> evaluator;
+    };
+    std::string name() const override { return std::string(modality.name()); }
+    double threshold(const detect_params& p) const override { return modality.threshold(p); }
+    std::unique_ptr<bound_modality> bind(const point_cloud& c, const detect_params& p) const override {
+      return std::make_unique<bound>(modality.bind(c, p));
+    }
+    M modality;
+  };
+  std::shared_ptr<const concept_t> m_self;  // immutable, so sharing is safe
+};
+
+// ---------------------------------------------------------------------------
+// Modality specs and the registry
+// ---------------------------------------------------------------------------
+
+/// A parsed modality spec: `name[(arg,...)][:threshold][,key=value...]`, e.g.
+/// `xyz:0.2`, `rgb`, `bands(nir,red_edge):0.1,range=0..255`, `intensity,norm=l2`.
+class modality_spec {
+ public:
+  /// Throws std::invalid_argument with the spec and the position of the problem.
+  static modality_spec parse(std::string_view text);
+
+  const std::string& text() const noexcept { return m_text; }
+  const std::string& name() const noexcept { return m_name; }
+  /// The field list in parentheses (reading it marks it as used).
+  const std::vector<std::string>& args() const noexcept {
+    m_args_read = true;
+    return m_args;
+  }
+  /// True when a field list was given but no one read it.
+  bool args_unused() const noexcept { return !m_args.empty() && !m_args_read; }
+  /// The threshold after ':', or `fallback` when none was given.
+  double threshold_or(double fallback) const noexcept { return m_threshold.value_or(fallback); }
+  const std::optional<double>& threshold() const noexcept { return m_threshold; }
+
+  /// Returns and consumes option `key` (options never consumed are an error).
+  std::optional<std::string> take(const std::string& key);
+  /// Options never taken, for the registry's "unknown option" error.
+  std::vector<std::string> unused_options() const;
+
+ private:
+  std::string m_text, m_name;
+  std::vector<std::string> m_args;
+  std::optional<double> m_threshold;
+  std::map<std::string, std::string> m_options;
+  std::map<std::string, bool> m_taken;
+  mutable bool m_args_read = false;
+};
+
+using modality_factory = std::function<any_modality(modality_spec&)>;
+
+/// Registers (or replaces) a modality under `name`. Thread-safe.
+void register_modality(const std::string& name, modality_factory factory, std::string help = {});
+
+/// Registers M under M::spec_name, built with M::from_spec.
+template <class M>
+void register_modality(std::string help = {}) {
+  static_assert(is_modality_v<M>, "M does not model the Modality concept (see ced/modality.hpp)");
+  register_modality(
+      M::spec_name, [](modality_spec& s) { return any_modality(M::from_spec(s)); }, std::move(help));
+}
+
+/// Names and one-line help of all registered modalities (built-ins included), sorted.
+std::vector<std::pair<std::string, std::string>> registered_modalities();
+
+/// Builds a modality from a spec string. Throws std::invalid_argument for an
+/// unknown name (listing the known ones), a bad threshold or unknown options.
+any_modality make_modality(std::string_view spec);
+
+/// The modalities of a preset: "ced3d" = xyz:0.2; "ced6d" = xyz:0.2 + rgb:0.1.
+std::vector<any_modality> preset(std::string_view name);
+
+/// Parses a number; throws std::invalid_argument naming `what` on failure.
+double parse_number(std::string_view text, const std::string& what);
+
+}  // namespace ced

@@ -1,0 +1,58 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+namespace ced {
+
+/// Fixed-radius neighbour search over a set of 3D points: a thin wrapper
+/// around CGAL's `Kd_tree` (index keys, sliding-midpoint splitter, points
+/// cache). CGAL is not included by this header.
+///
+/// Semantics match the CED paper's implementation (FLANN): point j is a
+/// neighbour of centre c when the squared distance, computed in float, is
+/// strictly less than r² (float).
+///
+/// Threading: the tree is built in the constructor; all const member
+/// functions may then be called concurrently from any number of threads.
+class neighbor_index {
+ public:
+  /// Builds the index over `n` points given as N×3 row-major floats. The
+  /// array must outlive the index. `bucket_size` is the kd-tree leaf size.
+  neighbor_index(const float* xyz, std::size_t n, unsigned bucket_size = 32, unsigned threads = 1);
+  ~neighbor_index();
+  neighbor_index(neighbor_index&&) noexcept;
+  neighbor_index& operator=(neighbor_index&&) noexcept;
+  neighbor_index(const neighbor_index&) = delete;
+  neighbor_index& operator=(const neighbor_index&) = delete;
+
+  std::size_t size() const noexcept { return m_n; }
+
+  /// Replaces `out` with the indices j such that |p_j - c|² < r² (in the
+  /// index's own order: deterministic, not sorted).
+  void radius_search(const float c[3], double r, std::vector<std::uint32_t>& out) const;
+
+  /// Replaces `out` with the indices of all points inside the closed box
+  /// [lo, hi] (deterministic order, not sorted).
+  void box_search(const float lo[3], const float hi[3], std::vector<std::uint32_t>& out) const;
+
+ private:
+  struct impl;
+  std::unique_ptr<impl> m_impl;
+  const float* m_xyz = nullptr;
+  std::size_t m_n = 0;
+};
+
+/// Squared radius as the paper's code compares it: float(r*r).
+inline float squared_radius(double r) noexcept { return static_cast<float>(r * r); }
+
+/// Squared distance between two points of an N×3 float array, in float.
+inline float squared_distance(const float* a, const float* b) noexcept {
+  const float dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
+  return dx * dx + dy * dy + dz * dz;
+}
+
+}  // namespace ced

@@ -1,0 +1,29 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <cstdint>
+
+namespace ced {
+
+/// Parameters shared by all modalities. Defaults are the paper's, for clouds
+/// at about 1 cm resolution.
+struct detect_params {
+  /// Neighbourhood radius for the saliency (metres; 3D distance, strict <).
+  double radius = 0.05;
+  /// Non-maximum-suppression radius (metres; may differ from `radius`).
+  double nms_radius = 0.05;
+  /// Points with fewer neighbours (themselves included) get saliency 0 in
+  /// every modality. 0 and 1 disable the gate.
+  std::uint32_t min_neighbors = 5;
+  /// Worker threads; 0 = all cores. The result does not depend on it.
+  unsigned threads = 0;
+  /// Side of the spatial blocks, as a multiple of the radius (a tuning knob;
+  /// the result does not depend on it).
+  double block_scale = 1.0;
+};
+
+/// Throws std::invalid_argument naming the parameter when one is out of range
+/// (radius ≤ 0, NaN or infinite, ...).
+void validate(const detect_params& params);
+
+}  // namespace ced

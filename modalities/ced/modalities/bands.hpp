@@ -1,0 +1,55 @@
+// SPDX-License-Identifier: MIT
+// Bands: any list of named scalar channels (multispectral bands, NIR, ...)
+// as one vector-valued modality; by default the L1 distance to the
+// neighbours' mean with every band normalised to [0,1].
+//
+//   bands(nir,red,red_edge):0.1              integer bands by their type's range
+//   bands(b1,b2):0.05,range=0..10000         one fixed range for all bands
+//   bands(b1,b2):0.05,range=auto,norm=l2     each band by its own data range, L2
+#pragma once
+
+#include "ced/channels.hpp"
+#include "ced/modality.hpp"
+
+namespace ced {
+
+struct bands {
+  static constexpr const char* spec_name = "bands";
+  std::vector<std::string> names;
+  double threshold_value = 0.1;
+  norm_type norm = norm_type::l1;
+  range_policy range;
+
+  bands() = default;
+  explicit bands(std::vector<std::string> fields, double threshold = 0.1, norm_type n = norm_type::l1)
+      : names(std::move(fields)), threshold_value(threshold), norm(n) {}
+
+  std::string name() const {
+    std::string s = "bands(";
+    for (std::size_t i = 0; i < names.size(); ++i) s += (i ? "," : "") + names[i];
+    return s + ")";
+  }
+  double threshold(const detect_params&) const { return threshold_value; }
+  centroid_distance<0> bind(const point_cloud& cloud, const detect_params&) const {
+    if (names.empty()) throw std::invalid_argument("bands() needs at least one field name, e.g. bands(nir,red)");
+    auto f = require_fields(cloud, names, name());
+    std::vector<double> scale;
+    for (const field* b : f) {
+      const value_range r = resolve_range(*b, range);
+      scale.push_back(1.0 / (r.hi - r.lo));
+    }
+    return centroid_distance<0>(interleave(f), scale, norm);
+  }
+  static bands from_spec(modality_spec& s) {
+    bands m;
+    m.names = s.args();
+    if (m.names.empty())
+      throw std::invalid_argument("'" + s.text() + "': bands needs field names, e.g. bands(nir,red)");
+    m.threshold_value = s.threshold_or(0.1);
+    if (auto n = s.take("norm")) m.norm = parse_norm(*n);
+    if (auto r = s.take("range")) m.range = range_policy::parse(*r);
+    return m;
+  }
+};
+
+}  // namespace ced

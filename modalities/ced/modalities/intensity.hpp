@@ -1,0 +1,43 @@
+// SPDX-License-Identifier: MIT
+// Intensity (LiDAR return strength, grey level...): the absolute difference
+// between a point's normalised intensity and its neighbours' mean.
+//
+// Reads the field `intensity` (any case), or another via `field=NAME`.
+// Normalisation as for bands: integer types by their range, floats as they
+// are, or `range=LO..HI` / `range=auto`.
+#pragma once
+
+#include "ced/channels.hpp"
+#include "ced/modality.hpp"
+
+namespace ced {
+
+struct intensity {
+  static constexpr const char* spec_name = "intensity";
+  double threshold_value = 0.05;
+  std::string field_name = "intensity";
+  range_policy range;
+
+  intensity() = default;
+  explicit intensity(double threshold, std::string field = "intensity")
+      : threshold_value(threshold), field_name(std::move(field)) {}
+
+  std::string name() const { return field_name == "intensity" ? "intensity" : "intensity(" + field_name + ")"; }
+  double threshold(const detect_params&) const { return threshold_value; }
+  centroid_distance<1> bind(const point_cloud& cloud, const detect_params&) const {
+    auto f = require_fields(cloud, {field_name}, name());
+    const value_range r = resolve_range(*f[0], range);
+    return centroid_distance<1>(interleave(f), {1.0 / (r.hi - r.lo)}, norm_type::l1);
+  }
+  static intensity from_spec(modality_spec& s) {
+    intensity m;
+    m.threshold_value = s.threshold_or(0.05);
+    if (s.args().size() > 1) throw std::invalid_argument("intensity takes at most one field name: " + s.text());
+    if (s.args().size() == 1) m.field_name = s.args()[0];
+    if (auto f = s.take("field")) m.field_name = *f;
+    if (auto r = s.take("range")) m.range = range_policy::parse(*r);
+    return m;
+  }
+};
+
+}  // namespace ced

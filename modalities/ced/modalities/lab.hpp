@@ -1,0 +1,36 @@
+// SPDX-License-Identifier: MIT
+// CIELAB colour (the paper's footnote): colours converted from sRGB to
+// L*a*b* (D65), saliency = Euclidean distance to the neighbours' mean in
+// L*a*b* (ΔE*76) divided by 100, so 0.1 means ΔE 10.
+#pragma once
+
+#include "ced/modalities/rgb.hpp"
+#include "ced/modality.hpp"
+
+namespace ced {
+
+struct lab {
+  static constexpr const char* spec_name = "lab";
+  double threshold_value = 0.1;
+
+  lab() = default;
+  explicit lab(double threshold) : threshold_value(threshold) {}
+
+  std::string name() const { return "lab"; }
+  double threshold(const detect_params&) const { return threshold_value; }
+  centroid_distance<3> bind(const point_cloud& cloud, const detect_params&) const {
+    const auto f = rgb::fields(cloud);
+    const auto s = rgb::scale(f, std::nullopt);
+    const std::size_t n = cloud.size();
+    std::vector<float> out(3 * n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto l = srgb_to_lab(static_cast<float>(f[0]->values[i] * s[0]), static_cast<float>(f[1]->values[i] * s[1]),
+                                 static_cast<float>(f[2]->values[i] * s[2]));
+      std::copy(l.begin(), l.end(), out.begin() + static_cast<std::ptrdiff_t>(3 * i));
+    }
+    return centroid_distance<3>(std::move(out), {0.01, 0.01, 0.01}, norm_type::l2);
+  }
+  static lab from_spec(modality_spec& s) { return lab(s.threshold_or(0.1)); }
+};
+
+}  // namespace ced

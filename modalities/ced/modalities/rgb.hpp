@@ -1,0 +1,65 @@
+// SPDX-License-Identifier: MIT
+// Colour: the L1 distance from a point's colour to the mean colour of its
+// neighbours, each channel scaled to [0,1] (paper threshold: 0.1, range 0..3).
+//
+// Reads red/green/blue (or r/g/b, any case). Integer channels are scaled by
+// their type's range (uchar: /255), except 16-bit channels that hold only
+// 8-bit values (common in LAS files), which are scaled by 255. Float channels
+// are taken to be in [0,1] already. `range=LO..HI` or `range=auto` overrides.
+#pragma once
+
+#include "ced/channels.hpp"
+#include "ced/modality.hpp"
+
+namespace ced {
+
+struct rgb {
+  static constexpr const char* spec_name = "rgb";
+  double threshold_value = 0.1;
+  norm_type norm = norm_type::l1;
+  std::optional<range_policy> range;
+
+  rgb() = default;
+  explicit rgb(double threshold, norm_type n = norm_type::l1) : threshold_value(threshold), norm(n) {}
+
+  std::string name() const { return "rgb"; }
+  double threshold(const detect_params&) const { return threshold_value; }
+  centroid_distance<3> bind(const point_cloud& cloud, const detect_params&) const {
+    const auto f = fields(cloud);
+    const auto s = scale(f, range);
+    return centroid_distance<3>(interleave({f[0], f[1], f[2]}), {s[0], s[1], s[2]}, norm);
+  }
+
+  /// The colour fields; throws naming the fields present when there are none.
+  static std::array<const field*, 3> fields(const point_cloud& cloud) {
+    const auto f = find_rgb_fields(cloud);
+    if (!f[0]) require_fields(cloud, {"red", "green", "blue"}, "rgb");  // throws the message
+    return f;
+  }
+
+  /// Per-channel scale 1/(hi-lo) under `range`, or the default rule above.
+  static std::array<double, 3> scale(const std::array<const field*, 3>& f, const std::optional<range_policy>& range) {
+    bool eight_bit_in_16 = !range;
+    for (const field* c : f) {
+      if (c->type != scalar_type::uint16 && c->type != scalar_type::int16) eight_bit_in_16 = false;
+      for (std::size_t i = 0; eight_bit_in_16 && i < c->values.size(); ++i) eight_bit_in_16 = c->values[i] <= 255.0;
+    }
+    std::array<double, 3> s{};
+    for (std::size_t c = 0; c < 3; ++c) {
+      const value_range r =
+          eight_bit_in_16 ? value_range{0.0, 255.0} : resolve_range(*f[c], range.value_or(range_policy{}));
+      s[c] = 1.0 / (r.hi - r.lo);
+    }
+    return s;
+  }
+
+  static rgb from_spec(modality_spec& s) {
+    rgb m;
+    m.threshold_value = s.threshold_or(0.1);
+    if (auto n = s.take("norm")) m.norm = parse_norm(*n);
+    if (auto r = s.take("range")) m.range = range_policy::parse(*r);
+    return m;
+  }
+};
+
+}  // namespace ced

@@ -1,0 +1,26 @@
+// SPDX-License-Identifier: MIT
+// Geometry: the L2 distance (metres) from a point to the centroid of its
+// neighbours. The threshold is a ratio of the radius (paper: 0.2).
+#pragma once
+
+#include "ced/modality.hpp"
+
+namespace ced {
+
+struct xyz {
+  static constexpr const char* spec_name = "xyz";
+  /// Candidate when the distance to the centroid is ≥ ratio × radius.
+  double ratio = 0.2;
+
+  xyz() = default;
+  explicit xyz(double threshold_ratio) : ratio(threshold_ratio) {}
+
+  std::string name() const { return "xyz"; }
+  double threshold(const detect_params& p) const { return ratio * p.radius; }
+  centroid_distance<3> bind(const point_cloud& cloud, const detect_params&) const {
+    return centroid_distance<3>(cloud.positions(), {1.0, 1.0, 1.0}, norm_type::l2);
+  }
+  static xyz from_spec(modality_spec& s) { return xyz(s.threshold_or(0.2)); }
+};
+
+}  // namespace ced

@@ -1,0 +1,93 @@
+// SPDX-License-Identifier: MIT
+#include "ced/channels.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "ced/modality.hpp"
+
+namespace ced {
+
+range_policy range_policy::parse(std::string_view text, const std::string& option) {
+  range_policy p;
+  if (text == "auto") {
+    p.how = kind::data;
+    return p;
+  }
+  const auto dots = text.find("..");
+  if (dots == std::string_view::npos)
+    throw std::invalid_argument("option '" + option + "' must be LO..HI or auto, got '" + std::string(text) + "'");
+  p.how = kind::fixed;
+  p.fixed.lo = parse_number(text.substr(0, dots), option + " (low end)");
+  p.fixed.hi = parse_number(text.substr(dots + 2), option + " (high end)");
+  if (!(p.fixed.hi > p.fixed.lo))
+    throw std::invalid_argument("option '" + option + "': the high end must exceed the low end, got '" +
+                                std::string(text) + "'");
+  return p;
+}
+
+value_range resolve_range(const field& f, const range_policy& policy) {
+  switch (policy.how) {
+    case range_policy::kind::fixed:
+      return policy.fixed;
+    case range_policy::kind::natural: {
+      const auto r = natural_range(f.type);
+      return {r[0], r[1]};
+    }
+    case range_policy::kind::data: {
+      if (f.values.empty()) return {0.0, 1.0};
+      double lo = f.values[0], hi = f.values[0];
+      for (double v : f.values) {
+        lo = std::min(lo, v);
+        hi = std::max(hi, v);
+      }
+      if (!(hi > lo)) hi = lo + 1.0;
+      return {lo, hi};
+    }
+  }
+  return {0.0, 1.0};
+}
+
+std::vector<float> interleave(const std::vector<const field*>& fields) {
+  const std::size_t d = fields.size();
+  if (d == 0) return {};
+  const std::size_t n = fields[0]->values.size();
+  std::vector<float> out(n * d);
+  for (std::size_t k = 0; k < d; ++k) {
+    const auto& v = fields[k]->values;
+    for (std::size_t i = 0; i < n; ++i) out[i * d + k] = static_cast<float>(v[i]);
+  }
+  return out;
+}
+
+std::vector<const field*> require_fields(const point_cloud& cloud, const std::vector<std::string>& names,
+                                         const std::string& modality) {
+  std::vector<const field*> out;
+  for (const auto& name : names) {
+    const field* f = cloud.find_field_icase(name);
+    if (!f) {
+      std::string present;
+      for (const auto& g : cloud.fields()) present += (present.empty() ? "" : ", ") + g.name;
+      throw std::invalid_argument(
+          "modality '" + modality + "' needs field '" + name +
+          "', which the cloud does not have (fields present: " + (present.empty() ? "none" : present) + ")");
+    }
+    out.push_back(f);
+  }
+  return out;
+}
+
+std::array<float, 3> srgb_to_lab(float r, float g, float b) noexcept {
+  auto lin = [](double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); };
+  const double R = lin(r), G = lin(g), B = lin(b);
+  const double X = (0.4124564 * R + 0.3575761 * G + 0.1804375 * B) / 0.95047;
+  const double Y = (0.2126729 * R + 0.7151522 * G + 0.0721750 * B) / 1.0;
+  const double Z = (0.0193339 * R + 0.1191920 * G + 0.9503041 * B) / 1.08883;
+  auto f = [](double t) { return t > 216.0 / 24389.0 ? std::cbrt(t) : (24389.0 / 27.0 * t + 16.0) / 116.0; };
+  const double fx = f(X), fy = f(Y), fz = f(Z);
+  return {static_cast<float>(116.0 * fy - 16.0), static_cast<float>(500.0 * (fx - fy)),
+          static_cast<float>(200.0 * (fy - fz))};
+}
+
+}  // namespace ced

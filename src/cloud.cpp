@@ -1,0 +1,163 @@
+// SPDX-License-Identifier: MIT
+#include "ced/cloud.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <limits>
+
+namespace ced {
+
+std::size_t size_of(scalar_type t) noexcept {
+  switch (t) {
+    case scalar_type::int8:
+    case scalar_type::uint8:
+      return 1;
+    case scalar_type::int16:
+    case scalar_type::uint16:
+      return 2;
+    case scalar_type::int32:
+    case scalar_type::uint32:
+    case scalar_type::float32:
+      return 4;
+    case scalar_type::int64:
+    case scalar_type::uint64:
+    case scalar_type::float64:
+      return 8;
+  }
+  return 0;
+}
+
+std::string_view name_of(scalar_type t) noexcept {
+  switch (t) {
+    case scalar_type::int8:
+      return "int8";
+    case scalar_type::uint8:
+      return "uint8";
+    case scalar_type::int16:
+      return "int16";
+    case scalar_type::uint16:
+      return "uint16";
+    case scalar_type::int32:
+      return "int32";
+    case scalar_type::uint32:
+      return "uint32";
+    case scalar_type::int64:
+      return "int64";
+    case scalar_type::uint64:
+      return "uint64";
+    case scalar_type::float32:
+      return "float32";
+    case scalar_type::float64:
+      return "float64";
+  }
+  return "?";
+}
+
+bool is_integer(scalar_type t) noexcept { return t != scalar_type::float32 && t != scalar_type::float64; }
+
+std::array<double, 2> natural_range(scalar_type t) noexcept {
+  switch (t) {
+    case scalar_type::int8:
+      return {-128.0, 127.0};
+    case scalar_type::uint8:
+      return {0.0, 255.0};
+    case scalar_type::int16:
+      return {-32768.0, 32767.0};
+    case scalar_type::uint16:
+      return {0.0, 65535.0};
+    case scalar_type::int32:
+      return {double(std::numeric_limits<std::int32_t>::min()), double(std::numeric_limits<std::int32_t>::max())};
+    case scalar_type::uint32:
+      return {0.0, double(std::numeric_limits<std::uint32_t>::max())};
+    case scalar_type::int64:
+      return {double(std::numeric_limits<std::int64_t>::min()), double(std::numeric_limits<std::int64_t>::max())};
+    case scalar_type::uint64:
+      return {0.0, double(std::numeric_limits<std::uint64_t>::max())};
+    case scalar_type::float32:
+    case scalar_type::float64:
+      return {0.0, 1.0};
+  }
+  return {0.0, 1.0};
+}
+
+namespace {
+bool iequal(std::string_view a, std::string_view b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (std::tolower(static_cast<unsigned char>(a[i])) != std::tolower(static_cast<unsigned char>(b[i]))) return false;
+  return true;
+}
+}  // namespace
+
+const field* point_cloud::find_field(std::string_view name) const noexcept {
+  for (const auto& f : m_fields)
+    if (f.name == name) return &f;
+  return nullptr;
+}
+
+const field* point_cloud::find_field_icase(std::string_view name) const noexcept {
+  if (const field* f = find_field(name)) return f;
+  for (const auto& f : m_fields)
+    if (iequal(f.name, name)) return &f;
+  return nullptr;
+}
+
+const field& point_cloud::get_field(std::string_view name) const {
+  if (const field* f = find_field(name)) return *f;
+  std::string present;
+  for (const auto& f : m_fields) present += (present.empty() ? "" : ", ") + f.name;
+  throw std::invalid_argument("the cloud has no field '" + std::string(name) +
+                              "' (fields present: " + (present.empty() ? "none" : present) + ")");
+}
+
+field& point_cloud::add_field(std::string name, scalar_type type, std::vector<double> values) {
+  if (values.size() != size())
+    throw std::invalid_argument("field '" + name + "' has " + std::to_string(values.size()) + " values for " +
+                                std::to_string(size()) + " points");
+  for (auto& f : m_fields)
+    if (f.name == name) {
+      f.type = type;
+      f.values = std::move(values);
+      return f;
+    }
+  m_fields.push_back(field{std::move(name), type, std::move(values)});
+  return m_fields.back();
+}
+
+void point_cloud::add_rgb(const std::vector<std::array<std::uint8_t, 3>>& rgb) {
+  const char* names[3] = {"red", "green", "blue"};
+  for (int c = 0; c < 3; ++c) {
+    std::vector<double> v(rgb.size());
+    for (std::size_t i = 0; i < rgb.size(); ++i) v[i] = rgb[i][static_cast<std::size_t>(c)];
+    add_field(names[c], scalar_type::uint8, std::move(v));
+  }
+}
+
+std::array<const field*, 3> find_rgb_fields(const point_cloud& cloud) noexcept {
+  std::array<const field*, 3> f{cloud.find_field_icase("red"), cloud.find_field_icase("green"),
+                                cloud.find_field_icase("blue")};
+  if (f[0] && f[1] && f[2]) return f;
+  f = {cloud.find_field_icase("r"), cloud.find_field_icase("g"), cloud.find_field_icase("b")};
+  if (f[0] && f[1] && f[2]) return f;
+  return {nullptr, nullptr, nullptr};
+}
+
+bool point_cloud::has_rgb() const noexcept { return find_rgb_fields(*this)[0] != nullptr; }
+
+void point_cloud::filter(const std::vector<std::uint8_t>& keep) {
+  if (keep.size() != size()) throw std::invalid_argument("filter mask size differs from the cloud size");
+  std::size_t out = 0;
+  for (std::size_t i = 0; i < keep.size(); ++i) {
+    if (!keep[i]) continue;
+    if (out != i) {
+      for (int k = 0; k < 3; ++k)
+        m_xyz[3 * out + static_cast<std::size_t>(k)] = m_xyz[3 * i + static_cast<std::size_t>(k)];
+      for (auto& f : m_fields) f.values[out] = f.values[i];
+    }
+    ++out;
+  }
+  m_xyz.resize(3 * out);
+  for (auto& f : m_fields) f.values.resize(out);
+}
+
+}  // namespace ced

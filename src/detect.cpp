@@ -1,0 +1,139 @@
+// SPDX-License-Identifier: MIT
+#include "ced/detect.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+#include "ced/detail/parallel.hpp"
+#include "ced/neighbor_index.hpp"
+#include "ced/nms.hpp"
+
+namespace ced {
+
+void validate(const detect_params& p) {
+  auto positive = [](double v, const char* what) {
+    if (!std::isfinite(v) || !(v > 0))
+      throw std::invalid_argument(std::string(what) + " must be a positive finite number, got " + std::to_string(v));
+  };
+  positive(p.radius, "radius");
+  positive(p.nms_radius, "nms_radius");
+  positive(p.block_scale, "block_scale");
+  if (p.threads > 4096) throw std::invalid_argument("threads must be at most 4096, got " + std::to_string(p.threads));
+}
+
+namespace detail {
+
+namespace {
+using clock_type = std::chrono::steady_clock;
+double ms_since(clock_type::time_point t) {
+  return std::chrono::duration<double, std::milli>(clock_type::now() - t).count();
+}
+}  // namespace
+
+struct detection_context::impl {
+  const point_cloud& cloud;
+  detect_params params;
+  detection_result result;
+  neighbor_index index;
+  block_partition blocks;
+
+  impl(const point_cloud& c, const detect_params& p, neighbor_index&& idx, block_partition&& b)
+      : cloud(c), params(p), index(std::move(idx)), blocks(std::move(b)) {}
+};
+
+namespace {
+void check_inputs(const point_cloud& cloud, const detect_params& params, const std::vector<std::string>& names,
+                  const std::vector<double>& thresholds) {
+  validate(params);
+  if (names.empty()) throw std::invalid_argument("no modality given: detection needs at least one");
+  for (std::size_t m = 0; m < names.size(); ++m)
+    if (!std::isfinite(thresholds[m]) || thresholds[m] < 0)
+      throw std::invalid_argument("threshold of modality '" + names[m] + "' must be a finite number >= 0, got " +
+                                  std::to_string(thresholds[m]));
+  const auto& xyz = cloud.positions();
+  for (std::size_t i = 0; i < xyz.size(); ++i)
+    if (!std::isfinite(xyz[i]))
+      throw std::invalid_argument("point " + std::to_string(i / 3) +
+                                  " has a non-finite coordinate (remove NaN/Inf points first)");
+  if (cloud.size() >= std::size_t(UINT32_MAX)) throw std::invalid_argument("too many points (at most 2^32-2)");
+}
+}  // namespace
+
+detection_context::detection_context(const point_cloud& cloud, const detect_params& params,
+                                     std::vector<std::string> names, std::vector<double> thresholds) {
+  check_inputs(cloud, params, names, thresholds);
+  const auto t0 = clock_type::now();
+  const unsigned threads = resolve_threads(params.threads);
+  const float* xyz = cloud.positions().data();
+  m_impl = std::make_unique<impl>(cloud, params, neighbor_index(xyz, cloud.size(), 32, threads),
+                                  block_partition(xyz, cloud.size(), params.radius * params.block_scale, threads));
+  m_impl->result.names = std::move(names);
+  m_impl->result.thresholds = std::move(thresholds);
+  m_impl->result.times.index_ms = ms_since(t0);
+}
+
+detection_context::~detection_context() = default;
+
+void detection_context::compute_saliency(const std::function<void(const neighbor_block&, float* const*)>& f) {
+  const auto t0 = clock_type::now();
+  auto& r = m_impl->result;
+  const std::size_t n = m_impl->cloud.size();
+  const std::size_t m = r.names.size();
+  r.saliency.assign(m, std::vector<float>(n, 0.0f));
+  r.neighbor_count.assign(n, 0);
+  std::vector<float*> columns(m);
+  for (std::size_t k = 0; k < m; ++k) columns[k] = r.saliency[k].data();
+  const float* xyz = m_impl->cloud.positions().data();
+  const auto& blocks = m_impl->blocks;
+  parallel_for(blocks.block_count(), resolve_threads(m_impl->params.threads), 8, [&](std::size_t b0, std::size_t b1) {
+    neighbor_block block;
+    for (std::size_t b = b0; b < b1; ++b) {
+      block.fill(m_impl->index, xyz, blocks.block_points(b), blocks.block_size(b), m_impl->params.radius);
+      for (std::size_t k = 0; k < block.size(); ++k) r.neighbor_count[block.point(k)] = block[k].size;
+      f(block, columns.data());
+    }
+  });
+  r.times.saliency_ms = ms_since(t0);
+}
+
+detection_result detection_context::finish() {
+  const auto t0 = clock_type::now();
+  auto& r = m_impl->result;
+  const std::size_t n = m_impl->cloud.size();
+  r.candidate.assign(n, 0);
+  for (std::size_t k = 0; k < r.saliency.size(); ++k) {
+    const double t = r.thresholds[k];
+    const auto& s = r.saliency[k];
+    for (std::size_t i = 0; i < n; ++i)
+      if (static_cast<double>(s[i]) >= t) r.candidate[i] = 1;
+  }
+  const std::vector<float> product = saliency_product(r.saliency);
+  r.keypoints =
+      non_maximum_suppression(m_impl->index, m_impl->blocks, m_impl->cloud.positions().data(), product, r.candidate,
+                              m_impl->params.nms_radius, resolve_threads(m_impl->params.threads));
+  r.times.nms_ms = ms_since(t0);
+  return std::move(r);
+}
+
+}  // namespace detail
+
+detection_result detect(const point_cloud& cloud, const detect_params& params,
+                        const std::vector<any_modality>& modalities) {
+  std::vector<std::string> names;
+  std::vector<double> thresholds;
+  for (const auto& m : modalities) {
+    if (!m) throw std::invalid_argument("empty modality in the list");
+    names.push_back(m.name());
+    thresholds.push_back(m.threshold(params));
+  }
+  detail::detection_context ctx(cloud, params, std::move(names), std::move(thresholds));
+  std::vector<std::unique_ptr<bound_modality>> bound;
+  for (const auto& m : modalities) bound.push_back(m.bind(cloud, params));
+  ctx.compute_saliency([&](const neighbor_block& block, float* const* columns) {
+    for (std::size_t k = 0; k < bound.size(); ++k) bound[k]->evaluate(block, params.min_neighbors, columns[k]);
+  });
+  return ctx.finish();
+}
+
+}  // namespace ced

@@ -1,0 +1,190 @@
+// SPDX-License-Identifier: MIT
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <mutex>
+#include <stdexcept>
+
+#include "ced/modalities/bands.hpp"
+#include "ced/modalities/intensity.hpp"
+#include "ced/modalities/lab.hpp"
+#include "ced/modalities/rgb.hpp"
+#include "ced/modalities/xyz.hpp"
+#include "ced/modality.hpp"
+
+namespace ced {
+
+double parse_number(std::string_view text, const std::string& what) {
+  std::string s(text);
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.pop_back();
+  std::size_t b = 0;
+  while (b < s.size() && std::isspace(static_cast<unsigned char>(s[b]))) ++b;
+  s = s.substr(b);
+  if (s.empty()) throw std::invalid_argument(what + ": expected a number, got nothing");
+  char* end = nullptr;
+  const double v = std::strtod(s.c_str(), &end);
+  if (end != s.c_str() + s.size()) throw std::invalid_argument(what + ": '" + s + "' is not a number");
+  if (!std::isfinite(v)) throw std::invalid_argument(what + ": '" + s + "' is not a finite number");
+  return v;
+}
+
+norm_type parse_norm(const std::string& text) {
+  if (text == "l1" || text == "L1") return norm_type::l1;
+  if (text == "l2" || text == "L2") return norm_type::l2;
+  if (text == "linf" || text == "Linf" || text == "max") return norm_type::linf;
+  throw std::invalid_argument("norm must be l1, l2 or linf, got '" + text + "'");
+}
+
+namespace {
+std::string trim(std::string_view s) {
+  std::size_t b = 0, e = s.size();
+  while (b < e && std::isspace(static_cast<unsigned char>(s[b]))) ++b;
+  while (e > b && std::isspace(static_cast<unsigned char>(s[e - 1]))) --e;
+  return std::string(s.substr(b, e - b));
+}
+bool valid_identifier(const std::string& s) {
+  if (s.empty()) return false;
+  for (char c : s)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.')) return false;
+  return true;
+}
+}  // namespace
+
+modality_spec modality_spec::parse(std::string_view text) {
+  modality_spec s;
+  s.m_text = trim(text);
+  const std::string& t = s.m_text;
+  auto fail = [&](const std::string& why) {
+    throw std::invalid_argument("bad modality spec '" + t + "': " + why +
+                                " (expected name[(field,...)][:threshold][,key=value...], e.g. rgb:0.1 or "
+                                "bands(nir,red):0.1,range=0..255)");
+  };
+  if (t.empty()) fail("it is empty");
+  std::size_t pos = 0;
+  while (pos < t.size() && t[pos] != '(' && t[pos] != ':' && t[pos] != ',') ++pos;
+  s.m_name = trim(t.substr(0, pos));
+  if (!valid_identifier(s.m_name)) fail("'" + s.m_name + "' is not a modality name");
+  if (pos < t.size() && t[pos] == '(') {
+    const std::size_t close = t.find(')', pos);
+    if (close == std::string::npos) fail("missing ')'");
+    std::string inner = t.substr(pos + 1, close - pos - 1);
+    std::size_t b = 0;
+    for (;;) {
+      const std::size_t c = inner.find(',', b);
+      std::string arg = trim(inner.substr(b, c == std::string::npos ? std::string::npos : c - b));
+      if (!valid_identifier(arg)) fail("'" + arg + "' is not a field name");
+      s.m_args.push_back(arg);
+      if (c == std::string::npos) break;
+      b = c + 1;
+    }
+    pos = close + 1;
+  }
+  if (pos < t.size() && t[pos] == ':') {
+    const std::size_t c = t.find(',', pos + 1);
+    const std::string thr = trim(t.substr(pos + 1, c == std::string::npos ? std::string::npos : c - pos - 1));
+    const double v = parse_number(thr, "threshold of modality '" + t + "'");
+    if (v < 0) fail("the threshold must not be negative");
+    s.m_threshold = v;
+    pos = c == std::string::npos ? t.size() : c;
+  }
+  while (pos < t.size()) {
+    if (t[pos] != ',') fail("unexpected '" + t.substr(pos) + "'");
+    const std::size_t c = t.find(',', pos + 1);
+    const std::string kv = trim(t.substr(pos + 1, c == std::string::npos ? std::string::npos : c - pos - 1));
+    const std::size_t eq = kv.find('=');
+    if (eq == std::string::npos) fail("option '" + kv + "' is not key=value");
+    const std::string key = trim(kv.substr(0, eq));
+    if (!valid_identifier(key)) fail("bad option name '" + key + "'");
+    if (s.m_options.count(key)) fail("option '" + key + "' given twice");
+    s.m_options[key] = trim(kv.substr(eq + 1));
+    pos = c == std::string::npos ? t.size() : c;
+  }
+  return s;
+}
+
+std::optional<std::string> modality_spec::take(const std::string& key) {
+  auto it = m_options.find(key);
+  if (it == m_options.end()) return std::nullopt;
+  m_taken[key] = true;
+  return it->second;
+}
+
+std::vector<std::string> modality_spec::unused_options() const {
+  std::vector<std::string> out;
+  for (const auto& kv : m_options)
+    if (!m_taken.count(kv.first)) out.push_back(kv.first);
+  return out;
+}
+
+namespace {
+template <class M>
+void add_builtin(std::map<std::string, std::pair<modality_factory, std::string>>& f, const char* help) {
+  f[M::spec_name] = {[](modality_spec& s) { return any_modality(M::from_spec(s)); }, help};
+}
+
+struct registry {
+  std::mutex mutex;
+  std::map<std::string, std::pair<modality_factory, std::string>> factories;
+
+  registry() {
+    add_builtin<xyz>(factories, "geometry: L2 distance to the neighbours' centroid; threshold = ratio of the radius");
+    add_builtin<rgb>(factories, "colour: L1 distance in RGB scaled to [0,1]; options norm=, range=");
+    add_builtin<lab>(factories, "colour in CIELAB: dE*76/100 to the neighbours' mean");
+    add_builtin<intensity>(factories, "a scalar field (default 'intensity'); intensity(FIELD); options range=");
+    add_builtin<bands>(factories, "bands(F1,F2,...): named channels as one vector; options norm=, range=");
+  }
+  static registry& instance() {
+    static registry r;
+    return r;
+  }
+};
+}  // namespace
+
+void register_modality(const std::string& name, modality_factory factory, std::string help) {
+  if (!valid_identifier(name)) throw std::invalid_argument("register_modality: bad name '" + name + "'");
+  auto& r = registry::instance();
+  std::lock_guard<std::mutex> lock(r.mutex);
+  r.factories[name] = {std::move(factory), std::move(help)};
+}
+
+std::vector<std::pair<std::string, std::string>> registered_modalities() {
+  auto& r = registry::instance();
+  std::lock_guard<std::mutex> lock(r.mutex);
+  std::vector<std::pair<std::string, std::string>> out;
+  for (const auto& kv : r.factories) out.emplace_back(kv.first, kv.second.second);
+  return out;
+}
+
+any_modality make_modality(std::string_view text) {
+  modality_spec spec = modality_spec::parse(text);
+  modality_factory factory;
+  {
+    auto& r = registry::instance();
+    std::lock_guard<std::mutex> lock(r.mutex);
+    auto it = r.factories.find(spec.name());
+    if (it == r.factories.end()) {
+      std::string known;
+      for (const auto& kv : r.factories) known += (known.empty() ? "" : ", ") + kv.first;
+      throw std::invalid_argument("unknown modality '" + spec.name() + "' in '" + spec.text() + "' (known: " + known +
+                                  ")");
+    }
+    factory = it->second.first;
+  }
+  any_modality m = factory(spec);
+  if (spec.args_unused())
+    throw std::invalid_argument("modality '" + spec.name() + "' takes no field list (in '" + spec.text() + "')");
+  const auto unused = spec.unused_options();
+  if (!unused.empty())
+    throw std::invalid_argument("modality '" + spec.name() + "' has no option '" + unused.front() + "' (in '" +
+                                spec.text() + "')");
+  return m;
+}
+
+std::vector<any_modality> preset(std::string_view name) {
+  if (name == "ced3d") return {xyz{}};
+  if (name == "ced6d") return {xyz{}, rgb{}};
+  throw std::invalid_argument("unknown preset '" + std::string(name) + "' (known: ced3d, ced6d)");
+}
+
+}  // namespace ced

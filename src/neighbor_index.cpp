@@ -1,0 +1,103 @@
+// SPDX-License-Identifier: MIT
+// The only translation unit that includes CGAL's spatial search.
+#include "ced/neighbor_index.hpp"
+
+#include <CGAL/Fuzzy_iso_box.h>
+#include <CGAL/Fuzzy_sphere.h>
+#include <CGAL/Kd_tree.h>
+#include <CGAL/Search_traits_3.h>
+#include <CGAL/Search_traits_adapter.h>
+#include <CGAL/Simple_cartesian.h>
+#include <CGAL/property_map.h>
+
+#include <boost/iterator/counting_iterator.hpp>
+#include <boost/iterator/function_output_iterator.hpp>
+#include <cmath>
+#include <stdexcept>
+
+#ifdef CED_HAS_TBB
+#include <oneapi/tbb/global_control.h>
+#endif
+
+namespace ced {
+
+namespace {
+using kernel = CGAL::Simple_cartesian<float>;
+using point_3 = kernel::Point_3;
+using point_map = CGAL::Pointer_property_map<point_3>::type;
+using base_traits = CGAL::Search_traits_3<kernel>;
+using traits = CGAL::Search_traits_adapter<std::uint32_t, point_map, base_traits>;
+using splitter = CGAL::Sliding_midpoint<traits>;
+using tree_type = CGAL::Kd_tree<traits, splitter, CGAL::Tag_true, CGAL::Tag_true>;
+using sphere = CGAL::Fuzzy_sphere<traits>;
+using iso_box = CGAL::Fuzzy_iso_box<traits>;
+}  // namespace
+
+struct neighbor_index::impl {
+  std::vector<point_3> points;
+  tree_type tree;
+
+  impl(std::vector<point_3>&& pts, unsigned bucket)
+      : points(std::move(pts)),
+        tree(boost::counting_iterator<std::uint32_t>(0),
+             boost::counting_iterator<std::uint32_t>(static_cast<std::uint32_t>(points.size())), splitter(bucket),
+             traits(CGAL::make_property_map(points))) {}
+};
+
+neighbor_index::neighbor_index(const float* xyz, std::size_t n, unsigned bucket_size, unsigned threads)
+    : m_xyz(xyz), m_n(n) {
+  if (n > std::size_t(UINT32_MAX) - 1) throw std::length_error("neighbor_index: too many points (max 2^32-2)");
+  if (bucket_size == 0) throw std::invalid_argument("neighbor_index: bucket_size must be positive");
+  std::vector<point_3> pts;
+  pts.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) pts.emplace_back(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
+  m_impl = std::make_unique<impl>(std::move(pts), bucket_size);
+  if (n == 0) return;
+#if defined(CED_HAS_TBB) && defined(CGAL_LINKED_WITH_TBB)
+  if (threads != 1) {
+    // The tree's shape does not depend on the thread count, so queries see
+    // the same tree (and report neighbours in the same order) either way.
+    std::unique_ptr<oneapi::tbb::global_control> limit;
+    if (threads > 1)
+      limit =
+          std::make_unique<oneapi::tbb::global_control>(oneapi::tbb::global_control::max_allowed_parallelism, threads);
+    m_impl->tree.build<CGAL::Parallel_tag>();
+    return;
+  }
+#else
+  (void)threads;
+#endif
+  m_impl->tree.build();
+}
+
+neighbor_index::~neighbor_index() = default;
+neighbor_index::neighbor_index(neighbor_index&&) noexcept = default;
+neighbor_index& neighbor_index::operator=(neighbor_index&&) noexcept = default;
+
+void neighbor_index::radius_search(const float c[3], double r, std::vector<std::uint32_t>& out) const {
+  out.clear();
+  if (m_n == 0 || !(r > 0)) return;
+  const float r2 = squared_radius(r);
+  // Query a slightly larger sphere, then apply the exact float test.
+  const float rq = static_cast<float>(r) * 1.0001f + 1e-30f;
+  struct strict_filter {
+    const float* xyz;
+    const float* c;
+    float r2;
+    std::vector<std::uint32_t>* out;
+    void operator()(std::uint32_t j) const {
+      if (squared_distance(xyz + 3 * std::size_t(j), c) < r2) out->push_back(j);
+    }
+  };
+  auto sink = boost::make_function_output_iterator(strict_filter{m_xyz, c, r2, &out});
+  m_impl->tree.search(sink, sphere(point_3(c[0], c[1], c[2]), rq, 0.0f, m_impl->tree.traits()));
+}
+
+void neighbor_index::box_search(const float lo[3], const float hi[3], std::vector<std::uint32_t>& out) const {
+  out.clear();
+  if (m_n == 0) return;
+  m_impl->tree.search(std::back_inserter(out),
+                      iso_box(point_3(lo[0], lo[1], lo[2]), point_3(hi[0], hi[1], hi[2]), 0.0f, m_impl->tree.traits()));
+}
+
+}  // namespace ced

@@ -1,0 +1,66 @@
+// SPDX-License-Identifier: MIT
+#include "ced/detail/parallel.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <exception>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#ifdef CED_HAS_TBB
+#include <oneapi/tbb/blocked_range.h>
+#include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/task_arena.h>
+#endif
+
+namespace ced::detail {
+
+unsigned resolve_threads(unsigned threads) noexcept {
+  if (threads != 0) return threads;
+  const unsigned hw = std::thread::hardware_concurrency();
+  return hw == 0 ? 1u : hw;
+}
+
+void parallel_for(std::size_t n, unsigned threads, std::size_t grain,
+                  const std::function<void(std::size_t, std::size_t)>& body) {
+  if (n == 0) return;
+  grain = std::max<std::size_t>(grain, 1);
+  const unsigned t = resolve_threads(threads);
+  if (t == 1 || n <= grain) {
+    body(0, n);
+    return;
+  }
+#ifdef CED_HAS_TBB
+  oneapi::tbb::task_arena arena(static_cast<int>(t));
+  arena.execute([&] {
+    oneapi::tbb::parallel_for(oneapi::tbb::blocked_range<std::size_t>(0, n, grain),
+                              [&](const oneapi::tbb::blocked_range<std::size_t>& r) { body(r.begin(), r.end()); });
+  });
+#else
+  // Dynamic scheduling over chunks of `grain` items with plain threads.
+  std::atomic<std::size_t> next{0};
+  std::exception_ptr error;
+  std::mutex error_mutex;
+  auto worker = [&] {
+    for (;;) {
+      const std::size_t b = next.fetch_add(grain);
+      if (b >= n) return;
+      try {
+        body(b, std::min(n, b + grain));
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(error_mutex);
+        if (!error) error = std::current_exception();
+        next.store(n);
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (unsigned i = 1; i < t; ++i) pool.emplace_back(worker);
+  worker();
+  for (auto& th : pool) th.join();
+  if (error) std::rethrow_exception(error);
+#endif
+}
+
+}  // namespace ced::detail
