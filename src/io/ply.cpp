@@ -1,0 +1,677 @@
+// SPDX-License-Identifier: MIT
+#include "ced/io/ply.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <istream>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <ostream>
+#include <string_view>
+#include <system_error>
+#include <type_traits>
+
+namespace ced::io {
+
+namespace {
+
+// ---------------------------------------------------------------- utilities
+
+[[noreturn]] void fail(const std::string& file, const std::string& msg) { throw io_error(file + ": " + msg); }
+
+bool host_little_endian() noexcept {
+  const std::uint16_t one = 1;
+  unsigned char b = 0;
+  std::memcpy(&b, &one, 1);
+  return b == 1;
+}
+
+/// Calls f(T{}) with the C++ type stored for `t`.
+template <class F>
+void visit_type(scalar_type t, F&& f) {
+  switch (t) {
+    case scalar_type::int8:
+      f(std::int8_t{});
+      return;
+    case scalar_type::uint8:
+      f(std::uint8_t{});
+      return;
+    case scalar_type::int16:
+      f(std::int16_t{});
+      return;
+    case scalar_type::uint16:
+      f(std::uint16_t{});
+      return;
+    case scalar_type::int32:
+      f(std::int32_t{});
+      return;
+    case scalar_type::uint32:
+      f(std::uint32_t{});
+      return;
+    case scalar_type::int64:
+      f(std::int64_t{});
+      return;
+    case scalar_type::uint64:
+      f(std::uint64_t{});
+      return;
+    case scalar_type::float32:
+      f(float{});
+      return;
+    case scalar_type::float64:
+      f(double{});
+      return;
+  }
+}
+
+template <class T, bool Swap>
+T load(const unsigned char* p) noexcept {
+  unsigned char b[sizeof(T)];
+  std::memcpy(b, p, sizeof(T));
+  if constexpr (Swap) std::reverse(b, b + sizeof(T));
+  T v;
+  std::memcpy(&v, b, sizeof(T));
+  return v;
+}
+
+template <class T, bool Swap>
+void store(unsigned char* p, T v) noexcept {
+  unsigned char b[sizeof(T)];
+  std::memcpy(b, &v, sizeof(T));
+  if constexpr (Swap) std::reverse(b, b + sizeof(T));
+  std::memcpy(p, b, sizeof(T));
+}
+
+double read_value(const unsigned char* p, scalar_type t, bool swap) noexcept {
+  double v = 0;
+  visit_type(t, [&](auto tag) {
+    using T = decltype(tag);
+    v = swap ? static_cast<double>(load<T, true>(p)) : static_cast<double>(load<T, false>(p));
+  });
+  return v;
+}
+
+/// out[i] = value at p + i * stride, for i < n.
+void decode_column(const unsigned char* p, std::size_t stride, std::size_t n, scalar_type t, bool swap, double* out) {
+  visit_type(t, [&](auto tag) {
+    using T = decltype(tag);
+    if (swap)
+      for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<double>(load<T, true>(p + i * stride));
+    else
+      for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<double>(load<T, false>(p + i * stride));
+  });
+}
+
+/// Rounds and clamps to T's range (NaN -> 0) for integers; float: overflow -> inf.
+template <class T>
+T convert(double v) noexcept {
+  if constexpr (std::is_floating_point_v<T>) {
+    if (std::is_same_v<T, float> && std::isfinite(v) && std::fabs(v) > std::numeric_limits<float>::max())
+      return v > 0 ? std::numeric_limits<float>::infinity() : -std::numeric_limits<float>::infinity();
+    return static_cast<T>(v);
+  } else {
+    if (std::isnan(v)) return T(0);
+    const double lo = static_cast<double>(std::numeric_limits<T>::min());
+    const double hi = static_cast<double>(std::numeric_limits<T>::max());
+    v = std::round(v);
+    if (v <= lo) return std::numeric_limits<T>::min();
+    if (v >= hi) return std::numeric_limits<T>::max();
+    return static_cast<T>(v);
+  }
+}
+
+bool is_space(char c) noexcept { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\v' || c == '\f'; }
+
+std::string plural(const std::string& element) {
+  return element == "vertex" ? std::string("vertices") : "'" + element + "' elements";
+}
+
+// ------------------------------------------------------------------- header
+
+struct property_desc {
+  std::string name;
+  scalar_type type = scalar_type::float32;
+  bool is_list = false;
+  scalar_type count_type = scalar_type::uint8;
+};
+
+struct element_desc {
+  std::string name;
+  std::uint64_t count = 0;
+  std::vector<property_desc> props;
+};
+
+struct ply_header {
+  ply_format format = ply_format::ascii;
+  std::vector<element_desc> elements;
+  std::size_t body_offset = 0;
+};
+
+std::optional<scalar_type> parse_type(std::string_view s) noexcept {
+  using st = scalar_type;
+  static constexpr std::pair<std::string_view, st> table[] = {
+      {"char", st::int8},     {"int8", st::int8},       {"uchar", st::uint8},    {"uint8", st::uint8},
+      {"short", st::int16},   {"int16", st::int16},     {"ushort", st::uint16},  {"uint16", st::uint16},
+      {"int", st::int32},     {"int32", st::int32},     {"uint", st::uint32},    {"uint32", st::uint32},
+      {"float", st::float32}, {"float32", st::float32}, {"double", st::float64}, {"float64", st::float64},
+      {"int64", st::int64},   {"uint64", st::uint64}};
+  for (const auto& [name, type] : table)
+    if (name == s) return type;
+  return std::nullopt;
+}
+
+std::vector<std::string_view> split_words(std::string_view line) {
+  std::vector<std::string_view> words;
+  std::size_t i = 0;
+  while (i < line.size()) {
+    while (i < line.size() && is_space(line[i])) ++i;
+    const std::size_t b = i;
+    while (i < line.size() && !is_space(line[i])) ++i;
+    if (i > b) words.push_back(line.substr(b, i - b));
+  }
+  return words;
+}
+
+ply_header parse_header(std::string_view data, const std::string& file) {
+  std::size_t pos = 0;
+  if (data.substr(0, 4) == "ply\n")
+    pos = 4;
+  else if (data.substr(0, 5) == "ply\r\n")
+    pos = 5;
+  else
+    fail(file, "not a PLY file (it does not start with the 'ply' magic line)");
+  if (data.find("end_header") == std::string_view::npos) fail(file, "the PLY header has no end_header line");
+
+  ply_header h;
+  bool have_format = false;
+  int line_no = 1;
+  const auto where = [&] { return "header line " + std::to_string(line_no) + ": "; };
+  for (;;) {
+    if (pos >= data.size()) fail(file, "the PLY header has no end_header line");
+    const std::size_t nl = data.find('\n', pos);
+    const std::string_view line = data.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos);
+    pos = nl == std::string_view::npos ? data.size() : nl + 1;
+    ++line_no;
+    const auto w = split_words(line);
+    if (w.empty()) continue;
+    const std::string_view kw = w[0];
+    if (kw == "end_header") break;
+    if (kw == "comment" || kw == "obj_info") continue;
+    if (kw == "format") {
+      if (w.size() != 3) fail(file, where() + "malformed format line '" + std::string(line) + "'");
+      if (w[1] == "ascii")
+        h.format = ply_format::ascii;
+      else if (w[1] == "binary_little_endian")
+        h.format = ply_format::binary_little_endian;
+      else if (w[1] == "binary_big_endian")
+        h.format = ply_format::binary_big_endian;
+      else
+        fail(file, where() + "unknown PLY format '" + std::string(w[1]) +
+                       "' (expected ascii, binary_little_endian or binary_big_endian)");
+      if (w[2] != "1.0" && w[2] != "1") fail(file, where() + "unsupported PLY version '" + std::string(w[2]) + "'");
+      have_format = true;
+    } else if (kw == "element") {
+      if (w.size() != 3) fail(file, where() + "malformed element line '" + std::string(line) + "'");
+      element_desc e;
+      e.name = std::string(w[1]);
+      const auto r = std::from_chars(w[2].data(), w[2].data() + w[2].size(), e.count);
+      if (r.ec != std::errc() || r.ptr != w[2].data() + w[2].size())
+        fail(file, where() + "invalid count '" + std::string(w[2]) + "' for element '" + e.name + "'");
+      for (const auto& other : h.elements)
+        if (other.name == e.name) fail(file, where() + "element '" + e.name + "' is declared twice");
+      h.elements.push_back(std::move(e));
+    } else if (kw == "property") {
+      if (h.elements.empty()) fail(file, where() + "property before any element");
+      property_desc p;
+      const auto type_of = [&](std::string_view s) {
+        const auto t = parse_type(s);
+        if (!t) fail(file, where() + "unknown property type '" + std::string(s) + "'");
+        return *t;
+      };
+      if (w.size() == 5 && w[1] == "list") {
+        p.is_list = true;
+        p.count_type = type_of(w[2]);
+        p.type = type_of(w[3]);
+        p.name = std::string(w[4]);
+        if (!is_integer(p.count_type))
+          fail(file, where() + "list count type of property '" + p.name + "' must be an integer type");
+      } else if (w.size() == 3 && w[1] != "list") {
+        p.type = type_of(w[1]);
+        p.name = std::string(w[2]);
+      } else {
+        fail(file, where() + "malformed property line '" + std::string(line) + "'");
+      }
+      auto& e = h.elements.back();
+      for (const auto& other : e.props)
+        if (other.name == p.name)
+          fail(file, where() + "property '" + p.name + "' is declared twice in element '" + e.name + "'");
+      e.props.push_back(std::move(p));
+    } else {
+      fail(file, where() + "unknown header keyword '" + std::string(kw) + "'");
+    }
+  }
+  if (!have_format) fail(file, "the PLY header has no format line");
+  h.body_offset = pos;
+  return h;
+}
+
+// ------------------------------------------------------------- binary body
+
+using columns = std::vector<std::vector<double>>;
+
+/// Reads (cols != nullptr) or skips element `e` starting at data[pos]; returns
+/// the offset just after it.
+std::size_t read_binary_element(std::string_view data, std::size_t pos, const element_desc& e, bool swap, columns* cols,
+                                const std::string& file) {
+  std::size_t min_record = 0;
+  bool fixed = true;
+  for (const auto& p : e.props) {
+    min_record += size_of(p.is_list ? p.count_type : p.type);
+    fixed = fixed && !p.is_list;
+  }
+  if (e.count == 0 || min_record == 0) return pos;
+  const std::size_t remaining = data.size() - pos;
+  const std::uint64_t available = remaining / min_record;  // complete (minimal) records present
+  if (e.count > available) {
+    if (e.count / 2 > available + 8)
+      fail(file, "implausible element count: '" + e.name + "' declares " + std::to_string(e.count) +
+                     " records of at least " + std::to_string(min_record) + " bytes, but only " +
+                     std::to_string(remaining) + " bytes follow (corrupt header?)");
+    if (fixed)
+      fail(file, "truncated: the file ends after " + std::to_string(available) + " of " + std::to_string(e.count) +
+                     " " + plural(e.name));
+  }
+  const auto n = static_cast<std::size_t>(e.count);  // <= 2 * available + 16: allocation is bounded
+  if (cols)
+    for (std::size_t j = 0; j < e.props.size(); ++j)
+      if (!e.props[j].is_list) (*cols)[j].resize(n);
+
+  const auto* begin = reinterpret_cast<const unsigned char*>(data.data());
+  const unsigned char* p = begin + pos;
+  if (fixed) {
+    if (cols) {
+      std::size_t offset = 0;
+      for (std::size_t j = 0; j < e.props.size(); ++j) {
+        decode_column(p + offset, min_record, n, e.props[j].type, swap, (*cols)[j].data());
+        offset += size_of(e.props[j].type);
+      }
+    }
+    return pos + n * min_record;
+  }
+
+  const unsigned char* end = begin + data.size();
+  const auto truncated = [&](std::size_t i) {
+    fail(file,
+         "truncated: the file ends after " + std::to_string(i) + " of " + std::to_string(n) + " " + plural(e.name));
+  };
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = 0; j < e.props.size(); ++j) {
+      const property_desc& prop = e.props[j];
+      if (prop.is_list) {
+        const std::size_t cs = size_of(prop.count_type);
+        if (static_cast<std::size_t>(end - p) < cs) truncated(i);
+        const double count = read_value(p, prop.count_type, swap);
+        p += cs;
+        if (count < 0)
+          fail(file, "element '" + e.name + "' " + std::to_string(i) + ", property '" + prop.name +
+                         "': negative list length " + std::to_string(static_cast<long long>(count)));
+        const std::size_t item = size_of(prop.type);
+        if (count > static_cast<double>(static_cast<std::size_t>(end - p) / item)) truncated(i);
+        p += static_cast<std::size_t>(count) * item;
+      } else {
+        const std::size_t sz = size_of(prop.type);
+        if (static_cast<std::size_t>(end - p) < sz) truncated(i);
+        if (cols) (*cols)[j][i] = read_value(p, prop.type, swap);
+        p += sz;
+      }
+    }
+  }
+  return static_cast<std::size_t>(p - begin);
+}
+
+// -------------------------------------------------------------- ascii body
+
+enum class parse_status { ok, not_a_number, not_an_integer, out_of_range };
+
+parse_status parse_double(std::string_view tok, double& out) noexcept {
+  const char* b = tok.data();
+  const char* e = b + tok.size();
+  if (b != e && *b == '+') ++b;
+  const auto r = std::from_chars(b, e, out);
+  if (r.ptr != e || (r.ec != std::errc() && r.ec != std::errc::result_out_of_range)) return parse_status::not_a_number;
+  if (r.ec == std::errc::result_out_of_range) {  // overflow, or underflow to a denormal/zero
+    char buf[128];
+    if (tok.size() >= sizeof(buf)) return parse_status::out_of_range;
+    std::memcpy(buf, tok.data(), tok.size());
+    buf[tok.size()] = '\0';
+    out = std::strtod(buf, nullptr);
+    if (std::isinf(out)) return parse_status::out_of_range;
+  }
+  return parse_status::ok;
+}
+
+parse_status parse_ascii_value(std::string_view tok, scalar_type t, double& out) noexcept {
+  if (!is_integer(t)) {
+    const parse_status s = parse_double(tok, out);
+    if (s != parse_status::ok) return s;
+    if (t == scalar_type::float32) {
+      if (std::isfinite(out) && std::fabs(out) > std::numeric_limits<float>::max()) return parse_status::out_of_range;
+      out = static_cast<double>(static_cast<float>(out));
+    }
+    return parse_status::ok;
+  }
+  const auto range = natural_range(t);
+  const char* b = tok.data();
+  const char* e = b + tok.size();
+  if (b != e && *b == '+') ++b;
+  if (t == scalar_type::uint64) {
+    std::uint64_t v = 0;
+    const auto r = std::from_chars(b, e, v);
+    if (r.ptr == e && r.ec == std::errc()) return out = static_cast<double>(v), parse_status::ok;
+    if (r.ptr == e && r.ec == std::errc::result_out_of_range) return parse_status::out_of_range;
+  } else {
+    std::int64_t v = 0;
+    const auto r = std::from_chars(b, e, v);
+    if (r.ptr == e && r.ec == std::errc()) {
+      out = static_cast<double>(v);
+      return out < range[0] || out > range[1] ? parse_status::out_of_range : parse_status::ok;
+    }
+    if (r.ptr == e && r.ec == std::errc::result_out_of_range) return parse_status::out_of_range;
+  }
+  // Tolerate integral values written as floats ("255.0", "1e3").
+  const parse_status s = parse_double(tok, out);
+  if (s != parse_status::ok) return s;
+  if (!std::isfinite(out) || out != std::floor(out)) return parse_status::not_an_integer;
+  return out < range[0] || out > range[1] ? parse_status::out_of_range : parse_status::ok;
+}
+
+struct tokenizer {
+  const char* p;
+  const char* end;
+  bool next(std::string_view& tok) noexcept {
+    while (p < end && is_space(*p)) ++p;
+    if (p == end) return false;
+    const char* b = p;
+    while (p < end && !is_space(*p)) ++p;
+    tok = std::string_view(b, static_cast<std::size_t>(p - b));
+    return true;
+  }
+};
+
+std::size_t read_ascii_element(std::string_view data, std::size_t pos, const element_desc& e, columns* cols,
+                               const std::string& file) {
+  if (e.count == 0 || e.props.empty()) return pos;
+  // Each value needs at least 2 bytes (a digit and a separator); allow a
+  // factor 2 of slack so that truncated files are reported as such.
+  const std::size_t remaining = data.size() - pos;
+  const std::uint64_t available = (remaining + 1) / (2 * e.props.size());
+  if (e.count / 2 > available + 8)
+    fail(file, "implausible element count: '" + e.name + "' declares " + std::to_string(e.count) + " records of " +
+                   std::to_string(e.props.size()) + " values, but only " + std::to_string(remaining) +
+                   " bytes follow (corrupt header?)");
+  const auto n = static_cast<std::size_t>(e.count);
+  if (cols)
+    for (std::size_t j = 0; j < e.props.size(); ++j)
+      if (!e.props[j].is_list) (*cols)[j].resize(n);
+
+  tokenizer tk{data.data() + pos, data.data() + data.size()};
+  std::string_view tok;
+  const auto truncated = [&](std::size_t i) {
+    fail(file,
+         "truncated: the file ends after " + std::to_string(i) + " of " + std::to_string(n) + " " + plural(e.name));
+  };
+  const auto where = [&](std::size_t i, const property_desc& prop) {
+    return e.name + " " + std::to_string(i) + ", property '" + prop.name + "': '" + std::string(tok) + "' ";
+  };
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = 0; j < e.props.size(); ++j) {
+      const property_desc& prop = e.props[j];
+      if (!tk.next(tok)) truncated(i);
+      if (prop.is_list) {
+        std::uint64_t count = 0;
+        const auto r = std::from_chars(tok.data(), tok.data() + tok.size(), count);
+        if (r.ec != std::errc() || r.ptr != tok.data() + tok.size())
+          fail(file, where(i, prop) + "is not a valid list length");
+        for (std::uint64_t k = 0; k < count; ++k)
+          if (!tk.next(tok)) truncated(i);
+      } else if (cols) {
+        double v = 0;
+        switch (parse_ascii_value(tok, prop.type, v)) {
+          case parse_status::ok:
+            break;
+          case parse_status::not_a_number:
+            fail(file, where(i, prop) + "is not a number (expected " + std::string(name_of(prop.type)) + ")");
+          case parse_status::not_an_integer:
+            fail(file, where(i, prop) + "is not an integer (expected " + std::string(name_of(prop.type)) + ")");
+          case parse_status::out_of_range:
+            fail(file, where(i, prop) + "is out of range for " + std::string(name_of(prop.type)));
+        }
+        (*cols)[j][i] = v;
+      }
+    }
+  }
+  return static_cast<std::size_t>(tk.p - data.data());
+}
+
+// ------------------------------------------------------------------ reader
+
+point_cloud parse_ply(std::string_view data, const std::string& file) {
+  const ply_header h = parse_header(data, file);
+  const element_desc* vertex = nullptr;
+  for (const auto& e : h.elements)
+    if (e.name == "vertex") vertex = &e;
+  if (!vertex) fail(file, "the PLY file has no 'vertex' element");
+  std::size_t axis[3] = {};
+  for (int k = 0; k < 3; ++k) {
+    const std::string name(1, static_cast<char>('x' + k));
+    const auto it = std::find_if(vertex->props.begin(), vertex->props.end(),
+                                 [&](const property_desc& p) { return p.name == name; });
+    if (it == vertex->props.end()) fail(file, "the vertex element has no '" + name + "' property");
+    if (it->is_list) fail(file, "the vertex property '" + name + "' is a list");
+    axis[k] = static_cast<std::size_t>(it - vertex->props.begin());
+  }
+
+  columns cols(vertex->props.size());
+  const bool swap =
+      h.format != ply_format::ascii && (h.format == ply_format::binary_little_endian) != host_little_endian();
+  std::size_t pos = h.body_offset;
+  for (const auto& e : h.elements) {
+    columns* target = &e == vertex ? &cols : nullptr;
+    pos = h.format == ply_format::ascii ? read_ascii_element(data, pos, e, target, file)
+                                        : read_binary_element(data, pos, e, swap, target, file);
+  }
+
+  const auto n = static_cast<std::size_t>(vertex->count);
+  const double* xyz[3] = {cols[axis[0]].data(), cols[axis[1]].data(), cols[axis[2]].data()};
+  double sum[3] = {0, 0, 0};
+  std::size_t finite = 0, first = n;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!std::isfinite(xyz[0][i]) || !std::isfinite(xyz[1][i]) || !std::isfinite(xyz[2][i])) continue;
+    for (int k = 0; k < 3; ++k) sum[k] += xyz[k][i];
+    if (finite++ == 0) first = i;
+  }
+  std::array<double, 3> origin{0, 0, 0};
+  if (finite > 0) {
+    bool large = false;
+    for (int k = 0; k < 3; ++k) large = large || std::fabs(sum[k] / static_cast<double>(finite)) > 1e4;
+    if (large)
+      for (int k = 0; k < 3; ++k) origin[static_cast<std::size_t>(k)] = std::round(xyz[k][first]);
+  }
+
+  point_cloud cloud;
+  cloud.set_origin(origin);
+  cloud.resize(n);
+  float* out = cloud.positions().data();
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t k = 0; k < 3; ++k) out[3 * i + k] = static_cast<float>(xyz[k][i] - origin[k]);
+  for (std::size_t j = 0; j < vertex->props.size(); ++j) {
+    const property_desc& p = vertex->props[j];
+    if (p.is_list || j == axis[0] || j == axis[1] || j == axis[2]) continue;
+    cloud.add_field(p.name, p.type, std::move(cols[j]));
+  }
+  return cloud;
+}
+
+// ------------------------------------------------------------------ writer
+
+const char* ply_type_name(scalar_type t) noexcept {
+  switch (t) {
+    case scalar_type::int8:
+      return "char";
+    case scalar_type::uint8:
+      return "uchar";
+    case scalar_type::int16:
+      return "short";
+    case scalar_type::uint16:
+      return "ushort";
+    case scalar_type::int32:
+      return "int";
+    case scalar_type::uint32:
+      return "uint";
+    case scalar_type::float32:
+      return "float";
+    default:
+      return "double";  // float64, and int64/uint64 which PLY lacks
+  }
+}
+
+scalar_type written_type(scalar_type t) noexcept {
+  return t == scalar_type::int64 || t == scalar_type::uint64 ? scalar_type::float64 : t;
+}
+
+/// Appends the shortest text that reads back as the same value of type t.
+char* format_value(char* p, char* end, double v, scalar_type t) noexcept {
+  std::to_chars_result r{};
+  visit_type(t, [&](auto tag) {
+    using T = decltype(tag);
+    r = std::to_chars(p, end, convert<T>(v));
+  });
+  return r.ptr;
+}
+
+void write_ply_unchecked(std::ostream& out, const point_cloud& cloud, ply_format fmt) {
+  const std::size_t n = cloud.size();
+  for (const auto& f : cloud.fields()) {
+    if (f.name.empty() || std::any_of(f.name.begin(), f.name.end(), [](char c) { return is_space(c); }))
+      throw std::invalid_argument("field name '" + f.name + "' cannot be written to PLY (empty or has whitespace)");
+    if (f.name == "x" || f.name == "y" || f.name == "z")
+      throw std::invalid_argument("field '" + f.name + "' clashes with the PLY coordinate property");
+    if (f.values.size() != n)
+      throw std::invalid_argument("field '" + f.name + "' has " + std::to_string(f.values.size()) + " values for " +
+                                  std::to_string(n) + " points");
+  }
+  const auto& origin = cloud.origin();
+  const bool georef = origin[0] != 0 || origin[1] != 0 || origin[2] != 0;
+
+  struct column {
+    scalar_type type;
+    const double* values;  // nullptr for positions
+    int axis;
+  };
+  std::vector<column> cols;
+  const scalar_type pos_type = georef ? scalar_type::float64 : scalar_type::float32;
+  for (int k = 0; k < 3; ++k) cols.push_back({pos_type, nullptr, k});
+  for (const auto& f : cloud.fields()) cols.push_back({written_type(f.type), f.values.data(), -1});
+
+  std::string header = "ply\nformat ";
+  header += fmt == ply_format::ascii                  ? "ascii"
+            : fmt == ply_format::binary_little_endian ? "binary_little_endian"
+                                                      : "binary_big_endian";
+  header += " 1.0\ncomment generated by ced\nelement vertex " + std::to_string(n) + "\n";
+  for (int k = 0; k < 3; ++k) header += std::string("property ") + ply_type_name(pos_type) + " " + char('x' + k) + "\n";
+  for (const auto& f : cloud.fields()) header += std::string("property ") + ply_type_name(f.type) + " " + f.name + "\n";
+  header += "end_header\n";
+  out.write(header.data(), static_cast<std::streamsize>(header.size()));
+
+  std::size_t record = 0;
+  for (const auto& c : cols) record += size_of(c.type);
+  const bool swap = fmt != ply_format::ascii && (fmt == ply_format::binary_little_endian) != host_little_endian();
+  const float* xyz = cloud.positions().data();
+  constexpr std::size_t chunk = 4096;
+  std::vector<double> vals(chunk * cols.size());  // column-major chunk of values
+  std::string buf;
+  for (std::size_t i0 = 0; i0 < n; i0 += chunk) {
+    const std::size_t m = std::min(chunk, n - i0);
+    for (std::size_t c = 0; c < cols.size(); ++c) {
+      double* v = vals.data() + c * chunk;
+      if (cols[c].values) {
+        std::copy(cols[c].values + i0, cols[c].values + i0 + m, v);
+      } else {
+        const auto k = static_cast<std::size_t>(cols[c].axis);
+        for (std::size_t i = 0; i < m; ++i) v[i] = origin[k] + static_cast<double>(xyz[3 * (i0 + i) + k]);
+      }
+    }
+    if (fmt == ply_format::ascii) {
+      buf.resize(m * cols.size() * 32);
+      char* p = buf.data();
+      char* end = p + buf.size();
+      for (std::size_t i = 0; i < m; ++i) {
+        for (std::size_t c = 0; c < cols.size(); ++c) {
+          p = format_value(p, end, vals[c * chunk + i], cols[c].type);
+          *p++ = c + 1 == cols.size() ? '\n' : ' ';
+        }
+      }
+      out.write(buf.data(), p - buf.data());
+    } else {
+      buf.resize(m * record);
+      auto* base = reinterpret_cast<unsigned char*>(buf.data());
+      std::size_t offset = 0;
+      for (std::size_t c = 0; c < cols.size(); ++c) {
+        const double* v = vals.data() + c * chunk;
+        visit_type(cols[c].type, [&](auto tag) {
+          using T = decltype(tag);
+          if (swap)
+            for (std::size_t i = 0; i < m; ++i) store<T, true>(base + i * record + offset, convert<T>(v[i]));
+          else
+            for (std::size_t i = 0; i < m; ++i) store<T, false>(base + i * record + offset, convert<T>(v[i]));
+        });
+        offset += size_of(cols[c].type);
+      }
+      out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+    }
+  }
+}
+
+}  // namespace
+
+point_cloud read_ply(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw io_error("cannot read '" + path + "': it is a directory");
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
+  if (!f) throw io_error("cannot open '" + path + "': " + std::error_code(errno, std::generic_category()).message());
+  std::string data;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (!ec) data.reserve(static_cast<std::size_t>(size));
+  char buf[1 << 16];
+  std::size_t got = 0;
+  while ((got = std::fread(buf, 1, sizeof(buf), f.get())) > 0) data.append(buf, got);
+  if (std::ferror(f.get())) throw io_error("error reading '" + path + "'");
+  return parse_ply(data, path);
+}
+
+point_cloud read_ply(std::istream& in, const std::string& name_for_errors) {
+  std::string data;
+  char buf[1 << 16];
+  while (in.read(buf, sizeof(buf)) || in.gcount() > 0) data.append(buf, static_cast<std::size_t>(in.gcount()));
+  if (in.bad()) throw io_error(name_for_errors + ": read error");
+  return parse_ply(data, name_for_errors);
+}
+
+void write_ply(std::ostream& out, const point_cloud& cloud, ply_format fmt) {
+  write_ply_unchecked(out, cloud, fmt);
+  out.flush();
+  if (!out) throw io_error("error writing PLY data to the output stream");
+}
+
+void write_ply(const std::string& path, const point_cloud& cloud, ply_format fmt) {
+  atomic_output_file file(path);
+  write_ply_unchecked(file.stream(), cloud, fmt);
+  file.commit();
+}
+
+}  // namespace ced::io
