@@ -1,0 +1,489 @@
+// SPDX-License-Identifier: MIT
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+#include "ced/io/ply.hpp"
+
+namespace fs = std::filesystem;
+using ced::point_cloud;
+using ced::scalar_type;
+using ced::io::io_error;
+using ced::io::ply_format;
+
+namespace {
+
+fs::path temp_dir() {
+  static const fs::path dir = [] {
+    const fs::path d = fs::path(::testing::TempDir()) / ("ced_test_ply_" + std::to_string(::getpid()));
+    fs::remove_all(d);
+    fs::create_directories(d);
+    return d;
+  }();
+  return dir;
+}
+
+struct remove_temp_dir : ::testing::Environment {
+  void TearDown() override { fs::remove_all(temp_dir()); }
+};
+const auto* const g_cleanup = ::testing::AddGlobalTestEnvironment(new remove_temp_dir);
+
+std::string temp_file(const std::string& name) { return (temp_dir() / name).string(); }
+
+void write_bytes(const std::string& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary);
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+std::string read_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+point_cloud read_string(const std::string& bytes, const std::string& name = "test.ply") {
+  std::istringstream in(bytes);
+  return ced::io::read_ply(in, name);
+}
+
+/// The io_error message from reading `bytes` (through a file named `name`).
+std::string read_error(const std::string& bytes, const std::string& name = "bad.ply") {
+  const std::string path = temp_file(name);
+  write_bytes(path, bytes);
+  try {
+    ced::io::read_ply(path);
+  } catch (const io_error& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find(path), std::string::npos) << "message does not name the file: " << msg;
+    return msg;
+  }
+  return "<no io_error thrown>";
+}
+
+#define EXPECT_CONTAINS(haystack, needle)                          \
+  EXPECT_NE(std::string(haystack).find(needle), std::string::npos) \
+      << "'" << (haystack) << "' lacks '" << (needle) << "'"
+
+/// Appends binary values in a chosen byte order.
+struct bytes_builder {
+  std::string data;
+  bool big_endian = false;
+  template <class T>
+  bytes_builder& put(T v) {
+    char b[sizeof(T)];
+    std::memcpy(b, &v, sizeof(T));
+    if (big_endian) std::reverse(b, b + sizeof(T));  // the tests run on little-endian hosts
+    data.append(b, sizeof(T));
+    return *this;
+  }
+};
+
+const char* format_name(ply_format f) {
+  return f == ply_format::ascii                  ? "ascii"
+         : f == ply_format::binary_little_endian ? "binary_little_endian"
+                                                 : "binary_big_endian";
+}
+
+point_cloud all_types_cloud() {
+  point_cloud c;
+  c.push_back(0.f, 0.f, 0.f);
+  c.push_back(1.5f, -2.25f, 3.125f);
+  c.push_back(-1000.f, 1e-7f, 123.456f);
+  c.push_back(9999.5f, -std::numeric_limits<float>::denorm_min(), 0.1f);
+  c.push_back(std::nanf(""), std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity());
+  const scalar_type types[] = {scalar_type::int8,  scalar_type::uint8,  scalar_type::int16,   scalar_type::uint16,
+                               scalar_type::int32, scalar_type::uint32, scalar_type::float32, scalar_type::float64};
+  for (scalar_type t : types) {
+    std::vector<double> v;
+    if (ced::is_integer(t)) {
+      const auto r = ced::natural_range(t);
+      v = {r[0], r[1], 0, 1, std::floor((r[0] + r[1]) / 3)};
+    } else if (t == scalar_type::float32) {
+      v = {double(0.1f), double(-3.4e38f), double(std::numeric_limits<float>::denorm_min()), 1e-3f, 42};
+    } else {
+      v = {0.1, -1.7976931348623157e308, 4.9e-324, 1.0 / 3.0, -0.0};
+    }
+    c.add_field(std::string("f_") + std::string(ced::name_of(t)), t, v);
+  }
+  c.add_rgb({{255, 0, 0}, {0, 255, 0}, {0, 0, 255}, {1, 2, 3}, {200, 100, 50}});
+  return c;
+}
+
+void expect_same_float(float a, float b) {
+  if (std::isnan(a))
+    EXPECT_TRUE(std::isnan(b));
+  else
+    EXPECT_EQ(a, b);
+}
+
+void expect_same_cloud(const point_cloud& a, const point_cloud& b) {
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_EQ(a.origin(), b.origin());
+  for (std::size_t i = 0; i < 3 * a.size(); ++i) expect_same_float(a.positions()[i], b.positions()[i]);
+  ASSERT_EQ(a.fields().size(), b.fields().size());
+  for (std::size_t f = 0; f < a.fields().size(); ++f) {
+    const auto& fa = a.fields()[f];
+    const auto& fb = b.fields()[f];
+    EXPECT_EQ(fa.name, fb.name);
+    EXPECT_EQ(fa.type, fb.type) << fa.name;
+    ASSERT_EQ(fa.values.size(), fb.values.size());
+    for (std::size_t i = 0; i < fa.values.size(); ++i) {
+      EXPECT_EQ(fa.values[i], fb.values[i]) << fa.name << "[" << i << "]";
+      EXPECT_EQ(std::signbit(fa.values[i]), std::signbit(fb.values[i])) << fa.name << "[" << i << "]";
+    }
+  }
+}
+
+class PlyRoundTrip : public ::testing::TestWithParam<ply_format> {};
+
+}  // namespace
+
+TEST_P(PlyRoundTrip, EveryScalarTypeThroughAFile) {
+  const point_cloud c = all_types_cloud();
+  const std::string path = temp_file(std::string("roundtrip_") + format_name(GetParam()) + ".ply");
+  ced::io::write_ply(path, c, GetParam());
+  const std::string bytes = read_bytes(path);
+  EXPECT_CONTAINS(bytes, std::string("format ") + format_name(GetParam()) + " 1.0\n");
+  EXPECT_CONTAINS(bytes, "property float x\n");
+  EXPECT_CONTAINS(bytes, "property uchar red\n");
+  expect_same_cloud(c, ced::io::read_ply(path));
+}
+
+TEST_P(PlyRoundTrip, EveryScalarTypeThroughAStream) {
+  const point_cloud c = all_types_cloud();
+  std::stringstream s(std::ios::in | std::ios::out | std::ios::binary);
+  ced::io::write_ply(s, c, GetParam());
+  expect_same_cloud(c, ced::io::read_ply(s, "stream"));
+}
+
+TEST_P(PlyRoundTrip, EmptyCloud) {
+  std::stringstream s;
+  ced::io::write_ply(s, point_cloud{}, GetParam());
+  EXPECT_TRUE(ced::io::read_ply(s, "stream").empty());
+}
+
+TEST_P(PlyRoundTrip, GeoreferencedCoordinatesKeepTheirPrecision) {
+  const double x0 = 512345.678, y0 = 4123456.789, z0 = 312.345;
+  point_cloud c;
+  c.set_origin({512000.0, 4123000.0, 300.0});
+  std::vector<std::array<double, 3>> abs;
+  for (int i = 0; i < 50; ++i) {
+    const std::array<double, 3> p{x0 + 0.731 * i, y0 - 1.37 * i, z0 + 0.01 * i};
+    abs.push_back(p);
+    c.push_back(float(p[0] - 512000.0), float(p[1] - 4123000.0), float(p[2] - 300.0));
+  }
+  const std::string path = temp_file(std::string("geo_") + format_name(GetParam()) + ".ply");
+  ced::io::write_ply(path, c, GetParam());
+  EXPECT_CONTAINS(read_bytes(path), "property double x\n");
+  const point_cloud r = ced::io::read_ply(path);
+  ASSERT_EQ(r.size(), c.size());
+  EXPECT_NE(r.origin()[0], 0.0);  // |mean| > 1e4: positions are relative to an origin
+  for (std::size_t i = 0; i < r.size(); ++i)
+    for (std::size_t k = 0; k < 3; ++k) {
+      const double got = r.origin()[k] + r.position(i)[k];
+      EXPECT_NEAR(got, abs[i][k], 1e-6 * std::fabs(abs[i][k])) << i << "," << k;
+      EXPECT_NEAR(got, abs[i][k], 1e-3) << i << "," << k;  // millimetres survive
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(AllFormats, PlyRoundTrip,
+                         ::testing::Values(ply_format::ascii, ply_format::binary_little_endian,
+                                           ply_format::binary_big_endian),
+                         [](const auto& info) { return std::string(format_name(info.param)); });
+
+TEST(PlyWrite, Int64FieldsAreWrittenAsDouble) {
+  point_cloud c;
+  c.push_back(1, 2, 3);
+  c.add_field("id", scalar_type::int64, {-123456789012.0});
+  c.add_field("big", scalar_type::uint64, {9007199254740992.0});
+  std::stringstream s;
+  ced::io::write_ply(s, c, ply_format::binary_little_endian);
+  const point_cloud r = ced::io::read_ply(s, "s");
+  EXPECT_EQ(r.get_field("id").type, scalar_type::float64);
+  EXPECT_EQ(r.get_field("id").values[0], -123456789012.0);
+  EXPECT_EQ(r.get_field("big").values[0], 9007199254740992.0);
+}
+
+TEST(PlyWrite, IntegersAreRoundedAndClamped) {
+  point_cloud c;
+  for (int i = 0; i < 4; ++i) c.push_back(0, 0, 0);
+  c.add_field("v", scalar_type::uint8, {-5.0, 300.0, 2.6, std::nan("")});
+  for (ply_format f : {ply_format::ascii, ply_format::binary_little_endian}) {
+    std::stringstream s;
+    ced::io::write_ply(s, c, f);
+    EXPECT_EQ(ced::io::read_ply(s, "s").get_field("v").values, (std::vector<double>{0, 255, 3, 0}));
+  }
+}
+
+TEST(PlyWrite, BadFieldNamesAreRejected) {
+  point_cloud c;
+  c.push_back(0, 0, 0);
+  c.add_field("two words", scalar_type::uint8, {1});
+  std::stringstream s;
+  EXPECT_THROW(ced::io::write_ply(s, c, ply_format::ascii), std::invalid_argument);
+  point_cloud d;
+  d.push_back(0, 0, 0);
+  d.add_field("x", scalar_type::float32, {1});
+  EXPECT_THROW(ced::io::write_ply(s, d, ply_format::ascii), std::invalid_argument);
+}
+
+TEST(PlyWrite, MissingDirectoryIsAnIoError) {
+  point_cloud c;
+  c.push_back(0, 0, 0);
+  EXPECT_THROW(ced::io::write_ply(temp_file("no/such/dir.ply"), c), io_error);
+}
+
+TEST(PlyRead, HandWrittenBigEndian) {
+  bytes_builder b;
+  b.big_endian = true;
+  b.data =
+      "ply\nformat binary_big_endian 1.0\ncomment hand made\nobj_info nothing\nelement vertex 2\n"
+      "property float x\nproperty float y\nproperty float z\nproperty uchar red\nproperty short temp\n"
+      "property double d\nproperty uint32 id\nend_header\n";
+  b.put(1.0f).put(2.0f).put(-0.5f).put(std::uint8_t(200)).put(std::int16_t(-2)).put(0.25).put(std::uint32_t(70000));
+  b.put(3.0f).put(0.0f).put(1.5f).put(std::uint8_t(7)).put(std::int16_t(258)).put(-2.0).put(std::uint32_t(1));
+  // Spot-check the encoding itself: 1.0f big-endian is 3F 80 00 00.
+  const std::size_t body = b.data.find("end_header\n") + 11;
+  EXPECT_EQ(b.data.substr(body, 4), std::string("\x3f\x80\x00\x00", 4));
+
+  const point_cloud c = read_string(b.data);
+  ASSERT_EQ(c.size(), 2u);
+  EXPECT_EQ(std::vector<float>(c.positions().begin(), c.positions().end()),
+            (std::vector<float>{1, 2, -0.5f, 3, 0, 1.5f}));
+  ASSERT_EQ(c.fields().size(), 4u);
+  EXPECT_EQ(c.fields()[0].name, "red");
+  EXPECT_EQ(c.fields()[0].type, scalar_type::uint8);
+  EXPECT_EQ(c.fields()[0].values, (std::vector<double>{200, 7}));
+  EXPECT_EQ(c.fields()[1].type, scalar_type::int16);
+  EXPECT_EQ(c.fields()[1].values, (std::vector<double>{-2, 258}));
+  EXPECT_EQ(c.fields()[2].type, scalar_type::float64);
+  EXPECT_EQ(c.fields()[2].values, (std::vector<double>{0.25, -2.0}));
+  EXPECT_EQ(c.fields()[3].type, scalar_type::uint32);
+  EXPECT_EQ(c.fields()[3].values, (std::vector<double>{70000, 1}));
+  EXPECT_EQ(c.origin(), (std::array<double, 3>{0, 0, 0}));
+}
+
+namespace {
+
+// A mesh with an element before the vertices, a list inside the vertex
+// element, faces after, and x/y/z in unusual order and types.
+const char* mesh_header(const char* format) {
+  static std::string h;
+  h = std::string("ply\r\nformat ") + format +
+      " 1.0\r\n"
+      "comment CRLF header\r\n"
+      "element material 2\r\nproperty uchar kind\r\nproperty list uchar float params\r\n"
+      "element vertex 3\r\n"
+      "property double z\r\nproperty list uint8 int32 neighbours\r\nproperty float x\r\nproperty int16 y\r\n"
+      "property uchar red\r\nproperty uchar green\r\nproperty uchar blue\r\n"
+      "element face 2\r\nproperty list uchar int vertex_indices\r\n"
+      "end_header\r\n";
+  return h.c_str();
+}
+
+void expect_mesh_vertices(const point_cloud& c) {
+  ASSERT_EQ(c.size(), 3u);
+  EXPECT_EQ(std::vector<float>(c.positions().begin(), c.positions().end()),
+            (std::vector<float>{0.5f, -1, 10, 1.5f, 2, 20, -2.5f, 300, 30}));
+  ASSERT_EQ(c.fields().size(), 3u);
+  EXPECT_EQ(c.fields()[0].name, "red");
+  EXPECT_TRUE(c.has_rgb());
+  EXPECT_EQ(c.get_field("red").values, (std::vector<double>{255, 0, 9}));
+  EXPECT_EQ(c.get_field("green").values, (std::vector<double>{0, 255, 8}));
+  EXPECT_EQ(c.get_field("blue").values, (std::vector<double>{1, 2, 7}));
+}
+
+}  // namespace
+
+TEST(PlyRead, MeshWithListsAndOtherElementsAscii) {
+  const std::string text = std::string(mesh_header("ascii")) +
+                           "1 3 0.1 0.2 0.3\r\n2 0\r\n"
+                           "10 2 1 2 0.5 -1 255 0 1\r\n"
+                           "20 0 1.5 2 0 255 2\r\n"
+                           "30 3 0 1 2 -2.5 300 9 8 7\r\n"
+                           "3 0 1 2\r\n4 0 1 2 0\r\n";
+  expect_mesh_vertices(read_string(text));
+}
+
+TEST(PlyRead, MeshWithListsAndOtherElementsBinary) {
+  for (bool big : {false, true}) {
+    bytes_builder b;
+    b.big_endian = big;
+    b.data = mesh_header(big ? "binary_big_endian" : "binary_little_endian");
+    b.put(std::uint8_t(1)).put(std::uint8_t(3)).put(0.1f).put(0.2f).put(0.3f);
+    b.put(std::uint8_t(2)).put(std::uint8_t(0));
+    const double z[3] = {10, 20, 30};
+    const float x[3] = {0.5f, 1.5f, -2.5f};
+    const std::int16_t y[3] = {-1, 2, 300};
+    const std::uint8_t rgb[3][3] = {{255, 0, 1}, {0, 255, 2}, {9, 8, 7}};
+    const std::uint8_t nlist[3] = {2, 0, 3};
+    for (int i = 0; i < 3; ++i) {
+      b.put(z[i]).put(nlist[i]);
+      for (int k = 0; k < nlist[i]; ++k) b.put(std::int32_t(k));
+      b.put(x[i]).put(y[i]).put(rgb[i][0]).put(rgb[i][1]).put(rgb[i][2]);
+    }
+    b.put(std::uint8_t(3)).put(0).put(1).put(2);
+    b.put(std::uint8_t(4)).put(0).put(1).put(2).put(0);
+    SCOPED_TRACE(big ? "big endian" : "little endian");
+    expect_mesh_vertices(read_string(b.data));
+  }
+}
+
+TEST(PlyRead, LargeCoordinatesGetAnOrigin) {
+  const std::string text =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\n"
+      "end_header\nnan 0 0\n600000.25 5000000.25 100.125\n600001.5 5000002.75 101\n";
+  const point_cloud c = read_string(text);
+  EXPECT_EQ(c.origin(), (std::array<double, 3>{600000, 5000000, 100}));  // first finite point, rounded
+  EXPECT_EQ(c.position(1)[0], 0.25f);
+  EXPECT_EQ(c.position(2)[1], 2.75f);  // 5000002.75 - 5000000
+  EXPECT_TRUE(std::isnan(c.position(0)[0]));
+}
+
+TEST(PlyRead, NonFiniteCoordinatesAreKept) {
+  const point_cloud c = read_string(
+      "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\n"
+      "end_header\nnan inf -inf\n+1 2e0 -3.5\n");
+  ASSERT_EQ(c.size(), 2u);
+  EXPECT_TRUE(std::isnan(c.position(0)[0]));
+  EXPECT_EQ(c.position(0)[1], std::numeric_limits<float>::infinity());
+  EXPECT_EQ(c.position(0)[2], -std::numeric_limits<float>::infinity());
+  EXPECT_EQ(c.position(1)[0], 1.0f);
+  EXPECT_EQ(c.position(1)[1], 2.0f);
+}
+
+TEST(PlyRead, IntegralFloatsInIntegerPropertiesAreAccepted) {
+  const point_cloud c = read_string(
+      "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+      "property uchar red\nend_header\n0 0 0 255.0\n");
+  EXPECT_EQ(c.get_field("red").values[0], 255.0);
+}
+
+TEST(PlyRead, LargeBinaryFile) {
+  point_cloud c;
+  const std::size_t n = 100000;
+  std::vector<double> intensity(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    c.push_back(float(i % 317), float(i % 101) * 0.5f, float(i) * 1e-3f);
+    intensity[i] = double(i % 65536);
+  }
+  c.add_field("intensity", scalar_type::uint16, intensity);
+  const std::string path = temp_file("large.ply");
+  ced::io::write_ply(path, c);
+  expect_same_cloud(c, ced::io::read_ply(path));
+}
+
+// ----------------------------------------------------------------- errors
+
+namespace {
+const std::string xyz_header_start = "ply\nformat ascii 1.0\nelement vertex ";
+const std::string xyz_props = "property float x\nproperty float y\nproperty float z\n";
+}  // namespace
+
+TEST(PlyErrors, NotAPlyFile) {
+  EXPECT_CONTAINS(read_error("plx\nformat ascii 1.0\n"), "not a PLY file");
+  EXPECT_CONTAINS(read_error(""), "not a PLY file");
+  EXPECT_CONTAINS(read_error("OFF\n3 1 0\n"), "not a PLY file");
+}
+
+TEST(PlyErrors, MissingFile) {
+  try {
+    ced::io::read_ply(temp_file("does_not_exist.ply"));
+    FAIL() << "no exception";
+  } catch (const io_error& e) {
+    EXPECT_CONTAINS(e.what(), "cannot open");
+    EXPECT_CONTAINS(e.what(), "does_not_exist.ply");
+  }
+  EXPECT_THROW(ced::io::read_ply(temp_dir().string()), io_error);
+}
+
+TEST(PlyErrors, MissingEndHeader) {
+  EXPECT_CONTAINS(read_error("ply\nformat ascii 1.0\nelement vertex 1\n" + xyz_props + "0 0 0\n"), "no end_header");
+}
+
+TEST(PlyErrors, UnknownFormatTypeAndKeyword) {
+  EXPECT_CONTAINS(read_error("ply\nformat binary_middle_endian 1.0\nend_header\n"),
+                  "unknown PLY format 'binary_middle_endian'");
+  EXPECT_CONTAINS(read_error("ply\nformat ascii 2.0\nend_header\n"), "unsupported PLY version");
+  EXPECT_CONTAINS(read_error(xyz_header_start + "1\nproperty float128 x\nend_header\n"),
+                  "unknown property type 'float128'");
+  EXPECT_CONTAINS(read_error(xyz_header_start + "1\n" + xyz_props + "propertee float w\nend_header\n0 0 0\n"),
+                  "unknown header keyword 'propertee'");
+  EXPECT_CONTAINS(read_error("ply\nelement vertex 1\n" + xyz_props + "end_header\n0 0 0\n"), "no format line");
+  EXPECT_CONTAINS(read_error(xyz_header_start + "-1\n" + xyz_props + "end_header\n"), "invalid count '-1'");
+}
+
+TEST(PlyErrors, MissingVertexElementOrCoordinate) {
+  EXPECT_CONTAINS(read_error("ply\nformat ascii 1.0\nelement face 0\nproperty list uchar int vertex_indices\n"
+                             "end_header\n"),
+                  "no 'vertex' element");
+  EXPECT_CONTAINS(read_error(xyz_header_start + "1\nproperty float x\nproperty float y\nend_header\n0 0\n"),
+                  "no 'z' property");
+}
+
+TEST(PlyErrors, ImplausibleCountIsRejectedBeforeAllocating) {
+  const std::string binary = "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\n" + xyz_props +
+                             "end_header\n" + std::string(12, '\0');
+  EXPECT_CONTAINS(read_error(binary), "implausible element count");
+  EXPECT_CONTAINS(read_error(xyz_header_start + "4000000000\n" + xyz_props + "end_header\n0 0 0\n"),
+                  "implausible element count");
+  // Also for a skipped element with lists.
+  EXPECT_CONTAINS(read_error("ply\nformat binary_little_endian 1.0\nelement face 18446744073709551615\n"
+                             "property list uchar int vertex_indices\nelement vertex 0\n" +
+                             xyz_props + "end_header\n\x03"),
+                  "implausible element count");
+}
+
+TEST(PlyErrors, TruncatedBinary) {
+  point_cloud c;
+  for (int i = 0; i < 100; ++i) c.push_back(float(i), 1, 2);
+  std::stringstream s;
+  ced::io::write_ply(s, c, ply_format::binary_little_endian);
+  const std::string bytes = s.str();
+  EXPECT_CONTAINS(read_error(bytes.substr(0, bytes.size() - 5)), "file ends after 99 of 100 vertices");
+  EXPECT_CONTAINS(read_error(bytes.substr(0, bytes.size() - 12 * 30)), "file ends after 70 of 100 vertices");
+}
+
+TEST(PlyErrors, TruncatedBinaryWithLists) {
+  bytes_builder b;
+  b.data = "ply\nformat binary_little_endian 1.0\nelement vertex 3\n" + xyz_props +
+           "property list uchar float extra\nend_header\n";
+  b.put(0.f).put(0.f).put(0.f).put(std::uint8_t(1)).put(5.f);
+  b.put(1.f).put(1.f).put(1.f).put(std::uint8_t(200));  // list claims 200 floats
+  EXPECT_CONTAINS(read_error(b.data), "file ends after 1 of 3 vertices");
+}
+
+TEST(PlyErrors, TruncatedAscii) {
+  std::string text = xyz_header_start + "10\n" + xyz_props + "end_header\n";
+  for (int i = 0; i < 7; ++i) text += "1.25 2.5 " + std::to_string(i) + ".125\n";
+  text += "4.5 ";
+  EXPECT_CONTAINS(read_error(text), "file ends after 7 of 10 vertices");
+}
+
+TEST(PlyErrors, BadAsciiTokens) {
+  const std::string head = xyz_header_start + "3\n" + xyz_props + "property uchar red\nend_header\n";
+  EXPECT_CONTAINS(read_error(head + "0 0 0 1\n1 1 1 2\n1 abc 3 4\n"), "vertex 2, property 'y': 'abc' is not a number");
+  EXPECT_CONTAINS(read_error(head + "0 0 0 1\n1 1 1 300\n1 1 1 1\n"),
+                  "vertex 1, property 'red': '300' is out of range for uint8");
+  EXPECT_CONTAINS(read_error(head + "0 0 0 -1\n"), "vertex 0, property 'red': '-1' is out of range");
+  EXPECT_CONTAINS(read_error(head + "0 0 0 1.5\n"), "'1.5' is not an integer");
+  EXPECT_CONTAINS(read_error(head + "0 0 1e39 1\n"), "'1e39' is out of range for float32");
+  EXPECT_CONTAINS(read_error(head + "0 0 0 1\n0,5 0 0 1\n"), "vertex 1, property 'x': '0,5' is not a number");
+}
+
+TEST(PlyErrors, StreamNameIsUsedInMessages) {
+  try {
+    read_string("nope", "my_stream");
+    FAIL() << "no exception";
+  } catch (const io_error& e) {
+    EXPECT_CONTAINS(e.what(), "my_stream");
+  }
+}

@@ -1,0 +1,225 @@
+// SPDX-License-Identifier: MIT
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <set>
+
+#include "ced/io/output_file.hpp"
+#include "ced/render.hpp"
+
+#define STB_IMAGE_IMPLEMENTATION
+#if defined(__GNUC__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wunused-function"
+#pragma GCC diagnostic ignored "-Wmissing-field-initializers"
+#endif
+#include <stb_image.h>
+#if defined(__GNUC__)
+#pragma GCC diagnostic pop
+#endif
+
+namespace fs = std::filesystem;
+using ced::point_cloud;
+using ced::render_options;
+using ced::view_direction;
+
+namespace {
+
+fs::path temp_dir() {
+  static const fs::path dir = [] {
+    const fs::path d = fs::path(::testing::TempDir()) / ("ced_test_render_" + std::to_string(::getpid()));
+    fs::remove_all(d);
+    fs::create_directories(d);
+    return d;
+  }();
+  return dir;
+}
+
+struct remove_temp_dir : ::testing::Environment {
+  void TearDown() override { fs::remove_all(temp_dir()); }
+};
+const auto* const g_cleanup = ::testing::AddGlobalTestEnvironment(new remove_temp_dir);
+
+/// A wavy 41x41 grid over [-1,1]^2; point index = row * 41 + column.
+point_cloud grid(bool with_colour = false) {
+  point_cloud c;
+  std::vector<std::array<std::uint8_t, 3>> rgb;
+  for (int r = 0; r <= 40; ++r)
+    for (int k = 0; k <= 40; ++k) {
+      const float x = -1 + 0.05f * k, y = -1 + 0.05f * r;
+      c.push_back(x, y, 0.2f * std::sin(3 * x) * std::cos(2 * y));
+      rgb.push_back({20, static_cast<std::uint8_t>(100 + 3 * k), 220});
+    }
+  if (with_colour) c.add_rgb(rgb);
+  return c;
+}
+constexpr std::uint32_t center_index = 20 * 41 + 20;
+constexpr std::uint32_t corner_index = 40 * 41 + 40;  // (1, 1)
+
+struct image {
+  int w = 0, h = 0;
+  std::vector<std::uint8_t> rgb;
+  const std::uint8_t* at(int x, int y) const { return &rgb[3 * (static_cast<std::size_t>(y) * w + x)]; }
+};
+
+image load_png(const std::string& path) {
+  image img;
+  int channels = 0;
+  std::uint8_t* data = stbi_load(path.c_str(), &img.w, &img.h, &channels, 3);
+  if (!data) return img;
+  img.rgb.assign(data, data + 3 * static_cast<std::size_t>(img.w) * img.h);
+  stbi_image_free(data);
+  return img;
+}
+
+bool is_keypoint_red(const std::uint8_t* p) { return p[0] > 200 && p[1] < 50 && p[2] < 50; }
+
+std::size_t distinct_colours(const image& img) {
+  std::set<std::uint32_t> colours;
+  for (std::size_t i = 0; i + 2 < img.rgb.size(); i += 3)
+    colours.insert(std::uint32_t(img.rgb[i]) << 16 | std::uint32_t(img.rgb[i + 1]) << 8 | img.rgb[i + 2]);
+  return colours.size();
+}
+
+/// Number of keypoint-red pixels in [x0,x1) x [y0,y1).
+int red_pixels(const image& img, int x0, int y0, int x1, int y1) {
+  int n = 0;
+  for (int y = y0; y < y1; ++y)
+    for (int x = x0; x < x1; ++x) n += is_keypoint_red(img.at(x, y));
+  return n;
+}
+
+image render(const point_cloud& c, const std::vector<std::uint32_t>& kp, const render_options& o) {
+  image img;
+  img.rgb = ced::render_rgb(c, kp, o, img.w, img.h);
+  return img;
+}
+
+}  // namespace
+
+TEST(Render, WritesADecodablePngWithKeypointsWhereTheyAre) {
+  render_options o;
+  o.width = 320;
+  o.height = 240;
+  o.view = view_direction::top;
+  const fs::path dir = temp_dir() / "png";
+  fs::create_directories(dir);
+  const std::string path = (dir / "top.png").string();
+  ced::render_png(path, grid(), {center_index, corner_index}, o);
+  const image img = load_png(path);
+  ASSERT_FALSE(img.rgb.empty()) << stbi_failure_reason();
+  EXPECT_EQ(img.w, 320);
+  EXPECT_EQ(img.h, 240);
+  EXPECT_GT(distinct_colours(img), 10u);
+  // Top view, square cloud centred: the centre keypoint is at the image centre,
+  // the (1,1) corner in the upper-right quadrant, nothing red lower-left
+  // (away from the centre disc).
+  EXPECT_TRUE(is_keypoint_red(img.at(160, 120)));
+  EXPECT_GT(red_pixels(img, 160, 0, 320, 120), 5);
+  EXPECT_EQ(red_pixels(img, 0, 150, 130, 240), 0);
+  // The background is white; the margin is left empty.
+  const std::uint8_t* corner = img.at(0, 0);
+  EXPECT_EQ(corner[0] + corner[1] + corner[2], 3 * 255);
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 1);  // no temporary file left
+}
+
+TEST(Render, NoKeypointsNoRed) {
+  render_options o;
+  o.width = 200;
+  o.height = 150;
+  const image img = render(grid(), {}, o);
+  EXPECT_EQ(red_pixels(img, 0, 0, img.w, img.h), 0);
+  EXPECT_GT(distinct_colours(img), 10u);
+}
+
+TEST(Render, EveryViewIsNonTrivial) {
+  for (view_direction v : {view_direction::top, view_direction::front, view_direction::iso}) {
+    render_options o;
+    o.width = 160;
+    o.height = 120;
+    o.view = v;
+    const image img = render(grid(), {center_index}, o);
+    ASSERT_EQ(img.rgb.size(), 160u * 120u * 3u);
+    EXPECT_GT(distinct_colours(img), 3u) << int(v);
+    EXPECT_GT(red_pixels(img, 0, 0, img.w, img.h), 5) << int(v);
+  }
+}
+
+TEST(Render, UsesTheCloudColours) {
+  render_options o;
+  o.width = 200;
+  o.height = 200;
+  o.view = view_direction::top;
+  const image img = render(grid(true), {}, o);
+  const std::uint8_t* p = img.at(100, 100);
+  EXPECT_GT(p[2], p[0] + 80) << int(p[0]) << "," << int(p[1]) << "," << int(p[2]);  // blue-ish, not grey
+
+  point_cloud c = grid();
+  const std::size_t n = c.size();
+  c.add_field("r", ced::scalar_type::float32, std::vector<double>(n, 0.0));
+  c.add_field("g", ced::scalar_type::float32, std::vector<double>(n, 0.9));
+  c.add_field("b", ced::scalar_type::float32, std::vector<double>(n, 0.0));
+  const image green = render(c, {}, o);
+  const std::uint8_t* q = green.at(100, 100);
+  EXPECT_GT(q[1], q[0] + 80);
+}
+
+TEST(Render, CustomColoursAndSizes) {
+  render_options o;
+  o.width = 100;
+  o.height = 100;
+  o.view = view_direction::top;
+  o.background = {0, 0, 0};
+  o.keypoint_color = {0, 255, 0};
+  o.point_size_px = 2;
+  o.keypoint_size_px = 15;
+  const image img = render(grid(), {center_index}, o);
+  const std::uint8_t* c = img.at(50, 50);
+  EXPECT_EQ(c[1], 255);
+  EXPECT_EQ(c[0], 0);
+  const std::uint8_t* corner = img.at(0, 0);
+  EXPECT_EQ(corner[0] + corner[1] + corner[2], 0);
+}
+
+TEST(Render, NonFinitePointsAreIgnored) {
+  point_cloud c = grid();
+  c.push_back(std::nanf(""), 0, 0);
+  c.push_back(1e30f * 1e30f, 0, 0);  // inf
+  render_options o;
+  o.width = 120;
+  o.height = 120;
+  o.view = view_direction::top;
+  const auto n = static_cast<std::uint32_t>(c.size());
+  const image img = render(c, {center_index, n - 1}, o);  // a non-finite keypoint is not drawn
+  EXPECT_TRUE(is_keypoint_red(img.at(60, 60)));
+  EXPECT_GT(distinct_colours(img), 3u);
+}
+
+TEST(Render, DegenerateClouds) {
+  point_cloud one;
+  one.push_back(5, 5, 5);
+  render_options o;
+  o.width = 64;
+  o.height = 48;
+  const image img = render(one, {0}, o);
+  EXPECT_TRUE(is_keypoint_red(img.at(32, 24)));
+  point_cloud line;
+  for (int i = 0; i < 10; ++i) line.push_back(float(i), 0, 0);
+  o.view = view_direction::front;
+  EXPECT_GT(distinct_colours(render(line, {}, o)), 1u);
+}
+
+TEST(Render, Errors) {
+  int w = 0, h = 0;
+  EXPECT_THROW(ced::render_rgb(point_cloud{}, {}, {}, w, h), std::invalid_argument);
+  EXPECT_THROW(ced::render_png((temp_dir() / "empty.png").string(), point_cloud{}, {}), std::invalid_argument);
+  EXPECT_FALSE(fs::exists(temp_dir() / "empty.png"));
+  const point_cloud c = grid();
+  EXPECT_THROW(ced::render_rgb(c, {static_cast<std::uint32_t>(c.size())}, {}, w, h), std::invalid_argument);
+  render_options bad;
+  bad.width = 0;
+  EXPECT_THROW(ced::render_rgb(c, {}, bad, w, h), std::invalid_argument);
+  EXPECT_THROW(ced::render_png((temp_dir() / "missing" / "x.png").string(), c, {}), ced::io::io_error);
+}

@@ -1,0 +1,153 @@
+// SPDX-License-Identifier: MIT
+// Fixtures and an O(N²) brute-force oracle of the CED semantics, written
+// independently of the library's fast paths.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <random>
+#include <vector>
+
+#include "ced/cloud.hpp"
+
+namespace ced_test {
+
+/// A noisy coloured "room corner": three planes plus a box, coloured patches,
+/// extra channels `nir` (uint8) and `intensity` (uint16). Deterministic.
+inline ced::point_cloud make_room(std::size_t n, std::uint32_t seed, float noise = 0.002f) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::normal_distribution<float> g(0.0f, noise);
+  ced::point_cloud c;
+  std::vector<double> red, green, blue, nir, inten;
+  const float side = std::sqrt(static_cast<float>(n) / 4.0f) * 0.01f;  // ~1 cm spacing
+  for (std::size_t i = 0; i < n; ++i) {
+    float x = u(rng) * side, y = u(rng) * side, z = u(rng) * side;
+    switch (i % 4) {
+      case 0:
+        z = 0;
+        break;  // floor
+      case 1:
+        x = 0;
+        break;  // wall
+      case 2:
+        y = 0;
+        break;    // wall
+      default: {  // box on the floor
+        const float b = side * 0.3f;
+        x = side * 0.5f + u(rng) * b;
+        y = side * 0.5f + u(rng) * b;
+        z = u(rng) * b;
+        const int face = static_cast<int>(u(rng) * 3);
+        if (face == 0) z = b;
+        if (face == 1) x = side * 0.5f;
+        if (face == 2) y = side * 0.5f;
+      }
+    }
+    c.push_back(x + g(rng), y + g(rng), z + g(rng));
+    const bool patch = (static_cast<int>(x / (side / 4)) + static_cast<int>(y / (side / 4))) % 2 == 0;
+    red.push_back(patch ? 200 : 40);
+    green.push_back(patch ? 60 : 180);
+    blue.push_back(std::floor(u(rng) * 40) + 20);
+    nir.push_back(x > side * 0.6f ? 210 : 30);
+    inten.push_back(std::floor(u(rng) * 65535));
+  }
+  c.add_field("red", ced::scalar_type::uint8, red);
+  c.add_field("green", ced::scalar_type::uint8, green);
+  c.add_field("blue", ced::scalar_type::uint8, blue);
+  c.add_field("nir", ced::scalar_type::uint8, nir);
+  c.add_field("intensity", ced::scalar_type::uint16, inten);
+  return c;
+}
+
+/// A channel for the oracle: per-point values (D each) and per-dimension scale.
+struct oracle_channel {
+  std::vector<std::vector<double>> values;  // [i][d]
+  std::vector<double> scale;
+  int norm = 1;  // 1 = L1, 2 = L2
+  double threshold = 0;
+};
+
+inline std::vector<std::vector<std::uint32_t>> brute_neighbors(const ced::point_cloud& c, double r) {
+  const float r2 = static_cast<float>(r * r);
+  std::vector<std::vector<std::uint32_t>> nb(c.size());
+  for (std::size_t i = 0; i < c.size(); ++i)
+    for (std::size_t j = 0; j < c.size(); ++j) {
+      const float* a = c.position(i);
+      const float* b = c.position(j);
+      const float dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
+      if (dx * dx + dy * dy + dz * dz < r2) nb[i].push_back(static_cast<std::uint32_t>(j));
+    }
+  return nb;
+}
+
+struct oracle_result {
+  std::vector<std::vector<double>> saliency;  // [m][i]
+  std::vector<std::uint8_t> candidate;
+  std::vector<std::uint32_t> keypoints;
+};
+
+/// The CED definition, literally: centroid = sum/n, distance in the norm,
+/// OR of thresholds, NMS on the product with ties kept.
+inline oracle_result oracle(const ced::point_cloud& c, const std::vector<oracle_channel>& ch, double radius,
+                            double nms_radius, std::uint32_t min_neighbors) {
+  const std::size_t n = c.size();
+  const auto nb = brute_neighbors(c, radius);
+  oracle_result r;
+  r.saliency.assign(ch.size(), std::vector<double>(n, 0.0));
+  for (std::size_t m = 0; m < ch.size(); ++m)
+    for (std::size_t i = 0; i < n; ++i) {
+      if (nb[i].size() < min_neighbors) continue;
+      const std::size_t dims = ch[m].scale.size();
+      double acc = 0;
+      for (std::size_t d = 0; d < dims; ++d) {
+        double sum = 0;
+        for (auto j : nb[i]) sum += ch[m].values[j][d];
+        const double diff = (sum / double(nb[i].size()) - ch[m].values[i][d]) * ch[m].scale[d];
+        acc += ch[m].norm == 1 ? std::abs(diff) : diff * diff;
+      }
+      r.saliency[m][i] = ch[m].norm == 1 ? acc : std::sqrt(acc);
+    }
+  r.candidate.assign(n, 0);
+  std::vector<double> product(n, 1.0);
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t m = 0; m < ch.size(); ++m) {
+      if (r.saliency[m][i] >= ch[m].threshold) r.candidate[i] = 1;
+      product[i] *= r.saliency[m][i];
+    }
+  const auto nms = brute_neighbors(c, nms_radius);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!r.candidate[i]) continue;
+    bool maximum = true;
+    for (auto j : nms[i])
+      if (product[j] > product[i]) maximum = false;
+    if (maximum) r.keypoints.push_back(static_cast<std::uint32_t>(i));
+  }
+  return r;
+}
+
+inline oracle_channel xyz_channel(const ced::point_cloud& c, double ratio, double radius) {
+  oracle_channel ch;
+  for (std::size_t i = 0; i < c.size(); ++i)
+    ch.values.push_back({c.position(i)[0], c.position(i)[1], c.position(i)[2]});
+  ch.scale = {1, 1, 1};
+  ch.norm = 2;
+  ch.threshold = ratio * radius;
+  return ch;
+}
+
+inline oracle_channel field_channel(const ced::point_cloud& c, const std::vector<std::string>& names, double range,
+                                    double threshold, int norm = 1) {
+  oracle_channel ch;
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    std::vector<double> v;
+    for (const auto& name : names) v.push_back(c.get_field(name).values[i]);
+    ch.values.push_back(v);
+  }
+  ch.scale.assign(names.size(), 1.0 / range);
+  ch.norm = norm;
+  ch.threshold = threshold;
+  return ch;
+}
+
+}  // namespace ced_test
