@@ -2,17 +2,21 @@
 // The only translation unit that includes CGAL's spatial search.
 #include "ced/neighbor_index.hpp"
 
+#include <CGAL/Euclidean_distance.h>
 #include <CGAL/Fuzzy_iso_box.h>
 #include <CGAL/Fuzzy_sphere.h>
 #include <CGAL/Kd_tree.h>
+#include <CGAL/Orthogonal_k_neighbor_search.h>
 #include <CGAL/Search_traits_3.h>
 #include <CGAL/Search_traits_adapter.h>
 #include <CGAL/Simple_cartesian.h>
 #include <CGAL/property_map.h>
 
+#include <algorithm>
 #include <boost/iterator/counting_iterator.hpp>
 #include <boost/iterator/function_output_iterator.hpp>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #ifdef CED_HAS_TBB
@@ -31,6 +35,8 @@ using splitter = CGAL::Sliding_midpoint<traits>;
 using tree_type = CGAL::Kd_tree<traits, splitter, CGAL::Tag_true, CGAL::Tag_true>;
 using sphere = CGAL::Fuzzy_sphere<traits>;
 using iso_box = CGAL::Fuzzy_iso_box<traits>;
+using distance = CGAL::Distance_adapter<std::uint32_t, point_map, CGAL::Euclidean_distance<base_traits>>;
+using knn = CGAL::Orthogonal_k_neighbor_search<traits, distance, splitter, tree_type>;
 }  // namespace
 
 struct neighbor_index::impl {
@@ -91,6 +97,17 @@ void neighbor_index::radius_search(const float c[3], double r, std::vector<std::
   };
   auto sink = boost::make_function_output_iterator(strict_filter{m_xyz, c, r2, &out});
   m_impl->tree.search(sink, sphere(point_3(c[0], c[1], c[2]), rq, 0.0f, m_impl->tree.traits()));
+}
+
+float neighbor_index::nearest_other_distance(std::uint32_t i) const {
+  if (i >= m_n) throw std::out_of_range("neighbor_index::nearest_other_distance: index out of range");
+  const float* p = m_xyz + 3 * std::size_t(i);
+  const knn search(m_impl->tree, point_3(p[0], p[1], p[2]), 2, 0.0f, true,
+                   distance(CGAL::make_property_map(m_impl->points)));
+  float best = std::numeric_limits<float>::infinity();
+  for (const auto& hit : search)
+    if (hit.first != i) best = std::min(best, std::sqrt(squared_distance(m_xyz + 3 * std::size_t(hit.first), p)));
+  return best;
 }
 
 void neighbor_index::box_search(const float lo[3], const float hi[3], std::vector<std::uint32_t>& out) const {

@@ -35,6 +35,10 @@ class neighbor_index {
   /// index's own order: deterministic, not sorted).
   void radius_search(const float c[3], double r, std::vector<std::uint32_t>& out) const;
 
+  /// Distance from point i (an index of the indexed set) to its nearest
+  /// other point (0 for a duplicate; +inf when it is alone).
+  float nearest_other_distance(std::uint32_t i) const;
+
   /// Replaces `out` with the indices of all points inside the closed box
   /// [lo, hi] (deterministic order, not sorted).
   void box_search(const float lo[3], const float hi[3], std::vector<std::uint32_t>& out) const;

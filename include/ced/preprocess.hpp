@@ -1,0 +1,35 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "ced/cloud.hpp"
+
+namespace ced {
+
+/// Removes points with a NaN or infinite coordinate (fields follow). Returns
+/// the original index of every kept point.
+std::vector<std::uint32_t> remove_nonfinite(point_cloud& cloud);
+
+/// The result of voxel down-sampling.
+struct voxel_result {
+  point_cloud cloud;                          ///< one point per occupied voxel
+  std::vector<std::uint32_t> representative;  ///< per output point: the input point nearest its centroid
+  std::vector<std::uint32_t> counts;          ///< per output point: input points averaged
+};
+
+/// Voxel-grid down-sampling as PCL's VoxelGrid: cells at floor(p · (1/size))
+/// computed in float, one output point per occupied cell, ordered by cell
+/// index (x fastest, then y, then z). Positions are the mean of the cell's
+/// points; every field is averaged too (integer fields truncated toward zero,
+/// as PCL does for colour). Throws std::invalid_argument for a size ≤ 0 or
+/// not finite, non-finite coordinates, or a grid too fine for the extent.
+voxel_result voxel_downsample(const point_cloud& cloud, double size);
+
+/// The cloud's resolution: the median distance from a point to its nearest
+/// other point, over up to `max_samples` points spread evenly through the
+/// cloud (deterministic). 0 for clouds of fewer than two distinct points.
+double estimate_resolution(const point_cloud& cloud, std::size_t max_samples = 20000);
+
+}  // namespace ced

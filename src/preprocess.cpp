@@ -1,0 +1,119 @@
+// SPDX-License-Identifier: MIT
+#include "ced/preprocess.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "ced/neighbor_index.hpp"
+
+namespace ced {
+
+std::vector<std::uint32_t> remove_nonfinite(point_cloud& cloud) {
+  const auto& p = cloud.positions();
+  std::vector<std::uint8_t> keep(cloud.size(), 1);
+  std::vector<std::uint32_t> original;
+  original.reserve(cloud.size());
+  bool any = false;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (std::isfinite(p[3 * i]) && std::isfinite(p[3 * i + 1]) && std::isfinite(p[3 * i + 2])) {
+      original.push_back(static_cast<std::uint32_t>(i));
+    } else {
+      keep[i] = 0;
+      any = true;
+    }
+  }
+  if (any) cloud.filter(keep);
+  return original;
+}
+
+voxel_result voxel_downsample(const point_cloud& cloud, double size) {
+  if (!(size > 0) || !std::isfinite(size))
+    throw std::invalid_argument("voxel size must be a positive finite number, got " + std::to_string(size));
+  voxel_result out;
+  out.cloud.set_origin(cloud.origin());
+  const std::size_t n = cloud.size();
+  if (n == 0) {
+    for (const auto& f : cloud.fields()) out.cloud.add_field(f.name, f.type, {});
+    return out;
+  }
+  const float inv = static_cast<float>(1.0 / size);
+  std::vector<std::array<std::int64_t, 3>> cell(n);
+  std::array<std::int64_t, 3> lo{}, hi{};
+  for (std::size_t i = 0; i < n; ++i) {
+    const float* p = cloud.position(i);
+    for (int k = 0; k < 3; ++k) {
+      if (!std::isfinite(p[k]))
+        throw std::invalid_argument("voxel_downsample: point " + std::to_string(i) + " has a non-finite coordinate");
+      const float v = std::floor(p[k] * inv);
+      if (std::abs(v) > 4e15f) throw std::invalid_argument("voxel size too small for the cloud's extent");
+      cell[i][std::size_t(k)] = static_cast<std::int64_t>(v);
+    }
+    for (std::size_t k = 0; k < 3; ++k) {
+      lo[k] = i == 0 ? cell[i][k] : std::min(lo[k], cell[i][k]);
+      hi[k] = i == 0 ? cell[i][k] : std::max(hi[k], cell[i][k]);
+    }
+  }
+  long double total = 1;
+  for (std::size_t k = 0; k < 3; ++k) total *= static_cast<long double>(hi[k] - lo[k] + 1);
+  if (total > 1.8e19L)
+    throw std::invalid_argument("voxel size " + std::to_string(size) + " is too small for the cloud's extent");
+  const std::uint64_t dx = std::uint64_t(hi[0] - lo[0] + 1), dy = std::uint64_t(hi[1] - lo[1] + 1);
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint64_t key = std::uint64_t(cell[i][0] - lo[0]) + std::uint64_t(cell[i][1] - lo[1]) * dx +
+                              std::uint64_t(cell[i][2] - lo[2]) * dx * dy;
+    keyed[i] = {key, static_cast<std::uint32_t>(i)};
+  }
+  std::sort(keyed.begin(), keyed.end());
+  std::vector<std::vector<double>> fields(cloud.fields().size());
+  for (std::size_t a = 0; a < n;) {
+    std::size_t b = a;
+    while (b < n && keyed[b].first == keyed[a].first) ++b;
+    double s[3] = {0, 0, 0};
+    for (std::size_t q = a; q < b; ++q)
+      for (int k = 0; k < 3; ++k) s[k] += cloud.position(keyed[q].second)[k];
+    const double m = double(b - a);
+    const float c[3] = {float(s[0] / m), float(s[1] / m), float(s[2] / m)};
+    out.cloud.push_back(c[0], c[1], c[2]);
+    std::uint32_t best = keyed[a].second;
+    float best_d = std::numeric_limits<float>::infinity();
+    for (std::size_t q = a; q < b; ++q) {
+      const float d = squared_distance(cloud.position(keyed[q].second), c);
+      if (d < best_d) best_d = d, best = keyed[q].second;
+    }
+    out.representative.push_back(best);
+    out.counts.push_back(static_cast<std::uint32_t>(b - a));
+    for (std::size_t f = 0; f < fields.size(); ++f) {
+      const auto& src = cloud.fields()[f];
+      double sum = 0;
+      for (std::size_t q = a; q < b; ++q) sum += src.values[keyed[q].second];
+      const double mean = sum / m;
+      fields[f].push_back(is_integer(src.type) ? std::trunc(mean) : mean);
+    }
+    a = b;
+  }
+  for (std::size_t f = 0; f < fields.size(); ++f)
+    out.cloud.add_field(cloud.fields()[f].name, cloud.fields()[f].type, std::move(fields[f]));
+  return out;
+}
+
+double estimate_resolution(const point_cloud& cloud, std::size_t max_samples) {
+  const std::size_t n = cloud.size();
+  if (n < 2) return 0.0;
+  const neighbor_index index(cloud.positions().data(), n, 32);
+  const std::size_t samples = std::max<std::size_t>(1, std::min(n, max_samples));
+  std::vector<float> d;
+  d.reserve(samples);
+  for (std::size_t s = 0; s < samples; ++s) {
+    const float v = index.nearest_other_distance(static_cast<std::uint32_t>(s * n / samples));
+    if (v > 0 && std::isfinite(v)) d.push_back(v);
+  }
+  if (d.empty()) return 0.0;
+  std::nth_element(d.begin(), d.begin() + std::ptrdiff_t(d.size() / 2), d.end());
+  return d[d.size() / 2];
+}
+
+}  // namespace ced
