@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: MIT
 #include "ced/detect.hpp"
 
+#include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
@@ -31,12 +33,20 @@ double ms_since(clock_type::time_point t) {
 }
 }  // namespace
 
+/// The neighbourhoods of a block's candidates, kept from the saliency pass for
+/// the NMS when the NMS radius does not exceed the radius (CSR).
+struct candidate_lists {
+  bool stored = false;
+  std::vector<std::uint32_t> points, offsets, indices;
+};
+
 struct detection_context::impl {
   const point_cloud& cloud;
   detect_params params;
   detection_result result;
   neighbor_index index;
   block_partition blocks;
+  std::vector<candidate_lists> lists;
 
   impl(const point_cloud& c, const detect_params& p, neighbor_index&& idx, block_partition&& b)
       : cloud(c), params(p), index(std::move(idx)), blocks(std::move(b)) {}
@@ -86,12 +96,54 @@ void detection_context::compute_saliency(const std::function<void(const neighbor
   for (std::size_t k = 0; k < m; ++k) columns[k] = r.saliency[k].data();
   const float* xyz = m_impl->cloud.positions().data();
   const auto& blocks = m_impl->blocks;
-  parallel_for(blocks.block_count(), resolve_threads(m_impl->params.threads), 8, [&](std::size_t b0, std::size_t b1) {
+  const auto& params = m_impl->params;
+  // Keeping the candidates' neighbourhoods saves the NMS its own queries.
+  // Bounded memory: past the budget, blocks fall back to querying again
+  // (which blocks do depends on timing, the result does not).
+  const bool keep_lists = params.nms_radius <= params.radius;
+  const float nms_r2 = squared_radius(params.nms_radius);
+  std::atomic<std::size_t> budget{std::max<std::size_t>(std::size_t(1) << 26, 16 * n)};
+  m_impl->lists.assign(keep_lists ? blocks.block_count() : 0, {});
+  parallel_for(blocks.block_count(), resolve_threads(params.threads), 8, [&](std::size_t b0, std::size_t b1) {
     neighbor_block block;
     for (std::size_t b = b0; b < b1; ++b) {
-      block.fill(m_impl->index, xyz, blocks.block_points(b), blocks.block_size(b), m_impl->params.radius);
+      block.fill(m_impl->index, xyz, blocks.block_points(b), blocks.block_size(b), params.radius);
       for (std::size_t k = 0; k < block.size(); ++k) r.neighbor_count[block.point(k)] = block[k].size;
       f(block, columns.data());
+      if (!keep_lists) continue;
+      candidate_lists& cl = m_impl->lists[b];
+      std::size_t total = 0;
+      for (std::size_t k = 0; k < block.size(); ++k) {
+        const std::uint32_t p = block.point(k);
+        bool cand = false;
+        for (std::size_t c = 0; c < m && !cand; ++c) cand = static_cast<double>(columns[c][p]) >= r.thresholds[c];
+        if (!cand) continue;
+        cl.points.push_back(static_cast<std::uint32_t>(k));  // block-local for now
+        total += block[k].size;
+      }
+      cl.offsets.reserve(cl.points.size() + 1);
+      cl.offsets.push_back(0);
+      cl.indices.reserve(total);
+      for (std::uint32_t& local : cl.points) {
+        const neighborhood nb = block[local];
+        local = nb.point;
+        if (params.nms_radius == params.radius) {
+          cl.indices.insert(cl.indices.end(), nb.begin(), nb.end());
+        } else {
+          const float* pp = xyz + 3 * std::size_t(nb.point);
+          for (std::uint32_t j : nb)
+            if (squared_distance(xyz + 3 * std::size_t(j), pp) < nms_r2) cl.indices.push_back(j);
+        }
+        cl.offsets.push_back(static_cast<std::uint32_t>(cl.indices.size()));
+      }
+      std::size_t want = cl.indices.size(), have = budget.load();
+      while (have >= want && !budget.compare_exchange_weak(have, have - want)) {
+      }
+      if (have >= want) {
+        cl.stored = true;
+      } else {
+        cl = candidate_lists{};  // over budget: the NMS queries this block again
+      }
     }
   });
   r.times.saliency_ms = ms_since(t0);
@@ -109,9 +161,36 @@ detection_result detection_context::finish() {
       if (static_cast<double>(s[i]) >= t) r.candidate[i] = 1;
   }
   const std::vector<float> product = saliency_product(r.saliency);
-  r.keypoints =
-      non_maximum_suppression(m_impl->index, m_impl->blocks, m_impl->cloud.positions().data(), product, r.candidate,
-                              m_impl->params.nms_radius, resolve_threads(m_impl->params.threads));
+  const float* xyz = m_impl->cloud.positions().data();
+  const auto& blocks = m_impl->blocks;
+  const auto& lists = m_impl->lists;
+  std::vector<std::uint8_t> keep(n, 0);
+  parallel_for(blocks.block_count(), resolve_threads(m_impl->params.threads), 16, [&](std::size_t b0, std::size_t b1) {
+    std::vector<std::uint32_t> cand, gathered;
+    for (std::size_t b = b0; b < b1; ++b) {
+      if (!lists.empty() && lists[b].stored) {
+        const candidate_lists& cl = lists[b];
+        for (std::size_t k = 0; k < cl.points.size(); ++k) {
+          const std::uint32_t i = cl.points[k];
+          const float si = product[i];
+          bool maximum = true;
+          for (std::uint32_t q = cl.offsets[k]; q < cl.offsets[k + 1] && maximum; ++q)
+            maximum = !(product[cl.indices[q]] > si);
+          keep[i] = maximum;
+        }
+        continue;
+      }
+      const std::uint32_t* pts = blocks.block_points(b);
+      cand.clear();
+      for (std::size_t k = 0; k < blocks.block_size(b); ++k)
+        if (r.candidate[pts[k]]) cand.push_back(pts[k]);
+      nms_block_by_query(m_impl->index, xyz, cand.data(), cand.size(), product.data(), m_impl->params.nms_radius,
+                         keep.data(), gathered);
+    }
+  });
+  m_impl->lists.clear();
+  m_impl->lists.shrink_to_fit();
+  r.keypoints = compact_flags(keep);
   r.times.nms_ms = ms_since(t0);
   return std::move(r);
 }

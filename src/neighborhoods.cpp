@@ -7,6 +7,10 @@
 #include <stdexcept>
 #include <utility>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include "ced/detail/parallel.hpp"
 
 #ifdef CED_HAS_TBB
@@ -103,9 +107,14 @@ void neighbor_block::fill(const neighbor_index& index, const float* xyz, const s
   detail::padded_bounds(xyz, points, count, r, lo, hi);
   index.box_search(lo, hi, m_gathered);
   const std::size_t g = m_gathered.size();
-  m_gx.resize(g);
-  m_gy.resize(g);
-  m_gz.resize(g);
+  // Gathered coordinates as structure of arrays, padded to a multiple of 4
+  // with points at infinity (their squared distance is +inf, never < r²).
+  const std::size_t g4 = (g + 3) & ~std::size_t(3);
+  m_gathered.resize(g4, 0);  // padding lanes never hit
+  constexpr float far = std::numeric_limits<float>::infinity();
+  m_gx.assign(g4, far);
+  m_gy.assign(g4, far);
+  m_gz.assign(g4, far);
   for (std::size_t t = 0; t < g; ++t) {
     const float* p = xyz + 3 * std::size_t(m_gathered[t]);
     m_gx[t] = p[0];
@@ -113,20 +122,41 @@ void neighbor_block::fill(const neighbor_index& index, const float* xyz, const s
     m_gz[t] = p[2];
   }
   const float r2 = squared_radius(r);
-  // Branch-free compaction: write every gathered index, advance on a hit.
-  // The capacity bound is count × g, but the hits are far fewer; grow on demand.
+  // Hits are written in gathered order, so a point's neighbour order depends
+  // only on the block, whichever code path runs. The SSE2 path computes
+  // ((dx·dx + dy·dy) + dz·dz) exactly as the scalar expression does.
   std::size_t pos = 0;
   for (std::size_t q = 0; q < count; ++q) {
-    if (m_indices.size() < pos + g) m_indices.resize(std::max(2 * m_indices.size(), pos + g));
+    if (m_indices.size() < pos + g4) m_indices.resize(std::max(2 * m_indices.size(), pos + g4));
     const float* c = xyz + 3 * std::size_t(points[q]);
-    const float cx = c[0], cy = c[1], cz = c[2];
     std::uint32_t* dst = m_indices.data() + pos;
     std::size_t hits = 0;
+#if defined(__SSE2__)
+    const __m128 cx = _mm_set1_ps(c[0]), cy = _mm_set1_ps(c[1]), cz = _mm_set1_ps(c[2]), rr = _mm_set1_ps(r2);
+    for (std::size_t t = 0; t < g4; t += 4) {
+      const __m128 dx = _mm_sub_ps(_mm_loadu_ps(&m_gx[t]), cx);
+      const __m128 dy = _mm_sub_ps(_mm_loadu_ps(&m_gy[t]), cy);
+      const __m128 dz = _mm_sub_ps(_mm_loadu_ps(&m_gz[t]), cz);
+      const __m128 d2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
+      const unsigned mask = static_cast<unsigned>(_mm_movemask_ps(_mm_cmplt_ps(d2, rr)));
+      const std::uint32_t* gi = m_gathered.data() + t;  // branch-free compaction of the 4 lanes
+      dst[hits] = gi[0];
+      hits += mask & 1u;
+      dst[hits] = gi[1];
+      hits += (mask >> 1) & 1u;
+      dst[hits] = gi[2];
+      hits += (mask >> 2) & 1u;
+      dst[hits] = gi[3];
+      hits += mask >> 3;
+    }
+#else
+    const float cx = c[0], cy = c[1], cz = c[2];
     for (std::size_t t = 0; t < g; ++t) {
       const float dx = m_gx[t] - cx, dy = m_gy[t] - cy, dz = m_gz[t] - cz;
       dst[hits] = m_gathered[t];
       hits += (dx * dx + dy * dy + dz * dz < r2);
     }
+#endif
     pos += hits;
     m_offsets[q + 1] = static_cast<std::uint32_t>(pos);
   }

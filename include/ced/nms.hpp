@@ -22,4 +22,14 @@ std::vector<std::uint32_t> non_maximum_suppression(const neighbor_index& index, 
                                                    const std::vector<std::uint8_t>& candidate, double radius,
                                                    unsigned threads);
 
+namespace detail {
+/// NMS for `candidates[0..count)` of one spatial block, with one box query:
+/// sets keep[i] for each candidate i.
+void nms_block_by_query(const neighbor_index& index, const float* xyz, const std::uint32_t* candidates,
+                        std::size_t count, const float* score, double radius, std::uint8_t* keep,
+                        std::vector<std::uint32_t>& gathered);
+/// Indices of the non-zero flags, ascending.
+std::vector<std::uint32_t> compact_flags(const std::vector<std::uint8_t>& flags);
+}  // namespace detail
+
 }  // namespace ced
