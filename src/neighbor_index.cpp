@@ -18,9 +18,10 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <thread>
 
 #ifdef CED_HAS_TBB
-#include <oneapi/tbb/global_control.h>
+#include <oneapi/tbb/task_arena.h>
 #endif
 
 namespace ced {
@@ -63,11 +64,10 @@ neighbor_index::neighbor_index(const float* xyz, std::size_t n, unsigned bucket_
   if (threads != 1) {
     // The tree's shape does not depend on the thread count, so queries see
     // the same tree (and report neighbours in the same order) either way.
-    std::unique_ptr<oneapi::tbb::global_control> limit;
-    if (threads > 1)
-      limit =
-          std::make_unique<oneapi::tbb::global_control>(oneapi::tbb::global_control::max_allowed_parallelism, threads);
-    m_impl->tree.build<CGAL::Parallel_tag>();
+    const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+    oneapi::tbb::task_arena arena(threads > 1 ? static_cast<int>(std::min(threads, cores))
+                                              : oneapi::tbb::task_arena::automatic);
+    arena.execute([&] { m_impl->tree.build<CGAL::Parallel_tag>(); });
     return;
   }
 #else

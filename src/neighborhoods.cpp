@@ -59,7 +59,8 @@ block_partition::block_partition(const float* xyz, std::size_t n, double cell_si
   // Keys are unique pairs, so the sorted order is the same whatever the sort.
 #ifdef CED_HAS_TBB
   if (detail::resolve_threads(threads) > 1) {
-    oneapi::tbb::task_arena arena(static_cast<int>(detail::resolve_threads(threads)));
+    oneapi::tbb::task_arena arena(
+        static_cast<int>(std::min(detail::resolve_threads(threads), detail::resolve_threads(0))));
     arena.execute([&] { oneapi::tbb::parallel_sort(keyed.begin(), keyed.end()); });
   } else {
     std::sort(keyed.begin(), keyed.end());

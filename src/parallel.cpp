@@ -32,7 +32,8 @@ void parallel_for(std::size_t n, unsigned threads, std::size_t grain,
     return;
   }
 #ifdef CED_HAS_TBB
-  oneapi::tbb::task_arena arena(static_cast<int>(t));
+  // More threads than cores buys nothing (and TBB warns); the result is the same.
+  oneapi::tbb::task_arena arena(static_cast<int>(std::min(t, resolve_threads(0))));
   arena.execute([&] {
     oneapi::tbb::parallel_for(oneapi::tbb::blocked_range<std::size_t>(0, n, grain),
                               [&](const oneapi::tbb::blocked_range<std::size_t>& r) { body(r.begin(), r.end()); });
