@@ -1,0 +1,97 @@
+// ced: N-modal CEntroid Distance keypoint detection in point clouds.
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <iosfwd>
+#include <string>
+#include <string_view>
+
+#include "ced/cloud.hpp"
+#include "ced/io/output_file.hpp"
+
+namespace ced::io {
+
+/// What read_las() found in a file's public header.
+struct las_read_info {
+  int version_major = 1, version_minor = 2;
+  int point_format = 0;  ///< point data record format, 0..10
+  std::uint64_t points = 0;
+  std::array<double, 3> scale{}, offset{};             ///< X = raw X * scale + offset
+  std::string system_identifier, generating_software;  ///< trailing NULs and spaces trimmed
+};
+
+/// Reads an uncompressed LAS file, versions 1.0 to 1.4, point data record
+/// formats 0 to 10.
+///
+/// - Coordinates are raw * scale + offset, in double. When the data extends
+///   beyond ±1e4 on some axis (georeferenced data), the cloud's origin is the
+///   centre of the data's bounding box rounded to integers, and positions are
+///   stored relative to it (millimetres survive for extents up to ~16 km);
+///   otherwise the origin is zero.
+/// - Fields, in this order, when the format has them:
+///   intensity (uint16), return_number, number_of_returns (uint8),
+///   classification (uint8; the low 5 bits for formats 0-5),
+///   scan_angle (int8 "scan angle rank" in whole degrees for formats 0-5;
+///   int16 in units of 0.006 degree for formats 6-10), user_data (uint8),
+///   point_source_id (uint16), gps_time (float64), red, green, blue, nir (uint16,
+///   values as stored: many files keep 8-bit values in these 16-bit fields).
+///   Then the one-bit flags synthetic, key_point, withheld, overlap (6-10),
+///   scanner_channel (2 bits, 6-10), scan_direction_flag and
+///   edge_of_flight_line, as uint8 fields, only when some point has them non-zero.
+///   Waveform packet data (formats 4, 5, 9, 10) is skipped.
+/// - Extra bytes (the "LASF_Spec" record 4 VLR) become fields named after their
+///   descriptors, after the standard ones. Scaled or offset values (options
+///   bits 3 and 4) are stored as float64, others keep their type. The
+///   deprecated array types 11-30 become 2 or 3 fields name_0, name_1, name_2;
+///   type 0 (undocumented bytes) is skipped; no_data/min/max are not applied.
+///   A name that is empty or already taken gets a suffix ("extra_3", "intensity_extra").
+///   Extended VLRs (EVLRs, LAS 1.4) are not read.
+///
+/// Throws io_error, naming the file, for anything malformed: no "LASF"
+/// signature, unsupported version or point format, LAZ-compressed points
+/// (with how to decompress them), a header or VLR that does not fit, a record
+/// length too small for the format or its extra bytes, zero or non-finite
+/// scale factors, and more points declared than the file holds (checked
+/// before allocating).
+///
+/// Threading: reentrant (no shared state).
+point_cloud read_las(const std::string& path, las_read_info* info = nullptr);
+/// Same, from the bytes of a whole LAS file; `name` names it in error messages.
+point_cloud read_las_buffer(std::string_view bytes, const std::string& name, las_read_info* info = nullptr);
+
+/// Options for write_las().
+struct las_write_options {
+  /// Coordinate resolution per axis (> 0). The offset is the cloud's origin, so
+  /// absolute coordinates round-trip to within scale / 2.
+  std::array<double, 3> scale{0.001, 0.001, 0.001};
+  /// LAS 1.x: 4 writes point formats 6 (no colour), 7 (red/green/blue) or 8
+  /// (red/green/blue and nir); 2 or 3 write the legacy formats 0-3 (1 and 3
+  /// when a gps_time field is present, 2 and 3 with colour).
+  int version_minor = 4;
+};
+
+/// Writes `cloud` as uncompressed LAS to `path` atomically (see
+/// atomic_output_file), with the smallest point format that holds its fields.
+///
+/// Fields with a standard LAS name (those read_las() produces; any case, an
+/// exact match first; colour as found by find_rgb_fields()) go into their
+/// slot, whatever their type: values are rounded and clamped to the slot's
+/// range (NaN becomes 0), flags become 1 when non-zero. Colour values are
+/// written as they are (uint8 colour is not scaled to 16 bits). scan_angle
+/// fields of type int8 are taken as whole degrees, others as 0.006-degree
+/// units, and converted to the version's unit. Missing return numbers are
+/// written as 1 of 1. Every other field is written as an extra-bytes field
+/// with its own type (no scale/offset).
+///
+/// Throws io_error on I/O failure and std::invalid_argument for what cannot be
+/// written: a field of the wrong size, an extra-bytes field name that is
+/// empty, longer than 32 characters or named x/y/z, a non-finite coordinate or
+/// origin, a coordinate beyond the int32 range at the chosen scale, an
+/// invalid scale or version, more than 2^32-1 points in LAS 1.2/1.3.
+void write_las(const std::string& path, const point_cloud& cloud, const las_write_options& options = {});
+/// Same, to a stream opened in binary mode.
+void write_las(std::ostream& out, const point_cloud& cloud, const las_write_options& options = {});
+
+}  // namespace ced::io

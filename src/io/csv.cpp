@@ -1,0 +1,522 @@
+// SPDX-License-Identifier: MIT
+#include "ced/io/csv.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <ostream>
+#include <set>
+#include <system_error>
+#include <type_traits>
+
+namespace ced::io {
+
+namespace {
+
+[[noreturn]] void fail(const std::string& file, const std::string& msg) { throw io_error(file + ": " + msg); }
+
+bool is_blank(char c) noexcept { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
+
+std::string_view trim(std::string_view s) noexcept {
+  while (!s.empty() && is_blank(s.front())) s.remove_prefix(1);
+  while (!s.empty() && is_blank(s.back())) s.remove_suffix(1);
+  return s;
+}
+
+std::string_view unquote(std::string_view s) noexcept {
+  if (s.size() >= 2 && s.front() == '"' && s.back() == '"') s = trim(s.substr(1, s.size() - 2));
+  return s;
+}
+
+bool is_comment(std::string_view trimmed) noexcept {
+  return !trimmed.empty() && (trimmed[0] == '#' || trimmed.substr(0, 2) == "//");
+}
+
+/// At most 40 characters of `s`, non-printable bytes replaced by '?', for messages.
+std::string printable(std::string_view s) {
+  std::string r;
+  for (char c : s.substr(0, 40)) r += (c >= 32 && c < 127) ? c : '?';
+  if (s.size() > 40) r += "...";
+  return r;
+}
+
+std::string lower(std::string_view s) {
+  std::string r(s);
+  for (char& c : r)
+    if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
+  return r;
+}
+
+/// Splits `line` at `delim` (' ' = runs of blanks), trimming and unquoting
+/// each value. Appends to `out`.
+void split(std::string_view line, char delim, std::vector<std::string_view>& out) {
+  out.clear();
+  if (delim == ' ') {
+    std::size_t i = 0;
+    while (i < line.size()) {
+      while (i < line.size() && is_blank(line[i])) ++i;
+      const std::size_t b = i;
+      while (i < line.size() && !is_blank(line[i])) ++i;
+      if (i > b) out.push_back(unquote(line.substr(b, i - b)));
+    }
+    return;
+  }
+  std::size_t b = 0;
+  for (;;) {
+    const std::size_t e = line.find(delim, b);
+    out.push_back(unquote(trim(line.substr(b, e == std::string_view::npos ? std::string_view::npos : e - b))));
+    if (e == std::string_view::npos) break;
+    b = e + 1;
+  }
+}
+
+char detect_delimiter(std::string_view line) noexcept {
+  if (line.find(';') != std::string_view::npos) return ';';
+  if (line.find(',') != std::string_view::npos) return ',';
+  return ' ';
+}
+
+/// Parses a number. Sets is_int when the token is an integer literal that fits int64.
+bool parse_number(std::string_view tok, double& out, bool& is_int) noexcept {
+  const char* b = tok.data();
+  const char* e = b + tok.size();
+  if (b != e && *b == '+') ++b;
+  if (b == e) return false;
+  std::int64_t i = 0;
+  auto r = std::from_chars(b, e, i);
+  if (r.ptr == e && r.ec == std::errc()) {
+    out = i == 0 && tok[0] == '-' ? -0.0 : static_cast<double>(i);
+    is_int = true;
+    return true;
+  }
+  is_int = false;
+  const auto rd = std::from_chars(b, e, out);
+  if (rd.ptr != e) return false;
+  if (rd.ec == std::errc::result_out_of_range) {  // overflow (-> inf) or underflow (-> denormal/0)
+    char buf[128];
+    if (tok.size() >= sizeof(buf)) return false;
+    std::memcpy(buf, tok.data(), tok.size());
+    buf[tok.size()] = '\0';
+    out = std::strtod(buf, nullptr);
+    return true;
+  }
+  return rd.ec == std::errc();
+}
+
+bool is_numeric_line(std::string_view line) {
+  std::size_t i = 0, tokens = 0;
+  while (i < line.size()) {
+    while (i < line.size() && (is_blank(line[i]) || line[i] == ',' || line[i] == ';')) ++i;
+    const std::size_t b = i;
+    while (i < line.size() && !(is_blank(line[i]) || line[i] == ',' || line[i] == ';')) ++i;
+    if (i > b) {
+      double v;
+      bool is_int;
+      if (!parse_number(unquote(line.substr(b, i - b)), v, is_int)) return false;
+      ++tokens;
+    }
+  }
+  return tokens > 0;
+}
+
+/// Iterates over the lines of a text: the line without its '\n' and trailing
+/// blanks, and its 1-based number.
+struct line_reader {
+  std::string_view text;
+  std::size_t pos = 0;
+  std::size_t line_no = 0;
+  bool next(std::string_view& line) noexcept {
+    if (pos >= text.size()) return false;
+    const std::size_t nl = text.find('\n', pos);
+    const std::size_t end = nl == std::string_view::npos ? text.size() : nl;
+    line = trim(text.substr(pos, end - pos));
+    pos = nl == std::string_view::npos ? text.size() : nl + 1;
+    ++line_no;
+    return true;
+  }
+};
+
+/// The header's column names: strips a `//` or `#` prefix and normalises x/y/z
+/// (any case) and r/g/b (any case: red/green/blue).
+/// `delim` (0 = auto) is used when the line contains it, else detected.
+std::vector<std::string> header_names(std::string_view line, char delim) {
+  line = trim(line);
+  if (line.substr(0, 2) == "//")
+    line.remove_prefix(2);
+  else if (!line.empty() && line[0] == '#')
+    line.remove_prefix(1);
+  line = trim(line);
+  if (delim == ' ' ? line.find_first_of(" \t") == std::string_view::npos : line.find(delim) == std::string_view::npos)
+    delim = detect_delimiter(line);
+  std::vector<std::string_view> tok;
+  split(line, delim, tok);
+  std::vector<std::string> names;
+  for (auto t : tok) {
+    const std::string l = lower(t);
+    if (l == "x" || l == "y" || l == "z")
+      names.push_back(l);
+    else if (l == "r")
+      names.emplace_back("red");
+    else if (l == "g")
+      names.emplace_back("green");
+    else if (l == "b")
+      names.emplace_back("blue");
+    else
+      names.emplace_back(t);
+  }
+  return names;
+}
+
+bool names_xyz(const std::vector<std::string>& names) {
+  for (const char* a : {"x", "y", "z"})
+    if (std::find(names.begin(), names.end(), a) == names.end()) return false;
+  return true;
+}
+
+std::string join(const std::vector<std::string>& v) {
+  std::string r;
+  for (const auto& s : v) r += (r.empty() ? "" : ", ") + s;
+  return r;
+}
+
+struct column_state {
+  std::vector<double> values;
+  bool all_int = true;
+  double lo = std::numeric_limits<double>::infinity();
+  double hi = -std::numeric_limits<double>::infinity();
+};
+
+point_cloud parse_csv(std::string_view text, const std::string& file, const csv_options& opt) {
+  if (text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);
+  if (opt.delimiter != 0 && opt.delimiter != ',' && opt.delimiter != ';' && opt.delimiter != '\t' &&
+      opt.delimiter != ' ')
+    throw std::invalid_argument("unsupported CSV delimiter '" + std::string(1, opt.delimiter) +
+                                "' (use ',', ';', tab or space)");
+  const char delim_opt = opt.delimiter == '\t' ? ' ' : opt.delimiter;  // tab: runs of blanks
+
+  // --- preamble: comments, the header, and the first data line.
+  line_reader lines{text};
+  std::string_view line, header;
+  std::size_t header_line = 0;
+  std::vector<std::pair<std::size_t, std::string_view>> comments;
+  bool have_data = false, any_line = false, skipped = false;
+  line_reader data_start = lines;
+  while (true) {
+    const line_reader before = lines;
+    if (!lines.next(line)) break;
+    if (line.empty()) continue;
+    if (is_comment(line)) {
+      comments.emplace_back(lines.line_no, line);
+      continue;
+    }
+    any_line = true;
+    if (opt.skip_header && !skipped) {
+      skipped = true;
+      header_line = lines.line_no;
+      continue;
+    }
+    if (opt.columns.empty() && !opt.skip_header && header.empty() && !is_numeric_line(line)) {
+      header = line;
+      header_line = lines.line_no;
+      continue;
+    }
+    data_start = before;
+    have_data = true;
+    break;
+  }
+  if (!any_line) {
+    // Only comments: a CloudCompare-style header with no points is still an (empty) cloud.
+    bool named = false;
+    for (const auto& c : comments) named = named || names_xyz(header_names(c.second, delim_opt));
+    if (!named) fail(file, "the file is empty (no header and no data)");
+  }
+
+  std::vector<std::string> names;
+  std::string source;  // where the names came from, for messages
+  if (!opt.columns.empty()) {
+    for (const auto& c : opt.columns) {
+      const std::string l = lower(c);
+      names.push_back(l == "x" || l == "y" || l == "z" ? l
+                      : l == "r"                       ? "red"
+                      : l == "g"                       ? "green"
+                      : l == "b"                       ? "blue"
+                                                       : c);
+    }
+    source = "the columns option";
+  } else if (!header.empty()) {
+    names = header_names(header, delim_opt);
+    source = "the header (line " + std::to_string(header_line) + ")";
+  } else if (!opt.skip_header) {
+    const std::size_t first_data = have_data ? data_start.line_no + 1 : std::numeric_limits<std::size_t>::max();
+    for (auto it = comments.rbegin(); it != comments.rend(); ++it) {
+      if (it->first > first_data) continue;
+      auto n = header_names(it->second, delim_opt);
+      if (names_xyz(n)) {
+        names = std::move(n);
+        source = "the header (line " + std::to_string(it->first) + ")";
+        break;
+      }
+    }
+  }
+
+  // A .pts file starts with its point count: a line holding one integer.
+  if (have_data && names.empty()) {
+    line_reader peek = data_start;
+    peek.next(line);
+    if (!line.empty() && std::all_of(line.begin(), line.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+      data_start = peek;
+      have_data = false;
+      while (!have_data) {
+        const line_reader before = peek;
+        if (!peek.next(line)) break;
+        if (line.empty() || is_comment(line)) continue;
+        data_start = before;
+        have_data = true;
+      }
+      if (!have_data) return point_cloud{};  // "0" and nothing else
+    }
+  }
+
+  // Data delimiter: from the first data line.
+  char delim = delim_opt;
+  std::vector<std::string_view> tok;
+  if (have_data) {
+    line_reader peek = data_start;
+    peek.next(line);
+    if (!delim) delim = detect_delimiter(line);
+    if (names.empty()) {
+      split(line, delim, tok);
+      switch (tok.size()) {
+        case 3:
+          names = {"x", "y", "z"};
+          break;
+        case 4:
+          names = {"x", "y", "z", "intensity"};
+          break;
+        case 6:
+          names = {"x", "y", "z", "red", "green", "blue"};
+          break;
+        case 7:
+          names = {"x", "y", "z", "intensity", "red", "green", "blue"};
+          break;
+        default:
+          fail(file, "line " + std::to_string(peek.line_no) + ": " + std::to_string(tok.size()) +
+                         " values and no header: name the columns (--columns x,y,z,...)");
+      }
+      source = "the default columns for " + std::to_string(tok.size()) + " values";
+    }
+  }
+  if (names.empty()) return point_cloud{};  // skip_header and nothing else
+
+  {
+    std::set<std::string> seen;
+    for (const auto& n : names) {
+      if (n.empty()) fail(file, source + " has an empty column name");
+      if (!seen.insert(n).second) fail(file, source + " names column '" + n + "' twice");
+    }
+  }
+  std::size_t axis[3] = {};
+  for (int k = 0; k < 3; ++k) {
+    const std::string a(1, static_cast<char>('x' + k));
+    const auto it = std::find(names.begin(), names.end(), a);
+    if (it == names.end()) fail(file, source + " has no '" + a + "' column (columns: " + join(names) + ")");
+    axis[k] = static_cast<std::size_t>(it - names.begin());
+  }
+
+  // --- data
+  const std::size_t ncols = names.size();
+  std::vector<column_state> cols(ncols);
+  if (have_data) {
+    const std::size_t estimate = static_cast<std::size_t>(std::count(
+                                     text.begin() + static_cast<std::ptrdiff_t>(data_start.pos), text.end(), '\n')) +
+                                 1;
+    for (auto& c : cols) c.values.reserve(estimate);
+  }
+  lines = data_start;
+  bool first = true;
+  while (have_data && lines.next(line)) {
+    if (line.empty() || is_comment(line)) continue;
+    split(line, delim, tok);
+    if (tok.size() != ncols)
+      fail(file, "line " + std::to_string(lines.line_no) + ": expected " + std::to_string(ncols) + " values (" +
+                     join(names) + "), found " + std::to_string(tok.size()));
+    for (std::size_t j = 0; j < ncols; ++j) {
+      double v = 0;
+      bool is_int = false;
+      if (!parse_number(tok[j], v, is_int)) {
+        std::string msg = "line " + std::to_string(lines.line_no) + ", column " + std::to_string(j + 1) + " ('" +
+                          names[j] + "'): '" + printable(tok[j]) + "' is not a number";
+        if (first && !opt.columns.empty() && !opt.skip_header) msg += " (a header line? set skip_header)";
+        fail(file, msg);
+      }
+      column_state& c = cols[j];
+      c.values.push_back(v);
+      c.all_int = c.all_int && is_int;
+      c.lo = std::min(c.lo, v);
+      c.hi = std::max(c.hi, v);
+    }
+    first = false;
+  }
+
+  // --- the cloud
+  const std::size_t n = cols[0].values.size();
+  const double* xyz[3] = {cols[axis[0]].values.data(), cols[axis[1]].values.data(), cols[axis[2]].values.data()};
+  const std::array<double, 3> origin = choose_origin(xyz[0], xyz[1], xyz[2], n);
+  point_cloud cloud;
+  cloud.set_origin(origin);
+  cloud.resize(n);
+  float* out = cloud.positions().data();
+  for (std::size_t k = 0; k < 3; ++k)
+    for (std::size_t i = 0; i < n; ++i) out[3 * i + k] = static_cast<float>(xyz[k][i] - origin[k]);
+  for (std::size_t j = 0; j < ncols; ++j) {
+    if (j == axis[0] || j == axis[1] || j == axis[2]) continue;
+    column_state& c = cols[j];
+    const bool colour = names[j] == "red" || names[j] == "green" || names[j] == "blue";
+    scalar_type t = scalar_type::float64;
+    if (c.all_int && colour && (n == 0 || (c.lo >= 0 && c.hi <= 255)))
+      t = scalar_type::uint8;
+    else if (c.all_int && (n == 0 || (c.lo >= std::numeric_limits<std::int32_t>::min() &&
+                                      c.hi <= std::numeric_limits<std::int32_t>::max())))
+      t = scalar_type::int32;
+    cloud.add_field(names[j], t, std::move(c.values));
+  }
+  return cloud;
+}
+
+// ------------------------------------------------------------------ writer
+
+template <class F>
+void visit_type(scalar_type t, F&& f) {
+  switch (t) {
+    case scalar_type::int8:
+      return f(std::int8_t{});
+    case scalar_type::uint8:
+      return f(std::uint8_t{});
+    case scalar_type::int16:
+      return f(std::int16_t{});
+    case scalar_type::uint16:
+      return f(std::uint16_t{});
+    case scalar_type::int32:
+      return f(std::int32_t{});
+    case scalar_type::uint32:
+      return f(std::uint32_t{});
+    case scalar_type::int64:
+      return f(std::int64_t{});
+    case scalar_type::uint64:
+      return f(std::uint64_t{});
+    case scalar_type::float32:
+      return f(float{});
+    case scalar_type::float64:
+      return f(double{});
+  }
+}
+
+/// Rounds and clamps to T's range (NaN -> 0) for integers; float: overflow -> inf.
+template <class T>
+T convert(double v) noexcept {
+  if constexpr (std::is_floating_point_v<T>) {
+    if (std::is_same_v<T, float> && std::isfinite(v) && std::fabs(v) > std::numeric_limits<float>::max())
+      return v > 0 ? std::numeric_limits<float>::infinity() : -std::numeric_limits<float>::infinity();
+    return static_cast<T>(v);
+  } else {
+    if (std::isnan(v)) return T(0);
+    const double lo = static_cast<double>(std::numeric_limits<T>::min());
+    const double hi = static_cast<double>(std::numeric_limits<T>::max());
+    v = std::round(v);
+    if (v <= lo) return std::numeric_limits<T>::min();
+    if (v >= hi) return std::numeric_limits<T>::max();
+    return static_cast<T>(v);
+  }
+}
+
+void write_csv_unchecked(std::ostream& out, const point_cloud& cloud) {
+  const std::size_t n = cloud.size();
+  for (const auto& f : cloud.fields()) {
+    if (f.name.empty() || std::any_of(f.name.begin(), f.name.end(), [](char c) {
+          return is_blank(c) || c == '\n' || c == ',' || c == ';' || c == '"' || c == '#' || c < 32 || c == 127;
+        }))
+      throw std::invalid_argument("field name '" + f.name +
+                                  "' cannot be written to CSV (empty, or has whitespace, a delimiter, '\"' or '#')");
+    const std::string l = lower(f.name);
+    if (l == "x" || l == "y" || l == "z" || f.name.substr(0, 2) == "//")
+      throw std::invalid_argument("field '" + f.name + "' clashes with the CSV coordinate columns");
+    if (f.values.size() != n)
+      throw std::invalid_argument("field '" + f.name + "' has " + std::to_string(f.values.size()) + " values for " +
+                                  std::to_string(n) + " points");
+  }
+  std::string header = "x,y,z";
+  for (const auto& f : cloud.fields()) header += "," + f.name;
+  header += "\n";
+  out.write(header.data(), static_cast<std::streamsize>(header.size()));
+
+  const auto& origin = cloud.origin();
+  const bool georef = origin[0] != 0 || origin[1] != 0 || origin[2] != 0;
+  const std::size_t ncols = 3 + cloud.fields().size();
+  std::string buf;
+  constexpr std::size_t chunk = 4096;
+  const float* xyz = cloud.positions().data();
+  for (std::size_t i0 = 0; i0 < n; i0 += chunk) {
+    const std::size_t m = std::min(chunk, n - i0);
+    buf.resize(m * ncols * 32);
+    char* p = buf.data();
+    char* const end = p + buf.size();
+    for (std::size_t i = i0; i < i0 + m; ++i) {
+      for (std::size_t k = 0; k < 3; ++k) {
+        const float v = xyz[3 * i + k];
+        p = georef ? std::to_chars(p, end, origin[k] + static_cast<double>(v)).ptr : std::to_chars(p, end, v).ptr;
+        *p++ = ',';
+      }
+      for (const auto& f : cloud.fields()) {
+        visit_type(f.type, [&](auto tag) {
+          using T = decltype(tag);
+          p = std::to_chars(p, end, convert<T>(f.values[i])).ptr;
+        });
+        *p++ = ',';
+      }
+      p[-1] = '\n';
+    }
+    out.write(buf.data(), p - buf.data());
+  }
+}
+
+}  // namespace
+
+point_cloud read_csv_buffer(std::string_view text, const std::string& name, const csv_options& options) {
+  return parse_csv(text, name, options);
+}
+
+point_cloud read_csv(const std::string& path, const csv_options& options) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw io_error("cannot read '" + path + "': it is a directory");
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
+  if (!f) throw io_error("cannot open '" + path + "': " + std::error_code(errno, std::generic_category()).message());
+  std::string data;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (!ec) data.reserve(static_cast<std::size_t>(size));
+  char buf[1 << 16];
+  std::size_t got = 0;
+  while ((got = std::fread(buf, 1, sizeof(buf), f.get())) > 0) data.append(buf, got);
+  if (std::ferror(f.get())) throw io_error("error reading '" + path + "'");
+  return parse_csv(data, path, options);
+}
+
+void write_csv(std::ostream& out, const point_cloud& cloud) {
+  write_csv_unchecked(out, cloud);
+  out.flush();
+  if (!out) throw io_error("error writing CSV data to the output stream");
+}
+
+void write_csv(const std::string& path, const point_cloud& cloud) {
+  atomic_output_file file(path);
+  write_csv_unchecked(file.stream(), cloud);
+  file.commit();
+}
+
+}  // namespace ced::io

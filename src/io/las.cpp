@@ -1,0 +1,815 @@
+// SPDX-License-Identifier: MIT
+#include "ced/io/las.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <filesystem>
+#include <limits>
+#include <memory>
+#include <ostream>
+#include <sstream>
+#include <system_error>
+#include <type_traits>
+#include <vector>
+
+#include "ced/version.hpp"
+
+namespace ced::io {
+
+namespace {
+
+// ---------------------------------------------------------------- utilities
+
+[[noreturn]] void fail(const std::string& file, const std::string& msg) { throw io_error(file + ": " + msg); }
+
+template <class T>
+using uint_of_size =
+    std::conditional_t<sizeof(T) == 1, std::uint8_t,
+                       std::conditional_t<sizeof(T) == 2, std::uint16_t,
+                                          std::conditional_t<sizeof(T) == 4, std::uint32_t, std::uint64_t>>>;
+
+/// Little-endian load, whatever the host byte order (compiles to a plain load
+/// on little-endian hosts).
+template <class T>
+T load_le(const unsigned char* p) noexcept {
+  using U = uint_of_size<T>;
+  U u = 0;
+  for (std::size_t i = 0; i < sizeof(T); ++i) u = static_cast<U>(u | static_cast<U>(static_cast<U>(p[i]) << (8 * i)));
+  T v;
+  std::memcpy(&v, &u, sizeof(T));
+  return v;
+}
+
+/// Little-endian store, whatever the host byte order.
+template <class T>
+void store_le(unsigned char* p, T v) noexcept {
+  using U = uint_of_size<T>;
+  U u;
+  std::memcpy(&u, &v, sizeof(T));
+  for (std::size_t i = 0; i < sizeof(T); ++i) p[i] = static_cast<unsigned char>(u >> (8 * i));
+}
+
+/// Calls f(T{}) with the C++ type stored for `t`.
+template <class F>
+void visit_type(scalar_type t, F&& f) {
+  switch (t) {
+    case scalar_type::int8:
+      f(std::int8_t{});
+      return;
+    case scalar_type::uint8:
+      f(std::uint8_t{});
+      return;
+    case scalar_type::int16:
+      f(std::int16_t{});
+      return;
+    case scalar_type::uint16:
+      f(std::uint16_t{});
+      return;
+    case scalar_type::int32:
+      f(std::int32_t{});
+      return;
+    case scalar_type::uint32:
+      f(std::uint32_t{});
+      return;
+    case scalar_type::int64:
+      f(std::int64_t{});
+      return;
+    case scalar_type::uint64:
+      f(std::uint64_t{});
+      return;
+    case scalar_type::float32:
+      f(float{});
+      return;
+    case scalar_type::float64:
+      f(double{});
+      return;
+  }
+}
+
+/// Rounds and clamps to T's range (NaN -> 0) for integers; float: overflow -> inf.
+template <class T>
+T convert(double v) noexcept {
+  if constexpr (std::is_floating_point_v<T>) {
+    if (std::is_same_v<T, float> && std::isfinite(v) && std::fabs(v) > std::numeric_limits<float>::max())
+      return v > 0 ? std::numeric_limits<float>::infinity() : -std::numeric_limits<float>::infinity();
+    return static_cast<T>(v);
+  } else {
+    if (std::isnan(v)) return T(0);
+    const double lo = static_cast<double>(std::numeric_limits<T>::min());
+    const double hi = static_cast<double>(std::numeric_limits<T>::max());
+    v = std::round(v);
+    if (v <= lo) return std::numeric_limits<T>::min();
+    if (v >= hi) return std::numeric_limits<T>::max();
+    return static_cast<T>(v);
+  }
+}
+
+/// A fixed-size char field: up to the first NUL, without surrounding spaces.
+std::string fixed_string(const unsigned char* p, std::size_t n) {
+  std::size_t len = 0;
+  while (len < n && p[len] != 0) ++len;
+  std::string s(reinterpret_cast<const char*>(p), len);
+  const auto b = s.find_first_not_of(' ');
+  if (b == std::string::npos) return {};
+  return s.substr(b, s.find_last_not_of(' ') - b + 1);
+}
+
+std::string num(double v) {
+  std::ostringstream s;
+  s.precision(17);
+  s << v;
+  return s.str();
+}
+
+// ------------------------------------------------------------------- layout
+
+constexpr std::size_t k_vlr_header_size = 54;
+constexpr std::size_t k_extra_bytes_descriptor_size = 192;
+constexpr int k_max_format = 10;
+
+struct format_layout {
+  std::size_t min_size;  ///< bytes of the standard fields
+  bool extended;         ///< formats 6-10 (LAS 1.4 layout)
+  int gps;               ///< byte offset of gps_time, or -1
+  int rgb;               ///< byte offset of red (green, blue follow), or -1
+  int nir;               ///< byte offset of nir, or -1
+};
+
+constexpr format_layout k_formats[k_max_format + 1] = {
+    {20, false, -1, -1, -1}, {28, false, 20, -1, -1}, {26, false, -1, 20, -1}, {34, false, 20, 28, -1},
+    {57, false, 20, -1, -1}, {63, false, 20, 28, -1}, {30, true, 22, -1, -1},  {36, true, 22, 30, -1},
+    {38, true, 22, 30, 36},  {59, true, 22, -1, -1},  {67, true, 22, 30, 36}};
+
+std::size_t header_size_for(int version_minor) noexcept {
+  return version_minor >= 4 ? 375 : version_minor == 3 ? 235 : 227;
+}
+
+/// Extra-bytes data types 1..10 (the deprecated arrays 11..30 repeat them).
+constexpr scalar_type k_extra_types[10] = {
+    scalar_type::uint8, scalar_type::int8,   scalar_type::uint16, scalar_type::int16,   scalar_type::uint32,
+    scalar_type::int32, scalar_type::uint64, scalar_type::int64,  scalar_type::float32, scalar_type::float64};
+
+int extra_type_code(scalar_type t) noexcept {
+  for (int i = 0; i < 10; ++i)
+    if (k_extra_types[i] == t) return i + 1;
+  return 10;
+}
+
+// ------------------------------------------------------------------- reader
+
+struct extra_desc {
+  std::string name;
+  scalar_type type = scalar_type::uint8;
+  int count = 1;           ///< 1, or 2/3 for the deprecated array types; 0 for undocumented bytes
+  std::size_t size = 0;    ///< bytes in the record
+  std::size_t offset = 0;  ///< from the start of the record
+  int options = 0;
+  double scale[3] = {1, 1, 1};
+  double offset_value[3] = {0, 0, 0};
+};
+
+std::vector<extra_desc> parse_extra_bytes(const unsigned char* p, std::size_t len, const std::string& file) {
+  if (len % k_extra_bytes_descriptor_size != 0)
+    fail(file, "the extra-bytes VLR has " + std::to_string(len) + " bytes, not a multiple of the " +
+                   std::to_string(k_extra_bytes_descriptor_size) + "-byte descriptor size");
+  std::vector<extra_desc> out;
+  for (std::size_t i = 0; i < len / k_extra_bytes_descriptor_size; ++i) {
+    const unsigned char* d = p + i * k_extra_bytes_descriptor_size;
+    extra_desc e;
+    const int data_type = d[2];
+    e.options = d[3];
+    e.name = fixed_string(d + 4, 32);
+    const std::string what = "extra-bytes descriptor " + std::to_string(i) + " ('" + e.name + "')";
+    if (data_type == 0) {
+      e.count = 0;
+      e.size = static_cast<std::size_t>(e.options);  // undocumented bytes: options holds their number
+    } else if (data_type <= 30) {
+      e.type = k_extra_types[(data_type - 1) % 10];
+      e.count = data_type <= 10 ? 1 : data_type <= 20 ? 2 : 3;
+      e.size = size_of(e.type) * static_cast<std::size_t>(e.count);
+      for (int k = 0; k < e.count; ++k) {
+        e.scale[k] = load_le<double>(d + 112 + 8 * k);
+        e.offset_value[k] = load_le<double>(d + 136 + 8 * k);
+        if ((e.options & 8) && (!std::isfinite(e.scale[k]) || e.scale[k] == 0))
+          fail(file, what + " has an invalid scale " + num(e.scale[k]) + " (it must be finite and non-zero)");
+        if ((e.options & 16) && !std::isfinite(e.offset_value[k])) fail(file, what + " has a non-finite offset");
+      }
+    } else {
+      fail(file, what + " has unknown data type " + std::to_string(data_type) + " (LAS defines 0 to 30)");
+    }
+    out.push_back(std::move(e));
+  }
+  return out;
+}
+
+template <class T>
+std::vector<double> decode_column(const unsigned char* p, std::size_t stride, std::size_t n) {
+  std::vector<double> v(n);
+  for (std::size_t i = 0; i < n; ++i) v[i] = static_cast<double>(load_le<T>(p + i * stride));
+  return v;
+}
+
+std::vector<double> decode_bits(const unsigned char* p, std::size_t stride, std::size_t n, int shift, unsigned mask) {
+  std::vector<double> v(n);
+  for (std::size_t i = 0; i < n; ++i) v[i] = static_cast<double>((p[i * stride] >> shift) & mask);
+  return v;
+}
+
+/// The bitwise OR of the byte at p + i * stride over all i < n.
+unsigned or_of_bytes(const unsigned char* p, std::size_t stride, std::size_t n) noexcept {
+  unsigned bits = 0;
+  for (std::size_t i = 0; i < n; ++i) bits |= p[i * stride];
+  return bits;
+}
+
+/// `name`, or `name` with a suffix when the cloud already has such a field.
+std::string unique_name(const point_cloud& cloud, std::string name, std::size_t index) {
+  if (name.empty()) name = "extra_" + std::to_string(index);
+  if (!cloud.find_field(name)) return name;
+  for (int k = 1;; ++k) {
+    std::string candidate = name + "_extra" + (k == 1 ? std::string() : std::to_string(k));
+    if (!cloud.find_field(candidate)) return candidate;
+  }
+}
+
+/// A one-bit flag (or the 2-bit scanner channel) in byte 14 or 15 of a record.
+struct flag_spec {
+  const char* name;
+  std::size_t offset;
+  int shift;
+  unsigned mask;
+};
+
+point_cloud parse_las(std::string_view bytes, const std::string& file, las_read_info* info) {
+  const auto* d = reinterpret_cast<const unsigned char*>(bytes.data());
+  const std::size_t size = bytes.size();
+  if (size < 4 || std::memcmp(d, "LASF", 4) != 0)
+    fail(file, "not a LAS file (it does not start with the 'LASF' signature)");
+  if (size < 227)
+    fail(file, "truncated header: the file has " + std::to_string(size) + " bytes, a LAS header needs at least 227");
+  const int major = d[24], minor = d[25];
+  if (major != 1 || minor > 4)
+    fail(file, "unsupported LAS version " + std::to_string(major) + "." + std::to_string(minor) +
+                   " (this reader supports 1.0 to 1.4)");
+  const std::string version = std::to_string(major) + "." + std::to_string(minor);
+  const std::size_t min_header = header_size_for(minor);
+  if (size < min_header)
+    fail(file, "truncated header: the file has " + std::to_string(size) + " bytes, a LAS " + version +
+                   " header needs " + std::to_string(min_header));
+  const std::size_t header_size = load_le<std::uint16_t>(d + 94);
+  if (header_size < min_header)
+    fail(file, "header size " + std::to_string(header_size) + " is smaller than the " + std::to_string(min_header) +
+                   " bytes of a LAS " + version + " header");
+  const std::size_t point_offset = load_le<std::uint32_t>(d + 96);
+  if (point_offset < header_size)
+    fail(file, "offset to point data (" + std::to_string(point_offset) + ") is smaller than the header size (" +
+                   std::to_string(header_size) + ")");
+  if (point_offset > size)
+    fail(file, "truncated: the point data should start at byte " + std::to_string(point_offset) +
+                   ", but the file has " + std::to_string(size) + " bytes");
+  const std::uint32_t n_vlrs = load_le<std::uint32_t>(d + 100);
+  const int format_byte = d[104];
+  if (format_byte & 0xC0)
+    fail(file,
+         "the point data is LAZ-compressed (point format byte " + std::to_string(format_byte) +
+             "); decompress it first, e.g. with 'laszip -i in.laz -o out.las' or 'pdal translate in.laz out.las'");
+  const int format = format_byte;
+  if (format > k_max_format)
+    fail(file, "unsupported point data record format " + std::to_string(format) + " (LAS defines 0 to 10)");
+  const format_layout& layout = k_formats[format];
+  const std::size_t record_length = load_le<std::uint16_t>(d + 105);
+  if (record_length < layout.min_size)
+    fail(file, "point record length " + std::to_string(record_length) + " is too small for point format " +
+                   std::to_string(format) + " (it needs at least " + std::to_string(layout.min_size) + " bytes)");
+  std::uint64_t count = load_le<std::uint32_t>(d + 107);
+  if (minor >= 4) {
+    const auto count64 = load_le<std::uint64_t>(d + 247);
+    if (count64 != 0 || count == 0) count = count64;
+  }
+
+  std::array<double, 3> scale{}, offset{};
+  for (std::size_t k = 0; k < 3; ++k) {
+    const std::string axis(1, static_cast<char>('X' + k));
+    scale[k] = load_le<double>(d + 131 + 8 * k);
+    offset[k] = load_le<double>(d + 155 + 8 * k);
+    if (!std::isfinite(scale[k]) || scale[k] == 0)
+      fail(file, "invalid " + axis + " scale factor " + num(scale[k]) + " (it must be finite and non-zero)");
+    if (!std::isfinite(offset[k])) fail(file, "invalid " + axis + " offset " + num(offset[k]) + " (not finite)");
+  }
+
+  const std::uint64_t room = (size - point_offset) / record_length;
+  if (count > room)
+    fail(file, "truncated: " + std::to_string(count) + " points declared, room for " + std::to_string(room) + " (" +
+                   std::to_string(record_length) + "-byte records from byte " + std::to_string(point_offset) + " in " +
+                   std::to_string(size) + " bytes)");
+
+  // Variable length records: between the header and the point data.
+  std::vector<extra_desc> extras;
+  bool have_extras = false;
+  std::size_t pos = header_size;
+  for (std::uint32_t i = 0; i < n_vlrs; ++i) {
+    if (point_offset - pos < k_vlr_header_size)
+      fail(file, "VLR " + std::to_string(i) + " of " + std::to_string(n_vlrs) + " (at byte " + std::to_string(pos) +
+                     ") does not fit before the point data at byte " + std::to_string(point_offset));
+    const std::string user_id = fixed_string(d + pos + 2, 16);
+    const int record_id = load_le<std::uint16_t>(d + pos + 18);
+    const std::size_t len = load_le<std::uint16_t>(d + pos + 20);
+    if (point_offset - pos - k_vlr_header_size < len)
+      fail(file, "VLR " + std::to_string(i) + " ('" + user_id + "' record " + std::to_string(record_id) + ", " +
+                     std::to_string(len) + " bytes) runs past the start of the point data at byte " +
+                     std::to_string(point_offset));
+    if (user_id == "LASF_Spec" && record_id == 4 && !have_extras) {
+      extras = parse_extra_bytes(d + pos + k_vlr_header_size, len, file);
+      have_extras = true;
+    }
+    pos += k_vlr_header_size + len;
+  }
+  std::size_t extra_total = 0;
+  for (auto& e : extras) {
+    e.offset = layout.min_size + extra_total;
+    extra_total += e.size;
+  }
+  if (layout.min_size + extra_total > record_length)
+    fail(file, "the extra bytes (" + std::to_string(extra_total) + " bytes in " + std::to_string(extras.size()) +
+                   " descriptors) do not fit in the " + std::to_string(record_length) +
+                   "-byte point record (point format " + std::to_string(format) + " uses " +
+                   std::to_string(layout.min_size) + " bytes)");
+
+  if (info) {
+    info->version_major = major;
+    info->version_minor = minor;
+    info->point_format = format;
+    info->points = count;
+    info->scale = scale;
+    info->offset = offset;
+    info->system_identifier = fixed_string(d + 26, 32);
+    info->generating_software = fixed_string(d + 58, 32);
+  }
+
+  // Positions: bounding box of the raw integers, then relative to the origin.
+  const auto n = static_cast<std::size_t>(count);  // <= room: the allocation is bounded by the file size
+  const unsigned char* base = d + point_offset;
+  const std::size_t stride = record_length;
+  std::int32_t lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+  if (n > 0)
+    for (std::size_t k = 0; k < 3; ++k) lo[k] = hi[k] = load_le<std::int32_t>(base + 4 * k);
+  for (std::size_t i = 0; i < n; ++i) {
+    const unsigned char* p = base + i * stride;
+    for (std::size_t k = 0; k < 3; ++k) {
+      const auto v = load_le<std::int32_t>(p + 4 * k);
+      lo[k] = std::min(lo[k], v);
+      hi[k] = std::max(hi[k], v);
+    }
+  }
+  std::array<double, 3> origin{0, 0, 0};
+  if (n > 0) {
+    double a[3], b[3];
+    for (std::size_t k = 0; k < 3; ++k) {
+      a[k] = lo[k] * scale[k] + offset[k];
+      b[k] = hi[k] * scale[k] + offset[k];
+    }
+    origin = choose_origin(a, b);
+  }
+  point_cloud cloud;
+  cloud.set_origin(origin);
+  cloud.resize(n);
+  {
+    float* out = cloud.positions().data();
+    const double shift[3] = {offset[0] - origin[0], offset[1] - origin[1], offset[2] - origin[2]};
+    for (std::size_t i = 0; i < n; ++i) {
+      const unsigned char* p = base + i * stride;
+      for (std::size_t k = 0; k < 3; ++k)
+        out[3 * i + k] = static_cast<float>(load_le<std::int32_t>(p + 4 * k) * scale[k] + shift[k]);
+    }
+  }
+
+  // Standard fields.
+  using st = scalar_type;
+  const auto at = [&](std::size_t off) { return base + off; };
+  // Flags: added only when some point sets them.
+  static constexpr flag_spec k_legacy_flags[] = {{"synthetic", 15, 5, 1},
+                                                 {"key_point", 15, 6, 1},
+                                                 {"withheld", 15, 7, 1},
+                                                 {"scan_direction_flag", 14, 6, 1},
+                                                 {"edge_of_flight_line", 14, 7, 1}};
+  static constexpr flag_spec k_extended_flags[] = {{"synthetic", 15, 0, 1},          {"key_point", 15, 1, 1},
+                                                   {"withheld", 15, 2, 1},           {"overlap", 15, 3, 1},
+                                                   {"scanner_channel", 15, 4, 3},    {"scan_direction_flag", 15, 6, 1},
+                                                   {"edge_of_flight_line", 15, 7, 1}};
+  cloud.add_field("intensity", st::uint16, decode_column<std::uint16_t>(at(12), stride, n));
+  if (layout.extended) {
+    cloud.add_field("return_number", st::uint8, decode_bits(at(14), stride, n, 0, 0x0F));
+    cloud.add_field("number_of_returns", st::uint8, decode_bits(at(14), stride, n, 4, 0x0F));
+    cloud.add_field("classification", st::uint8, decode_column<std::uint8_t>(at(16), stride, n));
+    cloud.add_field("scan_angle", st::int16, decode_column<std::int16_t>(at(18), stride, n));
+    cloud.add_field("user_data", st::uint8, decode_column<std::uint8_t>(at(17), stride, n));
+    cloud.add_field("point_source_id", st::uint16, decode_column<std::uint16_t>(at(20), stride, n));
+  } else {
+    cloud.add_field("return_number", st::uint8, decode_bits(at(14), stride, n, 0, 0x07));
+    cloud.add_field("number_of_returns", st::uint8, decode_bits(at(14), stride, n, 3, 0x07));
+    cloud.add_field("classification", st::uint8, decode_bits(at(15), stride, n, 0, 0x1F));
+    cloud.add_field("scan_angle", st::int8, decode_column<std::int8_t>(at(16), stride, n));
+    cloud.add_field("user_data", st::uint8, decode_column<std::uint8_t>(at(17), stride, n));
+    cloud.add_field("point_source_id", st::uint16, decode_column<std::uint16_t>(at(18), stride, n));
+  }
+  if (layout.gps >= 0)
+    cloud.add_field("gps_time", st::float64,
+                    decode_column<double>(at(static_cast<std::size_t>(layout.gps)), stride, n));
+  if (layout.rgb >= 0) {
+    const char* names[3] = {"red", "green", "blue"};
+    for (std::size_t c = 0; c < 3; ++c)
+      cloud.add_field(names[c], st::uint16,
+                      decode_column<std::uint16_t>(at(static_cast<std::size_t>(layout.rgb) + 2 * c), stride, n));
+  }
+  if (layout.nir >= 0)
+    cloud.add_field("nir", st::uint16,
+                    decode_column<std::uint16_t>(at(static_cast<std::size_t>(layout.nir)), stride, n));
+  const unsigned bits_set[2] = {or_of_bytes(at(14), stride, n), or_of_bytes(at(15), stride, n)};
+  const auto add_flags = [&](const auto& table) {
+    for (const flag_spec& fl : table)
+      if ((bits_set[fl.offset - 14] >> fl.shift) & fl.mask)
+        cloud.add_field(fl.name, st::uint8, decode_bits(at(fl.offset), stride, n, fl.shift, fl.mask));
+  };
+  if (layout.extended)
+    add_flags(k_extended_flags);
+  else
+    add_flags(k_legacy_flags);
+
+  // Extra bytes.
+  for (std::size_t j = 0; j < extras.size(); ++j) {
+    const extra_desc& e = extras[j];
+    for (int k = 0; k < e.count; ++k) {
+      const std::size_t off = e.offset + size_of(e.type) * static_cast<std::size_t>(k);
+      std::vector<double> v;
+      visit_type(e.type, [&](auto tag) { v = decode_column<decltype(tag)>(at(off), stride, n); });
+      const bool scaled = (e.options & 8) != 0, offsetted = (e.options & 16) != 0;
+      if (scaled)
+        for (double& x : v) x *= e.scale[k];
+      if (offsetted)
+        for (double& x : v) x += e.offset_value[k];
+      std::string name =
+          e.count == 1 ? e.name : (e.name.empty() ? "extra_" + std::to_string(j) : e.name) + "_" + std::to_string(k);
+      name = unique_name(cloud, std::move(name), j);
+      cloud.add_field(std::move(name), scaled || offsetted ? st::float64 : e.type, std::move(v));
+    }
+  }
+  return cloud;
+}
+
+// ------------------------------------------------------------------ writer
+
+enum class slot_kind { u8, i8, u16, i16, f64, bits };
+
+/// One standard LAS field in a point record.
+struct slot_spec {
+  const char* name;
+  slot_kind kind;
+  std::size_t offset;
+  int shift = 0;      ///< bits: position in the byte
+  unsigned max = 0;   ///< bits: largest value
+  bool flag = false;  ///< bits: non-zero -> 1
+};
+
+std::vector<slot_spec> standard_slots(const format_layout& layout) {
+  using k = slot_kind;
+  std::vector<slot_spec> s;
+  s.push_back({"intensity", k::u16, 12});
+  if (layout.extended) {
+    s.push_back({"return_number", k::bits, 14, 0, 15});
+    s.push_back({"number_of_returns", k::bits, 14, 4, 15});
+    s.push_back({"synthetic", k::bits, 15, 0, 1, true});
+    s.push_back({"key_point", k::bits, 15, 1, 1, true});
+    s.push_back({"withheld", k::bits, 15, 2, 1, true});
+    s.push_back({"overlap", k::bits, 15, 3, 1, true});
+    s.push_back({"scanner_channel", k::bits, 15, 4, 3});
+    s.push_back({"scan_direction_flag", k::bits, 15, 6, 1, true});
+    s.push_back({"edge_of_flight_line", k::bits, 15, 7, 1, true});
+    s.push_back({"classification", k::u8, 16});
+    s.push_back({"user_data", k::u8, 17});
+    s.push_back({"scan_angle", k::i16, 18});
+    s.push_back({"point_source_id", k::u16, 20});
+  } else {
+    s.push_back({"return_number", k::bits, 14, 0, 7});
+    s.push_back({"number_of_returns", k::bits, 14, 3, 7});
+    s.push_back({"scan_direction_flag", k::bits, 14, 6, 1, true});
+    s.push_back({"edge_of_flight_line", k::bits, 14, 7, 1, true});
+    s.push_back({"classification", k::bits, 15, 0, 31});
+    s.push_back({"synthetic", k::bits, 15, 5, 1, true});
+    s.push_back({"key_point", k::bits, 15, 6, 1, true});
+    s.push_back({"withheld", k::bits, 15, 7, 1, true});
+    s.push_back({"scan_angle", k::i8, 16});
+    s.push_back({"user_data", k::u8, 17});
+    s.push_back({"point_source_id", k::u16, 18});
+  }
+  if (layout.gps >= 0) s.push_back({"gps_time", k::f64, static_cast<std::size_t>(layout.gps)});
+  if (layout.rgb >= 0) {
+    const auto o = static_cast<std::size_t>(layout.rgb);
+    s.push_back({"red", k::u16, o});
+    s.push_back({"green", k::u16, o + 2});
+    s.push_back({"blue", k::u16, o + 4});
+  }
+  if (layout.nir >= 0) s.push_back({"nir", k::u16, static_cast<std::size_t>(layout.nir)});
+  return s;
+}
+
+/// A column to encode: a slot or an extra-bytes field.
+struct out_column {
+  const double* values = nullptr;  ///< nullptr: `constant` for every point
+  double constant = 0;
+  double factor = 1;  ///< applied before conversion (scan angle units)
+  slot_kind kind = slot_kind::u8;
+  bool extra = false;  ///< extra-bytes field of type `type`
+  scalar_type type = scalar_type::uint8;
+  std::size_t offset = 0;
+  int shift = 0;
+  unsigned max = 0;
+  bool flag = false;
+};
+
+void encode_column(const out_column& c, std::size_t i0, std::size_t m, unsigned char* buf, std::size_t record) {
+  const auto value = [&](std::size_t i) { return (c.values ? c.values[i0 + i] : c.constant) * c.factor; };
+  unsigned char* p = buf + c.offset;
+  if (c.extra) {
+    visit_type(c.type, [&](auto tag) {
+      using T = decltype(tag);
+      for (std::size_t i = 0; i < m; ++i) store_le<T>(p + i * record, convert<T>(value(i)));
+    });
+    return;
+  }
+  switch (c.kind) {
+    case slot_kind::u8:
+      for (std::size_t i = 0; i < m; ++i) store_le<std::uint8_t>(p + i * record, convert<std::uint8_t>(value(i)));
+      return;
+    case slot_kind::i8:
+      for (std::size_t i = 0; i < m; ++i) store_le<std::int8_t>(p + i * record, convert<std::int8_t>(value(i)));
+      return;
+    case slot_kind::u16:
+      for (std::size_t i = 0; i < m; ++i) store_le<std::uint16_t>(p + i * record, convert<std::uint16_t>(value(i)));
+      return;
+    case slot_kind::i16:
+      for (std::size_t i = 0; i < m; ++i) store_le<std::int16_t>(p + i * record, convert<std::int16_t>(value(i)));
+      return;
+    case slot_kind::f64:
+      for (std::size_t i = 0; i < m; ++i) store_le<double>(p + i * record, value(i));
+      return;
+    case slot_kind::bits:
+      for (std::size_t i = 0; i < m; ++i) {
+        const double v = value(i);
+        unsigned b = 0;
+        if (c.flag)
+          b = v != 0 && !std::isnan(v) ? 1u : 0u;
+        else
+          b = std::min<unsigned>(convert<std::uint8_t>(v), c.max);
+        p[i * record] = static_cast<unsigned char>(p[i * record] | (b << c.shift));
+      }
+      return;
+  }
+}
+
+template <class T>
+void put(std::string& s, std::size_t offset, T v) {
+  store_le<T>(reinterpret_cast<unsigned char*>(&s[offset]), v);
+}
+
+void put_string(std::string& s, std::size_t offset, std::size_t width, const std::string& text) {
+  std::memcpy(&s[offset], text.data(), std::min(width, text.size()));
+}
+
+bool iequal(std::string_view a, std::string_view b) noexcept {
+  return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](char x, char y) {
+           return std::tolower(static_cast<unsigned char>(x)) == std::tolower(static_cast<unsigned char>(y));
+         });
+}
+
+void write_las_unchecked(std::ostream& out, const point_cloud& cloud, const las_write_options& opt) {
+  const std::size_t n = cloud.size();
+  const int minor = opt.version_minor;
+  if (minor < 2 || minor > 4)
+    throw std::invalid_argument("LAS version 1." + std::to_string(minor) + " cannot be written (use 1.2, 1.3 or 1.4)");
+  for (std::size_t k = 0; k < 3; ++k) {
+    if (!std::isfinite(opt.scale[k]) || opt.scale[k] <= 0)
+      throw std::invalid_argument("invalid LAS scale " + num(opt.scale[k]) + " (it must be finite and positive)");
+    if (!std::isfinite(cloud.origin()[k])) throw std::invalid_argument("the cloud's origin is not finite");
+  }
+  for (const auto& f : cloud.fields())
+    if (f.values.size() != n)
+      throw std::invalid_argument("field '" + f.name + "' has " + std::to_string(f.values.size()) + " values for " +
+                                  std::to_string(n) + " points");
+  if (minor < 4 && n > std::numeric_limits<std::uint32_t>::max())
+    throw std::invalid_argument("LAS 1." + std::to_string(minor) + " cannot hold " + std::to_string(n) +
+                                " points (at most 2^32-1; write LAS 1.4)");
+
+  // Point format.
+  const auto rgb = find_rgb_fields(cloud);
+  const bool has_rgb = rgb[0] != nullptr;
+  const field* nir = cloud.find_field("nir");
+  if (!nir) nir = cloud.find_field_icase("nir");
+  const bool has_gps = cloud.find_field("gps_time") != nullptr;
+  int format = 0;
+  if (minor >= 4)
+    format = has_rgb ? (nir ? 8 : 7) : 6;
+  else
+    format = has_rgb ? (has_gps ? 3 : 2) : (has_gps ? 1 : 0);
+  const format_layout& layout = k_formats[format];
+
+  // Columns: standard slots, then extra bytes.
+  std::vector<out_column> cols;
+  std::vector<const field*> used;
+  const field* return_number = nullptr;
+  for (const slot_spec& s : standard_slots(layout)) {
+    const std::string_view name = s.name;
+    const field* f = nullptr;
+    if (name == "red" || name == "green" || name == "blue")
+      f = rgb[name == "red" ? 0 : name == "green" ? 1 : 2];
+    else if (name == "nir")
+      f = nir;
+    else
+      f = cloud.find_field_icase(name);  // exact name first
+    out_column c;
+    c.kind = s.kind;
+    c.offset = s.offset;
+    c.shift = s.shift;
+    c.max = s.max;
+    c.flag = s.flag;
+    if (f) {
+      c.values = f->values.data();
+      used.push_back(f);
+      if (name == "scan_angle") {
+        const bool degrees = f->type == scalar_type::int8;
+        if (layout.extended && degrees) c.factor = 1 / 0.006;
+        if (!layout.extended && !degrees) c.factor = 0.006;
+      }
+      if (name == "return_number") return_number = f;
+    } else if (name == "return_number" || name == "number_of_returns") {
+      c.constant = 1;
+    } else {
+      continue;
+    }
+    cols.push_back(c);
+  }
+  std::vector<const field*> extras;
+  for (const auto& f : cloud.fields()) {
+    if (std::find(used.begin(), used.end(), &f) != used.end()) continue;
+    if (f.name.empty() || f.name.size() > 32)
+      throw std::invalid_argument("field '" + f.name +
+                                  "' cannot be written as LAS extra bytes (the name must have 1 to 32 characters)");
+    if (iequal(f.name, "x") || iequal(f.name, "y") || iequal(f.name, "z"))
+      throw std::invalid_argument("field '" + f.name + "' clashes with the LAS coordinates");
+    extras.push_back(&f);
+  }
+  std::size_t record = layout.min_size;
+  for (const field* f : extras) {
+    out_column c;
+    c.values = f->values.data();
+    c.extra = true;
+    c.type = f->type;
+    c.offset = record;
+    record += size_of(f->type);
+    cols.push_back(c);
+  }
+  if (record > std::numeric_limits<std::uint16_t>::max() ||
+      extras.size() * k_extra_bytes_descriptor_size > std::numeric_limits<std::uint16_t>::max())
+    throw std::invalid_argument("too many fields for LAS extra bytes (" + std::to_string(extras.size()) + ")");
+
+  // Coordinates: integers relative to the origin (= the LAS offset).
+  const auto& origin = cloud.origin();
+  const float* xyz = cloud.positions().data();
+  double qmin[3] = {0, 0, 0}, qmax[3] = {0, 0, 0};
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t k = 0; k < 3; ++k) {
+      const float p = xyz[3 * i + k];
+      if (!std::isfinite(p))
+        throw std::invalid_argument("point " + std::to_string(i) + " has a non-finite coordinate; LAS cannot store it");
+      const double q = std::round(static_cast<double>(p) / opt.scale[k]);
+      if (q < std::numeric_limits<std::int32_t>::min() || q > std::numeric_limits<std::int32_t>::max())
+        throw std::invalid_argument("point " + std::to_string(i) + ": coordinate " + num(p) +
+                                    " (relative to the origin) does not fit a 32-bit LAS integer at scale " +
+                                    num(opt.scale[k]) + " (choose a coarser scale)");
+      qmin[k] = i == 0 ? q : std::min(qmin[k], q);
+      qmax[k] = i == 0 ? q : std::max(qmax[k], q);
+    }
+
+  // Points by return.
+  std::uint64_t by_return[15] = {};
+  const unsigned max_return = layout.extended ? 15 : 7;
+  for (std::size_t i = 0; i < n; ++i) {
+    const unsigned r =
+        return_number ? std::min<unsigned>(convert<std::uint8_t>(return_number->values[i]), max_return) : 1;
+    if (r >= 1 && r <= 15) ++by_return[r - 1];
+  }
+
+  // Public header.
+  const std::size_t header_size = header_size_for(minor);
+  const std::size_t vlr_size = extras.empty() ? 0 : k_vlr_header_size + extras.size() * k_extra_bytes_descriptor_size;
+  std::string h(header_size + vlr_size, '\0');
+  put_string(h, 0, 4, "LASF");
+  put<std::uint16_t>(h, 6, layout.extended ? 0x10 : 0);  // formats 6-10: the WKT bit must be set
+  put<std::uint8_t>(h, 24, 1);
+  put<std::uint8_t>(h, 25, static_cast<std::uint8_t>(minor));
+  put_string(h, 26, 32, "OTHER");
+  put_string(h, 58, 32, "ced " CED_VERSION_STRING);
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+#if defined(_WIN32)
+  gmtime_s(&utc, &now);
+#else
+  gmtime_r(&now, &utc);
+#endif
+  put<std::uint16_t>(h, 90, static_cast<std::uint16_t>(utc.tm_yday + 1));
+  put<std::uint16_t>(h, 92, static_cast<std::uint16_t>(utc.tm_year + 1900));
+  put<std::uint16_t>(h, 94, static_cast<std::uint16_t>(header_size));
+  put<std::uint32_t>(h, 96, static_cast<std::uint32_t>(header_size + vlr_size));
+  put<std::uint32_t>(h, 100, extras.empty() ? 0u : 1u);
+  put<std::uint8_t>(h, 104, static_cast<std::uint8_t>(format));
+  put<std::uint16_t>(h, 105, static_cast<std::uint16_t>(record));
+  const bool legacy_counts = !layout.extended && n <= std::numeric_limits<std::uint32_t>::max();
+  if (legacy_counts) {
+    put<std::uint32_t>(h, 107, static_cast<std::uint32_t>(n));
+    for (std::size_t r = 0; r < 5; ++r) put<std::uint32_t>(h, 111 + 4 * r, static_cast<std::uint32_t>(by_return[r]));
+  }
+  for (std::size_t k = 0; k < 3; ++k) {
+    put<double>(h, 131 + 8 * k, opt.scale[k]);
+    put<double>(h, 155 + 8 * k, origin[k]);
+    put<double>(h, 179 + 16 * k, n ? origin[k] + qmax[k] * opt.scale[k] : 0.0);
+    put<double>(h, 187 + 16 * k, n ? origin[k] + qmin[k] * opt.scale[k] : 0.0);
+  }
+  if (minor >= 4) {
+    put<std::uint64_t>(h, 247, n);
+    for (std::size_t r = 0; r < 15; ++r) put<std::uint64_t>(h, 255 + 8 * r, by_return[r]);
+  }
+
+  // Extra-bytes VLR.
+  if (!extras.empty()) {
+    std::size_t v = header_size;
+    put_string(h, v + 2, 16, "LASF_Spec");
+    put<std::uint16_t>(h, v + 18, 4);
+    put<std::uint16_t>(h, v + 20, static_cast<std::uint16_t>(extras.size() * k_extra_bytes_descriptor_size));
+    put_string(h, v + 22, 32, "extra bytes");
+    v += k_vlr_header_size;
+    for (const field* f : extras) {
+      put<std::uint8_t>(h, v + 2, static_cast<std::uint8_t>(extra_type_code(f->type)));
+      put_string(h, v + 4, 32, f->name);
+      put_string(h, v + 160, 32, "ced field (" + std::string(name_of(f->type)) + ")");
+      v += k_extra_bytes_descriptor_size;
+    }
+  }
+  out.write(h.data(), static_cast<std::streamsize>(h.size()));
+
+  // Point records, in chunks.
+  constexpr std::size_t chunk = 8192;
+  std::vector<unsigned char> buf(std::min(chunk, n) * record);
+  for (std::size_t i0 = 0; i0 < n; i0 += chunk) {
+    const std::size_t m = std::min(chunk, n - i0);
+    std::fill(buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(m * record), 0);
+    for (std::size_t i = 0; i < m; ++i)
+      for (std::size_t k = 0; k < 3; ++k) {
+        const double q = std::round(static_cast<double>(xyz[3 * (i0 + i) + k]) / opt.scale[k]);
+        store_le<std::int32_t>(buf.data() + i * record + 4 * k, static_cast<std::int32_t>(q));
+      }
+    for (const auto& c : cols) encode_column(c, i0, m, buf.data(), record);
+    out.write(reinterpret_cast<const char*>(buf.data()), static_cast<std::streamsize>(m * record));
+  }
+}
+
+}  // namespace
+
+point_cloud read_las_buffer(std::string_view bytes, const std::string& name, las_read_info* info) {
+  return parse_las(bytes, name, info);
+}
+
+point_cloud read_las(const std::string& path, las_read_info* info) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw io_error("cannot read '" + path + "': it is a directory");
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
+  if (!f) throw io_error("cannot open '" + path + "': " + std::error_code(errno, std::generic_category()).message());
+  std::string data;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (!ec) {
+    data.resize(static_cast<std::size_t>(size));
+    data.resize(std::fread(data.data(), 1, data.size(), f.get()));
+  }
+  char buf[1 << 16];
+  std::size_t got = 0;
+  while ((got = std::fread(buf, 1, sizeof(buf), f.get())) > 0) data.append(buf, got);
+  if (std::ferror(f.get())) throw io_error("error reading '" + path + "'");
+  return parse_las(data, path, info);
+}
+
+void write_las(std::ostream& out, const point_cloud& cloud, const las_write_options& options) {
+  write_las_unchecked(out, cloud, options);
+  out.flush();
+  if (!out) throw io_error("error writing LAS data to the output stream");
+}
+
+void write_las(const std::string& path, const point_cloud& cloud, const las_write_options& options) {
+  atomic_output_file file(path);
+  write_las_unchecked(file.stream(), cloud, options);
+  file.commit();
+}
+
+}  // namespace ced::io

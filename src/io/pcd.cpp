@@ -1,0 +1,988 @@
+// SPDX-License-Identifier: MIT
+#include "ced/io/pcd.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <istream>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <ostream>
+#include <set>
+#include <string_view>
+#include <system_error>
+#include <type_traits>
+
+namespace ced::io {
+
+namespace {
+
+// ---------------------------------------------------------------- utilities
+
+[[noreturn]] void fail(const std::string& file, const std::string& msg) { throw io_error(file + ": " + msg); }
+
+bool host_little_endian() noexcept {
+  const std::uint16_t one = 1;
+  unsigned char b = 0;
+  std::memcpy(&b, &one, 1);
+  return b == 1;
+}
+
+/// Calls f(T{}) with the C++ type stored for `t`.
+template <class F>
+void visit_type(scalar_type t, F&& f) {
+  switch (t) {
+    case scalar_type::int8:
+      f(std::int8_t{});
+      return;
+    case scalar_type::uint8:
+      f(std::uint8_t{});
+      return;
+    case scalar_type::int16:
+      f(std::int16_t{});
+      return;
+    case scalar_type::uint16:
+      f(std::uint16_t{});
+      return;
+    case scalar_type::int32:
+      f(std::int32_t{});
+      return;
+    case scalar_type::uint32:
+      f(std::uint32_t{});
+      return;
+    case scalar_type::int64:
+      f(std::int64_t{});
+      return;
+    case scalar_type::uint64:
+      f(std::uint64_t{});
+      return;
+    case scalar_type::float32:
+      f(float{});
+      return;
+    case scalar_type::float64:
+      f(double{});
+      return;
+  }
+}
+
+/// Little-endian load/store (PCD binary data is little-endian in practice).
+template <class T>
+T load_le(const unsigned char* p) noexcept {
+  unsigned char b[sizeof(T)];
+  std::memcpy(b, p, sizeof(T));
+  if (!host_little_endian()) std::reverse(b, b + sizeof(T));
+  T v;
+  std::memcpy(&v, b, sizeof(T));
+  return v;
+}
+
+template <class T>
+void store_le(unsigned char* p, T v) noexcept {
+  unsigned char b[sizeof(T)];
+  std::memcpy(b, &v, sizeof(T));
+  if (!host_little_endian()) std::reverse(b, b + sizeof(T));
+  std::memcpy(p, b, sizeof(T));
+}
+
+/// out[i] = value at p + i * stride, for i < n.
+void decode_column(const unsigned char* p, std::size_t stride, std::size_t n, scalar_type t, double* out) {
+  visit_type(t, [&](auto tag) {
+    using T = decltype(tag);
+    for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<double>(load_le<T>(p + i * stride));
+  });
+}
+
+/// Rounds and clamps to T's range (NaN -> 0) for integers; float: overflow -> inf.
+template <class T>
+T convert(double v) noexcept {
+  if constexpr (std::is_floating_point_v<T>) {
+    if (std::is_same_v<T, float> && std::isfinite(v) && std::fabs(v) > std::numeric_limits<float>::max())
+      return v > 0 ? std::numeric_limits<float>::infinity() : -std::numeric_limits<float>::infinity();
+    return static_cast<T>(v);
+  } else {
+    if (std::isnan(v)) return T(0);
+    const double lo = static_cast<double>(std::numeric_limits<T>::min());
+    const double hi = static_cast<double>(std::numeric_limits<T>::max());
+    v = std::round(v);
+    if (v <= lo) return std::numeric_limits<T>::min();
+    if (v >= hi) return std::numeric_limits<T>::max();
+    return static_cast<T>(v);
+  }
+}
+
+bool is_space(char c) noexcept { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\v' || c == '\f'; }
+
+std::vector<std::string_view> split_words(std::string_view line) {
+  std::vector<std::string_view> words;
+  std::size_t i = 0;
+  while (i < line.size()) {
+    while (i < line.size() && is_space(line[i])) ++i;
+    const std::size_t b = i;
+    while (i < line.size() && !is_space(line[i])) ++i;
+    if (i > b) words.push_back(line.substr(b, i - b));
+  }
+  return words;
+}
+
+/// At most 40 characters of `s`, non-printable bytes replaced by '?', for messages.
+std::string printable(std::string_view s) {
+  std::string r;
+  for (char c : s.substr(0, 40)) r += (c >= 32 && c < 127) ? c : '?';
+  if (s.size() > 40) r += "...";
+  return r;
+}
+
+bool parse_u64(std::string_view s, std::uint64_t& v) noexcept {
+  const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+  return r.ec == std::errc() && r.ptr == s.data() + s.size();
+}
+
+// ------------------------------------------------------------------- header
+
+struct pcd_field {
+  std::string name;
+  char type = 'F';
+  std::size_t size = 4;
+  std::size_t count = 1;
+  scalar_type stype = scalar_type::float32;
+  bool padding = false;     ///< named "_": skipped
+  bool packed_rgb = false;  ///< rgb/rgba, unpacked into red/green/blue
+};
+
+struct pcd_header {
+  std::vector<pcd_field> fields;
+  std::uint64_t width = 0, height = 1, points = 0;
+  pcd_format format = pcd_format::ascii;
+  std::string data_name;
+  std::size_t body_offset = 0;
+  std::size_t body_line = 0;  ///< 1-based line number of the line after DATA
+};
+
+std::optional<scalar_type> pcd_type(char type, std::uint64_t size) noexcept {
+  using st = scalar_type;
+  switch (type) {
+    case 'I':
+      if (size == 1) return st::int8;
+      if (size == 2) return st::int16;
+      if (size == 4) return st::int32;
+      if (size == 8) return st::int64;
+      break;
+    case 'U':
+      if (size == 1) return st::uint8;
+      if (size == 2) return st::uint16;
+      if (size == 4) return st::uint32;
+      if (size == 8) return st::uint64;
+      break;
+    case 'F':
+      if (size == 4) return st::float32;
+      if (size == 8) return st::float64;
+      break;
+    default:
+      break;
+  }
+  return std::nullopt;
+}
+
+bool has_data_line(std::string_view data) noexcept {
+  return data.substr(0, 4) == "DATA" || data.find("\nDATA") != std::string_view::npos;
+}
+
+constexpr std::size_t max_values_per_point = 1u << 16;
+
+pcd_header parse_header(std::string_view data, const std::string& file) {
+  std::vector<std::string_view> names, sizes, types, counts;
+  bool have_fields = false, have_size = false, have_type = false, have_count = false;
+  bool have_width = false, have_height = false, have_points = false;
+  pcd_header h;
+  std::size_t pos = 0, line_no = 0;
+  bool first = true;
+  for (bool done = false; !done;) {
+    if (pos >= data.size()) fail(file, "the PCD header has no DATA line");
+    const std::size_t nl = data.find('\n', pos);
+    const std::string_view line = data.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos);
+    pos = nl == std::string_view::npos ? data.size() : nl + 1;
+    ++line_no;
+    const auto w = split_words(line);
+    if (w.empty() || w[0][0] == '#') continue;
+    const std::string_view kw = w[0];
+    const auto where = [&] { return "header line " + std::to_string(line_no) + ": "; };
+    if (first && kw != "VERSION" && kw != "FIELDS" && kw != "COLUMNS")
+      fail(file, "not a PCD file (expected a VERSION or FIELDS line, found '" + printable(line) + "')");
+    first = false;
+    const auto list = [&](bool& have, std::vector<std::string_view>& out) {
+      if (have) fail(file, where() + std::string(kw) + " is given twice");
+      if (w.size() < 2) fail(file, where() + std::string(kw) + " lists no values");
+      have = true;
+      out.assign(w.begin() + 1, w.end());
+    };
+    const auto number = [&](bool& have, std::uint64_t& out) {
+      if (have) fail(file, where() + std::string(kw) + " is given twice");
+      if (w.size() != 2 || !parse_u64(w[1], out))
+        fail(file, where() + "invalid " + std::string(kw) + " line '" + printable(line) +
+                       "' (expected one non-negative integer)");
+      have = true;
+    };
+    if (kw == "VERSION") {
+      if (w.size() != 2) fail(file, where() + "malformed VERSION line '" + printable(line) + "'");
+    } else if (kw == "FIELDS" || kw == "COLUMNS") {
+      list(have_fields, names);
+    } else if (kw == "SIZE") {
+      list(have_size, sizes);
+    } else if (kw == "TYPE") {
+      list(have_type, types);
+    } else if (kw == "COUNT") {
+      list(have_count, counts);
+    } else if (kw == "WIDTH") {
+      number(have_width, h.width);
+    } else if (kw == "HEIGHT") {
+      number(have_height, h.height);
+    } else if (kw == "POINTS") {
+      number(have_points, h.points);
+    } else if (kw == "VIEWPOINT") {
+      if (w.size() != 8) fail(file, where() + "VIEWPOINT needs 7 values (tx ty tz qw qx qy qz)");
+    } else if (kw == "DATA") {
+      if (w.size() != 2) fail(file, where() + "malformed DATA line '" + printable(line) + "'");
+      if (w[1] == "ascii")
+        h.format = pcd_format::ascii;
+      else if (w[1] == "binary")
+        h.format = pcd_format::binary;
+      else if (w[1] == "binary_compressed")
+        h.format = pcd_format::binary_compressed;
+      else
+        fail(file,
+             where() + "unknown DATA format '" + printable(w[1]) + "' (expected ascii, binary or binary_compressed)");
+      h.data_name = std::string(w[1]);
+      done = true;
+    } else {
+      if (!has_data_line(data)) fail(file, "the PCD header has no DATA line");
+      fail(file, where() + "unknown header keyword '" + printable(kw) + "'");
+    }
+  }
+  h.body_offset = pos;
+  h.body_line = line_no + 1;
+
+  if (!have_fields) fail(file, "the PCD header has no FIELDS line");
+  const std::size_t nf = names.size();
+  const auto check_length = [&](bool have, const std::vector<std::string_view>& v, const char* kw) {
+    if (have && v.size() != nf)
+      fail(file, std::string(kw) + " lists " + std::to_string(v.size()) + " values but FIELDS names " +
+                     std::to_string(nf) + " fields");
+  };
+  check_length(have_size, sizes, "SIZE");
+  check_length(have_type, types, "TYPE");
+  check_length(have_count, counts, "COUNT");
+
+  std::uint64_t values = 0;
+  for (std::size_t i = 0; i < nf; ++i) {
+    pcd_field f;
+    f.name = std::string(names[i]);
+    f.padding = f.name == "_";
+    std::uint64_t size = 4, count = 1;
+    if (have_size && (!parse_u64(sizes[i], size) || size == 0))
+      fail(file, "invalid SIZE '" + printable(sizes[i]) + "' for field '" + f.name + "'");
+    if (have_type) {
+      if (types[i].size() != 1) fail(file, "invalid TYPE '" + printable(types[i]) + "' for field '" + f.name + "'");
+      f.type = types[i][0];
+    }
+    if (have_count && (!parse_u64(counts[i], count) || count == 0))
+      fail(file, "invalid COUNT '" + printable(counts[i]) + "' for field '" + f.name + "'");
+    if (count > max_values_per_point || (values += count) > max_values_per_point)
+      fail(file, "too many values per point (more than " + std::to_string(max_values_per_point) + ")");
+    const auto t = pcd_type(f.type, size);
+    if (!t) {
+      if (f.type != 'I' && f.type != 'U' && f.type != 'F')
+        fail(file, "invalid TYPE '" + std::string(1, f.type) + "' for field '" + f.name + "' (expected I, U or F)");
+      fail(file,
+           "field '" + f.name + "': unsupported TYPE " + std::string(1, f.type) + " with SIZE " + std::to_string(size));
+    }
+    f.stype = *t;
+    f.size = static_cast<std::size_t>(size);
+    f.count = static_cast<std::size_t>(count);
+    if (!f.padding)
+      for (const auto& other : h.fields)
+        if (other.name == f.name) fail(file, "field '" + f.name + "' is declared twice in FIELDS");
+    h.fields.push_back(std::move(f));
+  }
+
+  if (!have_width && !have_points) fail(file, "the PCD header has neither WIDTH nor POINTS");
+  if (!have_width) {
+    if (have_height && h.height != 1) fail(file, "the PCD header gives HEIGHT but no WIDTH");
+    h.width = h.points;
+    h.height = 1;
+  }
+  if (h.height != 0 && h.width > std::numeric_limits<std::uint64_t>::max() / h.height)
+    fail(file, "WIDTH × HEIGHT (" + std::to_string(h.width) + " × " + std::to_string(h.height) + ") overflows");
+  const std::uint64_t wh = h.width * h.height;
+  if (!have_points)
+    h.points = wh;
+  else if (h.points != wh)
+    fail(file, "POINTS (" + std::to_string(h.points) + ") does not equal WIDTH × HEIGHT (" + std::to_string(h.width) +
+                   " × " + std::to_string(h.height) + " = " + std::to_string(wh) + ")");
+  return h;
+}
+
+// -------------------------------------------------------------- ascii values
+
+enum class parse_status { ok, not_a_number, not_an_integer, out_of_range };
+
+parse_status parse_double(std::string_view tok, double& out) noexcept {
+  const char* b = tok.data();
+  const char* e = b + tok.size();
+  if (b != e && *b == '+') ++b;
+  const auto r = std::from_chars(b, e, out);
+  if (r.ptr != e || (r.ec != std::errc() && r.ec != std::errc::result_out_of_range)) return parse_status::not_a_number;
+  if (r.ec == std::errc::result_out_of_range) {  // overflow, or underflow to a denormal/zero
+    char buf[128];
+    if (tok.size() >= sizeof(buf)) return parse_status::out_of_range;
+    std::memcpy(buf, tok.data(), tok.size());
+    buf[tok.size()] = '\0';
+    out = std::strtod(buf, nullptr);
+    if (std::isinf(out)) return parse_status::out_of_range;
+  }
+  return parse_status::ok;
+}
+
+parse_status parse_ascii_value(std::string_view tok, scalar_type t, double& out) noexcept {
+  if (!is_integer(t)) {
+    const parse_status s = parse_double(tok, out);
+    if (s != parse_status::ok) return s;
+    if (t == scalar_type::float32) {
+      if (std::isfinite(out) && std::fabs(out) > std::numeric_limits<float>::max()) return parse_status::out_of_range;
+      out = static_cast<double>(static_cast<float>(out));
+    }
+    return parse_status::ok;
+  }
+  const auto range = natural_range(t);
+  const char* b = tok.data();
+  const char* e = b + tok.size();
+  if (b != e && *b == '+') ++b;
+  if (t == scalar_type::uint64) {
+    std::uint64_t v = 0;
+    const auto r = std::from_chars(b, e, v);
+    if (r.ptr == e && r.ec == std::errc()) return out = static_cast<double>(v), parse_status::ok;
+    if (r.ptr == e && r.ec == std::errc::result_out_of_range) return parse_status::out_of_range;
+  } else {
+    std::int64_t v = 0;
+    const auto r = std::from_chars(b, e, v);
+    if (r.ptr == e && r.ec == std::errc()) {
+      out = static_cast<double>(v);
+      return out < range[0] || out > range[1] ? parse_status::out_of_range : parse_status::ok;
+    }
+    if (r.ptr == e && r.ec == std::errc::result_out_of_range) return parse_status::out_of_range;
+  }
+  // Tolerate integral values written as floats ("255.0", "1e3").
+  const parse_status s = parse_double(tok, out);
+  if (s != parse_status::ok) return s;
+  if (!std::isfinite(out) || out != std::floor(out)) return parse_status::not_an_integer;
+  return out < range[0] || out > range[1] ? parse_status::out_of_range : parse_status::ok;
+}
+
+/// A packed rgb value in ascii: a plain integer is the packed 32 bits (PCL
+/// writes it so); for TYPE F anything else is a float whose bits are taken.
+parse_status parse_packed_rgb(std::string_view tok, char type, double& out) noexcept {
+  const bool digits = !tok.empty() && std::all_of(tok.begin(), tok.end(), [](char c) { return c >= '0' && c <= '9'; });
+  if (type == 'F' && !digits) {
+    double d = 0;
+    const parse_status s = parse_double(tok, d);
+    if (s != parse_status::ok) return s;
+    const float f = static_cast<float>(d);
+    std::uint32_t bits = 0;
+    std::memcpy(&bits, &f, 4);
+    out = bits;
+    return parse_status::ok;
+  }
+  const parse_status s = parse_ascii_value(tok, type == 'I' ? scalar_type::int32 : scalar_type::uint32, out);
+  if (s == parse_status::ok && out < 0) out += 4294967296.0;  // the bits of a negative int32
+  return s;
+}
+
+// ------------------------------------------------------------------ reader
+
+using columns = std::vector<std::vector<double>>;
+
+/// Decodes the body into cols (one per value of each non-padding field, in
+/// order; col_of[f] is the first column of field f).
+void read_binary(std::string_view data, const pcd_header& h, const std::vector<std::size_t>& col_of, columns& cols,
+                 const std::string& file) {
+  std::size_t point_size = 0;
+  for (const auto& f : h.fields) point_size += f.size * f.count;
+  const std::size_t remaining = data.size() - h.body_offset;
+  if (h.points > remaining / point_size)
+    fail(file, "truncated: POINTS declares " + std::to_string(h.points) + " points of " + std::to_string(point_size) +
+                   " bytes, but only " + std::to_string(remaining) + " bytes of binary data follow");
+  const auto n = static_cast<std::size_t>(h.points);
+  const auto* body = reinterpret_cast<const unsigned char*>(data.data()) + h.body_offset;
+  std::size_t offset = 0;
+  for (std::size_t j = 0; j < h.fields.size(); ++j) {
+    const pcd_field& f = h.fields[j];
+    if (!f.padding)
+      for (std::size_t c = 0; c < f.count; ++c) {
+        auto& col = cols[col_of[j] + c];
+        col.resize(n);
+        decode_column(body + offset + c * f.size, point_size, n, f.packed_rgb ? scalar_type::uint32 : f.stype,
+                      col.data());
+      }
+    offset += f.size * f.count;
+  }
+}
+
+void read_compressed(std::string_view data, const pcd_header& h, const std::vector<std::size_t>& col_of, columns& cols,
+                     const std::string& file) {
+  const std::size_t remaining = data.size() - h.body_offset;
+  const auto n = static_cast<std::size_t>(h.points);
+  if (remaining < 8) {
+    if (n == 0) return;
+    fail(file, "truncated: the binary_compressed data has no size header (" + std::to_string(remaining) + " bytes)");
+  }
+  const auto* body = reinterpret_cast<const unsigned char*>(data.data()) + h.body_offset;
+  const std::uint32_t compressed = load_le<std::uint32_t>(body);
+  const std::uint32_t uncompressed = load_le<std::uint32_t>(body + 4);
+  if (compressed > remaining - 8)
+    fail(file, "truncated: the binary_compressed data declares " + std::to_string(compressed) +
+                   " compressed bytes, but only " + std::to_string(remaining - 8) + " follow");
+  std::size_t size_real = 0, size_all = 0;
+  for (const auto& f : h.fields) {
+    size_all += f.size * f.count;
+    if (!f.padding) size_real += f.size * f.count;
+  }
+  // PCL leaves padding fields out of the compressed layout; accept them too.
+  bool with_padding = false;
+  if (h.points <= std::numeric_limits<std::uint32_t>::max() / size_real && uncompressed == n * size_real) {
+    with_padding = false;
+  } else if (size_all != size_real && h.points <= std::numeric_limits<std::uint32_t>::max() / size_all &&
+             uncompressed == n * size_all) {
+    with_padding = true;
+  } else {
+    fail(file, "the uncompressed size in the binary_compressed header (" + std::to_string(uncompressed) +
+                   " bytes) does not match POINTS × point size (" + std::to_string(h.points) + " × " +
+                   std::to_string(size_real) + " bytes)");
+  }
+  // LZF expands at most 88-fold (a 3-byte back-reference copies 264 bytes):
+  // refuse more before allocating.
+  if (static_cast<std::uint64_t>(uncompressed) > static_cast<std::uint64_t>(compressed) * 100 + 1024)
+    fail(file, "implausible binary_compressed sizes: " + std::to_string(compressed) +
+                   " compressed bytes cannot expand to " + std::to_string(uncompressed) + " bytes");
+  const std::string buf =
+      lzf_decompress(std::string_view(reinterpret_cast<const char*>(body + 8), compressed), uncompressed, file);
+  const auto* p = reinterpret_cast<const unsigned char*>(buf.data());
+  std::size_t offset = 0;
+  for (std::size_t j = 0; j < h.fields.size(); ++j) {
+    const pcd_field& f = h.fields[j];
+    if (f.padding && !with_padding) continue;
+    if (!f.padding)
+      for (std::size_t c = 0; c < f.count; ++c) {
+        auto& col = cols[col_of[j] + c];
+        col.resize(n);
+        decode_column(p + offset + c * f.size, f.size * f.count, n, f.packed_rgb ? scalar_type::uint32 : f.stype,
+                      col.data());
+      }
+    offset += n * f.size * f.count;
+  }
+}
+
+void read_ascii(std::string_view data, const pcd_header& h, const std::vector<std::size_t>& col_of, columns& cols,
+                const std::string& file) {
+  std::size_t values_all = 0, values_real = 0;
+  for (const auto& f : h.fields) {
+    values_all += f.count;
+    if (!f.padding) values_real += f.count;
+  }
+  // A point takes at least 2 bytes per value (a digit and a separator).
+  const std::size_t remaining = data.size() - h.body_offset;
+  if (h.points > (remaining + 1) / (2 * values_real))
+    fail(file, "truncated: POINTS declares " + std::to_string(h.points) + " points of " + std::to_string(values_real) +
+                   " values, but only " + std::to_string(remaining) + " bytes of ascii data follow");
+  const auto n = static_cast<std::size_t>(h.points);
+  for (auto& c : cols) c.resize(n);
+
+  const char* p = data.data() + h.body_offset;
+  const char* const end = data.data() + data.size();
+  std::size_t line_no = h.body_line - 1;
+  std::vector<std::string_view> tok;
+  tok.reserve(values_all);
+  for (std::size_t i = 0; i < n; ++i) {
+    // The next non-blank line, split into tokens.
+    for (;;) {
+      if (p >= end)
+        fail(file, "truncated: the file ends after " + std::to_string(i) + " of " + std::to_string(n) + " points");
+      ++line_no;
+      tok.clear();
+      while (p < end && *p != '\n') {
+        while (p < end && *p != '\n' && is_space(*p)) ++p;
+        const char* b = p;
+        while (p < end && !is_space(*p)) ++p;
+        if (p > b) tok.emplace_back(b, static_cast<std::size_t>(p - b));
+      }
+      if (p < end) ++p;  // the '\n'
+      if (!tok.empty()) break;
+    }
+    const bool with_padding = tok.size() == values_all;
+    if (!with_padding && tok.size() != values_real)
+      fail(file, "line " + std::to_string(line_no) + ": expected " + std::to_string(values_real) + " values, found " +
+                     std::to_string(tok.size()));
+    std::size_t t = 0;
+    for (std::size_t j = 0; j < h.fields.size(); ++j) {
+      const pcd_field& f = h.fields[j];
+      if (f.padding) {
+        if (with_padding) t += f.count;
+        continue;
+      }
+      for (std::size_t c = 0; c < f.count; ++c, ++t) {
+        double v = 0;
+        const parse_status s =
+            f.packed_rgb ? parse_packed_rgb(tok[t], f.type, v) : parse_ascii_value(tok[t], f.stype, v);
+        if (s != parse_status::ok) {
+          const std::string what = "line " + std::to_string(line_no) + ", field '" +
+                                   (f.count > 1 ? f.name + "_" + std::to_string(c) : f.name) + "': '" +
+                                   printable(tok[t]) + "' ";
+          const std::string type = std::string(name_of(f.stype));
+          if (s == parse_status::not_a_number) fail(file, what + "is not a number (expected " + type + ")");
+          if (s == parse_status::not_an_integer) fail(file, what + "is not an integer (expected " + type + ")");
+          fail(file, what + "is out of range for " + type);
+        }
+        cols[col_of[j] + c][i] = v;
+      }
+    }
+  }
+}
+
+point_cloud parse_pcd(std::string_view data, const std::string& file, pcd_read_info* info) {
+  pcd_header h = parse_header(data, file);
+  std::size_t axis[3] = {};
+  for (int k = 0; k < 3; ++k) {
+    const std::string name(1, static_cast<char>('x' + k));
+    const auto it = std::find_if(h.fields.begin(), h.fields.end(), [&](const pcd_field& f) { return f.name == name; });
+    if (it == h.fields.end()) fail(file, "the PCD file has no '" + name + "' field");
+    if (it->count != 1) fail(file, "field '" + name + "' has COUNT " + std::to_string(it->count) + " (expected 1)");
+    axis[k] = static_cast<std::size_t>(it - h.fields.begin());
+  }
+  std::vector<std::size_t> col_of(h.fields.size(), 0);
+  std::size_t ncols = 0;
+  std::set<std::string> out_names;
+  for (std::size_t j = 0; j < h.fields.size(); ++j) {
+    pcd_field& f = h.fields[j];
+    if (f.padding) continue;
+    f.packed_rgb = (f.name == "rgb" || f.name == "rgba") && f.count == 1 && f.size == 4;
+    col_of[j] = ncols;
+    ncols += f.count;
+    std::vector<std::string> names;
+    if (f.packed_rgb)
+      names = {"red", "green", "blue"};
+    else if (f.count == 1)
+      names = {f.name};
+    else
+      for (std::size_t c = 0; c < f.count; ++c) names.push_back(f.name + "_" + std::to_string(c));
+    for (const auto& name : names)
+      if (!out_names.insert(name).second)
+        fail(file, "two fields would be named '" + name + "' (field '" + f.name + "' clashes with another one)");
+  }
+
+  columns cols(ncols);
+  switch (h.format) {
+    case pcd_format::ascii:
+      read_ascii(data, h, col_of, cols, file);
+      break;
+    case pcd_format::binary:
+      read_binary(data, h, col_of, cols, file);
+      break;
+    case pcd_format::binary_compressed:
+      read_compressed(data, h, col_of, cols, file);
+      break;
+  }
+  for (auto& c : cols) c.resize(static_cast<std::size_t>(h.points));  // binary_compressed with 0 points
+
+  // Drop the points with a non-finite coordinate.
+  std::vector<double>* xyz[3] = {&cols[col_of[axis[0]]], &cols[col_of[axis[1]]], &cols[col_of[axis[2]]]};
+  const auto declared = static_cast<std::size_t>(h.points);
+  std::size_t n = 0;
+  {
+    std::vector<std::uint8_t> keep(declared);
+    for (std::size_t i = 0; i < declared; ++i) {
+      keep[i] = std::isfinite((*xyz[0])[i]) && std::isfinite((*xyz[1])[i]) && std::isfinite((*xyz[2])[i]);
+      n += keep[i];
+    }
+    if (n != declared)
+      for (auto& col : cols) {
+        std::size_t o = 0;
+        for (std::size_t i = 0; i < declared; ++i)
+          if (keep[i]) col[o++] = col[i];
+        col.resize(o);
+        col.shrink_to_fit();
+      }
+  }
+
+  const std::array<double, 3> origin = choose_origin(xyz[0]->data(), xyz[1]->data(), xyz[2]->data(), n);
+  point_cloud cloud;
+  cloud.set_origin(origin);
+  cloud.resize(n);
+  float* out = cloud.positions().data();
+  for (std::size_t k = 0; k < 3; ++k) {
+    const double* v = xyz[k]->data();
+    for (std::size_t i = 0; i < n; ++i) out[3 * i + k] = static_cast<float>(v[i] - origin[k]);
+  }
+
+  for (std::size_t j = 0; j < h.fields.size(); ++j) {
+    const pcd_field& f = h.fields[j];
+    if (f.padding || j == axis[0] || j == axis[1] || j == axis[2]) continue;
+    if (f.packed_rgb) {
+      const std::vector<double>& packed = cols[col_of[j]];
+      std::vector<double> rgb[3];
+      for (auto& c : rgb) c.resize(n);
+      for (std::size_t i = 0; i < n; ++i) {
+        const auto bits = static_cast<std::uint32_t>(packed[i]);
+        rgb[0][i] = (bits >> 16) & 0xff;
+        rgb[1][i] = (bits >> 8) & 0xff;
+        rgb[2][i] = bits & 0xff;
+      }
+      cloud.add_field("red", scalar_type::uint8, std::move(rgb[0]));
+      cloud.add_field("green", scalar_type::uint8, std::move(rgb[1]));
+      cloud.add_field("blue", scalar_type::uint8, std::move(rgb[2]));
+      std::vector<double>().swap(cols[col_of[j]]);
+    } else if (f.count == 1) {
+      cloud.add_field(f.name, f.stype, std::move(cols[col_of[j]]));
+    } else {
+      for (std::size_t c = 0; c < f.count; ++c)
+        cloud.add_field(f.name + "_" + std::to_string(c), f.stype, std::move(cols[col_of[j] + c]));
+    }
+  }
+
+  if (info) {
+    info->width = static_cast<std::size_t>(h.width);
+    info->height = static_cast<std::size_t>(h.height);
+    info->points_declared = declared;
+    info->nonfinite_removed = declared - n;
+    info->organized = h.height > 1;
+    info->data_format = h.data_name;
+  }
+  return cloud;
+}
+
+// ------------------------------------------------------------------ writer
+
+struct out_column {
+  std::string name;
+  char type = 'F';
+  std::size_t size = 4;
+  scalar_type enc = scalar_type::float32;  ///< how values are encoded (rgb: uint32 bits)
+  const double* values = nullptr;          ///< field values, or nullptr
+  int axis = -1;                           ///< 0/1/2 for positions
+  const double* rgb[3] = {nullptr, nullptr, nullptr};
+};
+
+char type_char(scalar_type t) noexcept {
+  if (t == scalar_type::float32 || t == scalar_type::float64) return 'F';
+  switch (t) {
+    case scalar_type::int8:
+    case scalar_type::int16:
+    case scalar_type::int32:
+    case scalar_type::int64:
+      return 'I';
+    default:
+      return 'U';
+  }
+}
+
+std::vector<out_column> plan_columns(const point_cloud& cloud, pcd_format fmt) {
+  const std::size_t n = cloud.size();
+  const field* rgb[3] = {cloud.find_field("red"), cloud.find_field("green"), cloud.find_field("blue")};
+  const bool pack = rgb[0] && rgb[1] && rgb[2] && rgb[0]->type == scalar_type::uint8 &&
+                    rgb[1]->type == scalar_type::uint8 && rgb[2]->type == scalar_type::uint8;
+  for (const auto& f : cloud.fields()) {
+    if (f.name.empty() || f.name == "_" ||
+        std::any_of(f.name.begin(), f.name.end(), [](char c) { return is_space(c) || c < 32 || c == 127; }))
+      throw std::invalid_argument("field name '" + f.name +
+                                  "' cannot be written to PCD (empty, '_' or has whitespace)");
+    if (f.name == "x" || f.name == "y" || f.name == "z")
+      throw std::invalid_argument("field '" + f.name + "' clashes with the PCD coordinate field");
+    if (pack && (f.name == "rgb" || f.name == "rgba"))
+      throw std::invalid_argument("field '" + f.name +
+                                  "' clashes with the packed rgb field written for red/green/blue");
+    if (f.values.size() != n)
+      throw std::invalid_argument("field '" + f.name + "' has " + std::to_string(f.values.size()) + " values for " +
+                                  std::to_string(n) + " points");
+  }
+  const auto& o = cloud.origin();
+  const bool georef = o[0] != 0 || o[1] != 0 || o[2] != 0;
+  std::vector<out_column> cols;
+  for (int k = 0; k < 3; ++k) {
+    out_column c;
+    c.name = std::string(1, static_cast<char>('x' + k));
+    c.size = georef ? 8 : 4;
+    c.enc = georef ? scalar_type::float64 : scalar_type::float32;
+    c.axis = k;
+    cols.push_back(c);
+  }
+  for (const auto& f : cloud.fields()) {
+    if (pack && (&f == rgb[1] || &f == rgb[2])) continue;
+    out_column c;
+    if (pack && &f == rgb[0]) {
+      c.name = "rgb";
+      c.type = fmt == pcd_format::ascii ? 'U' : 'F';
+      c.size = 4;
+      c.enc = scalar_type::uint32;
+      for (int k = 0; k < 3; ++k) c.rgb[k] = rgb[k]->values.data();
+    } else {
+      c.name = f.name;
+      c.type = type_char(f.type);
+      c.size = size_of(f.type);
+      c.enc = f.type;
+      c.values = f.values.data();
+    }
+    cols.push_back(c);
+  }
+  return cols;
+}
+
+std::string make_header(const std::vector<out_column>& cols, std::size_t n, pcd_format fmt) {
+  std::string h = "# .PCD v0.7 - Point Cloud Data file format (written by ced)\nVERSION 0.7\nFIELDS";
+  for (const auto& c : cols) h += " " + c.name;
+  h += "\nSIZE";
+  for (const auto& c : cols) h += " " + std::to_string(c.size);
+  h += "\nTYPE";
+  for (const auto& c : cols) h += std::string(" ") + c.type;
+  h += "\nCOUNT";
+  for (std::size_t i = 0; i < cols.size(); ++i) h += " 1";
+  h += "\nWIDTH " + std::to_string(n) + "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " + std::to_string(n) + "\nDATA ";
+  h += fmt == pcd_format::ascii ? "ascii" : fmt == pcd_format::binary ? "binary" : "binary_compressed";
+  h += "\n";
+  return h;
+}
+
+/// v[i] = value of column c for point i0 + i, i < m.
+void column_values(const out_column& c, const point_cloud& cloud, std::size_t i0, std::size_t m, double* v) {
+  if (c.values) {
+    std::copy(c.values + i0, c.values + i0 + m, v);
+  } else if (c.axis >= 0) {
+    const auto k = static_cast<std::size_t>(c.axis);
+    const double o = cloud.origin()[k];
+    const float* xyz = cloud.positions().data();
+    if (o == 0)  // keeps -0
+      for (std::size_t i = 0; i < m; ++i) v[i] = static_cast<double>(xyz[3 * (i0 + i) + k]);
+    else
+      for (std::size_t i = 0; i < m; ++i) v[i] = o + static_cast<double>(xyz[3 * (i0 + i) + k]);
+  } else {
+    for (std::size_t i = 0; i < m; ++i) {
+      const std::uint32_t r = convert<std::uint8_t>(c.rgb[0][i0 + i]);
+      const std::uint32_t g = convert<std::uint8_t>(c.rgb[1][i0 + i]);
+      const std::uint32_t b = convert<std::uint8_t>(c.rgb[2][i0 + i]);
+      v[i] = static_cast<double>((r << 16) | (g << 8) | b);
+    }
+  }
+}
+
+/// Encodes m values little-endian at p, p + stride, ...
+void encode_column(const double* v, std::size_t m, scalar_type t, unsigned char* p, std::size_t stride) {
+  visit_type(t, [&](auto tag) {
+    using T = decltype(tag);
+    for (std::size_t i = 0; i < m; ++i) store_le<T>(p + i * stride, convert<T>(v[i]));
+  });
+}
+
+void write_pcd_unchecked(std::ostream& out, const point_cloud& cloud, pcd_format fmt) {
+  const std::vector<out_column> cols = plan_columns(cloud, fmt);
+  const std::size_t n = cloud.size();
+  std::size_t record = 0;
+  for (const auto& c : cols) record += c.size;
+  if (fmt == pcd_format::binary_compressed && n > std::numeric_limits<std::uint32_t>::max() / record)
+    throw io_error("the cloud is too large for PCD binary_compressed (4 GiB or more of data)");
+  const std::string header = make_header(cols, n, fmt);
+  out.write(header.data(), static_cast<std::streamsize>(header.size()));
+
+  constexpr std::size_t chunk = 4096;
+  std::vector<double> vals(chunk);
+  std::string buf;
+  if (fmt == pcd_format::binary_compressed) {
+    std::string block(n * record, '\0');  // field-major
+    auto* base = reinterpret_cast<unsigned char*>(block.data());
+    std::size_t offset = 0;
+    for (const auto& c : cols) {
+      for (std::size_t i0 = 0; i0 < n; i0 += chunk) {
+        const std::size_t m = std::min(chunk, n - i0);
+        column_values(c, cloud, i0, m, vals.data());
+        encode_column(vals.data(), m, c.enc, base + offset + i0 * c.size, c.size);
+      }
+      offset += n * c.size;
+    }
+    const std::string packed = lzf_compress(block);
+    if (packed.size() > std::numeric_limits<std::uint32_t>::max())
+      throw io_error("the compressed cloud is too large for PCD binary_compressed");
+    unsigned char sizes[8];
+    store_le<std::uint32_t>(sizes, static_cast<std::uint32_t>(packed.size()));
+    store_le<std::uint32_t>(sizes + 4, static_cast<std::uint32_t>(block.size()));
+    out.write(reinterpret_cast<const char*>(sizes), 8);
+    out.write(packed.data(), static_cast<std::streamsize>(packed.size()));
+    return;
+  }
+  vals.resize(chunk * cols.size());
+  for (std::size_t i0 = 0; i0 < n; i0 += chunk) {
+    const std::size_t m = std::min(chunk, n - i0);
+    for (std::size_t c = 0; c < cols.size(); ++c) column_values(cols[c], cloud, i0, m, vals.data() + c * chunk);
+    if (fmt == pcd_format::ascii) {
+      buf.resize(m * cols.size() * 32);
+      char* p = buf.data();
+      char* const end = p + buf.size();
+      for (std::size_t i = 0; i < m; ++i) {
+        for (std::size_t c = 0; c < cols.size(); ++c) {
+          const double v = vals[c * chunk + i];
+          visit_type(cols[c].enc, [&](auto tag) {
+            using T = decltype(tag);
+            p = std::to_chars(p, end, convert<T>(v)).ptr;
+          });
+          *p++ = c + 1 == cols.size() ? '\n' : ' ';
+        }
+      }
+      out.write(buf.data(), p - buf.data());
+    } else {
+      buf.resize(m * record);
+      auto* base = reinterpret_cast<unsigned char*>(buf.data());
+      std::size_t offset = 0;
+      for (std::size_t c = 0; c < cols.size(); ++c) {
+        encode_column(vals.data() + c * chunk, m, cols[c].enc, base + offset, record);
+        offset += cols[c].size;
+      }
+      out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+    }
+  }
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------- LZF
+
+std::string lzf_compress(std::string_view input) {
+  const auto* in = reinterpret_cast<const unsigned char*>(input.data());
+  const std::size_t n = input.size();
+  std::string out;
+  out.reserve(n + n / 32 + 16);
+  constexpr unsigned hash_bits = 15;
+  std::vector<std::size_t> table(std::size_t(1) << hash_bits, 0);  // position + 1 of the last 3-byte sequence; 0: none
+  const auto hash = [in](std::size_t i) {
+    const std::uint32_t v = (std::uint32_t(in[i]) << 16) | (std::uint32_t(in[i + 1]) << 8) | in[i + 2];
+    return (v * 2654435761u) >> (32 - hash_bits);
+  };
+  std::size_t lit = 0;  // start of the pending literal run
+  const auto flush_literals = [&](std::size_t end) {
+    while (lit < end) {
+      const std::size_t k = std::min<std::size_t>(32, end - lit);
+      out.push_back(static_cast<char>(k - 1));
+      out.append(reinterpret_cast<const char*>(in + lit), k);
+      lit += k;
+    }
+  };
+  std::size_t i = 0;
+  while (i + 2 < n) {
+    const auto h = hash(i);
+    const std::size_t candidate = table[h];
+    table[h] = i + 1;
+    if (candidate != 0) {
+      const std::size_t c = candidate - 1;
+      const std::size_t distance = i - c;  // >= 1
+      if (distance <= 8192 && in[c] == in[i] && in[c + 1] == in[i + 1] && in[c + 2] == in[i + 2]) {
+        const std::size_t max_len = std::min<std::size_t>(264, n - i);
+        std::size_t len = 3;
+        while (len < max_len && in[c + len] == in[i + len]) ++len;
+        flush_literals(i);
+        const std::size_t l = len - 2, off = distance - 1;
+        if (l < 7) {
+          out.push_back(static_cast<char>((l << 5) | (off >> 8)));
+        } else {
+          out.push_back(static_cast<char>((7 << 5) | (off >> 8)));
+          out.push_back(static_cast<char>(l - 7));
+        }
+        out.push_back(static_cast<char>(off & 0xff));
+        const std::size_t next = i + len;
+        for (std::size_t k = i + 1; k < next && k + 2 < n; ++k) table[hash(k)] = k + 1;
+        i = lit = next;
+        continue;
+      }
+    }
+    ++i;
+  }
+  flush_literals(n);
+  return out;
+}
+
+std::string lzf_decompress(std::string_view input, std::size_t out_size, const std::string& name_for_errors) {
+  const auto corrupt = [&](const std::string& why) { fail(name_for_errors, "corrupt LZF data (" + why + ")"); };
+  const auto* in = reinterpret_cast<const unsigned char*>(input.data());
+  const std::size_t n = input.size();
+  std::string result(out_size, '\0');
+  auto* out = reinterpret_cast<unsigned char*>(result.data());
+  std::size_t ip = 0, op = 0;
+  while (ip < n) {
+    const std::size_t at = ip;
+    const unsigned ctrl = in[ip++];
+    if (ctrl < 32) {
+      const std::size_t run = ctrl + 1;
+      if (run > n - ip)
+        corrupt("a literal run of " + std::to_string(run) + " bytes at input offset " + std::to_string(at) +
+                " goes past the end of the input");
+      if (run > out_size - op) corrupt("the output would exceed the declared " + std::to_string(out_size) + " bytes");
+      std::memcpy(out + op, in + ip, run);
+      ip += run;
+      op += run;
+    } else {
+      std::size_t len = ctrl >> 5;
+      if (len == 7) {
+        if (ip >= n) corrupt("truncated back-reference at input offset " + std::to_string(at));
+        len += in[ip++];
+      }
+      if (ip >= n) corrupt("truncated back-reference at input offset " + std::to_string(at));
+      const std::size_t distance = ((ctrl & 0x1fu) << 8) + in[ip++] + 1;
+      if (distance > op)
+        corrupt("a back-reference at input offset " + std::to_string(at) + " points before the start of the output");
+      len += 2;
+      if (len > out_size - op) corrupt("the output would exceed the declared " + std::to_string(out_size) + " bytes");
+      const unsigned char* src = out + op - distance;
+      if (distance >= len) {
+        std::memcpy(out + op, src, len);
+      } else {
+        for (std::size_t k = 0; k < len; ++k) out[op + k] = src[k];  // overlapping: repeats a pattern
+      }
+      op += len;
+    }
+  }
+  if (op != out_size)
+    corrupt("it expands to " + std::to_string(op) + " bytes, not the declared " + std::to_string(out_size));
+  return result;
+}
+
+// ------------------------------------------------------------------- public
+
+point_cloud read_pcd_buffer(std::string_view bytes, const std::string& name_for_errors, pcd_read_info* info) {
+  return parse_pcd(bytes, name_for_errors, info);
+}
+
+point_cloud read_pcd(const std::string& path, pcd_read_info* info) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw io_error("cannot read '" + path + "': it is a directory");
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
+  if (!f) throw io_error("cannot open '" + path + "': " + std::error_code(errno, std::generic_category()).message());
+  std::string data;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (!ec) data.reserve(static_cast<std::size_t>(size));
+  char buf[1 << 16];
+  std::size_t got = 0;
+  while ((got = std::fread(buf, 1, sizeof(buf), f.get())) > 0) data.append(buf, got);
+  if (std::ferror(f.get())) throw io_error("error reading '" + path + "'");
+  return parse_pcd(data, path, info);
+}
+
+void write_pcd(std::ostream& out, const point_cloud& cloud, pcd_format fmt) {
+  write_pcd_unchecked(out, cloud, fmt);
+  out.flush();
+  if (!out) throw io_error("error writing PCD data to the output stream");
+}
+
+void write_pcd(const std::string& path, const point_cloud& cloud, pcd_format fmt) {
+  atomic_output_file file(path);
+  write_pcd_unchecked(file.stream(), cloud, fmt);
+  file.commit();
+}
+
+}  // namespace ced::io

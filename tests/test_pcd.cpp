@@ -1,0 +1,701 @@
+// SPDX-License-Identifier: MIT
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <random>
+#include <sstream>
+#include <utility>
+
+#include "ced/io/pcd.hpp"
+
+namespace fs = std::filesystem;
+using ced::point_cloud;
+using ced::scalar_type;
+using ced::io::io_error;
+using ced::io::pcd_format;
+using ced::io::pcd_read_info;
+
+namespace {
+
+fs::path temp_dir() {
+  static const fs::path dir = [] {
+    const fs::path d = fs::path(::testing::TempDir()) / ("ced_test_pcd_" + std::to_string(::getpid()));
+    fs::remove_all(d);
+    fs::create_directories(d);
+    return d;
+  }();
+  return dir;
+}
+
+struct remove_temp_dir : ::testing::Environment {
+  void TearDown() override { fs::remove_all(temp_dir()); }
+};
+const auto* const g_cleanup = ::testing::AddGlobalTestEnvironment(new remove_temp_dir);
+
+std::string temp_file(const std::string& name) { return (temp_dir() / name).string(); }
+
+void write_bytes(const std::string& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary);
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+std::string read_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+point_cloud read_string(const std::string& bytes, pcd_read_info* info = nullptr) {
+  return ced::io::read_pcd_buffer(bytes, "test.pcd", info);
+}
+
+/// The io_error message from reading `bytes` (through a file named `name`).
+std::string read_error(const std::string& bytes, const std::string& name = "bad.pcd") {
+  const std::string path = temp_file(name);
+  write_bytes(path, bytes);
+  try {
+    ced::io::read_pcd(path);
+  } catch (const io_error& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find(path), std::string::npos) << "message does not name the file: " << msg;
+    return msg;
+  }
+  return "<no io_error thrown>";
+}
+
+std::string lzf_error(const std::string& compressed, std::size_t out_size) {
+  try {
+    ced::io::lzf_decompress(compressed, out_size, "lzf");
+  } catch (const io_error& e) {
+    return e.what();
+  }
+  return "<no io_error thrown>";
+}
+
+#define EXPECT_CONTAINS(haystack, needle)                          \
+  EXPECT_NE(std::string(haystack).find(needle), std::string::npos) \
+      << "'" << (haystack) << "' lacks '" << (needle) << "'"
+
+/// Appends little-endian binary values.
+struct bytes_builder {
+  std::string data;
+  template <class T>
+  bytes_builder& put(T v) {
+    char b[sizeof(T)];
+    std::memcpy(b, &v, sizeof(T));  // the tests run on little-endian hosts
+    data.append(b, sizeof(T));
+    return *this;
+  }
+};
+
+std::string u32_bytes(std::uint32_t v) { return bytes_builder{}.put(v).data; }
+
+float packed_float(std::uint32_t bits) {
+  float f;
+  std::memcpy(&f, &bits, 4);
+  return f;
+}
+
+const char* format_name(pcd_format f) {
+  return f == pcd_format::ascii ? "ascii" : f == pcd_format::binary ? "binary" : "binary_compressed";
+}
+
+/// A header for FIELDS x y z (F4) + `extra` fields, n points, unorganized.
+std::string header(std::size_t n, const std::string& data, const std::string& fields = "x y z",
+                   const std::string& size = "4 4 4", const std::string& type = "F F F", std::string count = "") {
+  if (count.empty())
+    for (char c : " " + fields)
+      if (c == ' ') count += count.empty() ? "1" : " 1";
+  return "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS " + fields + "\nSIZE " + size + "\nTYPE " +
+         type + "\nCOUNT " + count + "\nWIDTH " + std::to_string(n) + "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " +
+         std::to_string(n) + "\nDATA " + data + "\n";
+}
+
+point_cloud all_types_cloud() {
+  point_cloud c;
+  c.push_back(0.f, 0.f, 0.f);
+  c.push_back(1.5f, -2.25f, 3.125f);
+  c.push_back(-1000.f, 1e-7f, 123.456f);
+  c.push_back(9999.5f, -std::numeric_limits<float>::denorm_min(), 0.1f);
+  c.push_back(-0.f, 3.4e38f, -1e-30f);
+  const scalar_type types[] = {scalar_type::int8,    scalar_type::uint8,  scalar_type::int16, scalar_type::uint16,
+                               scalar_type::int32,   scalar_type::uint32, scalar_type::int64, scalar_type::uint64,
+                               scalar_type::float32, scalar_type::float64};
+  for (scalar_type t : types) {
+    std::vector<double> v;
+    if (t == scalar_type::int64) {
+      v = {-9007199254740992.0, 9007199254740992.0, 0, 1, -5};
+    } else if (t == scalar_type::uint64) {
+      v = {0, 9007199254740992.0, 18446744073709549568.0, 1, 77};
+    } else if (ced::is_integer(t)) {
+      const auto r = ced::natural_range(t);
+      v = {r[0], r[1], 0, 1, std::floor((r[0] + r[1]) / 3)};
+    } else if (t == scalar_type::float32) {
+      v = {double(0.1f), double(-3.4e38f), double(std::numeric_limits<float>::denorm_min()), 1e-3f,
+           std::numeric_limits<double>::quiet_NaN()};
+    } else {
+      v = {0.1, -1.7976931348623157e308, 4.9e-324, 1.0 / 3.0, -0.0};
+    }
+    c.add_field(std::string("f_") + std::string(ced::name_of(t)), t, v);
+  }
+  c.add_rgb({{255, 0, 0}, {0, 255, 0}, {0, 0, 255}, {1, 2, 3}, {200, 100, 50}});
+  return c;
+}
+
+void expect_same_value(double a, double b, const std::string& what) {
+  if (std::isnan(a)) {
+    EXPECT_TRUE(std::isnan(b)) << what;
+  } else {
+    EXPECT_EQ(a, b) << what;
+    EXPECT_EQ(std::signbit(a), std::signbit(b)) << what;
+  }
+}
+
+void expect_same_cloud(const point_cloud& a, const point_cloud& b) {
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_EQ(a.origin(), b.origin());
+  for (std::size_t i = 0; i < 3 * a.size(); ++i)
+    expect_same_value(a.positions()[i], b.positions()[i], "position " + std::to_string(i));
+  ASSERT_EQ(a.fields().size(), b.fields().size());
+  for (std::size_t f = 0; f < a.fields().size(); ++f) {
+    const auto& fa = a.fields()[f];
+    const auto& fb = b.fields()[f];
+    EXPECT_EQ(fa.name, fb.name);
+    EXPECT_EQ(fa.type, fb.type) << fa.name;
+    ASSERT_EQ(fa.values.size(), fb.values.size());
+    for (std::size_t i = 0; i < fa.values.size(); ++i)
+      expect_same_value(fa.values[i], fb.values[i], fa.name + "[" + std::to_string(i) + "]");
+  }
+}
+
+std::string write_string(const point_cloud& c, pcd_format fmt) {
+  std::ostringstream s(std::ios::out | std::ios::binary);
+  ced::io::write_pcd(s, c, fmt);
+  return s.str();
+}
+
+/// A room-like cloud with colour and intensity: compressible like real data.
+point_cloud big_cloud(std::size_t n) {
+  std::mt19937 rng(42);
+  std::uniform_real_distribution<float> u(0.f, 4.f);
+  point_cloud c;
+  std::vector<double> intensity(n), red(n), green(n), blue(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    c.push_back(u(rng), u(rng), i % 3 == 0 ? 0.f : u(rng));
+    intensity[i] = double(i % 1000);
+    red[i] = double(i / 1000 % 256);
+    green[i] = 128;
+    blue[i] = double(i % 7);
+  }
+  c.add_field("intensity", scalar_type::uint16, intensity);
+  c.add_field("red", scalar_type::uint8, red);
+  c.add_field("green", scalar_type::uint8, green);
+  c.add_field("blue", scalar_type::uint8, blue);
+  return c;
+}
+
+class PcdRoundTrip : public ::testing::TestWithParam<pcd_format> {};
+
+}  // namespace
+
+// ------------------------------------------------------------- round trips
+
+TEST_P(PcdRoundTrip, EveryScalarTypeThroughAFile) {
+  const point_cloud c = all_types_cloud();
+  const std::string path = temp_file(std::string("roundtrip_") + format_name(GetParam()) + ".pcd");
+  ced::io::write_pcd(path, c, GetParam());
+  const std::string bytes = read_bytes(path);
+  EXPECT_CONTAINS(bytes, "VERSION 0.7\n");
+  EXPECT_CONTAINS(bytes, std::string("\nDATA ") + format_name(GetParam()) + "\n");
+  EXPECT_CONTAINS(bytes,
+                  "FIELDS x y z f_int8 f_uint8 f_int16 f_uint16 f_int32 f_uint32 f_int64 f_uint64 "
+                  "f_float32 f_float64 rgb\n");
+  EXPECT_CONTAINS(bytes, "SIZE 4 4 4 1 1 2 2 4 4 8 8 4 8 4\n");
+  EXPECT_CONTAINS(
+      bytes, std::string("TYPE F F F I U I U I U I U F F ") + (GetParam() == pcd_format::ascii ? "U" : "F") + "\n");
+  pcd_read_info info;
+  const point_cloud r = ced::io::read_pcd(path, &info);
+  expect_same_cloud(c, r);
+  EXPECT_EQ(info.points_declared, 5u);
+  EXPECT_EQ(info.width, 5u);
+  EXPECT_EQ(info.height, 1u);
+  EXPECT_EQ(info.nonfinite_removed, 0u);
+  EXPECT_FALSE(info.organized);
+  EXPECT_EQ(info.data_format, format_name(GetParam()));
+}
+
+TEST_P(PcdRoundTrip, EveryScalarTypeThroughAStream) {
+  const point_cloud c = all_types_cloud();
+  expect_same_cloud(c, read_string(write_string(c, GetParam())));
+}
+
+TEST_P(PcdRoundTrip, EmptyCloud) {
+  point_cloud c;
+  c.add_field("intensity", scalar_type::float32, {});
+  const point_cloud r = read_string(write_string(c, GetParam()));
+  EXPECT_TRUE(r.empty());
+  ASSERT_EQ(r.fields().size(), 1u);
+  EXPECT_EQ(r.fields()[0].name, "intensity");
+}
+
+TEST_P(PcdRoundTrip, BigCloud) {
+  const point_cloud c = big_cloud(50000);
+  const std::string bytes = write_string(c, GetParam());
+  if (GetParam() == pcd_format::binary_compressed) {
+    EXPECT_LT(bytes.size(), 50000u * 18 * 9 / 10) << "LZF should compress this cloud";
+  }
+  expect_same_cloud(c, read_string(bytes));
+}
+
+TEST_P(PcdRoundTrip, GeoreferencedCoordinatesKeepTheirPrecision) {
+  point_cloud c;
+  c.set_origin({512000.0, 4123000.0, 300.0});
+  std::vector<std::array<double, 3>> abs;
+  for (int i = 0; i < 50; ++i) {
+    const std::array<double, 3> p{512345.678 + 0.731 * i, 4123456.789 - 1.37 * i, 312.345 + 0.01 * i};
+    abs.push_back(p);
+    c.push_back(float(p[0] - 512000.0), float(p[1] - 4123000.0), float(p[2] - 300.0));
+  }
+  const std::string bytes = write_string(c, GetParam());
+  EXPECT_CONTAINS(bytes, "SIZE 8 8 8\n");
+  const point_cloud r = read_string(bytes);
+  ASSERT_EQ(r.size(), c.size());
+  EXPECT_NE(r.origin()[0], 0.0);
+  for (std::size_t i = 0; i < r.size(); ++i)
+    for (std::size_t k = 0; k < 3; ++k) EXPECT_NEAR(r.origin()[k] + r.position(i)[k], abs[i][k], 1e-3) << i;
+}
+
+TEST(PcdCompression, ConstantCloudCompressesAtLzfsMaximumRatio) {
+  point_cloud c;
+  c.resize(200000);  // all zeros: LZF's best case, ~88:1
+  const std::string bytes = write_string(c, pcd_format::binary_compressed);
+  EXPECT_LT(bytes.size(), 200000u * 12 / 80);
+  const point_cloud r = read_string(bytes);
+  EXPECT_EQ(r.positions(), c.positions());
+}
+
+INSTANTIATE_TEST_SUITE_P(AllFormats, PcdRoundTrip,
+                         ::testing::Values(pcd_format::ascii, pcd_format::binary, pcd_format::binary_compressed),
+                         [](const auto& info) { return std::string(format_name(info.param)); });
+
+// ---------------------------------------------------------------------- LZF
+
+TEST(Lzf, HandEncodedStreamDecodes) {
+  // Literal "abc", then a back-reference of 9 bytes at distance 3 (extended length byte), then one of 3 bytes.
+  const std::string lzf(
+      "\x02"
+      "abc"
+      "\xE0\x00\x02"
+      "\x20\x04",
+      9);
+  EXPECT_EQ(ced::io::lzf_decompress(lzf, 15, "lzf"), "abcabcabcabcbca");
+}
+
+TEST(Lzf, RandomAndRepetitiveDataRoundTrip) {
+  std::mt19937 rng(7);
+  std::vector<std::string> inputs = {"", "a", "ab", "abc", "aaaa", std::string(1 << 20, '\0')};
+  for (std::size_t size : {5u, 31u, 32u, 33u, 1000u, 100000u}) {
+    std::string s(size, '\0');
+    for (auto& ch : s) ch = static_cast<char>(rng());
+    inputs.push_back(s);  // incompressible
+    std::string t(size, '\0');
+    for (std::size_t i = 0; i < size; ++i) t[i] = static_cast<char>(rng() % 4 == 0 ? rng() : i % 13);
+    inputs.push_back(t);  // partly repetitive
+  }
+  std::string long_range;  // repeats at distances near the 8192 limit
+  for (int i = 0; i < 20000; ++i) long_range += static_cast<char>((i % 8193) * 2654435761u >> 24);
+  inputs.push_back(long_range);
+  for (const auto& in : inputs) {
+    const std::string packed = ced::io::lzf_compress(in);
+    EXPECT_LE(packed.size(), in.size() + in.size() / 32 + 1);
+    EXPECT_EQ(ced::io::lzf_decompress(packed, in.size(), "lzf"), in) << "size " << in.size();
+  }
+  EXPECT_LT(ced::io::lzf_compress(std::string(1 << 20, '\0')).size(), (1u << 20) / 80);
+}
+
+TEST(Lzf, CorruptDataIsDetected) {
+  // Back-reference before the start of the output.
+  EXPECT_CONTAINS(lzf_error(std::string("\x20\x00", 2), 3), "corrupt LZF data");
+  EXPECT_CONTAINS(lzf_error(std::string("\x20\x00", 2), 3), "before the start of the output");
+  EXPECT_CONTAINS(lzf_error(std::string("\x01xy\x20\x05", 5), 5), "before the start of the output");
+  // Output overflow: by a literal run and by a back-reference.
+  EXPECT_CONTAINS(lzf_error(std::string("\x03xyzw", 5), 3), "exceed the declared 3 bytes");
+  EXPECT_CONTAINS(lzf_error(std::string("\x00x\xE0\x10\x00", 5), 10), "exceed the declared 10 bytes");
+  // Input ends inside a literal run or a back-reference.
+  EXPECT_CONTAINS(lzf_error(std::string("\x05xy", 3), 6), "past the end of the input");
+  EXPECT_CONTAINS(lzf_error(std::string("\x00x\x20", 3), 4), "truncated back-reference");
+  EXPECT_CONTAINS(lzf_error(std::string("\x00x\xE0", 3), 12), "truncated back-reference");
+  // Too short.
+  EXPECT_CONTAINS(lzf_error(std::string("\x01xy", 3), 3), "expands to 2 bytes, not the declared 3");
+  EXPECT_CONTAINS(lzf_error("", 1), "corrupt LZF data");
+}
+
+TEST(Lzf, FlippedBytesNeverReadOrWriteOutOfBounds) {
+  std::mt19937 rng(3);
+  std::string in;
+  for (int i = 0; i < 5000; ++i) in += static_cast<char>(i % 50 < 10 ? rng() : i % 17);
+  const std::string packed = ced::io::lzf_compress(in);
+  int errors = 0;
+  for (int trial = 0; trial < 2000; ++trial) {
+    std::string bad = packed;
+    for (int k = 0; k < 3; ++k) bad[rng() % bad.size()] ^= static_cast<char>(1 + rng() % 255);
+    if (trial % 3 == 0) bad.resize(rng() % bad.size());
+    try {
+      EXPECT_EQ(ced::io::lzf_decompress(bad, in.size(), "lzf").size(), in.size());
+    } catch (const io_error& e) {
+      EXPECT_CONTAINS(e.what(), "corrupt LZF data");
+      ++errors;
+    }
+  }
+  EXPECT_GT(errors, 1000);
+}
+
+// ------------------------------------------------------------ hand written
+
+TEST(PcdRead, HandWrittenAscii) {
+  const std::string text =
+      "# .PCD v0.7 - Point Cloud Data file format\r\n"
+      "VERSION 0.7\r\n"
+      "FIELDS x y z intensity label\r\n"
+      "SIZE 4 4 4 4 2\r\n"
+      "TYPE F F F F U\r\n"
+      "COUNT 1 1 1 1 1\r\n"
+      "WIDTH 3\r\n"
+      "HEIGHT 1\r\n"
+      "VIEWPOINT 0 0 0 1 0 0 0\r\n"
+      "POINTS 3\r\n"
+      "DATA ascii\r\n"
+      "0.5 -1.25 2 0.75 7\r\n"
+      "\r\n"
+      "1e3 +2 -0 1 65535\r\n"
+      "3 4 5 0.125 0";  // no final newline
+  pcd_read_info info;
+  const point_cloud c = read_string(text, &info);
+  ASSERT_EQ(c.size(), 3u);
+  EXPECT_EQ(c.position(0)[0], 0.5f);
+  EXPECT_EQ(c.position(0)[1], -1.25f);
+  EXPECT_EQ(c.position(1)[0], 1000.f);
+  EXPECT_EQ(c.position(2)[2], 5.f);
+  EXPECT_EQ(c.origin(), (std::array<double, 3>{0, 0, 0}));
+  ASSERT_EQ(c.fields().size(), 2u);
+  EXPECT_EQ(c.fields()[0].name, "intensity");
+  EXPECT_EQ(c.fields()[0].type, scalar_type::float32);
+  EXPECT_EQ(c.fields()[0].values, (std::vector<double>{0.75, 1, 0.125}));
+  EXPECT_EQ(c.fields()[1].name, "label");
+  EXPECT_EQ(c.fields()[1].type, scalar_type::uint16);
+  EXPECT_EQ(c.fields()[1].values, (std::vector<double>{7, 65535, 0}));
+  EXPECT_EQ(info.data_format, "ascii");
+}
+
+TEST(PcdRead, OldHeaderWithoutVersionSizeAndType) {
+  // PCD v0.5 style: COLUMNS, no VERSION/SIZE/TYPE/COUNT/VIEWPOINT: all float32.
+  const point_cloud c = read_string("COLUMNS x y z w\nPOINTS 2\nDATA ascii\n1 2 3 4\n5 6 7 8\n");
+  ASSERT_EQ(c.size(), 2u);
+  EXPECT_EQ(c.position(1)[2], 7.f);
+  EXPECT_EQ(c.get_field("w").type, scalar_type::float32);
+  EXPECT_EQ(c.get_field("w").values[1], 8.0);
+  // WIDTH without POINTS.
+  EXPECT_EQ(read_string("VERSION .7\nFIELDS x y z\nWIDTH 1\nHEIGHT 1\nDATA ascii\n1 2 3\n").size(), 1u);
+}
+
+TEST(PcdRead, PackedRgbAsFloatAndAsUnsigned) {
+  const std::uint32_t colours[2] = {0x00ff8001u, 0x00123456u};
+  bytes_builder f, u;
+  f.data = header(2, "binary", "x y z rgb", "4 4 4 4", "F F F F");
+  u.data = header(2, "binary", "x y z rgb", "4 4 4 4", "F F F U");
+  for (int i = 0; i < 2; ++i) {
+    f.put(float(i)).put(0.f).put(0.f).put(packed_float(colours[i]));
+    u.put(float(i)).put(0.f).put(0.f).put(colours[i]);
+  }
+  for (const auto* b : {&f, &u}) {
+    const point_cloud c = read_string(b->data);
+    ASSERT_EQ(c.fields().size(), 3u);
+    EXPECT_EQ(c.fields()[0].name, "red");
+    EXPECT_EQ(c.fields()[1].name, "green");
+    EXPECT_EQ(c.fields()[2].name, "blue");
+    for (const auto& fld : c.fields()) EXPECT_EQ(fld.type, scalar_type::uint8);
+    EXPECT_EQ(c.get_field("red").values, (std::vector<double>{255, 0x12}));
+    EXPECT_EQ(c.get_field("green").values, (std::vector<double>{128, 0x34}));
+    EXPECT_EQ(c.get_field("blue").values, (std::vector<double>{1, 0x56}));
+    EXPECT_TRUE(c.has_rgb());
+  }
+}
+
+TEST(PcdRead, RgbaDropsAlpha) {
+  bytes_builder b;
+  b.data = header(1, "binary", "x y z rgba", "4 4 4 4", "F F F U");
+  b.put(1.f).put(2.f).put(3.f).put(std::uint32_t(0xff102030u));
+  const point_cloud c = read_string(b.data);
+  ASSERT_EQ(c.fields().size(), 3u);
+  EXPECT_EQ(c.get_field("red").values[0], 0x10);
+  EXPECT_EQ(c.get_field("green").values[0], 0x20);
+  EXPECT_EQ(c.get_field("blue").values[0], 0x30);
+}
+
+TEST(PcdRead, PackedRgbInAscii) {
+  // TYPE U (as PCL writes ascii), TYPE F written as an integer, TYPE F written as a float.
+  const point_cloud u = read_string(header(1, "ascii", "x y z rgb", "4 4 4 4", "F F F U") + "0 0 0 16711808\n");
+  EXPECT_EQ(u.get_field("red").values[0], 255);
+  EXPECT_EQ(u.get_field("blue").values[0], 128);
+  const point_cloud fi = read_string(header(1, "ascii", "x y z rgb", "4 4 4 4", "F F F F") + "0 0 0 1193046\n");
+  EXPECT_EQ(fi.get_field("red").values[0], 0x12);
+  EXPECT_EQ(fi.get_field("green").values[0], 0x34);
+  EXPECT_EQ(fi.get_field("blue").values[0], 0x56);
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "0 0 0 %.9g\n", static_cast<double>(packed_float(0x00123456u)));
+  const point_cloud ff = read_string(header(1, "ascii", "x y z rgb", "4 4 4 4", "F F F F") + buf);
+  EXPECT_EQ(ff.get_field("red").values[0], 0x12);
+  EXPECT_EQ(ff.get_field("blue").values[0], 0x56);
+}
+
+TEST(PcdRead, OrganizedCloudDropsNaNPoints) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  // 3 x 2 image; pixels 1 and 4 are invalid (NaN / Inf).
+  const float xyz[6][3] = {{0, 0, 1}, {nan, nan, nan}, {2, 0, 1}, {0, 1, 1}, {1, inf, 1}, {2, 1, 1}};
+  const std::string head =
+      "VERSION 0.7\nFIELDS x y z intensity\nSIZE 4 4 4 1\nTYPE F F F U\nCOUNT 1 1 1 1\n"
+      "WIDTH 3\nHEIGHT 2\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 6\nDATA ";
+  bytes_builder binary, field_major;
+  binary.data = head + "binary\n";
+  for (int i = 0; i < 6; ++i) binary.put(xyz[i][0]).put(xyz[i][1]).put(xyz[i][2]).put(std::uint8_t(10 * i));
+  for (int k = 0; k < 3; ++k)
+    for (int i = 0; i < 6; ++i) field_major.put(xyz[i][k]);
+  for (int i = 0; i < 6; ++i) field_major.put(std::uint8_t(10 * i));
+  const std::string packed = ced::io::lzf_compress(field_major.data);
+  const std::string compressed = head + "binary_compressed\n" + u32_bytes(std::uint32_t(packed.size())) +
+                                 u32_bytes(std::uint32_t(field_major.data.size())) + packed;
+  std::string ascii = head + "ascii\n";
+  for (int i = 0; i < 6; ++i) {
+    std::ostringstream line;
+    line << xyz[i][0] << " " << xyz[i][1] << " " << xyz[i][2] << " " << 10 * i << "\n";
+    ascii += line.str();
+  }
+  for (const std::string* bytes : {&std::as_const(binary.data), &compressed, &std::as_const(ascii)}) {
+    pcd_read_info info;
+    const point_cloud c = read_string(*bytes, &info);
+    ASSERT_EQ(c.size(), 4u);
+    EXPECT_EQ(info.width, 3u);
+    EXPECT_EQ(info.height, 2u);
+    EXPECT_EQ(info.points_declared, 6u);
+    EXPECT_EQ(info.nonfinite_removed, 2u);
+    EXPECT_TRUE(info.organized);
+    EXPECT_EQ(c.get_field("intensity").values, (std::vector<double>{0, 20, 30, 50}));
+    EXPECT_EQ(c.position(1)[0], 2.f);
+    EXPECT_EQ(c.position(3)[1], 1.f);
+  }
+}
+
+TEST(PcdRead, CountAboveOneAndPaddingFields) {
+  // normal has COUNT 3; "_" is a 4-byte padding field (as in PCL's aligned point types).
+  bytes_builder b;
+  b.data = header(2, "binary", "x y z _ normal", "4 4 4 1 4", "F F F U F", "1 1 1 4 3");
+  for (int i = 0; i < 2; ++i) {
+    b.put(float(i)).put(1.f).put(2.f).put(std::uint32_t(0xdeadbeef));
+    b.put(0.5f * i).put(-1.f).put(0.25f);
+  }
+  const point_cloud c = read_string(b.data);
+  ASSERT_EQ(c.size(), 2u);
+  ASSERT_EQ(c.fields().size(), 3u);
+  EXPECT_EQ(c.fields()[0].name, "normal_0");
+  EXPECT_EQ(c.fields()[1].name, "normal_1");
+  EXPECT_EQ(c.fields()[2].name, "normal_2");
+  EXPECT_EQ(c.get_field("normal_0").values, (std::vector<double>{0, 0.5}));
+  EXPECT_EQ(c.get_field("normal_2").values, (std::vector<double>{0.25, 0.25}));
+
+  // The same in ascii, with or without the padding values, and compressed (PCL leaves padding out).
+  const std::string h = header(2, "ascii", "x y z _ normal", "4 4 4 1 4", "F F F U F", "1 1 1 4 3");
+  const point_cloud a = read_string(h + "0 1 2 0 0 0 0 0 -1 0.25\n1 1 2 0.5 -1 0.25\n");
+  EXPECT_EQ(a.get_field("normal_0").values, (std::vector<double>{0, 0.5}));
+  // field-major: x0 x1 y0 y1 z0 z1 then normal point 0 (3 floats), point 1 (3 floats).
+  bytes_builder fm;
+  for (float v : {0.f, 1.f, 1.f, 1.f, 2.f, 2.f, 0.f, -1.f, 0.25f, 0.5f, -1.f, 0.25f}) fm.put(v);
+  const std::string packed = ced::io::lzf_compress(fm.data);
+  const point_cloud z =
+      read_string(header(2, "binary_compressed", "x y z _ normal", "4 4 4 1 4", "F F F U F", "1 1 1 4 3") +
+                  u32_bytes(std::uint32_t(packed.size())) + u32_bytes(24 + 24) + packed);
+  EXPECT_EQ(z.get_field("normal_0").values, (std::vector<double>{0, 0.5}));
+  EXPECT_EQ(z.get_field("normal_1").values, (std::vector<double>{-1, -1}));
+}
+
+TEST(PcdRead, IntegerAndDoubleCoordinates) {
+  bytes_builder b;
+  b.data = header(2, "binary", "x y z", "8 2 1", "F I U");
+  b.put(600000.25).put(std::int16_t(-3)).put(std::uint8_t(200));
+  b.put(600001.5).put(std::int16_t(4)).put(std::uint8_t(0));
+  const point_cloud c = read_string(b.data);
+  EXPECT_EQ(c.origin(), (std::array<double, 3>{600001, 0, 0}));  // only x lies far from 0
+  EXPECT_EQ(c.position(0)[0], -0.75f);
+  EXPECT_EQ(c.position(1)[0], 0.5f);
+  EXPECT_EQ(c.position(1)[1], 4.f);
+  EXPECT_EQ(c.position(0)[2], 200.f);
+}
+
+TEST(PcdWrite, PacksRgbLikePcl) {
+  point_cloud c;
+  c.push_back(1, 2, 3);
+  c.add_field("intensity", scalar_type::float32, {0.5});
+  c.add_rgb({{0x12, 0x34, 0x56}});
+  const std::string binary = write_string(c, pcd_format::binary);
+  EXPECT_CONTAINS(binary, "FIELDS x y z intensity rgb\nSIZE 4 4 4 4 4\nTYPE F F F F F\nCOUNT 1 1 1 1 1\n");
+  std::uint32_t bits = 0;
+  std::memcpy(&bits, binary.data() + binary.size() - 4, 4);
+  EXPECT_EQ(bits, 0x00123456u);
+  const std::string ascii = write_string(c, pcd_format::ascii);
+  EXPECT_CONTAINS(ascii, "TYPE F F F F U\n");
+  EXPECT_CONTAINS(ascii, "DATA ascii\n1 2 3 0.5 1193046\n");
+  // Non-uint8 colour fields are written as they are.
+  point_cloud d;
+  d.push_back(0, 0, 0);
+  d.add_field("red", scalar_type::uint16, {300});
+  d.add_field("green", scalar_type::uint8, {1});
+  d.add_field("blue", scalar_type::uint8, {2});
+  EXPECT_CONTAINS(write_string(d, pcd_format::binary), "FIELDS x y z red green blue\n");
+}
+
+TEST(PcdWrite, BadFieldsAreRejectedAndLeaveNoFile) {
+  point_cloud c;
+  c.push_back(0, 0, 0);
+  c.add_field("has space", scalar_type::float32, {1});
+  const std::string path = temp_file("bad_field.pcd");
+  EXPECT_THROW(ced::io::write_pcd(path, c), std::invalid_argument);
+  EXPECT_FALSE(fs::exists(path));
+  point_cloud d;
+  d.push_back(0, 0, 0);
+  d.add_field("x", scalar_type::float32, {1});
+  EXPECT_THROW(write_string(d, pcd_format::binary), std::invalid_argument);
+  point_cloud e;
+  e.push_back(0, 0, 0);
+  e.add_rgb({{1, 2, 3}});
+  e.add_field("rgb", scalar_type::uint32, {5});
+  EXPECT_THROW(write_string(e, pcd_format::binary), std::invalid_argument);
+  point_cloud f;
+  f.push_back(0, 0, 0);
+  f.fields().push_back({"short", scalar_type::float32, {}});
+  EXPECT_THROW(write_string(f, pcd_format::binary), std::invalid_argument);
+  EXPECT_THROW(ced::io::write_pcd(temp_file("no/such/dir/a.pcd"), c), io_error);
+}
+
+// ------------------------------------------------------------------ errors
+
+TEST(PcdErrors, MissingFileAndNotAPcd) {
+  try {
+    ced::io::read_pcd(temp_file("does_not_exist.pcd"));
+    FAIL() << "no exception";
+  } catch (const io_error& e) {
+    EXPECT_CONTAINS(e.what(), "cannot open");
+    EXPECT_CONTAINS(e.what(), "does_not_exist.pcd");
+  }
+  EXPECT_CONTAINS(read_error("ply\nformat ascii 1.0\n"), "not a PCD file");
+  EXPECT_CONTAINS(read_error(""), "no DATA line");
+}
+
+TEST(PcdErrors, HeaderProblems) {
+  const std::string tail = "WIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n0 0 0\n";
+  EXPECT_CONTAINS(read_error("VERSION 0.7\nFIELDS x y z\nSIZE 4 4\nTYPE F F F\nCOUNT 1 1 1\n" + tail),
+                  "SIZE lists 2 values but FIELDS names 3 fields");
+  EXPECT_CONTAINS(read_error("VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F F\nCOUNT 1 1 1\n" + tail),
+                  "TYPE lists 4 values but FIELDS names 3 fields");
+  EXPECT_CONTAINS(read_error("VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1\n" + tail),
+                  "COUNT lists 2 values but FIELDS names 3 fields");
+  EXPECT_CONTAINS(read_error("VERSION 0.7\nFIELDS x y z\nSIZE 4 4 2\nTYPE F F F\n" + tail),
+                  "field 'z': unsupported TYPE F with SIZE 2");
+  EXPECT_CONTAINS(read_error("VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F Q\n" + tail), "invalid TYPE 'Q'");
+  EXPECT_CONTAINS(read_error("VERSION 0.7\nFIELDS x y z\nCOUNT 1 1 0\n" + tail), "invalid COUNT '0'");
+  EXPECT_CONTAINS(read_error("VERSION 0.7\nFIELDS x y\n" + tail), "no 'z' field");
+  EXPECT_CONTAINS(read_error("VERSION 0.7\nFIELDS x y z x\n" + tail), "field 'x' is declared twice");
+  EXPECT_CONTAINS(read_error("VERSION 0.7\nFIELDS x y z\nCOLOUR 1\n" + tail), "unknown header keyword 'COLOUR'");
+  EXPECT_CONTAINS(read_error("VERSION 0.7\nFIELDS x y z\nWIDTH -1\nDATA ascii\n"), "invalid WIDTH line");
+  EXPECT_CONTAINS(read_error("VERSION 0.7\nFIELDS x y z\nWIDTH 2\nHEIGHT 2\nPOINTS 3\nDATA ascii\n"),
+                  "POINTS (3) does not equal WIDTH × HEIGHT (2 × 2 = 4)");
+  EXPECT_CONTAINS(read_error("VERSION 0.7\nFIELDS x y z\nDATA ascii\n"), "neither WIDTH nor POINTS");
+  EXPECT_CONTAINS(read_error("VERSION 0.7\nFIELDS x y z\nPOINTS 1\nDATA binary_lzma\n"),
+                  "unknown DATA format 'binary_lzma'");
+  EXPECT_CONTAINS(read_error("VERSION 0.7\nFIELDS x y z\nPOINTS 1\n0 0 0\n"), "the PCD header has no DATA line");
+  EXPECT_CONTAINS(read_error("VERSION 0.7\nSIZE 4 4 4\nPOINTS 1\nDATA ascii\n0 0 0\n"), "no FIELDS line");
+  EXPECT_CONTAINS(read_error("VERSION 0.7\nFIELDS x y z red rgb\nPOINTS 1\nDATA ascii\n0 0 0 1 1\n"),
+                  "two fields would be named 'red'");
+}
+
+TEST(PcdErrors, AbsurdPointCountIsRejectedBeforeAllocating) {
+  const std::string head = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 4000000000\nPOINTS 4000000000\n";
+  EXPECT_CONTAINS(read_error(head + "DATA binary\n" + std::string(12, '\0')),
+                  "truncated: POINTS declares 4000000000 points of 12 bytes, but only 12 bytes");
+  EXPECT_CONTAINS(read_error(head + "DATA ascii\n0 0 0\n"), "truncated: POINTS declares 4000000000 points");
+  EXPECT_CONTAINS(read_error(head + "DATA binary_compressed\n" + u32_bytes(4) + u32_bytes(0xffffffffu) + "\x03xyzw"),
+                  "does not match POINTS × point size");
+  const std::string ok = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1000000\nPOINTS 1000000\n";
+  EXPECT_CONTAINS(read_error(ok + "DATA binary_compressed\n" + u32_bytes(4) + u32_bytes(12000000) + "\x03xyzw"),
+                  "implausible binary_compressed sizes");
+  EXPECT_CONTAINS(read_error("VERSION 0.7\nFIELDS x y z\nWIDTH 18446744073709551615\nHEIGHT 2\nDATA binary\n"),
+                  "overflows");
+}
+
+TEST(PcdErrors, TruncatedBinary) {
+  point_cloud c;
+  for (int i = 0; i < 100; ++i) c.push_back(float(i), 1, 2);
+  const std::string bytes = write_string(c, pcd_format::binary);
+  EXPECT_CONTAINS(read_error(bytes.substr(0, bytes.size() - 5)),
+                  "truncated: POINTS declares 100 points of 12 bytes, but only 1195 bytes of binary data follow");
+}
+
+TEST(PcdErrors, TruncatedCompressed) {
+  const std::string bytes = write_string(big_cloud(1000), pcd_format::binary_compressed);
+  const std::size_t body = bytes.find("DATA binary_compressed\n") + 23;
+  EXPECT_CONTAINS(read_error(bytes.substr(0, bytes.size() - 10)), "truncated: the binary_compressed data declares");
+  EXPECT_CONTAINS(read_error(bytes.substr(0, body + 5)), "has no size header");
+  // Consistent sizes but the LZF stream cut short.
+  std::string cut = bytes.substr(0, bytes.size() - 10);
+  std::uint32_t size = 0;
+  std::memcpy(&size, cut.data() + body, 4);
+  size -= 10;
+  std::memcpy(cut.data() + body, &size, 4);
+  EXPECT_CONTAINS(read_error(cut), "corrupt LZF data");
+}
+
+TEST(PcdErrors, BadLzfInAFile) {
+  const std::string head = header(1, "binary_compressed");
+  // Back-reference before the start.
+  EXPECT_CONTAINS(read_error(head + u32_bytes(2) + u32_bytes(12) + std::string("\x20\x02", 2)),
+                  "corrupt LZF data (a back-reference at input offset 0 points before the start");
+  // Output overflow: 13 literal bytes for 12.
+  EXPECT_CONTAINS(read_error(head + u32_bytes(14) + u32_bytes(12) + "\x0c" + std::string(13, 'a')),
+                  "corrupt LZF data (the output would exceed the declared 12 bytes)");
+  // Flipped control byte of a real stream.
+  std::string bytes = write_string(big_cloud(1000), pcd_format::binary_compressed);
+  const std::size_t body = bytes.find("DATA binary_compressed\n") + 23;
+  bytes[body + 8] = static_cast<char>(0xff);
+  EXPECT_CONTAINS(read_error(bytes), "corrupt LZF data");
+}
+
+TEST(PcdErrors, BadAscii) {
+  const std::string head = header(3, "ascii", "x y z red", "4 4 4 1", "F F F U", "1 1 1 1");
+  const std::size_t first_data_line = 12;  // header() writes 11 lines
+  EXPECT_CONTAINS(read_error(head + "0 0 0 1\n1 1 1 2\n1 abc 3 4\n"),
+                  "line " + std::to_string(first_data_line + 2) + ", field 'y': 'abc' is not a number");
+  EXPECT_CONTAINS(read_error(head + "0 0 0 1\n1 1 1 300\n1 1 1 1\n"),
+                  "line " + std::to_string(first_data_line + 1) + ", field 'red': '300' is out of range for uint8");
+  EXPECT_CONTAINS(read_error(head + "0 0 0 1.5\n0 0 0 1\n0 0 0 1\n"), "'1.5' is not an integer");
+  EXPECT_CONTAINS(read_error(head + "0 0 0 1\n0.0 0.0 0.0\n0 0 0 1\n"),
+                  "line " + std::to_string(first_data_line + 1) + ": expected 4 values, found 3");
+  EXPECT_CONTAINS(read_error(head + "0 0 0 1\n1 1 1 1\n" + std::string(20, '\n')),
+                  "truncated: the file ends after 2 of 3 points");
+  const std::string normal = header(1, "ascii", "x y z n", "4 4 4 4", "F F F F", "1 1 1 2");
+  EXPECT_CONTAINS(read_error(normal + "0 0 0 1 x\n"), "field 'n_1': 'x' is not a number");
+}
+
+TEST(PcdErrors, StreamNameIsUsedInMessages) {
+  try {
+    ced::io::read_pcd_buffer("nope", "my_buffer");
+    FAIL() << "no exception";
+  } catch (const io_error& e) {
+    EXPECT_CONTAINS(e.what(), "my_buffer");
+  }
+}
