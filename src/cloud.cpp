@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <limits>
 
 namespace ced {
@@ -131,6 +132,30 @@ void point_cloud::add_rgb(const std::vector<std::array<std::uint8_t, 3>>& rgb) {
     for (std::size_t i = 0; i < rgb.size(); ++i) v[i] = rgb[i][static_cast<std::size_t>(c)];
     add_field(names[c], scalar_type::uint8, std::move(v));
   }
+}
+
+std::array<double, 3> choose_origin(const double lo[3], const double hi[3]) noexcept {
+  std::array<double, 3> o{0.0, 0.0, 0.0};
+  for (std::size_t k = 0; k < 3; ++k) {
+    const double c = 0.5 * lo[k] + 0.5 * hi[k];
+    if (std::fabs(c) > 1e4 && std::fabs(c) > hi[k] - lo[k]) o[k] = std::round(c);
+  }
+  return o;
+}
+
+std::array<double, 3> choose_origin(const double* x, const double* y, const double* z, std::size_t n) noexcept {
+  double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+  bool any = false;
+  const double* a[3] = {x, y, z};
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!std::isfinite(x[i]) || !std::isfinite(y[i]) || !std::isfinite(z[i])) continue;
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = any ? std::min(lo[k], a[k][i]) : a[k][i];
+      hi[k] = any ? std::max(hi[k], a[k][i]) : a[k][i];
+    }
+    any = true;
+  }
+  return choose_origin(lo, hi);
 }
 
 std::array<const field*, 3> find_rgb_fields(const point_cloud& cloud) noexcept {

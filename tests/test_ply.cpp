@@ -342,9 +342,11 @@ TEST(PlyRead, LargeCoordinatesGetAnOrigin) {
       "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\n"
       "end_header\nnan 0 0\n600000.25 5000000.25 100.125\n600001.5 5000002.75 101\n";
   const point_cloud c = read_string(text);
-  EXPECT_EQ(c.origin(), (std::array<double, 3>{600000, 5000000, 100}));  // first finite point, rounded
-  EXPECT_EQ(c.position(1)[0], 0.25f);
-  EXPECT_EQ(c.position(2)[1], 2.75f);  // 5000002.75 - 5000000
+  // Per axis: the bounding-box centre, rounded, where it lies far from 0.
+  EXPECT_EQ(c.origin(), (std::array<double, 3>{600001, 5000002, 0}));
+  EXPECT_EQ(c.position(1)[0], -0.75f);  // 600000.25 - 600001
+  EXPECT_EQ(c.position(2)[1], 0.75f);   // 5000002.75 - 5000002
+  EXPECT_EQ(c.position(2)[2], 101.0f);
   EXPECT_TRUE(std::isnan(c.position(0)[0]));
 }
 

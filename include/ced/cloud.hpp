@@ -97,6 +97,14 @@ class point_cloud {
   std::vector<field> m_fields;
 };
 
+/// The origin every reader uses, per axis: the centre of the finite bounding
+/// box [lo, hi] rounded to whole units when that centre lies beyond ±1e4 and
+/// beyond the box's extent (georeferenced data), else 0. Positions are then
+/// stored as float offsets from it and keep their precision.
+std::array<double, 3> choose_origin(const double lo[3], const double hi[3]) noexcept;
+/// The same from per-axis coordinate arrays of n points (non-finite skipped).
+std::array<double, 3> choose_origin(const double* x, const double* y, const double* z, std::size_t n) noexcept;
+
 /// The red, green and blue fields of a cloud: exact names red/green/blue, then
 /// r/g/b, any case. Returns nullptrs when absent.
 std::array<const field*, 3> find_rgb_fields(const point_cloud& cloud) noexcept;

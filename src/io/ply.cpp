@@ -488,20 +488,7 @@ point_cloud parse_ply(std::string_view data, const std::string& file) {
 
   const auto n = static_cast<std::size_t>(vertex->count);
   const double* xyz[3] = {cols[axis[0]].data(), cols[axis[1]].data(), cols[axis[2]].data()};
-  double sum[3] = {0, 0, 0};
-  std::size_t finite = 0, first = n;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!std::isfinite(xyz[0][i]) || !std::isfinite(xyz[1][i]) || !std::isfinite(xyz[2][i])) continue;
-    for (int k = 0; k < 3; ++k) sum[k] += xyz[k][i];
-    if (finite++ == 0) first = i;
-  }
-  std::array<double, 3> origin{0, 0, 0};
-  if (finite > 0) {
-    bool large = false;
-    for (int k = 0; k < 3; ++k) large = large || std::fabs(sum[k] / static_cast<double>(finite)) > 1e4;
-    if (large)
-      for (int k = 0; k < 3; ++k) origin[static_cast<std::size_t>(k)] = std::round(xyz[k][first]);
-  }
+  const std::array<double, 3> origin = choose_origin(xyz[0], xyz[1], xyz[2], n);
 
   point_cloud cloud;
   cloud.set_origin(origin);
