@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <mutex>
 #include <stdexcept>
 
 #include "ced/detail/parallel.hpp"
@@ -104,6 +105,9 @@ void detection_context::compute_saliency(const std::function<void(const neighbor
   const float nms_r2 = squared_radius(params.nms_radius);
   std::atomic<std::size_t> budget{std::max<std::size_t>(std::size_t(1) << 26, 16 * n)};
   m_impl->lists.assign(keep_lists ? blocks.block_count() : 0, {});
+  std::atomic<std::size_t> blocks_done{0};
+  std::mutex progress_mutex;
+  const std::size_t report_every = std::max<std::size_t>(1, blocks.block_count() / 100);
   parallel_for(blocks.block_count(), resolve_threads(params.threads), 8, [&](std::size_t b0, std::size_t b1) {
     neighbor_block block;
     for (std::size_t b = b0; b < b1; ++b) {
@@ -144,6 +148,12 @@ void detection_context::compute_saliency(const std::function<void(const neighbor
       } else {
         cl = candidate_lists{};  // over budget: the NMS queries this block again
       }
+    }
+    if (params.progress) {
+      const std::size_t done = blocks_done.fetch_add(b1 - b0) + (b1 - b0);
+      std::unique_lock<std::mutex> lock(progress_mutex, std::try_to_lock);
+      if (lock && (done % report_every < b1 - b0 || done == blocks.block_count()))
+        params.progress(double(done) / double(blocks.block_count()));
     }
   });
   r.times.saliency_ms = ms_since(t0);

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 
 namespace ced {
 
@@ -20,6 +21,9 @@ struct detect_params {
   /// Side of the spatial blocks, as a multiple of the radius (a tuning knob;
   /// the result does not depend on it).
   double block_scale = 1.0;
+  /// Optional: called with the fraction of the saliency stage done (0..1),
+  /// from any worker thread, never concurrently; keep it cheap.
+  std::function<void(double)> progress;
 };
 
 /// Throws std::invalid_argument naming the parameter when one is out of range

@@ -1,0 +1,120 @@
+// SPDX-License-Identifier: MIT
+#include "ced/io/io.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <stdexcept>
+
+namespace ced::io {
+
+file_format parse_format(const std::string& name) {
+  if (name == "auto") return file_format::automatic;
+  if (name == "ply") return file_format::ply;
+  if (name == "pcd") return file_format::pcd;
+  if (name == "las") return file_format::las;
+  if (name == "csv" || name == "xyz" || name == "txt" || name == "pts") return file_format::csv;
+  throw std::invalid_argument("unknown format '" + name + "' (known: ply, pcd, las, csv, auto)");
+}
+
+std::string format_name(file_format f) {
+  switch (f) {
+    case file_format::automatic:
+      return "auto";
+    case file_format::ply:
+      return "ply";
+    case file_format::pcd:
+      return "pcd";
+    case file_format::las:
+      return "las";
+    case file_format::csv:
+      return "csv";
+  }
+  return "?";
+}
+
+file_format format_of(const std::string& path) {
+  const auto slash = path.find_last_of("/\\");
+  const auto dot = path.find_last_of('.');
+  std::string ext = dot == std::string::npos || (slash != std::string::npos && dot < slash) ? "" : path.substr(dot + 1);
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  if (ext == "laz")
+    throw io_error(path + ": LAZ (compressed LAS) is not supported; decompress it first, e.g. `laszip -i " + path +
+                   " -o out.las` or `pdal translate " + path + " out.las`");
+  if (ext == "e57")
+    throw io_error(path + ": E57 is not supported; convert it first, e.g. `pdal translate " + path +
+                   " out.las` or with CloudCompare to PLY");
+  if (ext.empty()) throw io_error(path + ": no file extension; say the format with --format ply|pcd|las|csv");
+  try {
+    return parse_format(ext);
+  } catch (const std::invalid_argument&) {
+    throw io_error(path + ": unsupported file type '." + ext + "' (ced reads .ply, .pcd, .las, .csv/.xyz/.txt/.pts)");
+  }
+}
+
+point_cloud read_cloud(const std::string& path, const read_options& options, read_report* report) {
+  const file_format f = options.format == file_format::automatic ? format_of(path) : options.format;
+  read_report r;
+  r.format = f;
+  point_cloud c;
+  switch (f) {
+    case file_format::ply: {
+      c = read_ply(path);
+      r.details = "PLY";
+      break;
+    }
+    case file_format::pcd: {
+      pcd_read_info info;
+      c = read_pcd(path, &info);
+      r.nonfinite_removed = info.nonfinite_removed;
+      r.details = "PCD " + info.data_format +
+                  (info.organized ? ", organized " + std::to_string(info.width) + "x" + std::to_string(info.height)
+                                  : std::string());
+      break;
+    }
+    case file_format::las: {
+      las_read_info info;
+      c = read_las(path, &info);
+      r.details = "LAS " + std::to_string(info.version_major) + "." + std::to_string(info.version_minor) +
+                  ", point format " + std::to_string(info.point_format);
+      break;
+    }
+    case file_format::csv: {
+      c = read_csv(path, options.csv);
+      r.details = "CSV";
+      break;
+    }
+    case file_format::automatic:
+      break;
+  }
+  if (report) *report = r;
+  return c;
+}
+
+void write_cloud(std::ostream& out, const point_cloud& cloud, file_format format) {
+  switch (format) {
+    case file_format::ply:
+      write_ply(out, cloud, ply_format::binary_little_endian);
+      return;
+    case file_format::pcd:
+      write_pcd(out, cloud, pcd_format::binary);
+      return;
+    case file_format::las:
+      write_las(out, cloud);
+      return;
+    case file_format::csv:
+      write_csv(out, cloud);
+      return;
+    case file_format::automatic:
+      break;
+  }
+  throw std::invalid_argument("write_cloud: no format given");
+}
+
+void write_cloud(const std::string& path, const point_cloud& cloud, file_format format) {
+  const file_format f = format == file_format::automatic ? format_of(path) : format;
+  atomic_output_file out(path);
+  write_cloud(out.stream(), cloud, f);
+  out.commit();
+}
+
+}  // namespace ced::io

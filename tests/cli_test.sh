@@ -1,0 +1,113 @@
+#!/usr/bin/env bash
+# End-to-end tests of the `ced` command line: outputs, format equivalence,
+# errors with their exit codes, and output safety.
+#   tests/cli_test.sh path/to/ced path/to/tests/data
+set -u
+CED=$1
+DATA=$2
+T=$(mktemp -d)
+trap 'rm -rf "$T"' EXIT
+pass=0
+fail=0
+check() {  # check NAME COMMAND...: the command must succeed
+  local name=$1
+  shift
+  if "$@"; then pass=$((pass + 1)); else fail=$((fail + 1)); echo "FAIL: $name"; fi
+}
+expect_exit() {  # expect_exit CODE PATTERN NAME -- ced ARGS...: exit code and stderr text
+  local code=$1 pattern=$2 name=$3
+  shift 4
+  "$CED" "$@" > "$T/out" 2> "$T/err"
+  local rc=$?
+  if [ "$rc" = "$code" ] && grep -q -- "$pattern" "$T/err"; then
+    pass=$((pass + 1))
+  else
+    fail=$((fail + 1))
+    echo "FAIL: $name: exit $rc (want $code), stderr: $(cat "$T/err")"
+  fi
+}
+sample=$DATA/apartment_mesh_214.ply
+
+# --- The main job: indices, keypoints file, viewer, picture, summary ---
+"$CED" detect "$sample" --preset ced6d --indices "$T/kp.txt" -o "$T/kp.ply" --viewer "$T/view.ply" \
+  --png "$T/kp.png" --summary "$T/s.json" -q
+check "detect exit 0" test $? = 0
+check "173 indices" test "$(wc -l < "$T/kp.txt")" = 173
+check "matches the PCL reference" cmp -s "$T/kp.txt" "$DATA/apartment_mesh_214.ced6d.pcl_reference.txt"
+check "png written" test -s "$T/kp.png"
+check "png signature" test "$(head -c 8 "$T/kp.png" | od -An -tx1 | tr -d ' \n')" = 89504e470d0a1a0a
+check "summary has counts" grep -q '"keypoints": 173' "$T/s.json"
+"$CED" info "$T/kp.ply" > "$T/info.txt"
+check "keypoint file: 173 points" grep -q ": 173 points" "$T/info.txt"
+check "keypoint file: saliency fields" grep -q "saliency_rgb" "$T/info.txt"
+"$CED" info "$T/view.ply" > "$T/info.txt"
+check "viewer: scalar_keypoint" grep -q "scalar_keypoint" "$T/info.txt"
+check "stdout without outputs" test "$("$CED" detect "$sample" --preset ced3d -q | wc -l)" = 118
+
+# --- The same cloud in every format gives the same keypoints ---
+for ext in pcd csv; do
+  "$CED" convert "$sample" "$T/sample.$ext"
+  check "convert to $ext" test $? = 0
+  "$CED" detect "$T/sample.$ext" --preset ced6d --indices "$T/kp_$ext.txt" -q
+  check "$ext gives the same keypoints" cmp -s "$T/kp.txt" "$T/kp_$ext.txt"
+done
+# LAS stores millimetres: compare with the same millimetre cloud as PLY.
+"$CED" convert "$sample" "$T/sample.las" && "$CED" convert "$T/sample.las" "$T/sample_mm.ply"
+check "las round trip" test $? = 0
+"$CED" detect "$T/sample.las" --preset ced6d --indices "$T/kp_las.txt" -q
+"$CED" detect "$T/sample_mm.ply" --preset ced6d --indices "$T/kp_mm.txt" -q
+check "las gives the same keypoints" cmp -s "$T/kp_las.txt" "$T/kp_mm.txt"
+# (Millimetre rounding moves some NMS winners among near-equal neighbours;
+# the count stays close: 168 against 173.)
+n_las=$(wc -l < "$T/kp_las.txt")
+check "las keypoint count close to the original" test "$n_las" -ge 156 -a "$n_las" -le 190
+
+# --- Config file; flags override it ---
+printf '{"preset": "ced3d", "min-neighbors": 5, "radius": "0.05"}\n' > "$T/c.json"
+check "json config" test "$("$CED" detect "$sample" --config "$T/c.json" -q | wc -l)" = 118
+check "flags override config" test "$("$CED" detect "$sample" --config "$T/c.json" --preset ced6d -q | wc -l)" = 173
+printf 'preset = "ced3d"\n' > "$T/c.toml"
+check "toml config" test "$("$CED" detect "$sample" --config "$T/c.toml" -q | wc -l)" = 118
+
+# --- Usage errors: exit 2, nothing written ---
+expect_exit 2 "radius" "radius 0" -- detect "$sample" --radius 0 --indices "$T/no.txt"
+expect_exit 2 "radius" "radius nan" -- detect "$sample" --radius nan --indices "$T/no.txt"
+expect_exit 2 "radius" "radius negative" -- detect "$sample" --radius -1 --indices "$T/no.txt"
+expect_exit 2 "unknown modality 'colour'" "unknown modality" -- detect "$sample" -m colour:0.1 --indices "$T/no.txt"
+expect_exit 2 "negative" "negative threshold" -- detect "$sample" -m rgb:-1 --indices "$T/no.txt"
+expect_exit 2 "min-neighbors" "negative min neighbours" -- detect "$sample" -k -3 --indices "$T/no.txt"
+expect_exit 2 "voxel" "negative voxel" -- detect "$sample" --voxel -1 --indices "$T/no.txt"
+expect_exit 2 "required" "no input" -- detect
+check "usage errors wrote nothing" test ! -e "$T/no.txt"
+
+# --- Bad input: exit 1, file named, no output, existing output kept ---
+expect_exit 1 "no field 'nir'\|needs field 'nir'" "missing field" -- detect "$sample" -m 'bands(nir)' --indices "$T/no.txt"
+expect_exit 1 "No such file\|cannot open\|does not exist" "missing input" -- detect "$T/missing.ply" --indices "$T/no.txt"
+head -c 3000 "$sample" > "$T/trunc.ply"
+echo "keep me" > "$T/existing.txt"
+expect_exit 1 "trunc.ply" "truncated ply" -- detect "$T/trunc.ply" --indices "$T/existing.txt"
+check "existing output kept" grep -q "keep me" "$T/existing.txt"
+check "no temporary files left" test -z "$(ls -A "$T" | grep '^\.' || true)"
+: > "$T/empty.ply"
+expect_exit 1 "empty.ply" "empty file" -- detect "$T/empty.ply" --indices "$T/no.txt"
+mkdir "$T/dir.ply"
+expect_exit 1 "dir.ply" "input is a directory" -- detect "$T/dir.ply" --indices "$T/no.txt"
+expect_exit 1 "missing_dir" "output directory missing" -- detect "$sample" --indices "$T/missing_dir/kp.txt"
+expect_exit 1 "laszip\|pdal" "laz" -- detect "$T/x.laz"
+expect_exit 1 "unsupported" "unknown extension" -- detect "$T/x.abc"
+printf 'ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\nnan 1 1\n' > "$T/nan.ply"
+"$CED" detect "$T/nan.ply" --preset ced3d --min-neighbors 0 -q > /dev/null 2>&1
+check "NaN points dropped, not fatal" test $? = 0
+printf 'ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\nnan nan nan\n' > "$T/allnan.ply"
+expect_exit 1 "no (finite) points" "all points NaN" -- detect "$T/allnan.ply" --indices "$T/no.txt"
+check "bad inputs wrote nothing" test ! -e "$T/no.txt"
+
+# --- Voxel, radius auto, original indices ---
+"$CED" detect "$sample" --voxel 0.02 --preset ced3d --indices "$T/v.txt" --indices-original "$T/vo.txt" -q
+check "voxel run" test $? = 0
+check "original indices within the input" awk '$1 >= 24574 { exit 1 }' "$T/vo.txt"
+"$CED" detect "$sample" -m xyz --summary "$T/auto.json" -q
+check "radius auto recorded" grep -q '"radius_auto": true' "$T/auto.json"
+
+echo "cli: $pass passed, $fail failed"
+[ "$fail" = 0 ]
