@@ -18,6 +18,7 @@
 
 #include "ced/ced.hpp"
 #include "ced/detail/parallel.hpp"
+#include "ced/eval.hpp"
 #include "ced/io/io.hpp"
 #include "ced/preprocess.hpp"
 #include "ced/render.hpp"
@@ -394,6 +395,148 @@ int run_info(const std::string& path, const std::string& format, const std::stri
   return exit_ok;
 }
 
+struct eval_options {
+  std::string input, format = "auto", columns;
+  std::vector<std::string> detectors{"ced6d", "ced3d", "random"};
+  int trials = 5;
+  std::uint64_t seed = 1;
+  std::string noise = "0,0.5";
+  double epsilon = 2.0, resolution = 0, radius = 0, max_translation = 1.0;
+  int min_neighbors = 5, threads = 0;
+  std::string csv;
+  bool quiet = false;
+};
+
+/// A detector of the evaluation: "random", a preset, or modality specs
+/// joined by commas ("xyz:0.2,bands(nir):0.1,range=0..255").
+struct eval_detector {
+  std::string name;
+  bool random = false;
+  std::vector<ced::any_modality> modalities;
+};
+
+eval_detector parse_detector(const std::string& text) {
+  eval_detector d;
+  d.name = text;
+  if (text == "random") {
+    d.random = true;
+    return d;
+  }
+  if (text == "ced6d" || text == "ced3d") {
+    d.modalities = ced::preset(text);
+    return d;
+  }
+  // Split at top-level commas; a piece of the form key=value (before any
+  // ':' or '(') is an option of the modality before it.
+  std::vector<std::string> specs;
+  std::string cur;
+  int depth = 0;
+  auto flush = [&] {
+    const auto eq = cur.find('='), colon = cur.find_first_of(":(");
+    if (!specs.empty() && eq != std::string::npos && (colon == std::string::npos || eq < colon))
+      specs.back() += "," + cur;
+    else if (!cur.empty())
+      specs.push_back(cur);
+    cur.clear();
+  };
+  for (char c : text) {
+    depth += c == '(' ? 1 : c == ')' ? -1 : 0;
+    if (c == ',' && depth == 0)
+      flush();
+    else
+      cur += c;
+  }
+  flush();
+  for (const auto& s : specs) d.modalities.push_back(ced::make_modality(s));
+  if (d.modalities.empty()) throw std::invalid_argument("--detector '" + text + "' names no modality");
+  return d;
+}
+
+int run_eval(const eval_options& o) {
+  std::vector<eval_detector> detectors;
+  std::vector<double> noise;
+  try {
+    for (const auto& d : o.detectors) detectors.push_back(parse_detector(d));
+    std::stringstream ss(o.noise);
+    for (std::string v; std::getline(ss, v, ',');) {
+      noise.push_back(ced::parse_number(v, "--noise"));
+      if (noise.back() < 0) throw std::invalid_argument("--noise values must be >= 0");
+    }
+  } catch (const std::invalid_argument& e) {
+    throw usage_error(e.what());
+  }
+  if (o.trials < 1 || o.trials > 10000) throw usage_error("--trials must be 1..10000");
+  if (!(o.epsilon > 0) || !std::isfinite(o.epsilon)) throw usage_error("--epsilon must be positive");
+  if (o.resolution < 0 || o.radius < 0 || !(o.max_translation >= 0)) throw usage_error("negative length");
+  std::unique_ptr<ced::io::atomic_output_file> csv;
+  if (!o.csv.empty()) csv = std::make_unique<ced::io::atomic_output_file>(o.csv);
+
+  ced::point_cloud p = ced::io::read_cloud(o.input, make_read_options(o.format, o.columns));
+  ced::remove_nonfinite(p);
+  if (p.empty()) throw ced::io::io_error(o.input + ": the cloud has no (finite) points");
+  const double res = o.resolution > 0 ? o.resolution : ced::estimate_resolution(p);
+  if (!(res > 0)) throw ced::io::io_error(o.input + ": cannot estimate the resolution; give --resolution");
+  ced::detect_params params;
+  params.radius = params.nms_radius = o.radius > 0 ? o.radius : 5 * res;
+  params.min_neighbors = static_cast<std::uint32_t>(std::max(0, o.min_neighbors));
+  params.threads = static_cast<unsigned>(std::max(0, o.threads));
+  const double eps = o.epsilon * res;
+  if (!o.quiet)
+    std::fprintf(stderr, "ced eval: %s, %zu points, resolution %g, radius %g, epsilon %g, %d trial(s)\n",
+                 o.input.c_str(), p.size(), res, params.radius, eps, o.trials);
+  if (csv)
+    csv->stream() << "detector,noise_resolution,noise_m,trial,source_keypoints,target_keypoints,repeated,"
+                     "relative_repeatability,detect_ms\n";
+  std::printf("%-28s %8s %10s %12s %10s %10s\n", "detector", "noise", "kp(P)", "rel.rep.", "sd", "ms");
+  std::mt19937_64 master(o.seed);
+  for (double nr : noise) {
+    struct acc {
+      double sum = 0, sum2 = 0, kp = 0, ms = 0;
+    };
+    std::vector<acc> stats(detectors.size());
+    for (int trial = 0; trial < o.trials; ++trial) {
+      std::mt19937_64 rng(master());
+      const auto t = ced::eval::random_transform(rng, o.max_translation);
+      const ced::point_cloud q = ced::eval::transform(p, t, nr * res, rng);
+      std::size_t last_count = std::max<std::size_t>(1, p.size() / 100);
+      for (std::size_t d = 0; d < detectors.size(); ++d) {
+        std::vector<std::uint32_t> kp, kq;
+        double ms = 0;
+        if (detectors[d].random) {
+          const auto t0 = clock_type::now();
+          kp = ced::eval::random_keypoints(p.size(), last_count, rng);
+          kq = ced::eval::random_keypoints(q.size(), last_count, rng);
+          ms = ms_since(t0) / 2;
+        } else {
+          const auto a = ced::detect(p, params, detectors[d].modalities);
+          const auto b = ced::detect(q, params, detectors[d].modalities);
+          kp = a.keypoints;
+          kq = b.keypoints;
+          ms = (a.times.total_ms() + b.times.total_ms()) / 2;
+          last_count = std::max<std::size_t>(1, kp.size());
+        }
+        const auto r = ced::eval::measure(p, kp, q, kq, t, eps);
+        stats[d].sum += r.relative();
+        stats[d].sum2 += r.relative() * r.relative();
+        stats[d].kp += double(kp.size());
+        stats[d].ms += ms;
+        if (csv)
+          csv->stream() << '"' << detectors[d].name << "\"," << nr << ',' << nr * res << ',' << trial << ','
+                        << r.source_keypoints << ',' << r.target_keypoints << ',' << r.repeated << ',' << r.relative()
+                        << ',' << ms << '\n';
+      }
+    }
+    for (std::size_t d = 0; d < detectors.size(); ++d) {
+      const double n = o.trials, mean = stats[d].sum / n;
+      const double sd = std::sqrt(std::max(0.0, stats[d].sum2 / n - mean * mean));
+      std::printf("%-28s %8.2f %10.1f %12.3f %10.3f %10.1f\n", detectors[d].name.c_str(), nr, stats[d].kp / n, mean, sd,
+                  stats[d].ms / n);
+    }
+  }
+  if (csv) csv->commit();
+  return exit_ok;
+}
+
 /// Replaces `detect ... --config FILE ...` by the file's options, inserted
 /// right after `detect`; options also given on the command line win (the
 /// file's value is dropped).
@@ -506,6 +649,27 @@ int main(int argc, char** argv) {
 
   auto* mods = app.add_subcommand("modalities", "List the modalities that --modality accepts");
 
+  eval_options ev;
+  auto* eval = app.add_subcommand("eval", "Evaluate detectors");
+  auto* rep = eval->add_subcommand("repeatability", "Relative repeatability under a random rigid transform and noise");
+  eval->require_subcommand(1);
+  rep->add_option("input", ev.input, "Input point cloud")->required();
+  rep->add_option("--format", ev.format, "Input format");
+  rep->add_option("--columns", ev.columns, "CSV column names");
+  rep->add_option("-d,--detector", ev.detectors,
+                  "Repeatable: ced6d, ced3d, random, or modality specs joined by commas (default: ced6d ced3d random)");
+  rep->add_option("--trials", ev.trials, "Random transforms per noise level (default 5)");
+  rep->add_option("--seed", ev.seed, "Seed (default 1): the same seed gives the same numbers");
+  rep->add_option("--noise", ev.noise, "Gaussian noise levels, in multiples of the resolution (default 0,0.5)");
+  rep->add_option("--epsilon", ev.epsilon, "Match distance, in multiples of the resolution (default 2)");
+  rep->add_option("--resolution", ev.resolution, "Cloud resolution in metres (default: estimated)");
+  rep->add_option("-r,--radius", ev.radius, "Detector radius = NMS radius (default 5 x resolution)");
+  rep->add_option("-k,--min-neighbors", ev.min_neighbors, "Minimum neighbours (default 5)");
+  rep->add_option("--max-translation", ev.max_translation, "Translations uniform in +-this, metres (default 1)");
+  rep->add_option("-j,--threads", ev.threads, "Threads");
+  rep->add_option("--csv", ev.csv, "Write one row per detector x noise x trial");
+  rep->add_flag("-q,--quiet", ev.quiet, "Print only the table");
+
   std::string conv_in, conv_out, conv_format = "auto", conv_columns;
   double conv_voxel = 0;
   auto* conv = app.add_subcommand("convert", "Convert between formats (by extension), optionally voxel down-sampled");
@@ -531,6 +695,7 @@ int main(int argc, char** argv) {
   try {
     if (*det) return run_detect(d);
     if (*info) return run_info(info_input, info_format, info_columns);
+    if (*rep) return run_eval(ev);
     if (*conv) {
       if (conv_voxel < 0 || !std::isfinite(conv_voxel)) throw usage_error("--voxel must be a positive size");
       const auto fmt = ced::io::format_of(conv_out);

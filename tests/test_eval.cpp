@@ -1,0 +1,92 @@
+// SPDX-License-Identifier: MIT
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "ced/ced.hpp"
+#include "ced/eval.hpp"
+#include "test_support.hpp"
+
+namespace {
+ced::point_cloud five_points() {
+  ced::point_cloud c;
+  c.push_back(0, 0, 0);
+  c.push_back(1, 0, 0);
+  c.push_back(0, 2, 0);
+  c.push_back(0, 0, 3);
+  c.push_back(4, 4, 4);
+  return c;
+}
+}  // namespace
+
+TEST(Eval, KnownTransformAndMatches) {
+  const auto p = five_points();
+  ced::eval::rigid_transform t;  // 90° about z, then a shift
+  t.rotation = {{{0, -1, 0}, {1, 0, 0}, {0, 0, 1}}};
+  t.translation = {10, 20, 30};
+  std::mt19937_64 rng(1);
+  const auto q = ced::eval::transform(p, t, 0.0, rng);
+  EXPECT_FLOAT_EQ(q.position(1)[0], 10.0f);  // (1,0,0) -> (0,1,0) + t
+  EXPECT_FLOAT_EQ(q.position(1)[1], 21.0f);
+  EXPECT_FLOAT_EQ(q.position(2)[0], 8.0f);  // (0,2,0) -> (-2,0,0) + t
+  // P's keypoints {0,1,2,4}; Q's {0,2,3}: the images of 0 and 2 have a match,
+  // 1 and 4 do not.
+  auto r = ced::eval::measure(p, {0, 1, 2, 4}, q, {0, 2, 3}, t, 0.01);
+  EXPECT_EQ(r.source_keypoints, 4u);
+  EXPECT_EQ(r.target_keypoints, 3u);
+  EXPECT_EQ(r.repeated, 2u);
+  EXPECT_DOUBLE_EQ(r.relative(), 0.5);
+  // With the identity instead of t, nothing matches.
+  EXPECT_EQ(ced::eval::measure(p, {0, 1, 2, 4}, q, {0, 2, 3}, ced::eval::rigid_transform{}, 0.01).repeated, 0u);
+  // Epsilon is inclusive: Q's keypoint moved exactly 0.5 away still matches at 0.5.
+  ced::point_cloud q2 = q;
+  q2.positions()[3 * 0 + 2] += 0.5f;
+  EXPECT_EQ(ced::eval::measure(p, {0}, q2, {0}, t, 0.5).repeated, 1u);
+  EXPECT_EQ(ced::eval::measure(p, {0}, q2, {0}, t, 0.49).repeated, 0u);
+  EXPECT_EQ(ced::eval::measure(p, {}, q, {0}, t, 1).relative(), 0.0);
+}
+
+TEST(Eval, RandomTransformIsARotation) {
+  std::mt19937_64 rng(42);
+  for (int k = 0; k < 20; ++k) {
+    const auto t = ced::eval::random_transform(rng, 2.0);
+    const auto& R = t.rotation;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        double dot = 0;
+        for (int m = 0; m < 3; ++m) dot += R[std::size_t(i)][std::size_t(m)] * R[std::size_t(j)][std::size_t(m)];
+        EXPECT_NEAR(dot, i == j ? 1.0 : 0.0, 1e-12);
+      }
+    const double det = R[0][0] * (R[1][1] * R[2][2] - R[1][2] * R[2][1]) -
+                       R[0][1] * (R[1][0] * R[2][2] - R[1][2] * R[2][0]) +
+                       R[0][2] * (R[1][0] * R[2][1] - R[1][1] * R[2][0]);
+    EXPECT_NEAR(det, 1.0, 1e-12);
+    for (double c : t.translation) EXPECT_LE(std::abs(c), 2.0);
+  }
+}
+
+TEST(Eval, DeterministicForASeed) {
+  const auto p = ced_test::make_room(3000, 3);
+  auto run = [&](std::uint64_t seed) {
+    std::mt19937_64 rng(seed);
+    const auto t = ced::eval::random_transform(rng, 1.0);
+    const auto q = ced::eval::transform(p, t, 0.002, rng);
+    const ced::detect_params params;
+    const auto kp = ced::detect(p, params, ced::preset("ced6d")).keypoints;
+    const auto kq = ced::detect(q, params, ced::preset("ced6d")).keypoints;
+    return std::make_pair(q.positions(), ced::eval::measure(p, kp, q, kq, t, 0.02).repeated);
+  };
+  const auto a = run(7), b = run(7), c = run(8);
+  EXPECT_EQ(a.first, b.first);
+  EXPECT_EQ(a.second, b.second);
+  EXPECT_NE(a.first, c.first);
+}
+
+TEST(Eval, RandomKeypoints) {
+  std::mt19937_64 rng(5);
+  const auto k = ced::eval::random_keypoints(100, 30, rng);
+  ASSERT_EQ(k.size(), 30u);
+  for (std::size_t i = 1; i < k.size(); ++i) EXPECT_LT(k[i - 1], k[i]);
+  EXPECT_LT(k.back(), 100u);
+  EXPECT_EQ(ced::eval::random_keypoints(10, 50, rng).size(), 10u);
+}
