@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "ced/io/output_file.hpp"
+#include "ced/modalities/rgb.hpp"
 
 // stb is compiled in, with internal linkage so that it cannot clash with a
 // copy in the application; its own warnings are not ours.
@@ -53,11 +54,12 @@ basis view_basis(view_direction view) {
 struct channel {
   const field* f;
   double offset = 0, scale = 1;
-  explicit channel(const field* fld) : f(fld) {
+  /// `integer_scale`: the scale the rgb modality uses for integer channels
+  /// (their range, or 1/255 for 16-bit fields holding 8-bit values).
+  channel(const field* fld, double integer_scale) : f(fld) {
     if (is_integer(f->type)) {
-      const auto r = natural_range(f->type);
-      offset = r[0];
-      scale = 1.0 / (r[1] - r[0]);
+      offset = natural_range(f->type)[0];
+      scale = integer_scale;
       return;
     }
     double hi = 0;
@@ -227,8 +229,10 @@ std::vector<std::uint8_t> render_rgb(const point_cloud& cloud, const std::vector
     std::vector<std::uint8_t> colour(3 * npix);
     const auto rgb_fields = find_rgb_fields(cloud);
     std::vector<channel> channels;
-    if (rgb_fields[0])
-      for (const field* f : rgb_fields) channels.emplace_back(f);
+    if (rgb_fields[0]) {
+      const auto scales = rgb::scale(rgb_fields, std::nullopt);
+      for (std::size_t k = 0; k < 3; ++k) channels.emplace_back(rgb_fields[k], scales[k]);
+    }
     const double drange = p.dmax > p.dmin ? p.dmax - p.dmin : 1.0;
     const int size = static_cast<int>(std::lround(point_size));
     const auto offsets = stamp(size);

@@ -164,6 +164,16 @@ TEST(Render, UsesTheCloudColours) {
   const image green = render(c, {}, o);
   const std::uint8_t* q = green.at(100, 100);
   EXPECT_GT(q[1], q[0] + 80);
+
+  // 16-bit colour fields holding 8-bit values (common in LAS) are read as
+  // 8-bit, as the rgb modality reads them, not as nearly black.
+  point_cloud las = grid();
+  las.add_field("red", ced::scalar_type::uint16, std::vector<double>(n, 230.0));
+  las.add_field("green", ced::scalar_type::uint16, std::vector<double>(n, 200.0));
+  las.add_field("blue", ced::scalar_type::uint16, std::vector<double>(n, 40.0));
+  const std::uint8_t* l = render(las, {}, o).at(100, 100);
+  EXPECT_GT(l[0], 150) << int(l[0]) << "," << int(l[1]) << "," << int(l[2]);
+  EXPECT_GT(l[1], 120);
 }
 
 TEST(Render, CustomColoursAndSizes) {
