@@ -5,13 +5,20 @@
 // order, d² < r²), float centroid sums in that order, integer colour sums,
 // a second radius search per candidate for the NMS on the float product.
 // Used only to check `ced` index for index on real scans (see
-// docs/ALGORITHM.md); built when PCL is installed.
+// docs/ALGORITHM.md), and to time PCL's own detectors on the same cloud for
+// docs/BENCHMARKS.md; built when PCL is installed.
 //
 //   pcl_ced CLOUD.ply ced3d|ced6d [radius nms_radius min_neighbors t_g t_c]
-// prints the keypoint indices, one per line, and the time on stderr.
+//   pcl_ced CLOUD.ply iss3d|harris3d|harris6d [radius]
+// prints the keypoint indices (ced) or nothing (PCL detectors), one per line,
+// and the count and time on stderr. Single-threaded, as the paper's timings.
 #include <pcl/io/ply_io.h>
 #include <pcl/kdtree/kdtree_flann.h>
+#include <pcl/keypoints/harris_3d.h>
+#include <pcl/keypoints/harris_6d.h>
+#include <pcl/keypoints/iss_3d.h>
 #include <pcl/point_types.h>
+#include <pcl/search/kdtree.h>
 
 #include <chrono>
 #include <cstdio>
@@ -33,6 +40,54 @@ int main(int argc, char** argv) {
 
   pcl::PointCloud<pcl::PointXYZRGB>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZRGB>);
   if (pcl::io::loadPLYFile(argv[1], *cloud) != 0) return 1;
+  const std::string method = argv[2];
+  if (method == "iss3d" || method == "harris3d" || method == "harris6d") {
+    // The paper's settings (its config.yaml): radius 0.05, gamma 0.975, Harris threshold 1e-6.
+    const auto t0 = std::chrono::steady_clock::now();
+    std::size_t count = 0;
+    pcl::search::KdTree<pcl::PointXYZRGB>::Ptr tree(new pcl::search::KdTree<pcl::PointXYZRGB>);
+    if (method == "iss3d") {
+      pcl::ISSKeypoint3D<pcl::PointXYZRGB, pcl::PointXYZRGB> iss;
+      pcl::PointCloud<pcl::PointXYZRGB> out;
+      iss.setSearchMethod(tree);
+      iss.setSalientRadius(radius);
+      iss.setNonMaxRadius(nms_radius);
+      iss.setThreshold21(0.975);
+      iss.setThreshold32(0.975);
+      iss.setMinNeighbors(min_neighbors);
+      iss.setNumberOfThreads(1);
+      iss.setInputCloud(cloud);
+      iss.compute(out);
+      count = out.size();
+    } else if (method == "harris3d") {
+      pcl::HarrisKeypoint3D<pcl::PointXYZRGB, pcl::PointXYZI> h;
+      pcl::PointCloud<pcl::PointXYZI> out;
+      h.setSearchMethod(tree);
+      h.setRadius(radius);
+      h.setRadiusSearch(radius);
+      h.setNonMaxSupression(true);
+      h.setThreshold(1e-6f);
+      h.setNumberOfThreads(1);
+      h.setInputCloud(cloud);
+      h.compute(out);
+      count = out.size();
+    } else {
+      pcl::HarrisKeypoint6D<pcl::PointXYZRGB, pcl::PointXYZI> h;
+      pcl::PointCloud<pcl::PointXYZI> out;
+      h.setSearchMethod(tree);
+      h.setRadius(radius);
+      h.setRadiusSearch(radius);
+      h.setNonMaxSupression(true);
+      h.setThreshold(1e-6f);
+      h.setNumberOfThreads(1);
+      h.setInputCloud(cloud);
+      h.compute(out);
+      count = out.size();
+    }
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    std::fprintf(stderr, "pcl_ced: %s %zu keypoints, %.1f ms\n", method.c_str(), count, ms);
+    return 0;
+  }
   const auto t0 = std::chrono::steady_clock::now();
   pcl::KdTreeFLANN<pcl::PointXYZRGB> tree;
   tree.setInputCloud(cloud);
