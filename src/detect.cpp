@@ -54,6 +54,44 @@ struct detection_context::impl {
 };
 
 namespace {
+/// The paper's candidate rule: some modality reaches its threshold.
+bool is_candidate(const float* const* columns, const std::vector<double>& thresholds, std::uint32_t p) {
+  for (std::size_t c = 0; c < thresholds.size(); ++c)
+    if (static_cast<double>(columns[c][p]) >= thresholds[c]) return true;
+  return false;
+}
+
+/// Copies the neighbourhoods of the block's candidates (restricted to the NMS
+/// radius when it is smaller than the radius) into `cl`.
+void collect_candidate_lists(const neighbor_block& block, const float* const* columns,
+                             const std::vector<double>& thresholds, const float* xyz, const detect_params& params,
+                             candidate_lists& cl) {
+  std::size_t total = 0;
+  std::vector<std::size_t> local;
+  for (std::size_t k = 0; k < block.size(); ++k)
+    if (is_candidate(columns, thresholds, block.point(k))) {
+      local.push_back(k);
+      total += block[k].size;
+    }
+  cl.points.reserve(local.size());
+  cl.offsets.reserve(local.size() + 1);
+  cl.offsets.push_back(0);
+  cl.indices.reserve(total);
+  const float r2 = squared_radius(params.nms_radius);
+  for (std::size_t k : local) {
+    const neighborhood nb = block[k];
+    cl.points.push_back(nb.point);
+    if (params.nms_radius == params.radius) {
+      cl.indices.insert(cl.indices.end(), nb.begin(), nb.end());
+    } else {
+      const float* pp = xyz + 3 * std::size_t(nb.point);
+      for (std::uint32_t j : nb)
+        if (squared_distance(xyz + 3 * std::size_t(j), pp) < r2) cl.indices.push_back(j);
+    }
+    cl.offsets.push_back(static_cast<std::uint32_t>(cl.indices.size()));
+  }
+}
+
 void check_inputs(const point_cloud& cloud, const detect_params& params, const std::vector<std::string>& names,
                   const std::vector<double>& thresholds) {
   validate(params);
@@ -102,7 +140,6 @@ void detection_context::compute_saliency(const std::function<void(const neighbor
   // Bounded memory: past the budget, blocks fall back to querying again
   // (which blocks do depends on timing, the result does not).
   const bool keep_lists = params.nms_radius <= params.radius;
-  const float nms_r2 = squared_radius(params.nms_radius);
   std::atomic<std::size_t> budget{std::max<std::size_t>(std::size_t(1) << 26, 16 * n)};
   m_impl->lists.assign(keep_lists ? blocks.block_count() : 0, {});
   std::atomic<std::size_t> blocks_done{0};
@@ -116,30 +153,7 @@ void detection_context::compute_saliency(const std::function<void(const neighbor
       f(block, columns.data());
       if (!keep_lists) continue;
       candidate_lists& cl = m_impl->lists[b];
-      std::size_t total = 0;
-      for (std::size_t k = 0; k < block.size(); ++k) {
-        const std::uint32_t p = block.point(k);
-        bool cand = false;
-        for (std::size_t c = 0; c < m && !cand; ++c) cand = static_cast<double>(columns[c][p]) >= r.thresholds[c];
-        if (!cand) continue;
-        cl.points.push_back(static_cast<std::uint32_t>(k));  // block-local for now
-        total += block[k].size;
-      }
-      cl.offsets.reserve(cl.points.size() + 1);
-      cl.offsets.push_back(0);
-      cl.indices.reserve(total);
-      for (std::uint32_t& local : cl.points) {
-        const neighborhood nb = block[local];
-        local = nb.point;
-        if (params.nms_radius == params.radius) {
-          cl.indices.insert(cl.indices.end(), nb.begin(), nb.end());
-        } else {
-          const float* pp = xyz + 3 * std::size_t(nb.point);
-          for (std::uint32_t j : nb)
-            if (squared_distance(xyz + 3 * std::size_t(j), pp) < nms_r2) cl.indices.push_back(j);
-        }
-        cl.offsets.push_back(static_cast<std::uint32_t>(cl.indices.size()));
-      }
+      collect_candidate_lists(block, columns.data(), r.thresholds, xyz, params, cl);
       std::size_t want = cl.indices.size(), have = budget.load();
       while (have >= want && !budget.compare_exchange_weak(have, have - want)) {
       }
@@ -164,12 +178,10 @@ detection_result detection_context::finish() {
   auto& r = m_impl->result;
   const std::size_t n = m_impl->cloud.size();
   r.candidate.assign(n, 0);
-  for (std::size_t k = 0; k < r.saliency.size(); ++k) {
-    const double t = r.thresholds[k];
-    const auto& s = r.saliency[k];
-    for (std::size_t i = 0; i < n; ++i)
-      if (static_cast<double>(s[i]) >= t) r.candidate[i] = 1;
-  }
+  std::vector<const float*> columns;
+  for (const auto& s : r.saliency) columns.push_back(s.data());
+  for (std::size_t i = 0; i < n; ++i)
+    r.candidate[i] = is_candidate(columns.data(), r.thresholds, static_cast<std::uint32_t>(i));
   const std::vector<float> product = saliency_product(r.saliency);
   const float* xyz = m_impl->cloud.positions().data();
   const auto& blocks = m_impl->blocks;
