@@ -171,7 +171,8 @@ TEST(Render, UsesTheCloudColours) {
   las.add_field("red", ced::scalar_type::uint16, std::vector<double>(n, 230.0));
   las.add_field("green", ced::scalar_type::uint16, std::vector<double>(n, 200.0));
   las.add_field("blue", ced::scalar_type::uint16, std::vector<double>(n, 40.0));
-  const std::uint8_t* l = render(las, {}, o).at(100, 100);
+  const image lit = render(las, {}, o);
+  const std::uint8_t* l = lit.at(100, 100);
   EXPECT_GT(l[0], 150) << int(l[0]) << "," << int(l[1]) << "," << int(l[2]);
   EXPECT_GT(l[1], 120);
 }
