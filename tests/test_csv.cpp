@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "ced/io/csv.hpp"
+#include "file_support.hpp"
 
 namespace fs = std::filesystem;
 using ced::point_cloud;
@@ -17,36 +18,12 @@ using ced::scalar_type;
 using ced::io::csv_options;
 using ced::io::io_error;
 
+using ced_test::read_bytes;
+using ced_test::temp_dir;
+using ced_test::temp_file;
+using ced_test::write_bytes;
+
 namespace {
-
-fs::path temp_dir() {
-  static const fs::path dir = [] {
-    const fs::path d = fs::path(::testing::TempDir()) / ("ced_test_csv_" + std::to_string(::getpid()));
-    fs::remove_all(d);
-    fs::create_directories(d);
-    return d;
-  }();
-  return dir;
-}
-
-struct remove_temp_dir : ::testing::Environment {
-  void TearDown() override { fs::remove_all(temp_dir()); }
-};
-const auto* const g_cleanup = ::testing::AddGlobalTestEnvironment(new remove_temp_dir);
-
-std::string temp_file(const std::string& name) { return (temp_dir() / name).string(); }
-
-void write_bytes(const std::string& path, const std::string& bytes) {
-  std::ofstream out(path, std::ios::binary);
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-}
-
-std::string read_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 point_cloud read_text(const std::string& text, const csv_options& opt = {}) {
   return ced::io::read_csv_buffer(text, "test.csv", opt);
@@ -65,10 +42,6 @@ std::string read_error(const std::string& text, const csv_options& opt = {}, con
   }
   return "<no io_error thrown>";
 }
-
-#define EXPECT_CONTAINS(haystack, needle)                          \
-  EXPECT_NE(std::string(haystack).find(needle), std::string::npos) \
-      << "'" << (haystack) << "' lacks '" << (needle) << "'"
 
 std::vector<std::string> field_names(const point_cloud& c) {
   std::vector<std::string> names;

@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "ced/io/las.hpp"
+#include "file_support.hpp"
 
 namespace fs = std::filesystem;
 using ced::point_cloud;
@@ -20,40 +21,12 @@ using ced::io::io_error;
 using ced::io::las_read_info;
 using ced::io::las_write_options;
 
+using ced_test::read_bytes;
+using ced_test::temp_dir;
+using ced_test::temp_file;
+using ced_test::write_bytes;
+
 namespace {
-
-fs::path temp_dir() {
-  static const fs::path dir = [] {
-    const fs::path d = fs::path(::testing::TempDir()) / ("ced_test_las_" + std::to_string(::getpid()));
-    fs::remove_all(d);
-    fs::create_directories(d);
-    return d;
-  }();
-  return dir;
-}
-
-struct remove_temp_dir : ::testing::Environment {
-  void TearDown() override { fs::remove_all(temp_dir()); }
-};
-const auto* const g_cleanup = ::testing::AddGlobalTestEnvironment(new remove_temp_dir);
-
-std::string temp_file(const std::string& name) { return (temp_dir() / name).string(); }
-
-void write_bytes(const std::string& path, const std::string& bytes) {
-  std::ofstream out(path, std::ios::binary);
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-}
-
-std::string read_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-#define EXPECT_CONTAINS(haystack, needle)                          \
-  EXPECT_NE(std::string(haystack).find(needle), std::string::npos) \
-      << "'" << (haystack) << "' lacks '" << (needle) << "'"
 
 // ------------------------------------------------- a LAS builder for the tests
 // Independent of ced's writer: every byte is placed here, following the LAS 1.4

@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "ced/io/pcd.hpp"
+#include "file_support.hpp"
 
 namespace fs = std::filesystem;
 using ced::point_cloud;
@@ -21,36 +22,12 @@ using ced::io::io_error;
 using ced::io::pcd_format;
 using ced::io::pcd_read_info;
 
+using ced_test::read_bytes;
+using ced_test::temp_dir;
+using ced_test::temp_file;
+using ced_test::write_bytes;
+
 namespace {
-
-fs::path temp_dir() {
-  static const fs::path dir = [] {
-    const fs::path d = fs::path(::testing::TempDir()) / ("ced_test_pcd_" + std::to_string(::getpid()));
-    fs::remove_all(d);
-    fs::create_directories(d);
-    return d;
-  }();
-  return dir;
-}
-
-struct remove_temp_dir : ::testing::Environment {
-  void TearDown() override { fs::remove_all(temp_dir()); }
-};
-const auto* const g_cleanup = ::testing::AddGlobalTestEnvironment(new remove_temp_dir);
-
-std::string temp_file(const std::string& name) { return (temp_dir() / name).string(); }
-
-void write_bytes(const std::string& path, const std::string& bytes) {
-  std::ofstream out(path, std::ios::binary);
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-}
-
-std::string read_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 point_cloud read_string(const std::string& bytes, pcd_read_info* info = nullptr) {
   return ced::io::read_pcd_buffer(bytes, "test.pcd", info);
@@ -78,10 +55,6 @@ std::string lzf_error(const std::string& compressed, std::size_t out_size) {
   }
   return "<no io_error thrown>";
 }
-
-#define EXPECT_CONTAINS(haystack, needle)                          \
-  EXPECT_NE(std::string(haystack).find(needle), std::string::npos) \
-      << "'" << (haystack) << "' lacks '" << (needle) << "'"
 
 /// Appends little-endian binary values.
 struct bytes_builder {

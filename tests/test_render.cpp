@@ -8,6 +8,7 @@
 
 #include "ced/io/output_file.hpp"
 #include "ced/render.hpp"
+#include "file_support.hpp"
 
 #define STB_IMAGE_IMPLEMENTATION
 #if defined(__GNUC__)
@@ -25,22 +26,12 @@ using ced::point_cloud;
 using ced::render_options;
 using ced::view_direction;
 
+using ced_test::read_bytes;
+using ced_test::temp_dir;
+using ced_test::temp_file;
+using ced_test::write_bytes;
+
 namespace {
-
-fs::path temp_dir() {
-  static const fs::path dir = [] {
-    const fs::path d = fs::path(::testing::TempDir()) / ("ced_test_render_" + std::to_string(::getpid()));
-    fs::remove_all(d);
-    fs::create_directories(d);
-    return d;
-  }();
-  return dir;
-}
-
-struct remove_temp_dir : ::testing::Environment {
-  void TearDown() override { fs::remove_all(temp_dir()); }
-};
-const auto* const g_cleanup = ::testing::AddGlobalTestEnvironment(new remove_temp_dir);
 
 /// A wavy 41x41 grid over [-1,1]^2; point index = row * 41 + column.
 point_cloud grid(bool with_colour = false) {
