@@ -6,6 +6,7 @@
 //
 //   build/bin/bench_detect [--data DIR] [benchmark flags, e.g. --benchmark_repetitions=5]
 #include <benchmark/benchmark.h>
+#include <sys/resource.h>
 
 #include <cmath>
 #include <cstdio>
@@ -204,7 +205,30 @@ void bm_generated(benchmark::State& state) {
 
 }  // namespace
 
+/// Peak resident memory of this process so far, in bytes.
+double peak_rss_bytes() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return double(u.ru_maxrss) * 1024.0;
+}
+
+/// `--memory N`: generates an N-point room, runs ced6d once with all cores,
+/// and prints the time and the peak memory beyond the input cloud.
+int memory_mode(std::size_t n) {
+  const ced::point_cloud c = generated_room(n);
+  const double before = peak_rss_bytes();
+  ced::detect_params p;
+  const auto r = ced::detect(c, p, ced::xyz{}, ced::rgb{});
+  const double after = peak_rss_bytes();
+  std::printf("points %zu keypoints %zu detect_ms %.1f (index %.1f saliency %.1f nms %.1f) "
+              "input_bytes_per_point %.0f peak_extra_bytes_per_point %.0f peak_rss_MB %.0f\n",
+              n, r.keypoints.size(), r.times.total_ms(), r.times.index_ms, r.times.saliency_ms, r.times.nms_ms,
+              before / double(n), (after - before) / double(n), after / 1e6);
+  return 0;
+}
+
 int main(int argc, char** argv) {
+  if (argc == 3 && std::strcmp(argv[1], "--memory") == 0) return memory_mode(std::stoul(argv[2]));
   std::string data = "../shared/data/redwood_scan";
   bool check = true;
   std::vector<char*> args;
