@@ -73,9 +73,17 @@ std::vector<const field*> require_fields(const point_cloud& cloud, const std::ve
           "modality '" + modality + "' needs field '" + name +
           "', which the cloud does not have (fields present: " + (present.empty() ? "none" : present) + ")");
     }
+    require_finite(*f, modality);
     out.push_back(f);
   }
   return out;
+}
+
+void require_finite(const field& f, const std::string& modality) {
+  for (std::size_t i = 0; i < f.values.size(); ++i)
+    if (!std::isfinite(f.values[i]))
+      throw std::invalid_argument("modality '" + modality + "': field '" + f.name + "' has a non-finite value (" +
+                                  std::to_string(f.values[i]) + ") at point " + std::to_string(i));
 }
 
 std::array<float, 3> srgb_to_lab(float r, float g, float b) noexcept {

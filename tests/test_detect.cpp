@@ -306,6 +306,20 @@ TEST(Detect, BadParametersAreClearErrors) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("point 2"), std::string::npos) << e.what();
   }
+  ced::point_cloud nan_colour = c;  // a NaN in a field a modality reads is an error, named
+  for (auto& f : nan_colour.fields())
+    if (f.name == "red") f.values[5] = std::nan("");
+  try {
+    ced::detect(nan_colour, p, ced::rgb{});
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("field 'red' has a non-finite value (nan) at point 5"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(ced::detect(nan_colour, p, {ced::make_modality("bands(red)")}), std::invalid_argument);
+  EXPECT_THROW(ced::detect(nan_colour, p, ced::lab{}), std::invalid_argument);
+  EXPECT_NO_THROW(ced::detect(nan_colour, p, ced::xyz{}));  // fields no modality reads may hold anything
+
   ced::point_cloud grey;
   grey.push_back(0, 0, 0);
   try {

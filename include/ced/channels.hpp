@@ -37,9 +37,13 @@ std::vector<float> interleave(const std::vector<const field*>& fields);
 
 /// The fields of `cloud` named in `names` (exact name first, then any case);
 /// throws std::invalid_argument naming `modality`, the missing field and the
-/// fields present.
+/// fields present, or when a value is NaN or infinite.
 std::vector<const field*> require_fields(const point_cloud& cloud, const std::vector<std::string>& names,
                                          const std::string& modality);
+
+/// Throws std::invalid_argument naming `modality`, the field and the first
+/// point whose value is NaN or infinite.
+void require_finite(const field& f, const std::string& modality);
 
 /// sRGB in [0,1] to CIELAB (D65 white): L in [0,100], a and b about [-128,127].
 std::array<float, 3> srgb_to_lab(float r, float g, float b) noexcept;

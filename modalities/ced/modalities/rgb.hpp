@@ -34,6 +34,7 @@ struct rgb {
   static std::array<const field*, 3> fields(const point_cloud& cloud) {
     const auto f = find_rgb_fields(cloud);
     if (!f[0]) require_fields(cloud, {"red", "green", "blue"}, "rgb");  // throws the message
+    for (const field* c : f) require_finite(*c, "rgb");
     return f;
   }
 
