@@ -102,6 +102,23 @@ printf 'ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty floa
 expect_exit 1 "no (finite) points" "all points NaN" -- detect "$T/allnan.ply" --indices "$T/no.txt"
 check "bad inputs wrote nothing" test ! -e "$T/no.txt"
 
+# --- An interrupted run leaves nothing behind ---
+# The input is a FIFO nobody writes to, so ced waits in the read with its
+# output (a temporary file) already open; SIGTERM must remove it.
+mkfifo "$T/slow.ply"
+"$CED" detect "$T/slow.ply" --indices "$T/sig.txt" -q &
+pid=$!
+for _ in 1 2 3 4 5 6 7 8 9 10; do
+  ls -A "$T" | grep -q '^\.sig.txt.tmp' && break
+  sleep 0.2
+done
+check "temporary output exists while running" sh -c "ls -A '$T' | grep -q '^\.sig.txt.tmp'"
+kill -TERM "$pid"
+wait "$pid" 2> /dev/null
+check "killed run: no temporary file" sh -c "! ls -A '$T' | grep -q '^\.sig.txt.tmp'"
+check "killed run: no output" test ! -e "$T/sig.txt"
+rm -f "$T/slow.ply"
+
 # --- Voxel, radius auto, original indices ---
 "$CED" detect "$sample" --voxel 0.02 --preset ced3d --indices "$T/v.txt" --indices-original "$T/vo.txt" -q
 check "voxel run" test $? = 0

@@ -272,6 +272,12 @@ TEST(Detect, EdgeCases) {
 
   p.min_neighbors = 1000;  // larger than the cloud
   EXPECT_TRUE(ced::detect(line, p, ced::xyz{}).keypoints.empty());
+
+  p.min_neighbors = 5;  // a huge radius: everyone is everyone's neighbour, the two ends tie
+  p.radius = p.nms_radius = 1e30;
+  r = ced::detect(line, p, ced::xyz{0.0});
+  EXPECT_EQ(r.neighbor_count[7], 50u);
+  EXPECT_EQ(r.keypoints, (std::vector<std::uint32_t>{0, 49}));
 }
 
 TEST(Detect, BadParametersAreClearErrors) {

@@ -679,6 +679,7 @@ int main(int argc, char** argv) {
   conv->add_option("--columns", conv_columns, "CSV column names");
   conv->add_option("--voxel", conv_voxel, "Voxel size for down-sampling (metres)");
 
+  ced::io::remove_temporaries_on_signals();  // an interrupted run leaves no partial output
   std::vector<std::string> args(argv + 1, argv + argc);
   try {
     args = expand_config(args, *det);

@@ -48,10 +48,16 @@ class atomic_output_file {
   std::string m_temp_path;
   std::ofstream m_stream;
   bool m_committed = false;
+  int m_slot = -1;  // in the table the signal handler cleans
 };
 
 /// Writes `content` (bytes, written verbatim) to `path` through an
 /// atomic_output_file. Throws io_error on failure.
+/// Installs SIGINT/SIGTERM/SIGHUP handlers that delete the temporary files of
+/// every atomic_output_file not yet committed, then let the signal end the
+/// process as before. For programs (the CLI calls it); POSIX only.
+void remove_temporaries_on_signals();
+
 void write_text_file_atomic(const std::string& path, const std::string& content);
 
 }  // namespace ced::io
