@@ -5,6 +5,7 @@
 #include <cmath>
 #include <fstream>
 #include <iterator>
+#include <random>
 #include <set>
 
 #include "ced/ced.hpp"
@@ -362,5 +363,28 @@ TEST(Detect, MatchesPclReferenceOnRedwoodScan) {
     std::set_symmetric_difference(got.begin(), got.end(), want.begin(), want.end(), std::back_inserter(diff));
     EXPECT_LE(double(diff.size()), 0.005 * double(want.size()))
         << preset << ": " << got.size() << " vs " << want.size() << " keypoints";
+  }
+}
+
+// Many bands (hyperspectral-like): bands(...) with more dimensions than the
+// small fixed buffer takes the dimension-outer path; both must match the oracle.
+TEST(Detect, ManyBandsMatchOracle) {
+  auto c = make_room(1500, 13);
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<int> u(0, 255);
+  std::vector<std::string> names;
+  for (int b = 0; b < 20; ++b) {
+    std::vector<double> v(c.size());
+    for (auto& x : v) x = u(rng) / (b % 3 == 0 ? 8 : 1);  // some smooth-ish, some noisy
+    names.push_back("b" + std::to_string(b));
+    c.add_field(names.back(), ced::scalar_type::uint8, v);
+  }
+  ced::detect_params p;
+  for (std::size_t k : {std::size_t(5), std::size_t(20)}) {
+    const std::vector<std::string> use(names.begin(), names.begin() + std::ptrdiff_t(k));
+    const auto r = ced::detect(c, p, ced::xyz{}, ced::bands(use, 0.4));
+    const auto o = oracle(c, {xyz_channel(c, 0.2, p.radius), field_channel(c, use, 255, 0.4)}, p.radius, p.nms_radius,
+                          p.min_neighbors);
+    expect_matches_oracle(r, o);
   }
 }

@@ -70,9 +70,17 @@ class centroid_distance {
       for (int d = 0; d < Dims; ++d) a0[std::size_t(d)] += a1[std::size_t(d)];
       return finish(a0.data(), std::size_t(Dims), nb.size);
     } else {
-      // Dimension-outer so that any number of bands needs no buffer.
       const std::size_t dims = m_dims;
       const float* vi = m_values.data() + dims * nb.point;
+      if (dims <= k_small) {  // neighbour-outer, as the fixed-size path
+        std::array<double, k_small> acc{};
+        for (std::uint32_t j : nb) {
+          const float* vj = m_values.data() + dims * j;
+          for (std::size_t d = 0; d < dims; ++d) acc[d] += static_cast<double>(vj[d] - vi[d]);
+        }
+        return finish(acc.data(), dims, nb.size);
+      }
+      // Dimension-outer, so that any number of bands needs no buffer.
       double result = 0;
       for (std::size_t d = 0; d < dims; ++d) {
         double acc = 0;
@@ -84,6 +92,8 @@ class centroid_distance {
   }
 
  private:
+  static constexpr std::size_t k_small = 16;
+
   double combine(double so_far, double m) const noexcept {
     switch (m_norm) {
       case norm_type::l1:
