@@ -315,6 +315,12 @@ point_cloud parse_csv(std::string_view text, const std::string& file, const csv_
   }
   if (names.empty()) return point_cloud{};  // skip_header and nothing else
 
+  // Each column becomes a cloud field, found by linear search: bound the
+  // count so that a long header line cannot cost quadratic time.
+  constexpr std::size_t max_columns = 4096;
+  if (names.size() > max_columns)
+    fail(file, source + " names " + std::to_string(names.size()) + " columns (at most " + std::to_string(max_columns) +
+                   " are supported)");
   {
     std::set<std::string> seen;
     for (const auto& n : names) {
@@ -334,9 +340,14 @@ point_cloud parse_csv(std::string_view text, const std::string& file, const csv_
   const std::size_t ncols = names.size();
   std::vector<column_state> cols(ncols);
   if (have_data) {
-    const std::size_t estimate = static_cast<std::size_t>(std::count(
-                                     text.begin() + static_cast<std::ptrdiff_t>(data_start.pos), text.end(), '\n')) +
-                                 1;
+    // At most one point per line, and a line with ncols values takes at least
+    // 2 * ncols bytes (a digit and a separator each): so the reservation stays
+    // within a few times the file size, however many columns the header names.
+    const std::size_t remaining = text.size() - data_start.pos;
+    const std::size_t lines_left = static_cast<std::size_t>(std::count(
+                                       text.begin() + static_cast<std::ptrdiff_t>(data_start.pos), text.end(), '\n')) +
+                                   1;
+    const std::size_t estimate = std::min(lines_left, remaining / (2 * ncols) + 1);
     for (auto& c : cols) c.values.reserve(estimate);
   }
   lines = data_start;

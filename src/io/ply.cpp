@@ -25,6 +25,12 @@ namespace {
 
 [[noreturn]] void fail(const std::string& file, const std::string& msg) { throw io_error(file + ": " + msg); }
 
+// Header limits. Duplicate names are checked, and vertex properties become
+// cloud fields, by linear search: bounding the counts keeps a small hostile
+// header from costing quadratic time.
+constexpr std::size_t max_elements = 4096;
+constexpr std::size_t max_properties = 4096;
+
 bool host_little_endian() noexcept {
   const std::uint16_t one = 1;
   unsigned char b = 0;
@@ -222,6 +228,8 @@ ply_header parse_header(std::string_view data, const std::string& file) {
       const auto r = std::from_chars(w[2].data(), w[2].data() + w[2].size(), e.count);
       if (r.ec != std::errc() || r.ptr != w[2].data() + w[2].size())
         fail(file, where() + "invalid count '" + std::string(w[2]) + "' for element '" + e.name + "'");
+      if (h.elements.size() >= max_elements)
+        fail(file, where() + "too many elements (more than " + std::to_string(max_elements) + ")");
       for (const auto& other : h.elements)
         if (other.name == e.name) fail(file, where() + "element '" + e.name + "' is declared twice");
       h.elements.push_back(std::move(e));
@@ -247,6 +255,9 @@ ply_header parse_header(std::string_view data, const std::string& file) {
         fail(file, where() + "malformed property line '" + std::string(line) + "'");
       }
       auto& e = h.elements.back();
+      if (e.props.size() >= max_properties)
+        fail(file, where() + "element '" + e.name + "' has too many properties (more than " +
+                       std::to_string(max_properties) + ")");
       for (const auto& other : e.props)
         if (other.name == p.name)
           fail(file, where() + "property '" + p.name + "' is declared twice in element '" + e.name + "'");

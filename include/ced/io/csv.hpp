@@ -54,7 +54,8 @@ struct csv_options {
 ///
 /// Throws io_error naming the file, and the line and column where it applies:
 /// empty file, wrong number of values on a line, non-numeric value, missing
-/// x/y/z column, duplicate column names, no header and an unusual column count;
+/// x/y/z column, duplicate column names, more than 4096 columns, no header and
+/// an unusual column count;
 /// std::invalid_argument for an unsupported delimiter option.
 ///
 /// Threading: reentrant (no shared state).

@@ -49,7 +49,8 @@ struct pcd_read_info {
 ///
 /// Throws io_error, naming the file, for anything malformed: not a PCD file,
 /// unknown keyword or DATA format, missing DATA/FIELDS/x/y/z, FIELDS SIZE TYPE
-/// COUNT of different lengths, unsupported TYPE/SIZE, POINTS != WIDTH ×
+/// COUNT of different lengths, unsupported TYPE/SIZE, more than 4096 values
+/// per point, POINTS != WIDTH ×
 /// HEIGHT, point counts the remaining bytes cannot hold (checked before
 /// allocating; a binary_compressed body must declare exactly POINTS × point
 /// size uncompressed bytes, at most 100 × its compressed size + 1024: LZF

@@ -26,7 +26,8 @@ enum class ply_format { ascii, binary_little_endian, binary_big_endian };
 /// - NaN/Inf coordinates are kept: the caller decides what to do with them.
 ///
 /// Throws io_error, naming the file, for anything malformed: bad magic,
-/// unknown format or type, missing end_header, missing vertex element or
+/// unknown format or type, missing end_header, more than 4096 elements or
+/// 4096 properties in an element, missing vertex element or
 /// x/y/z, impossible element counts (checked before allocating), truncated
 /// bodies, unparsable or out-of-range ascii values.
 ///
