@@ -41,8 +41,15 @@ using knn = CGAL::Orthogonal_k_neighbor_search<traits, distance, splitter, tree_
 }  // namespace
 
 struct neighbor_index::impl {
-  std::vector<point_3> points;
+  std::vector<point_3> points;       // in `order` when one was given
+  std::vector<std::uint32_t> order;  // tree key -> index into xyz (empty: the identity)
   tree_type tree;
+
+  std::uint32_t index_of(std::uint32_t key) const noexcept { return order.empty() ? key : order[key]; }
+  void translate(std::vector<std::uint32_t>& keys) const noexcept {
+    if (!order.empty())
+      for (auto& k : keys) k = order[k];
+  }
 
   impl(std::vector<point_3>&& pts, unsigned bucket)
       : points(std::move(pts)),
@@ -51,14 +58,20 @@ struct neighbor_index::impl {
              traits(CGAL::make_property_map(points))) {}
 };
 
-neighbor_index::neighbor_index(const float* xyz, std::size_t n, unsigned bucket_size, unsigned threads)
+neighbor_index::neighbor_index(const float* xyz, std::size_t n, unsigned bucket_size, unsigned threads,
+                               const std::uint32_t* order)
     : m_xyz(xyz), m_n(n) {
   if (n > std::size_t(UINT32_MAX) - 1) throw std::length_error("neighbor_index: too many points (max 2^32-2)");
   if (bucket_size == 0) throw std::invalid_argument("neighbor_index: bucket_size must be positive");
   std::vector<point_3> pts;
   pts.reserve(n);
-  for (std::size_t i = 0; i < n; ++i) pts.emplace_back(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t i = order ? order[k] : k;
+    if (i >= n) throw std::invalid_argument("neighbor_index: order is not a permutation");
+    pts.emplace_back(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
+  }
   m_impl = std::make_unique<impl>(std::move(pts), bucket_size);
+  if (order) m_impl->order.assign(order, order + n);
   if (n == 0) return;
 #if defined(CED_HAS_TBB) && defined(CGAL_LINKED_WITH_TBB)
   if (threads != 1) {
@@ -90,12 +103,14 @@ void neighbor_index::radius_search(const float c[3], double r, std::vector<std::
     const float* xyz;
     const float* c;
     float r2;
+    const impl* index;
     std::vector<std::uint32_t>* out;
-    void operator()(std::uint32_t j) const {
+    void operator()(std::uint32_t key) const {
+      const std::uint32_t j = index->index_of(key);
       if (squared_distance(xyz + 3 * std::size_t(j), c) < r2) out->push_back(j);
     }
   };
-  auto sink = boost::make_function_output_iterator(strict_filter{m_xyz, c, r2, &out});
+  auto sink = boost::make_function_output_iterator(strict_filter{m_xyz, c, r2, m_impl.get(), &out});
   m_impl->tree.search(sink, sphere(point_3(c[0], c[1], c[2]), rq, 0.0f, m_impl->tree.traits()));
 }
 
@@ -105,8 +120,10 @@ float neighbor_index::nearest_other_distance(std::uint32_t i) const {
   const knn search(m_impl->tree, point_3(p[0], p[1], p[2]), 2, 0.0f, true,
                    distance(CGAL::make_property_map(m_impl->points)));
   float best = std::numeric_limits<float>::infinity();
-  for (const auto& hit : search)
-    if (hit.first != i) best = std::min(best, std::sqrt(squared_distance(m_xyz + 3 * std::size_t(hit.first), p)));
+  for (const auto& hit : search) {
+    const std::uint32_t j = m_impl->index_of(hit.first);
+    if (j != i) best = std::min(best, std::sqrt(squared_distance(m_xyz + 3 * std::size_t(j), p)));
+  }
   return best;
 }
 
@@ -115,6 +132,7 @@ void neighbor_index::box_search(const float lo[3], const float hi[3], std::vecto
   if (m_n == 0) return;
   m_impl->tree.search(std::back_inserter(out),
                       iso_box(point_3(lo[0], lo[1], lo[2]), point_3(hi[0], hi[1], hi[2]), 0.0f, m_impl->tree.traits()));
+  m_impl->translate(out);
 }
 
 }  // namespace ced

@@ -126,29 +126,37 @@ TEST(Modality, Normalisation) {
 
 TEST(NeighborIndex, MatchesBruteForce) {
   const auto c = ced_test::make_room(2000, 3);
-  const ced::neighbor_index index(c.positions().data(), c.size(), 8);
-  std::vector<std::uint32_t> got;
-  for (double r : {0.0, 0.01, 0.05, 0.2}) {
-    const auto nb = ced_test::brute_neighbors(c, r);
-    for (std::size_t i = 0; i < c.size(); i += 7) {
-      index.radius_search(c.position(i), r, got);
-      std::sort(got.begin(), got.end());
-      ASSERT_EQ(got, nb[i]) << "r=" << r << " i=" << i;
+  // With the identity order and with a block order (the tree over permuted points).
+  const ced::block_partition blocks(c.positions().data(), c.size(), 0.03, 1);
+  for (const std::uint32_t* order : {static_cast<const std::uint32_t*>(nullptr), blocks.order().data()}) {
+    const ced::neighbor_index index(c.positions().data(), c.size(), 8, 1, order);
+    std::vector<std::uint32_t> got;
+    for (double r : {0.0, 0.01, 0.05, 0.2}) {
+      const auto nb = ced_test::brute_neighbors(c, r);
+      for (std::size_t i = 0; i < c.size(); i += 7) {
+        index.radius_search(c.position(i), r, got);
+        std::sort(got.begin(), got.end());
+        ASSERT_EQ(got, nb[i]) << "r=" << r << " i=" << i;
+      }
     }
+    const float lo[3] = {0.1f, 0.1f, -1}, hi[3] = {0.3f, 0.2f, 1};
+    index.box_search(lo, hi, got);
+    std::sort(got.begin(), got.end());
+    std::vector<std::uint32_t> want;
+    for (std::size_t i = 0; i < c.size(); ++i) {
+      const float* q = c.position(i);
+      if (q[0] >= lo[0] && q[0] <= hi[0] && q[1] >= lo[1] && q[1] <= hi[1] && q[2] >= lo[2] && q[2] <= hi[2])
+        want.push_back(static_cast<std::uint32_t>(i));
+    }
+    EXPECT_EQ(got, want);
+    index.radius_search(c.position(0), -1, got);
+    EXPECT_TRUE(got.empty());
+    float nearest = INFINITY;
+    for (std::size_t j = 1; j < c.size(); ++j)
+      nearest = std::min(nearest, std::sqrt(ced::squared_distance(c.position(0), c.position(j))));
+    EXPECT_FLOAT_EQ(index.nearest_other_distance(0), nearest);
   }
-  const float lo[3] = {0.1f, 0.1f, -1}, hi[3] = {0.3f, 0.2f, 1};
-  index.box_search(lo, hi, got);
-  std::sort(got.begin(), got.end());
-  std::vector<std::uint32_t> want;
-  for (std::size_t i = 0; i < c.size(); ++i) {
-    const float* q = c.position(i);
-    if (q[0] >= lo[0] && q[0] <= hi[0] && q[1] >= lo[1] && q[1] <= hi[1] && q[2] >= lo[2] && q[2] <= hi[2])
-      want.push_back(static_cast<std::uint32_t>(i));
-  }
-  EXPECT_EQ(got, want);
   ced::neighbor_index none(nullptr, 0);
-  index.radius_search(c.position(0), -1, got);
-  EXPECT_TRUE(got.empty());
 }
 
 TEST(BlockPartition, CoversEveryPointOnce) {

@@ -22,7 +22,12 @@ class neighbor_index {
  public:
   /// Builds the index over `n` points given as N×3 row-major floats. The
   /// array must outlive the index. `bucket_size` is the kd-tree leaf size.
-  neighbor_index(const float* xyz, std::size_t n, unsigned bucket_size = 32, unsigned threads = 1);
+  /// `order`, when given, is a permutation of [0, n) listing the points in a
+  /// spatially coherent order (e.g. a block_partition's): the tree is built
+  /// over the points laid out in that order, several times faster on large
+  /// clouds. Results are indices into `xyz` either way.
+  neighbor_index(const float* xyz, std::size_t n, unsigned bucket_size = 32, unsigned threads = 1,
+                 const std::uint32_t* order = nullptr);
   ~neighbor_index();
   neighbor_index(neighbor_index&&) noexcept;
   neighbor_index& operator=(neighbor_index&&) noexcept;

@@ -33,6 +33,8 @@ class block_partition {
   std::size_t block_count() const noexcept { return m_starts.empty() ? 0 : m_starts.size() - 1; }
   const std::uint32_t* block_points(std::size_t b) const noexcept { return m_order.data() + m_starts[b]; }
   std::size_t block_size(std::size_t b) const noexcept { return m_starts[b + 1] - m_starts[b]; }
+  /// All points, block after block: a spatially coherent permutation.
+  const std::vector<std::uint32_t>& order() const noexcept { return m_order; }
 
  private:
   std::vector<std::uint32_t> m_order;
