@@ -16,7 +16,11 @@
 #include <system_error>
 #include <type_traits>
 
+#include "scalar_io.hpp"
+
 namespace ced::io {
+
+using namespace detail;  // scalar_io.hpp
 
 namespace {
 
@@ -402,50 +406,6 @@ point_cloud parse_csv(std::string_view text, const std::string& file, const csv_
 }
 
 // ------------------------------------------------------------------ writer
-
-template <class F>
-void visit_type(scalar_type t, F&& f) {
-  switch (t) {
-    case scalar_type::int8:
-      return f(std::int8_t{});
-    case scalar_type::uint8:
-      return f(std::uint8_t{});
-    case scalar_type::int16:
-      return f(std::int16_t{});
-    case scalar_type::uint16:
-      return f(std::uint16_t{});
-    case scalar_type::int32:
-      return f(std::int32_t{});
-    case scalar_type::uint32:
-      return f(std::uint32_t{});
-    case scalar_type::int64:
-      return f(std::int64_t{});
-    case scalar_type::uint64:
-      return f(std::uint64_t{});
-    case scalar_type::float32:
-      return f(float{});
-    case scalar_type::float64:
-      return f(double{});
-  }
-}
-
-/// Rounds and clamps to T's range (NaN -> 0) for integers; float: overflow -> inf.
-template <class T>
-T convert(double v) noexcept {
-  if constexpr (std::is_floating_point_v<T>) {
-    if (std::is_same_v<T, float> && std::isfinite(v) && std::fabs(v) > std::numeric_limits<float>::max())
-      return v > 0 ? std::numeric_limits<float>::infinity() : -std::numeric_limits<float>::infinity();
-    return static_cast<T>(v);
-  } else {
-    if (std::isnan(v)) return T(0);
-    const double lo = static_cast<double>(std::numeric_limits<T>::min());
-    const double hi = static_cast<double>(std::numeric_limits<T>::max());
-    v = std::round(v);
-    if (v <= lo) return std::numeric_limits<T>::min();
-    if (v >= hi) return std::numeric_limits<T>::max();
-    return static_cast<T>(v);
-  }
-}
 
 void write_csv_unchecked(std::ostream& out, const point_cloud& cloud) {
   const std::size_t n = cloud.size();

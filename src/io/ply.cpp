@@ -17,7 +17,11 @@
 #include <system_error>
 #include <type_traits>
 
+#include "scalar_io.hpp"
+
 namespace ced::io {
+
+using namespace detail;  // scalar_io.hpp
 
 namespace {
 
@@ -30,50 +34,6 @@ namespace {
 // header from costing quadratic time.
 constexpr std::size_t max_elements = 4096;
 constexpr std::size_t max_properties = 4096;
-
-bool host_little_endian() noexcept {
-  const std::uint16_t one = 1;
-  unsigned char b = 0;
-  std::memcpy(&b, &one, 1);
-  return b == 1;
-}
-
-/// Calls f(T{}) with the C++ type stored for `t`.
-template <class F>
-void visit_type(scalar_type t, F&& f) {
-  switch (t) {
-    case scalar_type::int8:
-      f(std::int8_t{});
-      return;
-    case scalar_type::uint8:
-      f(std::uint8_t{});
-      return;
-    case scalar_type::int16:
-      f(std::int16_t{});
-      return;
-    case scalar_type::uint16:
-      f(std::uint16_t{});
-      return;
-    case scalar_type::int32:
-      f(std::int32_t{});
-      return;
-    case scalar_type::uint32:
-      f(std::uint32_t{});
-      return;
-    case scalar_type::int64:
-      f(std::int64_t{});
-      return;
-    case scalar_type::uint64:
-      f(std::uint64_t{});
-      return;
-    case scalar_type::float32:
-      f(float{});
-      return;
-    case scalar_type::float64:
-      f(double{});
-      return;
-  }
-}
 
 template <class T, bool Swap>
 T load(const unsigned char* p) noexcept {
@@ -111,24 +71,6 @@ void decode_column(const unsigned char* p, std::size_t stride, std::size_t n, sc
     else
       for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<double>(load<T, false>(p + i * stride));
   });
-}
-
-/// Rounds and clamps to T's range (NaN -> 0) for integers; float: overflow -> inf.
-template <class T>
-T convert(double v) noexcept {
-  if constexpr (std::is_floating_point_v<T>) {
-    if (std::is_same_v<T, float> && std::isfinite(v) && std::fabs(v) > std::numeric_limits<float>::max())
-      return v > 0 ? std::numeric_limits<float>::infinity() : -std::numeric_limits<float>::infinity();
-    return static_cast<T>(v);
-  } else {
-    if (std::isnan(v)) return T(0);
-    const double lo = static_cast<double>(std::numeric_limits<T>::min());
-    const double hi = static_cast<double>(std::numeric_limits<T>::max());
-    v = std::round(v);
-    if (v <= lo) return std::numeric_limits<T>::min();
-    if (v >= hi) return std::numeric_limits<T>::max();
-    return static_cast<T>(v);
-  }
 }
 
 bool is_space(char c) noexcept { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\v' || c == '\f'; }
@@ -346,60 +288,6 @@ std::size_t read_binary_element(std::string_view data, std::size_t pos, const el
 }
 
 // -------------------------------------------------------------- ascii body
-
-enum class parse_status { ok, not_a_number, not_an_integer, out_of_range };
-
-parse_status parse_double(std::string_view tok, double& out) noexcept {
-  const char* b = tok.data();
-  const char* e = b + tok.size();
-  if (b != e && *b == '+') ++b;
-  const auto r = std::from_chars(b, e, out);
-  if (r.ptr != e || (r.ec != std::errc() && r.ec != std::errc::result_out_of_range)) return parse_status::not_a_number;
-  if (r.ec == std::errc::result_out_of_range) {  // overflow, or underflow to a denormal/zero
-    char buf[128];
-    if (tok.size() >= sizeof(buf)) return parse_status::out_of_range;
-    std::memcpy(buf, tok.data(), tok.size());
-    buf[tok.size()] = '\0';
-    out = std::strtod(buf, nullptr);
-    if (std::isinf(out)) return parse_status::out_of_range;
-  }
-  return parse_status::ok;
-}
-
-parse_status parse_ascii_value(std::string_view tok, scalar_type t, double& out) noexcept {
-  if (!is_integer(t)) {
-    const parse_status s = parse_double(tok, out);
-    if (s != parse_status::ok) return s;
-    if (t == scalar_type::float32) {
-      if (std::isfinite(out) && std::fabs(out) > std::numeric_limits<float>::max()) return parse_status::out_of_range;
-      out = static_cast<double>(static_cast<float>(out));
-    }
-    return parse_status::ok;
-  }
-  const auto range = natural_range(t);
-  const char* b = tok.data();
-  const char* e = b + tok.size();
-  if (b != e && *b == '+') ++b;
-  if (t == scalar_type::uint64) {
-    std::uint64_t v = 0;
-    const auto r = std::from_chars(b, e, v);
-    if (r.ptr == e && r.ec == std::errc()) return out = static_cast<double>(v), parse_status::ok;
-    if (r.ptr == e && r.ec == std::errc::result_out_of_range) return parse_status::out_of_range;
-  } else {
-    std::int64_t v = 0;
-    const auto r = std::from_chars(b, e, v);
-    if (r.ptr == e && r.ec == std::errc()) {
-      out = static_cast<double>(v);
-      return out < range[0] || out > range[1] ? parse_status::out_of_range : parse_status::ok;
-    }
-    if (r.ptr == e && r.ec == std::errc::result_out_of_range) return parse_status::out_of_range;
-  }
-  // Tolerate integral values written as floats ("255.0", "1e3").
-  const parse_status s = parse_double(tok, out);
-  if (s != parse_status::ok) return s;
-  if (!std::isfinite(out) || out != std::floor(out)) return parse_status::not_an_integer;
-  return out < range[0] || out > range[1] ? parse_status::out_of_range : parse_status::ok;
-}
 
 struct tokenizer {
   const char* p;
