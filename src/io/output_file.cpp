@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: MIT
 #include "ced/io/output_file.hpp"
 
+#include "scalar_io.hpp"
+
 #ifdef _WIN32
 #include <process.h>
 #else
@@ -13,6 +15,8 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <memory>
+#include <string>
 #include <system_error>
 
 namespace ced::io {
@@ -121,6 +125,26 @@ void atomic_output_file::commit() {
   }
   m_committed = true;
 }
+
+namespace detail {
+std::string read_whole_file(const std::string& path) {
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) throw io_error("cannot read '" + path + "': it is a directory");
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
+  if (!f) throw io_error("cannot open '" + path + "': " + errno_text(errno));
+  std::string data;
+  const auto size = fs::file_size(path, ec);
+  if (!ec) {
+    data.resize(static_cast<std::size_t>(size));
+    data.resize(std::fread(data.data(), 1, data.size(), f.get()));
+  }
+  char buf[1 << 16];
+  std::size_t got = 0;
+  while ((got = std::fread(buf, 1, sizeof(buf), f.get())) > 0) data.append(buf, got);
+  if (std::ferror(f.get())) throw io_error("error reading '" + path + "'");
+  return data;
+}
+}  // namespace detail
 
 void write_text_file_atomic(const std::string& path, const std::string& content) {
   atomic_output_file out(path);

@@ -526,17 +526,7 @@ void write_ply_unchecked(std::ostream& out, const point_cloud& cloud, ply_format
 }  // namespace
 
 point_cloud read_ply(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw io_error("cannot read '" + path + "': it is a directory");
-  std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
-  if (!f) throw io_error("cannot open '" + path + "': " + std::error_code(errno, std::generic_category()).message());
-  std::string data;
-  const auto size = std::filesystem::file_size(path, ec);
-  if (!ec) data.reserve(static_cast<std::size_t>(size));
-  char buf[1 << 16];
-  std::size_t got = 0;
-  while ((got = std::fread(buf, 1, sizeof(buf), f.get())) > 0) data.append(buf, got);
-  if (std::ferror(f.get())) throw io_error("error reading '" + path + "'");
+  const std::string data = detail::read_whole_file(path);
   return parse_ply(data, path);
 }
 

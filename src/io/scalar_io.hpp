@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <string>
 #include <string_view>
 #include <system_error>
 #include <type_traits>
@@ -16,6 +17,10 @@
 #include "ced/cloud.hpp"
 
 namespace ced::io::detail {
+
+/// The whole file at `path`; io_error naming it when it is a directory,
+/// cannot be opened or cannot be read. (Defined in output_file.cpp.)
+std::string read_whole_file(const std::string& path);
 
 inline bool host_little_endian() noexcept {
   const std::uint16_t one = 1;
