@@ -11,6 +11,8 @@
 #include <sstream>
 #include <string>
 
+#include "ced/io/output_file.hpp"
+
 namespace ced_test {
 
 inline std::filesystem::path temp_dir() {
@@ -40,6 +42,23 @@ inline std::string read_bytes(const std::string& path) {
   std::ostringstream s;
   s << in.rdbuf();
   return s.str();
+}
+
+/// Writes `bytes` to a temporary file `name`, calls `read(path)`, and returns
+/// the io_error message it throws (expecting it to name the file), or
+/// "<no io_error thrown>".
+template <class Read>
+std::string read_error_of(Read&& read, const std::string& bytes, const std::string& name) {
+  const std::string path = temp_file(name);
+  write_bytes(path, bytes);
+  try {
+    read(path);
+  } catch (const ced::io::io_error& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find(path), std::string::npos) << "message does not name the file: " << msg;
+    return msg;
+  }
+  return "<no io_error thrown>";
 }
 
 }  // namespace ced_test

@@ -31,16 +31,7 @@ point_cloud read_text(const std::string& text, const csv_options& opt = {}) {
 
 /// The io_error message from reading `text` (through a file named `name`).
 std::string read_error(const std::string& text, const csv_options& opt = {}, const std::string& name = "bad.csv") {
-  const std::string path = temp_file(name);
-  write_bytes(path, text);
-  try {
-    ced::io::read_csv(path, opt);
-  } catch (const io_error& e) {
-    const std::string msg = e.what();
-    EXPECT_NE(msg.find(path), std::string::npos) << "message does not name the file: " << msg;
-    return msg;
-  }
-  return "<no io_error thrown>";
+  return ced_test::read_error_of([&opt](const std::string& path) { ced::io::read_csv(path, opt); }, text, name);
 }
 
 std::vector<std::string> field_names(const point_cloud& c) {

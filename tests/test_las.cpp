@@ -262,16 +262,7 @@ std::vector<las_point> sample_points(int f) {
 }
 
 std::string read_error(const std::string& bytes, const std::string& name = "bad.las") {
-  const std::string path = temp_file(name);
-  write_bytes(path, bytes);
-  try {
-    ced::io::read_las(path);
-  } catch (const io_error& e) {
-    const std::string msg = e.what();
-    EXPECT_NE(msg.find(path), std::string::npos) << "message does not name the file: " << msg;
-    return msg;
-  }
-  return "<no io_error thrown>";
+  return ced_test::read_error_of([](const std::string& path) { ced::io::read_las(path); }, bytes, name);
 }
 
 const std::vector<double>& values(const point_cloud& c, const std::string& name) { return c.get_field(name).values; }

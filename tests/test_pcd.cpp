@@ -35,16 +35,7 @@ point_cloud read_string(const std::string& bytes, pcd_read_info* info = nullptr)
 
 /// The io_error message from reading `bytes` (through a file named `name`).
 std::string read_error(const std::string& bytes, const std::string& name = "bad.pcd") {
-  const std::string path = temp_file(name);
-  write_bytes(path, bytes);
-  try {
-    ced::io::read_pcd(path);
-  } catch (const io_error& e) {
-    const std::string msg = e.what();
-    EXPECT_NE(msg.find(path), std::string::npos) << "message does not name the file: " << msg;
-    return msg;
-  }
-  return "<no io_error thrown>";
+  return ced_test::read_error_of([](const std::string& path) { ced::io::read_pcd(path); }, bytes, name);
 }
 
 std::string lzf_error(const std::string& compressed, std::size_t out_size) {

@@ -33,16 +33,7 @@ point_cloud read_string(const std::string& bytes, const std::string& name = "tes
 
 /// The io_error message from reading `bytes` (through a file named `name`).
 std::string read_error(const std::string& bytes, const std::string& name = "bad.ply") {
-  const std::string path = temp_file(name);
-  write_bytes(path, bytes);
-  try {
-    ced::io::read_ply(path);
-  } catch (const io_error& e) {
-    const std::string msg = e.what();
-    EXPECT_NE(msg.find(path), std::string::npos) << "message does not name the file: " << msg;
-    return msg;
-  }
-  return "<no io_error thrown>";
+  return ced_test::read_error_of([](const std::string& path) { ced::io::read_ply(path); }, bytes, name);
 }
 
 /// Appends binary values in a chosen byte order.
