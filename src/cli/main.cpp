@@ -215,9 +215,9 @@ int run_detect(const detect_options& o) {
   const std::size_t n_file = cloud.size() + report.nonfinite_removed;
   // original[i]: index in the input file's (finite) points of detector point i.
   std::vector<std::uint32_t> original = ced::remove_nonfinite(cloud);
-  const std::size_t n_dropped = report.nonfinite_removed + (n_file - report.nonfinite_removed - cloud.size());
-  if (cloud.empty()) throw ced::io::io_error(o.input + ": the cloud has no (finite) points");
   const std::size_t n_finite = cloud.size();
+  const std::size_t n_dropped = n_file - n_finite;  // by the reader (PCD) and just now
+  if (cloud.empty()) throw ced::io::io_error(o.input + ": the cloud has no (finite) points");
   double voxel_ms = 0;
   if (o.voxel > 0) {
     progress.stage("voxels");
