@@ -59,30 +59,26 @@ int main(int argc, char** argv) {
       iss.setInputCloud(cloud);
       iss.compute(out);
       count = out.size();
-    } else if (method == "harris3d") {
-      pcl::HarrisKeypoint3D<pcl::PointXYZRGB, pcl::PointXYZI> h;
-      pcl::PointCloud<pcl::PointXYZI> out;
-      h.setSearchMethod(tree);
-      h.setRadius(radius);
-      h.setRadiusSearch(radius);
-      h.setNonMaxSupression(true);
-      h.setThreshold(1e-6f);
-      h.setNumberOfThreads(1);
-      h.setInputCloud(cloud);
-      h.compute(out);
-      count = out.size();
     } else {
-      pcl::HarrisKeypoint6D<pcl::PointXYZRGB, pcl::PointXYZI> h;
-      pcl::PointCloud<pcl::PointXYZI> out;
-      h.setSearchMethod(tree);
-      h.setRadius(radius);
-      h.setRadiusSearch(radius);
-      h.setNonMaxSupression(true);
-      h.setThreshold(1e-6f);
-      h.setNumberOfThreads(1);
-      h.setInputCloud(cloud);
-      h.compute(out);
-      count = out.size();
+      auto harris = [&](auto& h) {
+        pcl::PointCloud<pcl::PointXYZI> out;
+        h.setSearchMethod(tree);
+        h.setRadius(radius);
+        h.setRadiusSearch(radius);
+        h.setNonMaxSupression(true);
+        h.setThreshold(1e-6f);
+        h.setNumberOfThreads(1);
+        h.setInputCloud(cloud);
+        h.compute(out);
+        count = out.size();
+      };
+      if (method == "harris3d") {
+        pcl::HarrisKeypoint3D<pcl::PointXYZRGB, pcl::PointXYZI> h;
+        harris(h);
+      } else {
+        pcl::HarrisKeypoint6D<pcl::PointXYZRGB, pcl::PointXYZI> h;
+        harris(h);
+      }
     }
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     std::fprintf(stderr, "pcl_ced: %s %zu keypoints, %.1f ms\n", method.c_str(), count, ms);
