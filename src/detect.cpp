@@ -71,7 +71,7 @@ void collect_candidate_lists(const neighbor_block& block, const float* const* co
   for (std::size_t k = 0; k < block.size(); ++k)
     if (is_candidate(columns, thresholds, block.point(k))) {
       local.push_back(k);
-      total += block[k].size;
+      total += block.count(k);
     }
   cl.points.reserve(local.size());
   cl.offsets.reserve(local.size() + 1);
@@ -79,14 +79,17 @@ void collect_candidate_lists(const neighbor_block& block, const float* const* co
   cl.indices.reserve(total);
   const float r2 = squared_radius(params.nms_radius);
   for (std::size_t k : local) {
-    const neighborhood nb = block[k];
-    cl.points.push_back(nb.point);
-    if (params.nms_radius == params.radius) {
-      cl.indices.insert(cl.indices.end(), nb.begin(), nb.end());
-    } else {
-      const float* pp = xyz + 3 * std::size_t(nb.point);
-      for (std::uint32_t j : nb)
-        if (squared_distance(xyz + 3 * std::size_t(j), pp) < r2) cl.indices.push_back(j);
+    const std::uint32_t i = block.point(k);
+    cl.points.push_back(i);
+    const std::size_t first = cl.indices.size();
+    cl.indices.resize(first + block.count(k));
+    block.neighbors(k, cl.indices.data() + first);
+    if (params.nms_radius != params.radius) {
+      const float* pp = xyz + 3 * std::size_t(i);
+      const auto far =
+          std::remove_if(cl.indices.begin() + std::ptrdiff_t(first), cl.indices.end(),
+                         [&](std::uint32_t j) { return !(squared_distance(xyz + 3 * std::size_t(j), pp) < r2); });
+      cl.indices.erase(far, cl.indices.end());
     }
     cl.offsets.push_back(static_cast<std::uint32_t>(cl.indices.size()));
   }
@@ -127,7 +130,10 @@ detection_context::detection_context(const point_cloud& cloud, const detect_para
 
 detection_context::~detection_context() = default;
 
-void detection_context::compute_saliency(const std::function<void(const neighbor_block&, float* const*)>& f) {
+void detection_context::compute_saliency(const std::vector<channel_source>& sources,
+                                         const std::function<void(const neighbor_block&, float* const*)>& f) {
+  if (sources.size() != m_impl->result.names.size())
+    throw std::invalid_argument("compute_saliency: one channel source per modality expected");
   const auto t0 = clock_type::now();
   auto& r = m_impl->result;
   const std::size_t n = m_impl->cloud.size();
@@ -150,9 +156,10 @@ void detection_context::compute_saliency(const std::function<void(const neighbor
   const std::size_t report_every = std::max<std::size_t>(1, blocks.block_count() / 100);
   parallel_for(blocks.block_count(), resolve_threads(params.threads), 8, [&](std::size_t b0, std::size_t b1) {
     neighbor_block block;
+    block.set_channels(sources);
     for (std::size_t b = b0; b < b1; ++b) {
       block.fill(m_impl->index, xyz, blocks.block_points(b), blocks.block_size(b), params.radius);
-      for (std::size_t k = 0; k < block.size(); ++k) r.neighbor_count[block.point(k)] = block[k].size;
+      for (std::size_t k = 0; k < block.size(); ++k) r.neighbor_count[block.point(k)] = block.count(k);
       f(block, columns.data());
       if (!keep_lists) continue;
       candidate_lists& cl = m_impl->lists[b];
@@ -233,9 +240,13 @@ detection_result detect(const point_cloud& cloud, const detect_params& params,
   }
   detail::detection_context ctx(cloud, params, std::move(names), std::move(thresholds));
   std::vector<std::unique_ptr<bound_modality>> bound;
-  for (const auto& m : modalities) bound.push_back(m.bind(cloud, params));
-  ctx.compute_saliency([&](const neighbor_block& block, float* const* columns) {
-    for (std::size_t k = 0; k < bound.size(); ++k) bound[k]->evaluate(block, params.min_neighbors, columns[k]);
+  std::vector<channel_source> sources;
+  for (const auto& m : modalities) {
+    bound.push_back(m.bind(cloud, params));
+    sources.push_back(bound.back()->channels());
+  }
+  ctx.compute_saliency(sources, [&](const neighbor_block& block, float* const* columns) {
+    for (std::size_t k = 0; k < bound.size(); ++k) bound[k]->evaluate(block, k, params.min_neighbors, columns[k]);
   });
   return ctx.finish();
 }

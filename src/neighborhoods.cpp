@@ -2,16 +2,14 @@
 #include "ced/neighborhoods.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <utility>
 
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
-
 #include "ced/detail/parallel.hpp"
+#include "kernel/block_kernel.hpp"
 
 #ifdef CED_HAS_TBB
 #include <oneapi/tbb/parallel_sort.h>
@@ -98,69 +96,222 @@ void padded_bounds(const float* xyz, const std::uint32_t* points, std::size_t co
 }
 }  // namespace detail
 
+namespace {
+struct kernel_set {
+  void (*pass)(const detail::block_kernel_input&, const detail::block_kernel_output&) noexcept;
+  void (*compact)(const std::uint32_t*, const std::uint32_t*, const std::uint8_t*, std::uint32_t,
+                  std::uint32_t*) noexcept;
+  const char* name;
+};
+constexpr kernel_set generic_kernels{detail::block_kernel_generic, detail::compact_generic, "generic"};
+
+kernel_set best_kernels() noexcept {
+#if defined(CED_HAS_AVX2_KERNEL)
+  if (__builtin_cpu_supports("avx2")) return {detail::block_kernel_avx2, detail::compact_avx2, "avx2"};
+#endif
+  return generic_kernels;
+}
+std::atomic<bool> g_force_generic{false};
+
+const kernel_set& active_kernels() noexcept {
+  static const kernel_set best = best_kernels();
+  return g_force_generic.load(std::memory_order_relaxed) ? generic_kernels : best;
+}
+
+/// Sub-grids up to this many cells are sorted by counting, larger ones
+/// (blocks far wider than the radius) by comparison.
+constexpr std::uint64_t max_counted_cells = 1u << 14;
+}  // namespace
+
+namespace detail {
+const char* kernel_isa() noexcept { return active_kernels().name; }
+void force_generic_kernel(bool on) noexcept { g_force_generic.store(on); }
+}  // namespace detail
+
+void neighbor_block::set_channels(const std::vector<channel_source>& sources) {
+  m_sources = sources;
+  m_slot_offset.clear();
+  m_channels = 0;
+  for (const channel_source& s : sources) {
+    if (s.positions) {
+      m_slot_offset.push_back(0);
+    } else {
+      m_slot_offset.push_back(3 + m_channels);
+      if (s.values) m_channels += s.dims;
+    }
+  }
+  m_sum_stride = 3 + m_channels;
+}
+
+std::size_t neighbor_block::cell_start(std::uint64_t key) const noexcept {
+  if (!m_cell_start.empty()) return m_cell_start[key];
+  const auto it = std::lower_bound(m_keyed.begin(), m_keyed.end(), std::make_pair(key, std::uint32_t(0)));
+  return static_cast<std::size_t>(it - m_keyed.begin());
+}
+
+void neighbor_block::sort_into_cells(const float* xyz, const float lo[3], const float hi[3], double r) {
+  // Sub-cells a little wider than r in y and z: a neighbour (even one the
+  // float test accepts at a true distance a hair over r) is at most one row
+  // away. Narrower in x, where each row is cut to the ball's extent.
+  const double wide = r * (1.0 + 1.0 / 1024);
+  const double side[3] = {wide / detail::x_cells_per_radius, wide, wide};
+  for (int a = 0; a < 3; ++a) {
+    m_side[a] = side[a];
+    m_inv_side[a] = 1.0 / side[a];
+  }
+  long double total = 1;
+  bool too_fine = false;
+  for (int a = 0; a < 3; ++a) {
+    m_lo[a] = lo[a];
+    const double extent = std::floor((double(hi[a]) - m_lo[a]) * m_inv_side[a]);
+    if (extent < 1e6)
+      m_dims[a] = static_cast<std::uint64_t>(std::max(extent, 0.0)) + 1;
+    else
+      too_fine = true;
+  }
+  m_single_cell = too_fine;  // absurd radius for the block: one cell, all tested
+  if (too_fine) m_dims[0] = m_dims[1] = m_dims[2] = 1;
+  for (int a = 0; a < 3; ++a) total *= static_cast<long double>(m_dims[a]);
+  const std::size_t g = m_raw.size();
+  m_keyed.resize(g);
+  for (std::size_t t = 0; t < g; ++t) {
+    std::uint64_t c[3];
+    cell_of(xyz + 3 * std::size_t(m_raw[t]), c);
+    m_keyed[t] = {(c[2] * m_dims[1] + c[1]) * m_dims[0] + c[0], m_raw[t]};
+  }
+  m_gathered.resize(g + 8);  // 8 past the end: the compaction reads whole groups
+  std::fill(m_gathered.begin() + std::ptrdiff_t(g), m_gathered.end(), 0u);
+  if (total <= static_cast<long double>(max_counted_cells)) {
+    // Counting sort: stable, so the order is (cell, query order).
+    const std::size_t cells = static_cast<std::size_t>(m_dims[0] * m_dims[1] * m_dims[2]);
+    m_cell_start.assign(cells + 1, 0);
+    for (const auto& kv : m_keyed) ++m_cell_start[kv.first + 1];
+    for (std::size_t c = 0; c < cells; ++c) m_cell_start[c + 1] += m_cell_start[c];
+    std::vector<std::uint32_t>& next = m_ranges;  // scratch, overwritten later
+    next.assign(m_cell_start.begin(), m_cell_start.end() - 1);
+    for (const auto& kv : m_keyed) m_gathered[next[kv.first]++] = kv.second;
+  } else {
+    // Same order by comparison: (cell, then position in the query's order).
+    for (std::size_t t = 0; t < g; ++t) m_keyed[t].second = static_cast<std::uint32_t>(t);
+    std::sort(m_keyed.begin(), m_keyed.end());
+    for (std::size_t t = 0; t < g; ++t) m_gathered[t] = m_raw[m_keyed[t].second];
+    m_cell_start.clear();  // cell_start() then searches m_keyed
+  }
+}
+
 void neighbor_block::fill(const neighbor_index& index, const float* xyz, const std::uint32_t* points, std::size_t count,
                           double r) {
   m_points = points;
   m_count = count;
-  m_offsets.assign(count + 1, 0);
+  m_lists_built = false;
   if (count == 0) return;
   float lo[3], hi[3];
   detail::padded_bounds(xyz, points, count, r, lo, hi);
-  index.box_search(lo, hi, m_gathered);
-  const std::size_t g = m_gathered.size();
-  // Gathered coordinates as structure of arrays, padded to a multiple of 4
-  // with points at infinity (their squared distance is +inf, never < r²).
-  const std::size_t g4 = (g + 3) & ~std::size_t(3);
-  m_gathered.resize(g4, 0);  // padding lanes never hit
-  constexpr float far = std::numeric_limits<float>::infinity();
-  m_gx.assign(g4, far);
-  m_gy.assign(g4, far);
-  m_gz.assign(g4, far);
+  index.box_search(lo, hi, m_raw);
+  sort_into_cells(xyz, lo, hi, r);
+
+  // Gathered positions and channels as structure of arrays, 8 floats of
+  // zero padding at the end (the kernel reads whole groups of 8).
+  const std::size_t g = m_raw.size(), stride = g + 8;
+  for (auto* v : {&m_gx, &m_gy, &m_gz}) {
+    v->resize(stride);
+    std::fill(v->begin() + std::ptrdiff_t(g), v->end(), 0.0f);
+  }
   for (std::size_t t = 0; t < g; ++t) {
     const float* p = xyz + 3 * std::size_t(m_gathered[t]);
     m_gx[t] = p[0];
     m_gy[t] = p[1];
     m_gz[t] = p[2];
   }
-  const float r2 = squared_radius(r);
-  // Hits are written in gathered order, so a point's neighbour order depends
-  // only on the block, whichever code path runs. The SSE2 path computes
-  // ((dx·dx + dy·dy) + dz·dz) exactly as the scalar expression does.
-  std::size_t pos = 0;
-  for (std::size_t q = 0; q < count; ++q) {
-    if (m_indices.size() < pos + g4) m_indices.resize(std::max(2 * m_indices.size(), pos + g4));
-    const float* c = xyz + 3 * std::size_t(points[q]);
-    std::uint32_t* dst = m_indices.data() + pos;
-    std::size_t hits = 0;
-#if defined(__SSE2__)
-    const __m128 cx = _mm_set1_ps(c[0]), cy = _mm_set1_ps(c[1]), cz = _mm_set1_ps(c[2]), rr = _mm_set1_ps(r2);
-    for (std::size_t t = 0; t < g4; t += 4) {
-      const __m128 dx = _mm_sub_ps(_mm_loadu_ps(&m_gx[t]), cx);
-      const __m128 dy = _mm_sub_ps(_mm_loadu_ps(&m_gy[t]), cy);
-      const __m128 dz = _mm_sub_ps(_mm_loadu_ps(&m_gz[t]), cz);
-      const __m128 d2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
-      const unsigned mask = static_cast<unsigned>(_mm_movemask_ps(_mm_cmplt_ps(d2, rr)));
-      const std::uint32_t* gi = m_gathered.data() + t;  // branch-free compaction of the 4 lanes
-      dst[hits] = gi[0];
-      hits += mask & 1u;
-      dst[hits] = gi[1];
-      hits += (mask >> 1) & 1u;
-      dst[hits] = gi[2];
-      hits += (mask >> 2) & 1u;
-      dst[hits] = gi[3];
-      hits += mask >> 3;
+  m_channel_values.resize(m_channels * stride);
+  m_own.resize(m_channels * count);
+  m_centre.resize(3 * count);
+  std::size_t base = 0;
+  for (const channel_source& s : m_sources) {
+    if (s.positions || !s.values) continue;
+    for (std::size_t d = 0; d < s.dims; ++d) {
+      float* dst = m_channel_values.data() + (base + d) * stride;
+      for (std::size_t t = 0; t < g; ++t) dst[t] = s.values[std::size_t(s.dims) * m_gathered[t] + d];
+      std::fill(dst + g, dst + stride, 0.0f);
+      for (std::size_t k = 0; k < count; ++k)
+        m_own[m_channels * k + base + d] = s.values[std::size_t(s.dims) * points[k] + d];
     }
-#else
-    const float cx = c[0], cy = c[1], cz = c[2];
-    for (std::size_t t = 0; t < g; ++t) {
-      const float dx = m_gx[t] - cx, dy = m_gy[t] - cy, dz = m_gz[t] - cz;
-      dst[hits] = m_gathered[t];
-      hits += (dx * dx + dy * dy + dz * dz < r2);
-    }
-#endif
-    pos += hits;
-    m_offsets[q + 1] = static_cast<std::uint32_t>(pos);
+    base += s.dims;
   }
+
+  // Per point: the runs of sub-cells it tests, one per row (y, z) within one
+  // cell, cut to the x-cells that the ball of radius r (with a margin far
+  // above float rounding) reaches. Conservative: every point the float test
+  // can accept lies in one of them.
+  const double rc2 = r * r * (1.0 + 1e-4);
+  m_ranges.resize(2 * detail::kernel_ranges * count);
+  m_bit_offsets.resize(count + 1);
+  m_bit_offsets[0] = 0;
+  for (std::size_t k = 0; k < count; ++k) {
+    const float* p = xyz + 3 * std::size_t(points[k]);
+    std::copy(p, p + 3, m_centre.begin() + static_cast<std::ptrdiff_t>(3 * k));
+    std::uint64_t c[3];
+    cell_of(p, c);
+    std::uint32_t* rg = m_ranges.data() + 2 * detail::kernel_ranges * k;
+    std::fill(rg, rg + 2 * detail::kernel_ranges, 0u);
+    std::size_t groups = 0;
+    if (m_single_cell) {
+      rg[1] = static_cast<std::uint32_t>(g);
+      groups = (g + 7) / 8;
+    } else {
+      // Offsets of p from its own cell's low and high faces in y and z.
+      const double py = double(p[1]) - m_lo[1] - double(c[1]) * m_side[1];
+      const double pz = double(p[2]) - m_lo[2] - double(c[2]) * m_side[2];
+      const double gap_y[3] = {py, 0.0, m_side[1] - py}, gap_z[3] = {pz, 0.0, m_side[2] - pz};
+      const double x = double(p[0]) - m_lo[0];
+      const std::uint64_t last_x = m_dims[0] - 1;
+      for (int dz = -1; dz <= 1; ++dz) {
+        if ((dz < 0 && c[2] == 0) || (dz > 0 && c[2] + 1 >= m_dims[2])) continue;
+        for (int dy = -1; dy <= 1; ++dy) {
+          if ((dy < 0 && c[1] == 0) || (dy > 0 && c[1] + 1 >= m_dims[1])) continue;
+          const double gy = gap_y[dy + 1], gz = gap_z[dz + 1], left = rc2 - gy * gy - gz * gz;
+          if (left < 0) continue;
+          const double w = std::sqrt(left);
+          // Truncation is floor for the clamped, non-negative values.
+          const std::uint64_t x0 = static_cast<std::uint64_t>(std::max(0.0, (x - w) * m_inv_side[0]));
+          const std::uint64_t x1 = std::min(last_x, static_cast<std::uint64_t>(std::max(0.0, (x + w) * m_inv_side[0])));
+          if (x1 < x0) continue;
+          const std::uint64_t row = ((c[2] + std::uint64_t(dz)) * m_dims[1] + (c[1] + std::uint64_t(dy))) * m_dims[0];
+          const std::size_t b = cell_start(row + x0), e = cell_start(row + x1 + 1);
+          const std::size_t q = std::size_t((dz + 1) * 3 + (dy + 1));
+          rg[2 * q] = static_cast<std::uint32_t>(b);
+          rg[2 * q + 1] = static_cast<std::uint32_t>(e);
+          groups += (e - b + 7) / 8;
+        }
+      }
+    }
+    m_bit_offsets[k + 1] = static_cast<std::uint32_t>(m_bit_offsets[k] + groups);
+  }
+  m_bits.resize(m_bit_offsets[count]);
+  m_counts.resize(count);
+  m_sums.resize(m_sum_stride * count);
+
+  const detail::block_kernel_input in{
+      m_gx.data(), m_gy.data(),     m_gz.data(),  m_channel_values.data(), stride,           m_channels,
+      count,       m_centre.data(), m_own.data(), m_ranges.data(),         squared_radius(r)};
+  const detail::block_kernel_output out{m_counts.data(), m_sums.data(), m_bits.data()};
+  active_kernels().pass(in, out);
+}
+
+void neighbor_block::neighbors(std::size_t k, std::uint32_t* out) const noexcept {
+  active_kernels().compact(m_gathered.data(), m_ranges.data() + 2 * detail::kernel_ranges * k,
+                           m_bits.data() + m_bit_offsets[k], m_counts[k], out);
+}
+
+neighborhood neighbor_block::operator[](std::size_t k) const {
+  if (!m_lists_built) {
+    m_offsets.assign(m_count + 1, 0);
+    for (std::size_t q = 0; q < m_count; ++q) m_offsets[q + 1] = m_offsets[q] + m_counts[q];
+    m_indices.resize(m_offsets[m_count]);
+    for (std::size_t q = 0; q < m_count; ++q) neighbors(q, m_indices.data() + m_offsets[q]);
+    m_lists_built = true;
+  }
+  return {m_points[k], m_indices.data() + m_offsets[k], m_offsets[k + 1] - m_offsets[k]};
 }
 
 }  // namespace ced

@@ -103,6 +103,56 @@ TEST(Detect, SameResultForAnyThreadCountAndBlockSize) {
 // 1.5 cm, so every point sees all four. Centroid (0.25, 0.25, 0.25) cm:
 //   corner: |(0.25,0.25,0.25)| = 0.25·√3 cm;  tips: |(-0.75,0.25,0.25)| = √0.6875 cm.
 // The three tips tie for the maximum and all are kept; the corner is suppressed.
+// The neighbour pass is built for the baseline instruction set and for AVX2
+// (chosen at run time); both must give bitwise identical results, through
+// the register-accumulator paths (≤ 16 channels) and the any-count path.
+TEST(Detect, GenericAndAvx2NeighbourPassesAgreeBitwise) {
+  auto c = make_room(6000, 13);
+  std::vector<std::string> many;
+  std::mt19937 rng(3);
+  for (int b = 0; b < 20; ++b) {
+    std::vector<double> v(c.size());
+    for (double& x : v) x = double(rng() % 256);
+    many.push_back("b" + std::to_string(b));
+    c.add_field(many.back(), ced::scalar_type::uint8, std::move(v));
+  }
+  ced::detect_params p;
+  p.threads = 2;
+  const std::vector<ced::any_modality> mods = {ced::xyz{}, ced::rgb{}, ced::lab{}, ced::bands(many, 0.3)};
+  ced::detail::force_generic_kernel(false);
+  const std::string isa = ced::detail::kernel_isa();
+  const auto a = ced::detect(c, p, mods);
+  const auto a6 = ced::detect(c, p, ced::xyz{}, ced::rgb{});
+  ced::detail::force_generic_kernel(true);
+  EXPECT_STREQ(ced::detail::kernel_isa(), "generic");
+  const auto b = ced::detect(c, p, mods);
+  const auto b6 = ced::detect(c, p, ced::xyz{}, ced::rgb{});
+  ced::detail::force_generic_kernel(false);
+  if (isa == "generic") std::printf("note: this CPU has no AVX2; both runs used the generic pass\n");
+  ASSERT_GT(a.keypoints.size(), 10u);
+  EXPECT_EQ(a.saliency, b.saliency);  // bitwise
+  EXPECT_EQ(a.keypoints, b.keypoints);
+  EXPECT_EQ(a.neighbor_count, b.neighbor_count);
+  EXPECT_EQ(a6.saliency, b6.saliency);
+  EXPECT_EQ(a6.keypoints, b6.keypoints);
+}
+
+// Block sizes from a fraction of the radius to many radii (few and many
+// gathered points per block, sub-grids of every shape) all match the oracle.
+TEST(Detect, AnyBlockScaleMatchesOracle) {
+  const auto c = make_room(2000, 17);
+  ced::detect_params p;
+  const auto o = oracle(c, {xyz_channel(c, 0.2, p.radius), field_channel(c, {"red", "green", "blue"}, 255, 0.1)},
+                        p.radius, p.nms_radius, p.min_neighbors);
+  for (double scale : {0.3, 1.0, 3.0, 7.5, 40.0}) {
+    SCOPED_TRACE(scale);
+    p.block_scale = scale;
+    const auto r = ced::detect(c, p, ced::xyz{0.2}, ced::rgb{});
+    expect_matches_oracle(r, o);
+    EXPECT_EQ(r.neighbor_count, o.neighbor_count);
+  }
+}
+
 TEST(Detect, HandComputedTetrahedronTiesKeepAll) {
   ced::point_cloud c;
   c.push_back(0, 0, 0);

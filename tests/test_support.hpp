@@ -85,6 +85,7 @@ struct oracle_result {
   std::vector<std::vector<double>> saliency;  // [m][i]
   std::vector<std::uint8_t> candidate;
   std::vector<std::uint32_t> keypoints;
+  std::vector<std::uint32_t> neighbor_count;
 };
 
 /// The CED definition, literally: centroid = sum/n, distance in the norm,
@@ -94,6 +95,7 @@ inline oracle_result oracle(const ced::point_cloud& c, const std::vector<oracle_
   const std::size_t n = c.size();
   const auto nb = brute_neighbors(c, radius);
   oracle_result r;
+  for (const auto& v : nb) r.neighbor_count.push_back(static_cast<std::uint32_t>(v.size()));
   r.saliency.assign(ch.size(), std::vector<double>(n, 0.0));
   for (std::size_t m = 0; m < ch.size(); ++m)
     for (std::size_t i = 0; i < n; ++i) {

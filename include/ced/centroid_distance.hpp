@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "ced/cloud.hpp"
 #include "ced/neighborhoods.hpp"
 
 namespace ced {
@@ -30,8 +31,12 @@ norm_type parse_norm(const std::string& text);
 /// which is exact for integer channels and stable for large coordinates.
 /// `Dims` = 0 means the dimension is chosen at run time.
 ///
-/// This is the evaluator most modalities return from `bind()`: a callable
-/// `float(const neighborhood&)`. Threading: const, safe to share.
+/// This is the evaluator most modalities return from `bind()`. The detector
+/// does not call it per neighbourhood: it reads `channels()`, sums
+/// (v_j − v_i) for all such modalities in one vectorised neighbour pass and
+/// calls `from_sums()`. `operator()(neighborhood)` computes the same value
+/// from a neighbour list (in double, so it may differ in the last bits).
+/// Threading: const, safe to share.
 template <int Dims = 0>
 class centroid_distance {
  public:
@@ -42,40 +47,58 @@ class centroid_distance {
       throw std::invalid_argument("centroid_distance: wrong number of dimensions");
     if (m_values.size() % m_dims != 0) throw std::invalid_argument("centroid_distance: values not a multiple of dims");
   }
+  /// The distance from a point's position to its neighbours' centroid, L2
+  /// scaled by `scale`. Reads the cloud's positions in place: the cloud must
+  /// outlive the evaluator.
+  centroid_distance(const point_cloud& cloud, std::vector<double> scale)
+      : m_positions(cloud.positions().data()), m_scale(std::move(scale)), m_norm(norm_type::l2), m_dims(3) {
+    if (m_scale.size() != 3 || (Dims != 0 && Dims != 3))
+      throw std::invalid_argument("centroid_distance: positions have 3 dimensions");
+  }
 
   std::size_t dims() const noexcept { return Dims != 0 ? std::size_t(Dims) : m_dims; }
-  const std::vector<float>& values() const noexcept { return m_values; }
+  /// N×dims floats, row-major.
+  const float* data() const noexcept { return m_positions ? m_positions : m_values.data(); }
+
+  /// What the neighbour pass sums for this modality.
+  channel_source channels() const noexcept {
+    return {data(), static_cast<std::uint32_t>(dims()), m_positions != nullptr};
+  }
+  /// The saliency from Σ_{j ∈ N(i)} (v_j − v_i) (dims values) and |N(i)| = n.
+  float from_sums(const double* sums, std::uint32_t n) const noexcept { return finish(sums, dims(), n); }
 
   float operator()(const neighborhood& nb) const noexcept {
     if constexpr (Dims != 0) {
       // Two interleaved partial sums halve the add-latency chain; the order
       // is fixed, so the result is still deterministic.
       std::array<double, Dims> a0{}, a1{};
-      const float* vi = m_values.data() + std::size_t(Dims) * nb.point;
+      const float* values = data();
+      const float* vi = values + std::size_t(Dims) * nb.point;
       const std::uint32_t* j = nb.indices;
       const std::uint32_t n = nb.size;
       std::uint32_t k = 0;
       for (; k + 1 < n; k += 2) {
-        const float* v0 = m_values.data() + std::size_t(Dims) * j[k];
-        const float* v1 = m_values.data() + std::size_t(Dims) * j[k + 1];
+        const float* v0 = values + std::size_t(Dims) * j[k];
+        const float* v1 = values + std::size_t(Dims) * j[k + 1];
         for (int d = 0; d < Dims; ++d) {
           a0[std::size_t(d)] += static_cast<double>(v0[d] - vi[d]);
           a1[std::size_t(d)] += static_cast<double>(v1[d] - vi[d]);
         }
       }
       if (k < n) {
-        const float* v0 = m_values.data() + std::size_t(Dims) * j[k];
+        const float* v0 = values + std::size_t(Dims) * j[k];
         for (int d = 0; d < Dims; ++d) a0[std::size_t(d)] += static_cast<double>(v0[d] - vi[d]);
       }
       for (int d = 0; d < Dims; ++d) a0[std::size_t(d)] += a1[std::size_t(d)];
       return finish(a0.data(), std::size_t(Dims), nb.size);
     } else {
       const std::size_t dims = m_dims;
-      const float* vi = m_values.data() + dims * nb.point;
+      const float* values = data();
+      const float* vi = values + dims * nb.point;
       if (dims <= k_small) {  // neighbour-outer, as the fixed-size path
         std::array<double, k_small> acc{};
         for (std::uint32_t j : nb) {
-          const float* vj = m_values.data() + dims * j;
+          const float* vj = values + dims * j;
           for (std::size_t d = 0; d < dims; ++d) acc[d] += static_cast<double>(vj[d] - vi[d]);
         }
         return finish(acc.data(), dims, nb.size);
@@ -84,7 +107,7 @@ class centroid_distance {
       double result = 0;
       for (std::size_t d = 0; d < dims; ++d) {
         double acc = 0;
-        for (std::uint32_t j : nb) acc += static_cast<double>(m_values[dims * j + d] - vi[d]);
+        for (std::uint32_t j : nb) acc += static_cast<double>(values[dims * j + d] - vi[d]);
         result = combine(result, acc / nb.size * m_scale[d]);
       }
       return static_cast<float>(m_norm == norm_type::l2 ? std::sqrt(result) : result);
@@ -112,6 +135,7 @@ class centroid_distance {
   }
 
   std::vector<float> m_values;
+  const float* m_positions = nullptr;  // set: the values are a cloud's positions
   std::vector<double> m_scale;
   norm_type m_norm;
   std::size_t m_dims;

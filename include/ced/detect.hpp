@@ -54,9 +54,11 @@ class detection_context {
   detection_context(const point_cloud& cloud, const detect_params& params, std::vector<std::string> names,
                     std::vector<double> thresholds);
   ~detection_context();
-  /// Calls `f(block, columns)` for every spatial block, in parallel; columns[m]
+  /// Runs the neighbour pass over every spatial block, in parallel, summing
+  /// `sources` (one per modality), and calls `f(block, columns)`; columns[m]
   /// is modality m's saliency column, to be written at the block's points.
-  void compute_saliency(const std::function<void(const neighbor_block&, float* const*)>& f);
+  void compute_saliency(const std::vector<channel_source>& sources,
+                        const std::function<void(const neighbor_block&, float* const*)>& f);
   /// Candidates, products and NMS; moves the result out.
   detection_result finish();
 
@@ -75,11 +77,13 @@ detection_result detect(const point_cloud& cloud, const detect_params& params, c
   detail::detection_context ctx(cloud, params, {std::string(modalities.name())...},
                                 {double(modalities.threshold(params))...});
   const auto evaluators = std::make_tuple(modalities.bind(cloud, params)...);
-  ctx.compute_saliency([&](const neighbor_block& block, float* const* columns) {
+  const auto sources =
+      std::apply([](const auto&... e) { return std::vector<channel_source>{channels_of(e)...}; }, evaluators);
+  ctx.compute_saliency(sources, [&](const neighbor_block& block, float* const* columns) {
     std::apply(
         [&](const auto&... e) {
           std::size_t m = 0;
-          (evaluate_block(e, block, params.min_neighbors, columns[m++]), ...);
+          ((evaluate_block(e, block, m, params.min_neighbors, columns[m]), ++m), ...);
         },
         evaluators);
   });

@@ -30,8 +30,10 @@ namespace ced {
 //   float E::operator()(const neighborhood&) const; // the saliency of one point
 // E owns whatever per-point data it prepared (normalised channel values...)
 // and must be safe to call concurrently. Most modalities return a
-// `centroid_distance<D>`; a modality that measures saliency differently
-// (a circular mean, a median) returns its own callable.
+// `centroid_distance<D>`, whose saliency the detector computes from sums of
+// (v_j − v_i) in its vectorised neighbour pass (see sums_neighbors_v); a
+// modality that measures saliency differently (a circular mean, a median)
+// returns its own callable and is given neighbour lists.
 //
 // To be usable from strings (CLI, config), M also provides
 //   static constexpr const char* spec_name = "rgb";
@@ -63,13 +65,47 @@ template <class M>
 concept Modality = is_modality_v<M>;
 #endif
 
+namespace detail {
+template <class E, class = void>
+struct sums_neighbors : std::false_type {};
+template <class E>
+struct sums_neighbors<
+    E, std::void_t<decltype(channel_source(std::declval<const E&>().channels())),
+                   decltype(float(std::declval<const E&>().from_sums(std::declval<const double*>(), std::uint32_t{})))>>
+    : std::true_type {};
+}  // namespace detail
+
+/// True for evaluators (like centroid_distance) whose saliency the detector
+/// computes from neighbourhood sums of their channels in its own pass.
+template <class E>
+inline constexpr bool sums_neighbors_v = detail::sums_neighbors<E>::value;
+
+/// The channels the neighbour pass sums for evaluator `e` (none for an
+/// evaluator that reads neighbour lists).
+template <class E>
+channel_source channels_of(const E& e) {
+  if constexpr (sums_neighbors_v<E>)
+    return e.channels();
+  else
+    return {};
+}
+
 /// Saliency of every point of a block into column[point] (0 for points with
-/// fewer than `min_neighbors` neighbours). Shared by both composition paths.
+/// fewer than `min_neighbors` neighbours). `slot` is the modality's channel
+/// slot in the block. Shared by both composition paths.
 template <class Evaluator>
-void evaluate_block(const Evaluator& e, const neighbor_block& block, std::uint32_t min_neighbors, float* column) {
+void evaluate_block(const Evaluator& e, const neighbor_block& block, std::size_t slot, std::uint32_t min_neighbors,
+                    float* column) {
   for (std::size_t k = 0; k < block.size(); ++k) {
-    const neighborhood nb = block[k];
-    column[nb.point] = nb.size < min_neighbors ? 0.0f : static_cast<float>(e(nb));
+    const std::uint32_t n = block.count(k);
+    float s = 0.0f;
+    if (n >= min_neighbors) {
+      if constexpr (sums_neighbors_v<Evaluator>)
+        s = e.from_sums(block.sums(k, slot), n);
+      else
+        s = static_cast<float>(e(block[k]));
+    }
+    column[block.point(k)] = s;
   }
 }
 
@@ -81,7 +117,9 @@ void evaluate_block(const Evaluator& e, const neighbor_block& block, std::uint32
 class bound_modality {
  public:
   virtual ~bound_modality() = default;
-  virtual void evaluate(const neighbor_block& block, std::uint32_t min_neighbors, float* column) const = 0;
+  virtual channel_source channels() const = 0;
+  virtual void evaluate(const neighbor_block& block, std::size_t slot, std::uint32_t min_neighbors,
+                        float* column) const = 0;
 };
 
 /// Any modality, type-erased (value semantics, like std::function).
@@ -112,8 +150,9 @@ class any_modality {
     explicit model(M m) : modality(std::move(m)) {}
     struct bound final : bound_modality {
       explicit bound(evaluator_t<M> e) : evaluator(std::move(e)) {}
-      void evaluate(const neighbor_block& b, std::uint32_t k, float* column) const override {
-        evaluate_block(evaluator, b, k, column);
+      channel_source channels() const override { return channels_of(evaluator); }
+      void evaluate(const neighbor_block& b, std::size_t slot, std::uint32_t k, float* column) const override {
+        evaluate_block(evaluator, b, slot, k, column);
       }
       evaluator_t<M> evaluator;
     };

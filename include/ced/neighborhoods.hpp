@@ -1,8 +1,10 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "ced/neighbor_index.hpp"
@@ -41,27 +43,81 @@ class block_partition {
   std::vector<std::size_t> m_starts;
 };
 
-/// The fixed-radius neighbourhoods of the points of one block, in CSR form.
-/// Reusable: filling it again keeps the buffers' capacity.
+/// Per-point values whose neighbourhood sums the neighbour pass computes: the
+/// input of every centroid-distance saliency.
+struct channel_source {
+  /// N×dims floats, row-major; nullptr when the modality needs no sums (it
+  /// reads neighbour lists instead).
+  const float* values = nullptr;
+  std::uint32_t dims = 0;
+  /// The values are the cloud's positions: their sums come from the distance
+  /// test itself.
+  bool positions = false;
+};
+
+/// The neighbour pass over one spatial block: one box query to the index for
+/// the whole block, the gathered points sorted into sub-cells (≈ r wide in y
+/// and z, r/4 in x), then per point one vectorised pass over the nine runs of
+/// sub-cells its ball reaches, which counts its neighbours (|p_j - p_i|² < r², float) and sums
+/// (v_j − v_i) over them for every channel at once. Neighbour lists are
+/// written only when asked for (for the NMS's candidates, or for modalities
+/// that read lists).
+///
+/// Reusable: filling it again keeps the buffers' capacity. Not thread-safe;
+/// use one per thread.
 class neighbor_block {
  public:
-  /// Fills the neighbourhoods (|p_j - p_i|² < r², float) of points
-  /// `points[0..count)` with one box query to `index` for the whole block.
+  /// The channels summed by fill(); slot s of sums() is sources[s].
+  void set_channels(const std::vector<channel_source>& sources);
+
+  /// Runs the pass for points `points[0..count)`.
   void fill(const neighbor_index& index, const float* xyz, const std::uint32_t* points, std::size_t count, double r);
 
   std::size_t size() const noexcept { return m_count; }
   std::uint32_t point(std::size_t k) const noexcept { return m_points[k]; }
-  neighborhood operator[](std::size_t k) const noexcept {
-    return {m_points[k], m_indices.data() + m_offsets[k], m_offsets[k + 1] - m_offsets[k]};
+  /// Neighbours of point k within the radius, itself included.
+  std::uint32_t count(std::size_t k) const noexcept { return m_counts[k]; }
+  /// Σ_{j ∈ N(i)} (v_j − v_i) for channel slot `slot` (sources[slot].dims
+  /// values), accumulated in float over 8 fixed lanes, reduced in double.
+  const double* sums(std::size_t k, std::size_t slot) const noexcept {
+    return m_sums.data() + m_sum_stride * k + m_slot_offset[slot];
   }
+  /// Writes point k's count(k) neighbours to `out`, in the block's fixed order.
+  void neighbors(std::size_t k, std::uint32_t* out) const noexcept;
+  /// Point k's neighbourhood as a list (all lists are built on first use).
+  neighborhood operator[](std::size_t k) const;
 
  private:
+  void sort_into_cells(const float* xyz, const float lo[3], const float hi[3], double r);
+  void cell_of(const float* p, std::uint64_t c[3]) const noexcept {
+    // Truncation is floor here: the value is clamped to ≥ 0 first.
+    for (int a = 0; a < 3; ++a) {
+      const double v = (double(p[a]) - m_lo[a]) * m_inv_side[a];
+      c[a] = static_cast<std::uint64_t>(std::min(std::max(v, 0.0), double(m_dims[a] - 1)));
+    }
+  }
+  std::size_t cell_start(std::uint64_t key) const noexcept;
+
+  std::vector<channel_source> m_sources;
+  std::vector<std::size_t> m_slot_offset;
+  std::size_t m_channels = 0, m_sum_stride = 3;
+
   const std::uint32_t* m_points = nullptr;
   std::size_t m_count = 0;
-  std::vector<std::uint32_t> m_offsets;
-  std::vector<std::uint32_t> m_indices;
-  std::vector<std::uint32_t> m_gathered;
-  std::vector<float> m_gx, m_gy, m_gz;
+  // The gathered points in sub-cell order, as structure of arrays.
+  double m_lo[3] = {0, 0, 0}, m_side[3] = {1, 1, 1}, m_inv_side[3] = {1, 1, 1};
+  std::uint64_t m_dims[3] = {1, 1, 1};
+  bool m_single_cell = false;
+  std::vector<std::uint32_t> m_raw, m_gathered, m_cell_start;
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> m_keyed;
+  std::vector<float> m_gx, m_gy, m_gz, m_channel_values, m_centre, m_own;
+  // Per point: ranges, results, and the neighbour bits of its groups.
+  std::vector<std::uint32_t> m_ranges, m_counts, m_bit_offsets;
+  std::vector<double> m_sums;
+  std::vector<std::uint8_t> m_bits;
+  // Lists, built on demand.
+  mutable bool m_lists_built = false;
+  mutable std::vector<std::uint32_t> m_offsets, m_indices;
 };
 
 namespace detail {
@@ -69,6 +125,11 @@ namespace detail {
 /// ulp: a box that holds every point within r of any of them.
 void padded_bounds(const float* xyz, const std::uint32_t* points, std::size_t count, double r, float lo[3],
                    float hi[3]) noexcept;
+/// Which build of the neighbour pass runs: "avx2" when the CPU has it,
+/// otherwise "generic". Both give bitwise identical results; tests force one.
+const char* kernel_isa() noexcept;
+/// Forces the generic build (true) or restores the automatic choice (false).
+void force_generic_kernel(bool on) noexcept;
 }  // namespace detail
 
 }  // namespace ced

@@ -18,7 +18,7 @@ struct xyz {
   std::string name() const { return "xyz"; }
   double threshold(const detect_params& p) const { return ratio * p.radius; }
   centroid_distance<3> bind(const point_cloud& cloud, const detect_params&) const {
-    return centroid_distance<3>(cloud.positions(), {1.0, 1.0, 1.0}, norm_type::l2);
+    return centroid_distance<3>(cloud, {1.0, 1.0, 1.0});
   }
   static xyz from_spec(modality_spec& s) { return xyz(s.threshold_or(0.2)); }
 };

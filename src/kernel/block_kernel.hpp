@@ -1,0 +1,58 @@
+// SPDX-License-Identifier: MIT
+// Private: the neighbour pass of one spatial block, compiled once per
+// instruction set (block_kernel_generic.cpp, block_kernel_avx2.cpp).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace ced::detail {
+
+/// Sub-cells are about r wide in y and z and r/x_cells_per_radius in x; a
+/// block point tests one run of sub-cells per row (y, z) within one cell:
+/// nine ranges of gathered points.
+inline constexpr int x_cells_per_radius = 4;
+inline constexpr std::size_t kernel_ranges = 9;
+
+struct block_kernel_input {
+  /// Gathered points in sub-cell order (structure of arrays), each array
+  /// readable 8 floats past its last point.
+  const float* gx;
+  const float* gy;
+  const float* gz;
+  /// Channel c of the gathered points at channels + c * stride.
+  const float* channels;
+  std::size_t stride;
+  std::size_t channel_count;
+  /// The block's points: positions (points × 3), own channel values
+  /// (points × channel_count) and [begin, end) ranges (points × 9 × 2).
+  std::size_t points;
+  const float* centre;
+  const float* own;
+  const std::uint32_t* ranges;
+  float r2;
+};
+
+struct block_kernel_output {
+  /// Neighbours of each point within the radius (itself included).
+  std::uint32_t* counts;
+  /// Per point, 3 + channel_count sums of (v_j − v_i) over its neighbours:
+  /// positions first, then the channels.
+  double* sums;
+  /// Per group of 8 tested points, bit l set when lane l is a neighbour;
+  /// groups follow the ranges in order, point after point.
+  std::uint8_t* bits;
+};
+
+/// Writes the n neighbours marked in `bits` (one point's groups over its
+/// ranges) from `gathered` to out[0..n), in order. Writes nothing past n.
+void compact_generic(const std::uint32_t* gathered, const std::uint32_t* ranges, const std::uint8_t* bits,
+                     std::uint32_t n, std::uint32_t* out) noexcept;
+void compact_avx2(const std::uint32_t* gathered, const std::uint32_t* ranges, const std::uint8_t* bits, std::uint32_t n,
+                  std::uint32_t* out) noexcept;
+
+/// Both compute exactly the same numbers (same lanes, same order, no FMA).
+void block_kernel_generic(const block_kernel_input& in, const block_kernel_output& out) noexcept;
+void block_kernel_avx2(const block_kernel_input& in, const block_kernel_output& out) noexcept;
+
+}  // namespace ced::detail
