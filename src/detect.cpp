@@ -121,7 +121,7 @@ detection_context::detection_context(const point_cloud& cloud, const detect_para
   // Blocks first: the tree is built over the points in block order, which is
   // several times faster than over an arbitrary order on large clouds.
   block_partition blocks(xyz, cloud.size(), params.radius * params.block_scale, threads);
-  neighbor_index index(xyz, cloud.size(), 32, threads, blocks.order().data());
+  neighbor_index index(xyz, cloud.size(), 64, threads, blocks.order().data());
   m_impl = std::make_unique<impl>(cloud, params, std::move(index), std::move(blocks));
   m_impl->result.names = std::move(names);
   m_impl->result.thresholds = std::move(thresholds);

@@ -11,11 +11,6 @@
 #include "ced/detail/parallel.hpp"
 #include "kernel/block_kernel.hpp"
 
-#ifdef CED_HAS_TBB
-#include <oneapi/tbb/parallel_sort.h>
-#include <oneapi/tbb/task_arena.h>
-#endif
-
 namespace ced {
 
 block_partition::block_partition(const float* xyz, std::size_t n, double cell_size, unsigned threads) {
@@ -43,34 +38,36 @@ block_partition::block_partition(const float* xyz, std::size_t n, double cell_si
     cell *= 2;
   }
   const double inv = 1.0 / cell;
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(n);
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(n), scratch(n);
   detail::parallel_for(n, threads, 1 << 14, [&](std::size_t b, std::size_t e) {
     for (std::size_t i = b; i < e; ++i) {
       std::uint64_t c[3];
-      for (int k = 0; k < 3; ++k) {
-        const double v = std::floor((double(xyz[3 * i + std::size_t(k)]) - double(lo[k])) * inv);
-        c[k] = std::min<std::uint64_t>(static_cast<std::uint64_t>(std::max(v, 0.0)), dims[k] - 1);
+      for (int k = 0; k < 3; ++k) {  // truncation is floor: the value is ≥ 0
+        const double v = (double(xyz[3 * i + std::size_t(k)]) - double(lo[k])) * inv;
+        c[k] = static_cast<std::uint64_t>(std::min(std::max(v, 0.0), double(dims[k] - 1)));
       }
       keyed[i] = {(c[2] * dims[1] + c[1]) * dims[0] + c[0], static_cast<std::uint32_t>(i)};
     }
   });
-  // Keys are unique pairs, so the sorted order is the same whatever the sort.
-#ifdef CED_HAS_TBB
-  if (detail::resolve_threads(threads) > 1) {
-    oneapi::tbb::task_arena arena(
-        static_cast<int>(std::min(detail::resolve_threads(threads), detail::resolve_threads(0))));
-    arena.execute([&] { oneapi::tbb::parallel_sort(keyed.begin(), keyed.end()); });
-  } else {
-    std::sort(keyed.begin(), keyed.end());
+  // Least-significant-digit radix sort on the key, 11 bits a pass, as many
+  // passes as the largest key needs. Stable, so the order is (key, index):
+  // the same on any number of threads.
+  std::uint64_t max_key = 0;
+  for (const auto& kv : keyed) max_key = std::max(max_key, kv.first);
+  constexpr unsigned digit_bits = 11, digits = 1u << digit_bits;
+  std::vector<std::size_t> count(digits + 1);
+  for (unsigned shift = 0; shift < 64 && (max_key >> shift) != 0; shift += digit_bits) {
+    std::fill(count.begin(), count.end(), 0);
+    for (const auto& kv : keyed) ++count[((kv.first >> shift) & (digits - 1)) + 1];
+    for (unsigned d = 0; d < digits; ++d) count[d + 1] += count[d];
+    for (const auto& kv : keyed) scratch[count[(kv.first >> shift) & (digits - 1)]++] = kv;
+    keyed.swap(scratch);
   }
-#else
-  std::sort(keyed.begin(), keyed.end());
-#endif
   m_order.resize(n);
   m_starts.clear();
   // Dense cells are split into blocks of at most max_block points, which
   // bounds a block's CSR memory even when many points coincide.
-  constexpr std::size_t max_block = 256;
+  constexpr std::size_t max_block = 1024;
   for (std::size_t i = 0; i < n; ++i) {
     if (i == 0 || keyed[i].first != keyed[i - 1].first || i - m_starts.back() >= max_block) m_starts.push_back(i);
     m_order[i] = keyed[i].second;
@@ -118,6 +115,13 @@ const kernel_set& active_kernels() noexcept {
   return g_force_generic.load(std::memory_order_relaxed) ? generic_kernels : best;
 }
 
+/// Resizes `v` to at least n elements; never shrinks, so that a reused
+/// buffer is not cleared again and again.
+template <class V>
+void grow(V& v, std::size_t n) {
+  if (v.size() < n) v.resize(n);
+}
+
 /// Sub-grids up to this many cells are sorted by counting, larger ones
 /// (blocks far wider than the radius) by comparison.
 constexpr std::uint64_t max_counted_cells = 1u << 14;
@@ -143,9 +147,9 @@ void neighbor_block::set_channels(const std::vector<channel_source>& sources) {
   m_sum_stride = 3 + m_channels;
 }
 
-std::size_t neighbor_block::cell_start(std::uint64_t key) const noexcept {
-  if (!m_cell_start.empty()) return m_cell_start[key];
-  const auto it = std::lower_bound(m_keyed.begin(), m_keyed.end(), std::make_pair(key, std::uint32_t(0)));
+std::size_t neighbor_block::cell_start_sorted(std::uint64_t key) const noexcept {
+  const auto end = m_keyed.begin() + std::ptrdiff_t(m_raw.size());
+  const auto it = std::lower_bound(m_keyed.begin(), end, std::make_pair(key, std::uint32_t(0)));
   return static_cast<std::size_t>(it - m_keyed.begin());
 }
 
@@ -173,29 +177,32 @@ void neighbor_block::sort_into_cells(const float* xyz, const float lo[3], const 
   if (too_fine) m_dims[0] = m_dims[1] = m_dims[2] = 1;
   for (int a = 0; a < 3; ++a) total *= static_cast<long double>(m_dims[a]);
   const std::size_t g = m_raw.size();
-  m_keyed.resize(g);
+  grow(m_keyed, g);
   for (std::size_t t = 0; t < g; ++t) {
     std::uint64_t c[3];
     cell_of(xyz + 3 * std::size_t(m_raw[t]), c);
     m_keyed[t] = {(c[2] * m_dims[1] + c[1]) * m_dims[0] + c[0], m_raw[t]};
   }
-  m_gathered.resize(g + 8);  // 8 past the end: the compaction reads whole groups
-  std::fill(m_gathered.begin() + std::ptrdiff_t(g), m_gathered.end(), 0u);
+  grow(m_gathered, g + 8);  // 8 past the end: the compaction reads whole groups
+  std::fill_n(m_gathered.begin() + std::ptrdiff_t(g), 8, 0u);
   if (total <= static_cast<long double>(max_counted_cells)) {
     // Counting sort: stable, so the order is (cell, query order).
     const std::size_t cells = static_cast<std::size_t>(m_dims[0] * m_dims[1] * m_dims[2]);
-    m_cell_start.assign(cells + 1, 0);
-    for (const auto& kv : m_keyed) ++m_cell_start[kv.first + 1];
+    grow(m_cell_start, cells + 1);
+    std::fill_n(m_cell_start.begin(), cells + 1, 0u);
+    for (std::size_t t = 0; t < g; ++t) ++m_cell_start[m_keyed[t].first + 1];
     for (std::size_t c = 0; c < cells; ++c) m_cell_start[c + 1] += m_cell_start[c];
     std::vector<std::uint32_t>& next = m_ranges;  // scratch, overwritten later
-    next.assign(m_cell_start.begin(), m_cell_start.end() - 1);
-    for (const auto& kv : m_keyed) m_gathered[next[kv.first]++] = kv.second;
+    grow(next, cells);
+    std::copy_n(m_cell_start.begin(), cells, next.begin());
+    for (std::size_t t = 0; t < g; ++t) m_gathered[next[m_keyed[t].first]++] = m_keyed[t].second;
+    m_counted = true;
   } else {
     // Same order by comparison: (cell, then position in the query's order).
     for (std::size_t t = 0; t < g; ++t) m_keyed[t].second = static_cast<std::uint32_t>(t);
-    std::sort(m_keyed.begin(), m_keyed.end());
+    std::sort(m_keyed.begin(), m_keyed.begin() + std::ptrdiff_t(g));
     for (std::size_t t = 0; t < g; ++t) m_gathered[t] = m_raw[m_keyed[t].second];
-    m_cell_start.clear();  // cell_start() then searches m_keyed
+    m_counted = false;  // cell_start() then searches m_keyed
   }
 }
 
@@ -214,8 +221,8 @@ void neighbor_block::fill(const neighbor_index& index, const float* xyz, const s
   // zero padding at the end (the kernel reads whole groups of 8).
   const std::size_t g = m_raw.size(), stride = g + 8;
   for (auto* v : {&m_gx, &m_gy, &m_gz}) {
-    v->resize(stride);
-    std::fill(v->begin() + std::ptrdiff_t(g), v->end(), 0.0f);
+    grow(*v, stride);
+    std::fill_n(v->begin() + std::ptrdiff_t(g), 8, 0.0f);
   }
   for (std::size_t t = 0; t < g; ++t) {
     const float* p = xyz + 3 * std::size_t(m_gathered[t]);
@@ -223,9 +230,9 @@ void neighbor_block::fill(const neighbor_index& index, const float* xyz, const s
     m_gy[t] = p[1];
     m_gz[t] = p[2];
   }
-  m_channel_values.resize(m_channels * stride);
-  m_own.resize(m_channels * count);
-  m_centre.resize(3 * count);
+  grow(m_channel_values, m_channels * stride);
+  grow(m_own, m_channels * count);
+  grow(m_centre, 3 * count);
   std::size_t base = 0;
   for (const channel_source& s : m_sources) {
     if (s.positions || !s.values) continue;
@@ -243,9 +250,12 @@ void neighbor_block::fill(const neighbor_index& index, const float* xyz, const s
   // cell, cut to the x-cells that the ball of radius r (with a margin far
   // above float rounding) reaches. Conservative: every point the float test
   // can accept lies in one of them.
-  const double rc2 = r * r * (1.0 + 1e-4);
-  m_ranges.resize(2 * detail::kernel_ranges * count);
-  m_bit_offsets.resize(count + 1);
+  const double rc2 = r * r * (1.0 + 1e-4), inv_x = m_inv_side[0];
+  const std::int64_t dims_x = std::int64_t(m_dims[0]), dims_y = std::int64_t(m_dims[1]),
+                     dims_z = std::int64_t(m_dims[2]), last_x = dims_x - 1;
+  constexpr std::int64_t x_reach = detail::x_cells_per_radius + 1;
+  grow(m_ranges, 2 * detail::kernel_ranges * count);
+  grow(m_bit_offsets, count + 1);
   m_bit_offsets[0] = 0;
   for (std::size_t k = 0; k < count; ++k) {
     const float* p = xyz + 3 * std::size_t(points[k]);
@@ -259,37 +269,37 @@ void neighbor_block::fill(const neighbor_index& index, const float* xyz, const s
       rg[1] = static_cast<std::uint32_t>(g);
       groups = (g + 7) / 8;
     } else {
-      // Offsets of p from its own cell's low and high faces in y and z.
-      const double py = double(p[1]) - m_lo[1] - double(c[1]) * m_side[1];
-      const double pz = double(p[2]) - m_lo[2] - double(c[2]) * m_side[2];
-      const double gap_y[3] = {py, 0.0, m_side[1] - py}, gap_z[3] = {pz, 0.0, m_side[2] - pz};
+      // Squared distances from p to the rows below, at and above its own in
+      // y and z (0 for its own); a row out of the grid is infinitely far.
+      const std::int64_t cx = std::int64_t(c[0]), cy = std::int64_t(c[1]), cz = std::int64_t(c[2]);
+      const double py = double(p[1]) - m_lo[1] - double(cy) * m_side[1];
+      const double pz = double(p[2]) - m_lo[2] - double(cz) * m_side[2];
+      constexpr double far = std::numeric_limits<double>::infinity();
+      const double gy2[3] = {cy > 0 ? py * py : far, 0.0, cy + 1 < dims_y ? (m_side[1] - py) * (m_side[1] - py) : far};
+      const double gz2[3] = {cz > 0 ? pz * pz : far, 0.0, cz + 1 < dims_z ? (m_side[2] - pz) * (m_side[2] - pz) : far};
       const double x = double(p[0]) - m_lo[0];
-      const std::uint64_t last_x = m_dims[0] - 1;
-      for (int dz = -1; dz <= 1; ++dz) {
-        if ((dz < 0 && c[2] == 0) || (dz > 0 && c[2] + 1 >= m_dims[2])) continue;
-        for (int dy = -1; dy <= 1; ++dy) {
-          if ((dy < 0 && c[1] == 0) || (dy > 0 && c[1] + 1 >= m_dims[1])) continue;
-          const double gy = gap_y[dy + 1], gz = gap_z[dz + 1], left = rc2 - gy * gy - gz * gz;
-          if (left < 0) continue;
+      for (std::int64_t dz = -1; dz <= 1; ++dz)
+        for (std::int64_t dy = -1; dy <= 1; ++dy) {
+          const double left = rc2 - gy2[dy + 1] - gz2[dz + 1];
+          if (!(left >= 0)) continue;
           const double w = std::sqrt(left);
           // Truncation is floor for the clamped, non-negative values.
-          const std::uint64_t x0 = static_cast<std::uint64_t>(std::max(0.0, (x - w) * m_inv_side[0]));
-          const std::uint64_t x1 = std::min(last_x, static_cast<std::uint64_t>(std::max(0.0, (x + w) * m_inv_side[0])));
+          const std::int64_t x0 = std::max(cx - x_reach, static_cast<std::int64_t>(std::max(0.0, (x - w) * inv_x)));
+          const std::int64_t x1 = std::min({last_x, cx + x_reach, static_cast<std::int64_t>((x + w) * inv_x)});
           if (x1 < x0) continue;
-          const std::uint64_t row = ((c[2] + std::uint64_t(dz)) * m_dims[1] + (c[1] + std::uint64_t(dy))) * m_dims[0];
-          const std::size_t b = cell_start(row + x0), e = cell_start(row + x1 + 1);
+          const std::int64_t row = ((cz + dz) * dims_y + (cy + dy)) * dims_x;
+          const std::size_t b = cell_start(std::uint64_t(row + x0)), e = cell_start(std::uint64_t(row + x1 + 1));
           const std::size_t q = std::size_t((dz + 1) * 3 + (dy + 1));
           rg[2 * q] = static_cast<std::uint32_t>(b);
           rg[2 * q + 1] = static_cast<std::uint32_t>(e);
           groups += (e - b + 7) / 8;
         }
-      }
     }
     m_bit_offsets[k + 1] = static_cast<std::uint32_t>(m_bit_offsets[k] + groups);
   }
-  m_bits.resize(m_bit_offsets[count]);
-  m_counts.resize(count);
-  m_sums.resize(m_sum_stride * count);
+  grow(m_bits, m_bit_offsets[count]);
+  grow(m_counts, count);
+  grow(m_sums, m_sum_stride * count);
 
   const detail::block_kernel_input in{
       m_gx.data(), m_gy.data(),     m_gz.data(),  m_channel_values.data(), stride,           m_channels,
@@ -305,9 +315,10 @@ void neighbor_block::neighbors(std::size_t k, std::uint32_t* out) const noexcept
 
 neighborhood neighbor_block::operator[](std::size_t k) const {
   if (!m_lists_built) {
-    m_offsets.assign(m_count + 1, 0);
+    grow(m_offsets, m_count + 1);
+    m_offsets[0] = 0;
     for (std::size_t q = 0; q < m_count; ++q) m_offsets[q + 1] = m_offsets[q] + m_counts[q];
-    m_indices.resize(m_offsets[m_count]);
+    grow(m_indices, m_offsets[m_count]);
     for (std::size_t q = 0; q < m_count; ++q) neighbors(q, m_indices.data() + m_offsets[q]);
     m_lists_built = true;
   }

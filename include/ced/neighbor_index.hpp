@@ -9,8 +9,8 @@
 namespace ced {
 
 /// Fixed-radius neighbour search over a set of 3D points: a thin wrapper
-/// around CGAL's `Kd_tree` (index keys, sliding-midpoint splitter, points
-/// cache). CGAL is not included by this header.
+/// around CGAL's `Kd_tree` (index keys, sliding-midpoint splitter). CGAL is
+/// not included by this header.
 ///
 /// Semantics match the CED paper's implementation (FLANN): point j is a
 /// neighbour of centre c when the squared distance, computed in float, is

@@ -96,7 +96,11 @@ class neighbor_block {
       c[a] = static_cast<std::uint64_t>(std::min(std::max(v, 0.0), double(m_dims[a] - 1)));
     }
   }
-  std::size_t cell_start(std::uint64_t key) const noexcept;
+  /// Index of the first gathered point in cell `key` or after it.
+  std::size_t cell_start(std::uint64_t key) const noexcept {
+    return m_counted ? m_cell_start[key] : cell_start_sorted(key);
+  }
+  std::size_t cell_start_sorted(std::uint64_t key) const noexcept;
 
   std::vector<channel_source> m_sources;
   std::vector<std::size_t> m_slot_offset;
@@ -107,7 +111,7 @@ class neighbor_block {
   // The gathered points in sub-cell order, as structure of arrays.
   double m_lo[3] = {0, 0, 0}, m_side[3] = {1, 1, 1}, m_inv_side[3] = {1, 1, 1};
   std::uint64_t m_dims[3] = {1, 1, 1};
-  bool m_single_cell = false;
+  bool m_single_cell = false, m_counted = false;
   std::vector<std::uint32_t> m_raw, m_gathered, m_cell_start;
   std::vector<std::pair<std::uint64_t, std::uint32_t>> m_keyed;
   std::vector<float> m_gx, m_gy, m_gz, m_channel_values, m_centre, m_own;

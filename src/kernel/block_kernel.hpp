@@ -11,7 +11,7 @@ namespace ced::detail {
 /// Sub-cells are about r wide in y and z and r/x_cells_per_radius in x; a
 /// block point tests one run of sub-cells per row (y, z) within one cell:
 /// nine ranges of gathered points.
-inline constexpr int x_cells_per_radius = 4;
+inline constexpr int x_cells_per_radius = 8;
 inline constexpr std::size_t kernel_ranges = 9;
 
 struct block_kernel_input {
