@@ -86,9 +86,12 @@ void require_finite(const field& f, const std::string& modality) {
                                   std::to_string(f.values[i]) + ") at point " + std::to_string(i));
 }
 
-std::array<float, 3> srgb_to_lab(float r, float g, float b) noexcept {
-  auto lin = [](double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); };
-  const double R = lin(r), G = lin(g), B = lin(b);
+double srgb_to_linear(float c) noexcept {
+  const double v = c;
+  return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
+}
+
+std::array<float, 3> linear_srgb_to_lab(double R, double G, double B) noexcept {
   const double X = (0.4124564 * R + 0.3575761 * G + 0.1804375 * B) / 0.95047;
   const double Y = (0.2126729 * R + 0.7151522 * G + 0.0721750 * B) / 1.0;
   const double Z = (0.0193339 * R + 0.1191920 * G + 0.9503041 * B) / 1.08883;
@@ -96,6 +99,10 @@ std::array<float, 3> srgb_to_lab(float r, float g, float b) noexcept {
   const double fx = f(X), fy = f(Y), fz = f(Z);
   return {static_cast<float>(116.0 * fy - 16.0), static_cast<float>(500.0 * (fx - fy)),
           static_cast<float>(200.0 * (fy - fz))};
+}
+
+std::array<float, 3> srgb_to_lab(float r, float g, float b) noexcept {
+  return linear_srgb_to_lab(srgb_to_linear(r), srgb_to_linear(g), srgb_to_linear(b));
 }
 
 }  // namespace ced

@@ -47,5 +47,10 @@ void require_finite(const field& f, const std::string& modality);
 
 /// sRGB in [0,1] to CIELAB (D65 white): L in [0,100], a and b about [-128,127].
 std::array<float, 3> srgb_to_lab(float r, float g, float b) noexcept;
+/// The two steps of srgb_to_lab: an sRGB component in [0,1] to linear light,
+/// and linear sRGB to CIELAB. srgb_to_lab(r,g,b) ==
+/// linear_srgb_to_lab(srgb_to_linear(r), srgb_to_linear(g), srgb_to_linear(b)).
+double srgb_to_linear(float c) noexcept;
+std::array<float, 3> linear_srgb_to_lab(double r, double g, double b) noexcept;
 
 }  // namespace ced

@@ -22,10 +22,21 @@ struct lab {
     const auto f = rgb::fields(cloud);
     const auto s = rgb::scale(f, std::nullopt);
     const std::size_t n = cloud.size();
+    // 8- and 16-bit channels hold few distinct values: linearise each once.
+    std::array<std::vector<double>, 3> table;
+    for (std::size_t c = 0; c < 3; ++c)
+      if (f[c]->type == scalar_type::uint8 || f[c]->type == scalar_type::uint16) {
+        table[c].resize(f[c]->type == scalar_type::uint8 ? 256 : 65536);
+        for (std::size_t v = 0; v < table[c].size(); ++v)
+          table[c][v] = srgb_to_linear(static_cast<float>(double(v) * s[c]));
+      }
+    auto linear = [&](std::size_t c, std::size_t i) {
+      const double v = f[c]->values[i];
+      return table[c].empty() ? srgb_to_linear(static_cast<float>(v * s[c])) : table[c][static_cast<std::size_t>(v)];
+    };
     std::vector<float> out(3 * n);
     for (std::size_t i = 0; i < n; ++i) {
-      const auto l = srgb_to_lab(static_cast<float>(f[0]->values[i] * s[0]), static_cast<float>(f[1]->values[i] * s[1]),
-                                 static_cast<float>(f[2]->values[i] * s[2]));
+      const auto l = linear_srgb_to_lab(linear(0, i), linear(1, i), linear(2, i));
       std::copy(l.begin(), l.end(), out.begin() + static_cast<std::ptrdiff_t>(3 * i));
     }
     return centroid_distance<3>(std::move(out), {0.01, 0.01, 0.01}, norm_type::l2);
