@@ -126,5 +126,34 @@ check "original indices within the input" awk '$1 >= 24574 { exit 1 }' "$T/vo.tx
 "$CED" detect "$sample" -m xyz --summary "$T/auto.json" -q
 check "radius auto recorded" grep -q '"radius_auto": true' "$T/auto.json"
 
+# --- eval: a given pair, transform files, PCL availability ---
+"$CED" eval repeatability --source "$sample" --target "$sample" -d ced6d --trials 1 -q --csv "$T/pair.csv" > "$T/pair.txt"
+check "pair: identity gives full repeatability" grep -q "^ced6d .* 1.000 " "$T/pair.txt"
+check "pair: csv rows" test "$(wc -l < "$T/pair.csv")" = 2
+printf '# a quarter turn about z\n0 -1 0 1\n1 0 0 2\n0 0 1 3\n0 0 0 1\n' > "$T/T.txt"
+"$CED" eval repeatability --source "$sample" --target "$sample" --transform "$T/T.txt" -d ced6d --trials 1 -q > "$T/pair2.txt"
+check "pair: the transform is applied" grep -q "^ced6d .* 0.0[0-9][0-9] " "$T/pair2.txt"
+printf '1 0 0 0\n0 1 0 0\n0 0 1 0\n' > "$T/short.txt"
+expect_exit 1 "expected a 4x4 matrix (16 numbers, row by row), found 12" "eval: short matrix" -- \
+  eval repeatability --source "$sample" --target "$sample" --transform "$T/short.txt" -d ced6d --csv "$T/bad.csv"
+check "eval: no csv after an error" test ! -e "$T/bad.csv"
+printf '2 0 0 0\n0 2 0 0\n0 0 2 0\n0 0 0 1\n' > "$T/scale.txt"
+expect_exit 1 "not a rotation" "eval: scaling matrix" -- \
+  eval repeatability --source "$sample" --target "$sample" --transform "$T/scale.txt"
+expect_exit 1 "cannot open the transform file" "eval: missing matrix" -- \
+  eval repeatability --source "$sample" --target "$sample" --transform "$T/none.txt"
+expect_exit 2 "--noise applies" "eval: noise with a pair" -- \
+  eval repeatability --source "$sample" --target "$sample" --noise 0.5
+expect_exit 2 "either INPUT" "eval: INPUT and a pair" -- eval repeatability "$sample" --source "$sample" --target "$sample"
+if "$CED" eval repeatability "$sample" -d iss3d --trials 1 --noise 0 -q > /dev/null 2> "$T/pcl.err"; then
+  expect_exit 2 "exactly one of INPUT" "registration: two modes" -- \
+    eval registration "$sample" --rgbd "$T"
+  expect_exit 1 "cannot open the intrinsics file" "registration: rgbd without intrinsics" -- \
+    eval registration --rgbd "$T"
+else
+  check "no PCL: says which component is missing" grep -q "needs ced's PCL component" "$T/pcl.err"
+  expect_exit 2 "needs ced's PCL component" "no PCL: registration" -- eval registration "$sample"
+fi
+
 echo "cli: $pass passed, $fail failed"
 [ "$fail" = 0 ]

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 // Benchmarks: ced per stage against a straightforward per-point CGAL port
-// (the baseline), on the Redwood scans when ../shared/data is present and on
+// (the baseline) and, when built with PCL, PCL's ISS3D, Harris3D and
+// Harris6D, on the Redwood scans when ../shared/data is present and on
 // generated clouds otherwise. Before timing, the baseline's keypoints are
 // checked against ced's and the agreement is printed.
 //
@@ -19,6 +20,9 @@
 
 #include "ced/ced.hpp"
 #include "ced/nms.hpp"
+#ifdef CED_HAS_PCL
+#include "pcl_bridge.hpp"  // ced's optional PCL component: PCL's own detectors
+#endif
 
 namespace {
 
@@ -186,6 +190,22 @@ void bm_baseline(benchmark::State& state, const std::string& name, bool colour) 
   state.counters["keypoints"] = double(kp.size());
 }
 
+#ifdef CED_HAS_PCL
+/// PCL's detectors with the CED paper's settings, one thread, same cloud.
+void bm_pcl(benchmark::State& state, const std::string& name, ced::pcl_bridge::detector d) {
+  const auto& c = clouds().at(name);
+  ced::pcl_bridge::detector_params p;
+  p.threads = 1;
+  std::vector<std::uint32_t> kp;
+  for (auto _ : state) {
+    kp = ced::pcl_bridge::detect(c, d, p);
+    benchmark::DoNotOptimize(kp.data());
+  }
+  state.counters["points"] = double(c.size());
+  state.counters["keypoints"] = double(kp.size());
+}
+#endif
+
 void bm_generated(benchmark::State& state) {
   const std::size_t n = static_cast<std::size_t>(state.range(0));
   const std::string name = "room_" + std::to_string(n);
@@ -220,10 +240,11 @@ int memory_mode(std::size_t n) {
   ced::detect_params p;
   const auto r = ced::detect(c, p, ced::xyz{}, ced::rgb{});
   const double after = peak_rss_bytes();
-  std::printf("points %zu keypoints %zu detect_ms %.1f (index %.1f saliency %.1f nms %.1f) "
-              "input_bytes_per_point %.0f peak_extra_bytes_per_point %.0f peak_rss_MB %.0f\n",
-              n, r.keypoints.size(), r.times.total_ms(), r.times.index_ms, r.times.saliency_ms, r.times.nms_ms,
-              before / double(n), (after - before) / double(n), after / 1e6);
+  std::printf(
+      "points %zu keypoints %zu detect_ms %.1f (index %.1f saliency %.1f nms %.1f) "
+      "input_bytes_per_point %.0f peak_extra_bytes_per_point %.0f peak_rss_MB %.0f\n",
+      n, r.keypoints.size(), r.times.total_ms(), r.times.index_ms, r.times.saliency_ms, r.times.nms_ms,
+      before / double(n), (after - before) / double(n), after / 1e6);
   return 0;
 }
 
@@ -299,17 +320,24 @@ int main(int argc, char** argv) {
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime();
     benchmark::RegisterBenchmark(("block_scale_x100/" + name).c_str(), bm_block_scale, name)
-        ->Arg(50)
-        ->Arg(75)
         ->Arg(100)
-        ->Arg(150)
         ->Arg(200)
         ->Arg(300)
+        ->Arg(400)
+        ->Arg(600)
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime();
     benchmark::RegisterBenchmark(("baseline_cgal_per_point_6d/" + name).c_str(), bm_baseline, name, true)
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime();
+#ifdef CED_HAS_PCL
+    using ced::pcl_bridge::detector;
+    for (auto [label, d] : {std::pair{"pcl_iss3d/", detector::iss3d}, std::pair{"pcl_harris3d/", detector::harris3d},
+                            std::pair{"pcl_harris6d/", detector::harris6d}})
+      benchmark::RegisterBenchmark((label + name).c_str(), bm_pcl, name, d)
+          ->Unit(benchmark::kMillisecond)
+          ->UseRealTime();
+#endif
   }
   benchmark::RegisterBenchmark("generated_room_ced6d", bm_generated)
       ->ArgsProduct({{10000, 100000, 1000000}, {1, 2}})
