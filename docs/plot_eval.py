@@ -46,11 +46,12 @@ def main():
         ax.set_ylabel("relative repeatability")
         ax.set_ylim(0, 1.05)
         ax.grid(alpha=0.3)
-        ax.legend()
+        ax.legend(fontsize="small")
     dets = list(all_times)
     axes[-1].bar(dets, [sum(all_times[d]) / len(all_times[d]) for d in dets], color="tab:gray")
     axes[-1].set_title("mean detect time per cloud")
     axes[-1].set_ylabel("ms")
+    axes[-1].tick_params(axis="x", labelrotation=45)
     fig.tight_layout()
     fig.savefig(out, dpi=90)
 
