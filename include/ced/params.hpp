@@ -20,7 +20,7 @@ struct detect_params {
   unsigned threads = 0;
   /// Side of the spatial blocks, as a multiple of the radius (a tuning knob;
   /// the result does not depend on it).
-  double block_scale = 3.0;
+  double block_scale = 4.0;
   /// Optional: called with the fraction of the saliency stage done (0..1),
   /// from any worker thread, never concurrently; keep it cheap.
   std::function<void(double)> progress;
