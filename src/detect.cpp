@@ -35,10 +35,16 @@ double ms_since(clock_type::time_point t) {
 }  // namespace
 
 /// The neighbourhoods of a block's candidates, kept from the saliency pass for
-/// the NMS when the NMS radius does not exceed the radius (CSR).
-struct candidate_lists {
+/// the NMS when the NMS radius does not exceed the radius, in the sweep's
+/// compact form: the block's gathered points, and per candidate its ranges
+/// and hit bits (about a quarter of the size of neighbour lists).
+struct candidate_hits {
   bool stored = false;
-  std::vector<std::uint32_t> points, offsets, indices;
+  std::vector<std::uint32_t> points, gathered, ranges, bit_offsets;
+  std::vector<std::uint8_t> bits;
+  std::size_t bytes() const noexcept {
+    return 4 * (points.size() + gathered.size() + ranges.size() + bit_offsets.size()) + bits.size();
+  }
 };
 
 struct detection_context::impl {
@@ -47,7 +53,7 @@ struct detection_context::impl {
   detection_result result;
   neighbor_index index;
   block_partition blocks;
-  std::vector<candidate_lists> lists;
+  std::vector<candidate_hits> lists;
 
   impl(const point_cloud& c, const detect_params& p, neighbor_index&& idx, block_partition&& b)
       : cloud(c), params(p), index(std::move(idx)), blocks(std::move(b)) {}
@@ -61,37 +67,42 @@ bool is_candidate(const float* const* columns, const std::vector<double>& thresh
   return false;
 }
 
-/// Copies the neighbourhoods of the block's candidates (restricted to the NMS
-/// radius when it is smaller than the radius) into `cl`.
-void collect_candidate_lists(const neighbor_block& block, const float* const* columns,
-                             const std::vector<double>& thresholds, const float* xyz, const detect_params& params,
-                             candidate_lists& cl) {
-  std::size_t total = 0;
-  std::vector<std::size_t> local;
-  for (std::size_t k = 0; k < block.size(); ++k)
-    if (is_candidate(columns, thresholds, block.point(k))) {
-      local.push_back(k);
-      total += block.count(k);
-    }
-  cl.points.reserve(local.size());
-  cl.offsets.reserve(local.size() + 1);
-  cl.offsets.push_back(0);
-  cl.indices.reserve(total);
-  const float r2 = squared_radius(params.nms_radius);
-  for (std::size_t k : local) {
-    const std::uint32_t i = block.point(k);
-    cl.points.push_back(i);
-    const std::size_t first = cl.indices.size();
-    cl.indices.resize(first + block.count(k));
-    block.neighbors(k, cl.indices.data() + first);
-    if (params.nms_radius != params.radius) {
-      const float* pp = xyz + 3 * std::size_t(i);
-      const auto far =
-          std::remove_if(cl.indices.begin() + std::ptrdiff_t(first), cl.indices.end(),
-                         [&](std::uint32_t j) { return !(squared_distance(xyz + 3 * std::size_t(j), pp) < r2); });
-      cl.indices.erase(far, cl.indices.end());
-    }
-    cl.offsets.push_back(static_cast<std::uint32_t>(cl.indices.size()));
+/// Keeps the sweep results of the block's candidates in `ch`.
+void collect_candidate_hits(const neighbor_block& block, const float* const* columns,
+                            const std::vector<double>& thresholds, candidate_hits& ch) {
+  constexpr std::size_t nr = 2 * neighbor_block::sweep_ranges;
+  ch.bit_offsets.push_back(0);
+  for (std::size_t k = 0; k < block.size(); ++k) {
+    if (!is_candidate(columns, thresholds, block.point(k))) continue;
+    const auto v = block.sweep(k);
+    ch.points.push_back(block.point(k));
+    ch.ranges.insert(ch.ranges.end(), v.ranges, v.ranges + nr);
+    ch.bits.insert(ch.bits.end(), v.bits, v.bits + v.bytes);
+    ch.bit_offsets.push_back(static_cast<std::uint32_t>(ch.bits.size()));
+  }
+  if (!ch.points.empty()) ch.gathered.assign(block.gathered(), block.gathered() + block.gathered_count());
+}
+
+/// The NMS of the candidates kept in `ch`: a candidate is kept unless a
+/// neighbour within `nms_radius` has a strictly greater score.
+void nms_from_hits(const candidate_hits& ch, const float* xyz, const float* score, double nms_radius, bool whole_ball,
+                   std::uint8_t* keep) {
+  constexpr std::size_t nr = 2 * neighbor_block::sweep_ranges;
+  const float r2 = squared_radius(nms_radius);
+  for (std::size_t k = 0; k < ch.points.size(); ++k) {
+    const std::uint32_t i = ch.points[k];
+    const float si = score[i];
+    const float* pi = xyz + 3 * std::size_t(i);
+    const std::uint32_t* rg = ch.ranges.data() + nr * k;
+    const std::uint8_t* bits = ch.bits.data() + ch.bit_offsets[k];
+    bool maximum = true;
+    for (std::size_t q = 0; q < nr && maximum; q += 2)
+      for (std::uint32_t t = rg[q]; t < rg[q + 1] && maximum; t += 8)
+        for (unsigned b = *bits++; b != 0 && maximum; b &= b - 1) {
+          const std::uint32_t j = ch.gathered[t + static_cast<std::uint32_t>(__builtin_ctz(b))];
+          maximum = !(score[j] > si && (whole_ball || squared_distance(xyz + 3 * std::size_t(j), pi) < r2));
+        }
+    keep[i] = maximum;
   }
 }
 
@@ -149,7 +160,7 @@ void detection_context::compute_saliency(const std::vector<channel_source>& sour
   // Bounded memory: past the budget, blocks fall back to querying again
   // (which blocks do depends on timing, the result does not).
   const bool keep_lists = params.nms_radius <= params.radius;
-  std::atomic<std::size_t> budget{std::max<std::size_t>(std::size_t(1) << 26, 16 * n)};
+  std::atomic<std::size_t> budget{std::max<std::size_t>(std::size_t(1) << 28, 64 * n)};  // bytes
   m_impl->lists.assign(keep_lists ? blocks.block_count() : 0, {});
   std::atomic<std::size_t> blocks_done{0};
   std::mutex progress_mutex;
@@ -162,15 +173,15 @@ void detection_context::compute_saliency(const std::vector<channel_source>& sour
       for (std::size_t k = 0; k < block.size(); ++k) r.neighbor_count[block.point(k)] = block.count(k);
       f(block, columns.data());
       if (!keep_lists) continue;
-      candidate_lists& cl = m_impl->lists[b];
-      collect_candidate_lists(block, columns.data(), r.thresholds, xyz, params, cl);
-      std::size_t want = cl.indices.size(), have = budget.load();
+      candidate_hits& ch = m_impl->lists[b];
+      collect_candidate_hits(block, columns.data(), r.thresholds, ch);
+      std::size_t want = ch.bytes(), have = budget.load();
       while (have >= want && !budget.compare_exchange_weak(have, have - want)) {
       }
       if (have >= want) {
-        cl.stored = true;
+        ch.stored = true;
       } else {
-        cl = candidate_lists{};  // over budget: the NMS queries this block again
+        ch = candidate_hits{};  // over budget: the NMS queries this block again
       }
     }
     if (params.progress) {
@@ -201,15 +212,9 @@ detection_result detection_context::finish() {
     std::vector<std::uint32_t> cand, gathered;
     for (std::size_t b = b0; b < b1; ++b) {
       if (!lists.empty() && lists[b].stored) {
-        const candidate_lists& cl = lists[b];
-        for (std::size_t k = 0; k < cl.points.size(); ++k) {
-          const std::uint32_t i = cl.points[k];
-          const float si = product[i];
-          bool maximum = true;
-          for (std::uint32_t q = cl.offsets[k]; q < cl.offsets[k + 1] && maximum; ++q)
-            maximum = !(product[cl.indices[q]] > si);
-          keep[i] = maximum;
-        }
+        const auto& params = m_impl->params;
+        nms_from_hits(lists[b], xyz, product.data(), params.nms_radius, params.nms_radius == params.radius,
+                      keep.data());
         continue;
       }
       const std::uint32_t* pts = blocks.block_points(b);

@@ -93,6 +93,8 @@ void padded_bounds(const float* xyz, const std::uint32_t* points, std::size_t co
 }
 }  // namespace detail
 
+static_assert(neighbor_block::sweep_ranges == detail::kernel_ranges);
+
 namespace {
 struct kernel_set {
   void (*pass)(const detail::block_kernel_input&, const detail::block_kernel_output&) noexcept;

@@ -87,6 +87,24 @@ class neighbor_block {
   /// Point k's neighbourhood as a list (all lists are built on first use).
   neighborhood operator[](std::size_t k) const;
 
+  /// The sweep's raw result for point k: nine [begin, end) ranges into
+  /// gathered(), walked in order eight points at a time, and one byte of hit
+  /// bits per group of eight (bit l: gathered point begin + 8·g + l is a
+  /// neighbour). A compact form of the neighbourhood (the NMS keeps it).
+  struct sweep_view {
+    const std::uint32_t* ranges;  ///< 2 × sweep_ranges
+    const std::uint8_t* bits;
+    std::size_t bytes;
+  };
+  static constexpr std::size_t sweep_ranges = 9;
+  sweep_view sweep(std::size_t k) const noexcept {
+    return {m_ranges.data() + 2 * sweep_ranges * k, m_bits.data() + m_bit_offsets[k],
+            std::size_t(m_bit_offsets[k + 1] - m_bit_offsets[k])};
+  }
+  /// The points gathered for the block, in sweep order (gathered_count() of them).
+  const std::uint32_t* gathered() const noexcept { return m_gathered.data(); }
+  std::size_t gathered_count() const noexcept { return m_raw.size(); }
+
  private:
   void sort_into_cells(const float* xyz, const float lo[3], const float hi[3], double r);
   void cell_of(const float* p, std::uint64_t c[3]) const noexcept {
