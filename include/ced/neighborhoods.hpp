@@ -57,11 +57,11 @@ struct channel_source {
 
 /// The neighbour pass over one spatial block: one box query to the index for
 /// the whole block, the gathered points sorted into sub-cells (≈ r wide in y
-/// and z, r/4 in x), then per point one vectorised pass over the nine runs of
-/// sub-cells its ball reaches, which counts its neighbours (|p_j - p_i|² < r², float) and sums
-/// (v_j − v_i) over them for every channel at once. Neighbour lists are
-/// written only when asked for (for the NMS's candidates, or for modalities
-/// that read lists).
+/// and z, r/8 in x), then per point one vectorised sweep over the nine runs
+/// of sub-cells its ball reaches, which counts its neighbours
+/// (|p_j - p_i|² < r², float) and sums (v_j − v_i) over them for every
+/// channel at once. The sweep's hit bits are kept (sweep()); neighbour lists
+/// are written only when asked for (modalities that read lists).
 ///
 /// Reusable: filling it again keeps the buffers' capacity. Not thread-safe;
 /// use one per thread.
