@@ -137,6 +137,42 @@ TEST(Detect, GenericAndAvx2NeighbourPassesAgreeBitwise) {
   EXPECT_EQ(a6.keypoints, b6.keypoints);
 }
 
+// A modality whose evaluator reads neighbour lists (not sums) gets exactly
+// the neighbourhoods of the definition: a checksum of each point's neighbour
+// indices matches brute force, for several block sizes.
+namespace {
+struct neighbour_checksum {
+  std::string name() const { return "checksum"; }
+  double threshold(const ced::detect_params&) const { return 1e30; }
+  struct evaluator {
+    float operator()(const ced::neighborhood& nb) const {
+      std::uint32_t sum = 0;
+      for (std::uint32_t j : nb) sum += (j * 2654435761u) % 1000u;
+      return static_cast<float>(sum);
+    }
+  };
+  evaluator bind(const ced::point_cloud&, const ced::detect_params&) const { return {}; }
+};
+}  // namespace
+
+TEST(Detect, ListEvaluatorsSeeExactNeighbourhoods) {
+  static_assert(!ced::sums_neighbors_v<neighbour_checksum::evaluator>);
+  const auto c = make_room(3000, 23);
+  ced::detect_params p;
+  p.min_neighbors = 0;
+  const auto nb = ced_test::brute_neighbors(c, p.radius);
+  for (double scale : {1.0, 4.0}) {
+    p.block_scale = scale;
+    const auto r = ced::detect(c, p, neighbour_checksum{}, ced::xyz{});
+    for (std::size_t i = 0; i < c.size(); ++i) {
+      std::uint32_t sum = 0;
+      for (auto j : nb[i]) sum += (static_cast<std::uint32_t>(j) * 2654435761u) % 1000u;
+      ASSERT_EQ(r.saliency[0][i], static_cast<float>(sum)) << "point " << i << ", block scale " << scale;
+      ASSERT_EQ(r.neighbor_count[i], nb[i].size());
+    }
+  }
+}
+
 // Block sizes from a fraction of the radius to many radii (few and many
 // gathered points per block, sub-grids of every shape) all match the oracle.
 TEST(Detect, AnyBlockScaleMatchesOracle) {
