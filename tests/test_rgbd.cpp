@@ -155,7 +155,7 @@ TEST(Rgbd, RejectsBadImages) {
   const std::string wide = temp_file("wide.png");
   std::vector<std::uint8_t> wide_rgb(5 * 3 * 3, 90);
   write_colour_png(wide, wide_rgb, 5, 3);
-  EXPECT_NE(message(depth, wide, k).find("colour image is 5x3 but the depth image"), std::string::npos);
+  EXPECT_NE(message(depth, wide, k).find("colour image is 5x3 but the intrinsics say 4x3"), std::string::npos);
   // Intrinsics of another size.
   auto other = k;
   other.width = 640;
@@ -168,6 +168,15 @@ TEST(Rgbd, RejectsBadImages) {
   const std::string junk = temp_file("junk.png");
   write_bytes(junk, "not an image at all");
   EXPECT_NE(message(depth, junk, k).find("junk.png"), std::string::npos);
+}
+
+TEST(Rgbd, RejectsImpossibleImageSizesInIntrinsics) {
+  const auto read = [](const std::string& p) { ced::io::read_intrinsics(p); };
+  for (const char* side : {"1e20", "0", "-4", "640.5", "70000"}) {
+    const std::string json = std::string(R"({"width": )") + side +
+                             R"(, "height": 480, "intrinsic_matrix": [525.0, 0, 0, 0, 525.0, 0, 319.5, 239.5, 1]})";
+    EXPECT_CONTAINS(read_error_of(read, json, "bad_camera.json"), "width") << side;
+  }
 }
 
 TEST(Rgbd, ReadsOpen3DIntrinsics) {

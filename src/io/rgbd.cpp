@@ -44,6 +44,30 @@ double positive_number(const nlohmann::json& j, const std::string& path, const s
   return j.get<double>();
 }
 
+/// An image width or height: a whole number from 1 to max_image_side.
+constexpr double max_image_side = 65535;
+int image_side(const nlohmann::json& j, const std::string& path, const std::string& what) {
+  const double v = positive_number(j, path, what);
+  if (v != std::floor(v) || v > max_image_side)
+    throw io_error(path + ": " + what + " must be a whole number of pixels from 1 to 65535");
+  return static_cast<int>(v);
+}
+
+/// Reads only the header of an image file and checks its size against the
+/// intrinsics, so that no image of another size is ever decoded (a forged
+/// header cannot make the decoder allocate more than the camera's frame).
+void check_image_size(const std::string& path, const camera_intrinsics& k, const char* what) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) throw io_error(path + ": cannot open the " + what + " image");
+  int w = 0, h = 0, c = 0;
+  const int ok = stbi_info_from_file(f, &w, &h, &c);
+  std::fclose(f);
+  if (!ok) throw io_error(path + ": cannot read the " + what + " image: " + stbi_failure_reason());
+  if (w != k.width || h != k.height)
+    throw io_error(path + ": " + what + " image is " + size_text(w, h) + " but the intrinsics say " +
+                   size_text(k.width, k.height));
+}
+
 }  // namespace
 
 camera_intrinsics read_intrinsics(const std::string& path) {
@@ -63,8 +87,8 @@ camera_intrinsics read_intrinsics(const std::string& path) {
   for (const auto& v : m)
     if (!v.is_number()) throw io_error(path + ": intrinsic_matrix must hold numbers only");
   camera_intrinsics k;
-  k.width = static_cast<int>(positive_number(j["width"], path, "width"));
-  k.height = static_cast<int>(positive_number(j["height"], path, "height"));
+  k.width = image_side(j["width"], path, "width");
+  k.height = image_side(j["height"], path, "height");
   k.fx = positive_number(m[0], path, "fx (intrinsic_matrix[0])");
   k.fy = positive_number(m[4], path, "fy (intrinsic_matrix[4])");
   k.cx = m[6].get<double>();
@@ -102,6 +126,8 @@ point_cloud back_project(const std::uint16_t* depth, const std::uint8_t* rgb, in
 
 point_cloud read_rgbd(const std::string& depth_path, const std::string& color_path, const camera_intrinsics& k,
                       const rgbd_options& options) {
+  check_image_size(depth_path, k, "depth");
+  check_image_size(color_path, k, "colour");
   int dw = 0, dh = 0, dc = 0;
   std::FILE* f = std::fopen(depth_path.c_str(), "rb");
   if (!f) throw io_error(depth_path + ": cannot open the depth image");
