@@ -10,10 +10,8 @@
 #include <CGAL/Search_traits_3.h>
 #include <CGAL/Search_traits_adapter.h>
 #include <CGAL/Simple_cartesian.h>
-#include <CGAL/property_map.h>
 
 #include <algorithm>
-#include <boost/iterator/counting_iterator.hpp>
 #include <boost/iterator/function_output_iterator.hpp>
 #include <cmath>
 #include <limits>
@@ -29,33 +27,44 @@ namespace ced {
 namespace {
 using kernel = CGAL::Simple_cartesian<float>;
 using point_3 = kernel::Point_3;
-using point_map = CGAL::Pointer_property_map<point_3>::type;
+/// A point of the tree: its coordinates and its index in the input. The tree
+/// stores and partitions these directly and reads the coordinates from the
+/// key itself (no indirection into another array), which keeps its build and
+/// searches cache-friendly.
+struct indexed_point {
+  point_3 p;
+  std::uint32_t id;
+};
+struct point_of {
+  using key_type = indexed_point;
+  using value_type = point_3;
+  using reference = const point_3&;
+  using category = boost::readable_property_map_tag;
+  friend reference get(const point_of&, const indexed_point& k) { return k.p; }
+};
 using base_traits = CGAL::Search_traits_3<kernel>;
-using traits = CGAL::Search_traits_adapter<std::uint32_t, point_map, base_traits>;
+using traits = CGAL::Search_traits_adapter<indexed_point, point_of, base_traits>;
 using splitter = CGAL::Sliding_midpoint<traits>;
 using tree_type = CGAL::Kd_tree<traits, splitter, CGAL::Tag_true, CGAL::Tag_false>;
 using sphere = CGAL::Fuzzy_sphere<traits>;
 using iso_box = CGAL::Fuzzy_iso_box<traits>;
-using distance = CGAL::Distance_adapter<std::uint32_t, point_map, CGAL::Euclidean_distance<base_traits>>;
+using distance = CGAL::Distance_adapter<indexed_point, point_of, CGAL::Euclidean_distance<base_traits>>;
 using knn = CGAL::Orthogonal_k_neighbor_search<traits, distance, splitter, tree_type>;
+
+point_3 at(const float c[3]) noexcept { return point_3(c[0], c[1], c[2]); }
+
+/// Appends the ids of reported points to a vector (copy-assignable, as the
+/// output iterator needs).
+struct append_id {
+  std::vector<std::uint32_t>* out;
+  void operator()(const indexed_point& k) const { out->push_back(k.id); }
+};
 }  // namespace
 
 struct neighbor_index::impl {
-  std::vector<point_3> points;       // in `order` when one was given
-  std::vector<std::uint32_t> order;  // tree key -> index into xyz (empty: the identity)
   tree_type tree;
-
-  std::uint32_t index_of(std::uint32_t key) const noexcept { return order.empty() ? key : order[key]; }
-  void translate(std::vector<std::uint32_t>& keys) const noexcept {
-    if (!order.empty())
-      for (auto& k : keys) k = order[k];
-  }
-
-  impl(std::vector<point_3>&& pts, unsigned bucket)
-      : points(std::move(pts)),
-        tree(boost::counting_iterator<std::uint32_t>(0),
-             boost::counting_iterator<std::uint32_t>(static_cast<std::uint32_t>(points.size())), splitter(bucket),
-             traits(CGAL::make_property_map(points))) {}
+  impl(const std::vector<indexed_point>& pts, unsigned bucket)
+      : tree(pts.begin(), pts.end(), splitter(bucket), traits(point_of{})) {}
 };
 
 neighbor_index::neighbor_index(const float* xyz, std::size_t n, unsigned bucket_size, unsigned threads,
@@ -63,15 +72,14 @@ neighbor_index::neighbor_index(const float* xyz, std::size_t n, unsigned bucket_
     : m_xyz(xyz), m_n(n) {
   if (n > std::size_t(UINT32_MAX) - 1) throw std::length_error("neighbor_index: too many points (max 2^32-2)");
   if (bucket_size == 0) throw std::invalid_argument("neighbor_index: bucket_size must be positive");
-  std::vector<point_3> pts;
+  std::vector<indexed_point> pts;
   pts.reserve(n);
   for (std::size_t k = 0; k < n; ++k) {
     const std::size_t i = order ? order[k] : k;
     if (i >= n) throw std::invalid_argument("neighbor_index: order is not a permutation");
-    pts.emplace_back(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
+    pts.push_back({point_3(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]), static_cast<std::uint32_t>(i)});
   }
-  m_impl = std::make_unique<impl>(std::move(pts), bucket_size);
-  if (order) m_impl->order.assign(order, order + n);
+  m_impl = std::make_unique<impl>(pts, bucket_size);
   if (n == 0) return;
 #if defined(CED_HAS_TBB) && defined(CGAL_LINKED_WITH_TBB)
   if (threads != 1) {
@@ -100,28 +108,25 @@ void neighbor_index::radius_search(const float c[3], double r, std::vector<std::
   // Query a slightly larger sphere, then apply the exact float test.
   const float rq = static_cast<float>(r) * 1.0001f + 1e-30f;
   struct strict_filter {
-    const float* xyz;
     const float* c;
     float r2;
-    const impl* index;
     std::vector<std::uint32_t>* out;
-    void operator()(std::uint32_t key) const {
-      const std::uint32_t j = index->index_of(key);
-      if (squared_distance(xyz + 3 * std::size_t(j), c) < r2) out->push_back(j);
+    void operator()(const indexed_point& k) const {
+      const float q[3] = {k.p.x(), k.p.y(), k.p.z()};
+      if (squared_distance(q, c) < r2) out->push_back(k.id);
     }
   };
-  auto sink = boost::make_function_output_iterator(strict_filter{m_xyz, c, r2, m_impl.get(), &out});
-  m_impl->tree.search(sink, sphere(point_3(c[0], c[1], c[2]), rq, 0.0f, m_impl->tree.traits()));
+  auto sink = boost::make_function_output_iterator(strict_filter{c, r2, &out});
+  m_impl->tree.search(sink, sphere(at(c), rq, 0.0f, m_impl->tree.traits()));
 }
 
 float neighbor_index::nearest_other_distance(std::uint32_t i) const {
   if (i >= m_n) throw std::out_of_range("neighbor_index::nearest_other_distance: index out of range");
   const float* p = m_xyz + 3 * std::size_t(i);
-  const knn search(m_impl->tree, point_3(p[0], p[1], p[2]), 2, 0.0f, true,
-                   distance(CGAL::make_property_map(m_impl->points)));
+  const knn search(m_impl->tree, at(p), 2, 0.0f, true, distance(point_of{}));
   float best = std::numeric_limits<float>::infinity();
   for (const auto& hit : search) {
-    const std::uint32_t j = m_impl->index_of(hit.first);
+    const std::uint32_t j = hit.first.id;
     if (j != i) best = std::min(best, std::sqrt(squared_distance(m_xyz + 3 * std::size_t(j), p)));
   }
   return best;
@@ -130,9 +135,8 @@ float neighbor_index::nearest_other_distance(std::uint32_t i) const {
 void neighbor_index::box_search(const float lo[3], const float hi[3], std::vector<std::uint32_t>& out) const {
   out.clear();
   if (m_n == 0) return;
-  m_impl->tree.search(std::back_inserter(out),
-                      iso_box(point_3(lo[0], lo[1], lo[2]), point_3(hi[0], hi[1], hi[2]), 0.0f, m_impl->tree.traits()));
-  m_impl->translate(out);
+  m_impl->tree.search(boost::make_function_output_iterator(append_id{&out}),
+                      iso_box(at(lo), at(hi), 0.0f, m_impl->tree.traits()));
 }
 
 }  // namespace ced
