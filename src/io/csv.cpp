@@ -469,15 +469,11 @@ point_cloud read_csv(const std::string& path, const csv_options& options) {
 }
 
 void write_csv(std::ostream& out, const point_cloud& cloud) {
-  write_csv_unchecked(out, cloud);
-  out.flush();
-  if (!out) throw io_error("error writing CSV data to the output stream");
+  detail::write_to_stream(out, "CSV", [&](std::ostream& o) { write_csv_unchecked(o, cloud); });
 }
 
 void write_csv(const std::string& path, const point_cloud& cloud) {
-  atomic_output_file file(path);
-  write_csv_unchecked(file.stream(), cloud);
-  file.commit();
+  detail::write_to_file(path, [&](std::ostream& o) { write_csv_unchecked(o, cloud); });
 }
 
 }  // namespace ced::io

@@ -737,15 +737,11 @@ point_cloud read_las(const std::string& path, las_read_info* info) {
 }
 
 void write_las(std::ostream& out, const point_cloud& cloud, const las_write_options& options) {
-  write_las_unchecked(out, cloud, options);
-  out.flush();
-  if (!out) throw io_error("error writing LAS data to the output stream");
+  detail::write_to_stream(out, "LAS", [&](std::ostream& o) { write_las_unchecked(o, cloud, options); });
 }
 
 void write_las(const std::string& path, const point_cloud& cloud, const las_write_options& options) {
-  atomic_output_file file(path);
-  write_las_unchecked(file.stream(), cloud, options);
-  file.commit();
+  detail::write_to_file(path, [&](std::ostream& o) { write_las_unchecked(o, cloud, options); });
 }
 
 }  // namespace ced::io

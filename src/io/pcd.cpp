@@ -835,15 +835,11 @@ point_cloud read_pcd(const std::string& path, pcd_read_info* info) {
 }
 
 void write_pcd(std::ostream& out, const point_cloud& cloud, pcd_format fmt) {
-  write_pcd_unchecked(out, cloud, fmt);
-  out.flush();
-  if (!out) throw io_error("error writing PCD data to the output stream");
+  detail::write_to_stream(out, "PCD", [&](std::ostream& o) { write_pcd_unchecked(o, cloud, fmt); });
 }
 
 void write_pcd(const std::string& path, const point_cloud& cloud, pcd_format fmt) {
-  atomic_output_file file(path);
-  write_pcd_unchecked(file.stream(), cloud, fmt);
-  file.commit();
+  detail::write_to_file(path, [&](std::ostream& o) { write_pcd_unchecked(o, cloud, fmt); });
 }
 
 }  // namespace ced::io

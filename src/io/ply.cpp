@@ -539,15 +539,11 @@ point_cloud read_ply(std::istream& in, const std::string& name_for_errors) {
 }
 
 void write_ply(std::ostream& out, const point_cloud& cloud, ply_format fmt) {
-  write_ply_unchecked(out, cloud, fmt);
-  out.flush();
-  if (!out) throw io_error("error writing PLY data to the output stream");
+  detail::write_to_stream(out, "PLY", [&](std::ostream& o) { write_ply_unchecked(o, cloud, fmt); });
 }
 
 void write_ply(const std::string& path, const point_cloud& cloud, ply_format fmt) {
-  atomic_output_file file(path);
-  write_ply_unchecked(file.stream(), cloud, fmt);
-  file.commit();
+  detail::write_to_file(path, [&](std::ostream& o) { write_ply_unchecked(o, cloud, fmt); });
 }
 
 }  // namespace ced::io

@@ -9,18 +9,38 @@
 #include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <ostream>
 #include <string>
 #include <string_view>
 #include <system_error>
 #include <type_traits>
 
 #include "ced/cloud.hpp"
+#include "ced/io/output_file.hpp"
 
 namespace ced::io::detail {
 
 /// The whole file at `path`; io_error naming it when it is a directory,
 /// cannot be opened or cannot be read. (Defined in output_file.cpp.)
 std::string read_whole_file(const std::string& path);
+
+/// The public stream overload of every writer: `write(out)`, then a flush;
+/// io_error naming `format` when the stream has failed.
+template <class Write>
+void write_to_stream(std::ostream& out, const char* format, Write&& write) {
+  write(out);
+  out.flush();
+  if (!out) throw io_error(std::string("error writing ") + format + " data to the output stream");
+}
+
+/// The public path overload of every writer: `write(stream)` into an
+/// atomic_output_file, committed only when the whole file was written.
+template <class Write>
+void write_to_file(const std::string& path, Write&& write) {
+  atomic_output_file file(path);
+  write(file.stream());
+  file.commit();
+}
 
 inline bool host_little_endian() noexcept {
   const std::uint16_t one = 1;
