@@ -572,6 +572,11 @@ void print_repeat_row(const std::string& name, const std::string& noise, const r
   std::printf("%-28s %8s %10.1f %12.3f %10.3f %10.1f\n", name.c_str(), noise.c_str(), st.kp / n, mean, sd, st.ms / n);
 }
 
+/// The columns of `ced eval repeatability --csv` (one row per repeat_once() measurement).
+constexpr const char* repeat_csv_header =
+    "detector,noise_resolution,noise_m,trial,source_keypoints,target_keypoints,repeated,relative_repeatability,"
+    "detect_ms\n";
+
 /// Runs every detector on P and Q and measures; one CSV row each.
 void repeat_once(const std::vector<eval_detector>& detectors, const ced::point_cloud& p, const ced::point_cloud& q,
                  const ced::eval::rigid_transform& t, const eval_setting& s, double eps, std::mt19937_64& rng,
@@ -624,9 +629,7 @@ int run_eval_pair(const eval_options& o, const std::vector<eval_detector>& detec
   if (!o.quiet)
     std::fprintf(stderr, "ced eval: %s (%zu points) -> %s (%zu points), resolution %g, radius %g, epsilon %g\n",
                  o.source.c_str(), p.size(), o.target.c_str(), q.size(), s.resolution, s.params.radius, eps);
-  if (csv)
-    csv->stream() << "detector,noise_resolution,noise_m,trial,source_keypoints,target_keypoints,repeated,"
-                     "relative_repeatability,detect_ms\n";
+  if (csv) csv->stream() << repeat_csv_header;
   print_repeat_header();
   std::vector<repeat_stats> stats(detectors.size());
   std::mt19937_64 rng(o.seed);
@@ -660,9 +663,7 @@ int run_eval(const eval_options& o, bool noise_given) {
   if (!o.quiet)
     std::fprintf(stderr, "ced eval: %s, %zu points, resolution %g, radius %g, epsilon %g, %d trial(s)\n",
                  o.input.c_str(), p.size(), res, s.params.radius, eps, o.trials);
-  if (csv)
-    csv->stream() << "detector,noise_resolution,noise_m,trial,source_keypoints,target_keypoints,repeated,"
-                     "relative_repeatability,detect_ms\n";
+  if (csv) csv->stream() << repeat_csv_header;
   print_repeat_header();
   std::mt19937_64 master(o.seed);
   for (double nr : noise) {
