@@ -53,7 +53,7 @@ struct detection_context::impl {
   detection_result result;
   neighbor_index index;
   block_partition blocks;
-  std::vector<candidate_hits> lists;
+  std::vector<candidate_hits> hits;
 
   impl(const point_cloud& c, const detect_params& p, neighbor_index&& idx, block_partition&& b)
       : cloud(c), params(p), index(std::move(idx)), blocks(std::move(b)) {}
@@ -159,9 +159,9 @@ void detection_context::compute_saliency(const std::vector<channel_source>& sour
   // Keeping the candidates' neighbourhoods saves the NMS its own queries.
   // Bounded memory: past the budget, blocks fall back to querying again
   // (which blocks do depends on timing, the result does not).
-  const bool keep_lists = params.nms_radius <= params.radius;
+  const bool keep_hits = params.nms_radius <= params.radius;
   std::atomic<std::size_t> budget{std::max<std::size_t>(std::size_t(1) << 28, 64 * n)};  // bytes
-  m_impl->lists.assign(keep_lists ? blocks.block_count() : 0, {});
+  m_impl->hits.assign(keep_hits ? blocks.block_count() : 0, {});
   std::atomic<std::size_t> blocks_done{0};
   std::mutex progress_mutex;
   const std::size_t report_every = std::max<std::size_t>(1, blocks.block_count() / 100);
@@ -172,8 +172,8 @@ void detection_context::compute_saliency(const std::vector<channel_source>& sour
       block.fill(m_impl->index, xyz, blocks.block_points(b), blocks.block_size(b), params.radius);
       for (std::size_t k = 0; k < block.size(); ++k) r.neighbor_count[block.point(k)] = block.count(k);
       f(block, columns.data());
-      if (!keep_lists) continue;
-      candidate_hits& ch = m_impl->lists[b];
+      if (!keep_hits) continue;
+      candidate_hits& ch = m_impl->hits[b];
       collect_candidate_hits(block, columns.data(), r.thresholds, ch);
       std::size_t want = ch.bytes(), have = budget.load();
       while (have >= want && !budget.compare_exchange_weak(have, have - want)) {
@@ -206,15 +206,14 @@ detection_result detection_context::finish() {
   const std::vector<float> product = saliency_product(r.saliency);
   const float* xyz = m_impl->cloud.positions().data();
   const auto& blocks = m_impl->blocks;
-  const auto& lists = m_impl->lists;
+  const auto& hits = m_impl->hits;
   std::vector<std::uint8_t> keep(n, 0);
   parallel_for(blocks.block_count(), resolve_threads(m_impl->params.threads), 16, [&](std::size_t b0, std::size_t b1) {
     std::vector<std::uint32_t> cand, gathered;
     for (std::size_t b = b0; b < b1; ++b) {
-      if (!lists.empty() && lists[b].stored) {
+      if (!hits.empty() && hits[b].stored) {
         const auto& params = m_impl->params;
-        nms_from_hits(lists[b], xyz, product.data(), params.nms_radius, params.nms_radius == params.radius,
-                      keep.data());
+        nms_from_hits(hits[b], xyz, product.data(), params.nms_radius, params.nms_radius == params.radius, keep.data());
         continue;
       }
       const std::uint32_t* pts = blocks.block_points(b);
@@ -225,8 +224,8 @@ detection_result detection_context::finish() {
                          keep.data(), gathered);
     }
   });
-  m_impl->lists.clear();
-  m_impl->lists.shrink_to_fit();
+  m_impl->hits.clear();
+  m_impl->hits.shrink_to_fit();
   r.keypoints = compact_flags(keep);
   r.times.nms_ms = ms_since(t0);
   return std::move(r);
