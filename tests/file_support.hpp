@@ -1,16 +1,18 @@
 // SPDX-License-Identifier: MIT
-// Temporary files for the I/O tests: one directory per test process, removed
-// when the tests end.
+// Temporary files for the I/O tests (one directory per test process, removed
+// when the tests end), and a bit-exact comparison of two clouds.
 #pragma once
 
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
 
+#include "ced/cloud.hpp"
 #include "ced/io/output_file.hpp"
 
 namespace ced_test {
@@ -59,6 +61,35 @@ std::string read_error_of(Read&& read, const std::string& bytes, const std::stri
     return msg;
   }
   return "<no io_error thrown>";
+}
+
+/// Expects a == b with the same sign bit, or both NaN.
+inline void expect_same_value(double a, double b, const std::string& what) {
+  if (std::isnan(a)) {
+    EXPECT_TRUE(std::isnan(b)) << what;
+  } else {
+    EXPECT_EQ(a, b) << what;
+    EXPECT_EQ(std::signbit(a), std::signbit(b)) << what;
+  }
+}
+
+/// Expects two clouds to hold the same origin, positions and fields (names,
+/// types, values), value for value as expect_same_value.
+inline void expect_same_cloud(const ced::point_cloud& a, const ced::point_cloud& b) {
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_EQ(a.origin(), b.origin());
+  for (std::size_t i = 0; i < 3 * a.size(); ++i)
+    expect_same_value(a.positions()[i], b.positions()[i], "position " + std::to_string(i));
+  ASSERT_EQ(a.fields().size(), b.fields().size());
+  for (std::size_t f = 0; f < a.fields().size(); ++f) {
+    const auto& fa = a.fields()[f];
+    const auto& fb = b.fields()[f];
+    EXPECT_EQ(fa.name, fb.name);
+    EXPECT_EQ(fa.type, fb.type) << fa.name;
+    ASSERT_EQ(fa.values.size(), fb.values.size());
+    for (std::size_t i = 0; i < fa.values.size(); ++i)
+      expect_same_value(fa.values[i], fb.values[i], fa.name + "[" + std::to_string(i) + "]");
+  }
 }
 
 }  // namespace ced_test

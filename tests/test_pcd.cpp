@@ -22,6 +22,7 @@ using ced::io::io_error;
 using ced::io::pcd_format;
 using ced::io::pcd_read_info;
 
+using ced_test::expect_same_cloud;
 using ced_test::read_bytes;
 using ced_test::temp_dir;
 using ced_test::temp_file;
@@ -111,32 +112,6 @@ point_cloud all_types_cloud() {
   }
   c.add_rgb({{255, 0, 0}, {0, 255, 0}, {0, 0, 255}, {1, 2, 3}, {200, 100, 50}});
   return c;
-}
-
-void expect_same_value(double a, double b, const std::string& what) {
-  if (std::isnan(a)) {
-    EXPECT_TRUE(std::isnan(b)) << what;
-  } else {
-    EXPECT_EQ(a, b) << what;
-    EXPECT_EQ(std::signbit(a), std::signbit(b)) << what;
-  }
-}
-
-void expect_same_cloud(const point_cloud& a, const point_cloud& b) {
-  ASSERT_EQ(a.size(), b.size());
-  EXPECT_EQ(a.origin(), b.origin());
-  for (std::size_t i = 0; i < 3 * a.size(); ++i)
-    expect_same_value(a.positions()[i], b.positions()[i], "position " + std::to_string(i));
-  ASSERT_EQ(a.fields().size(), b.fields().size());
-  for (std::size_t f = 0; f < a.fields().size(); ++f) {
-    const auto& fa = a.fields()[f];
-    const auto& fb = b.fields()[f];
-    EXPECT_EQ(fa.name, fb.name);
-    EXPECT_EQ(fa.type, fb.type) << fa.name;
-    ASSERT_EQ(fa.values.size(), fb.values.size());
-    for (std::size_t i = 0; i < fa.values.size(); ++i)
-      expect_same_value(fa.values[i], fb.values[i], fa.name + "[" + std::to_string(i) + "]");
-  }
 }
 
 std::string write_string(const point_cloud& c, pcd_format fmt) {

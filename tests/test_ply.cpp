@@ -19,6 +19,7 @@ using ced::scalar_type;
 using ced::io::io_error;
 using ced::io::ply_format;
 
+using ced_test::expect_same_cloud;
 using ced_test::read_bytes;
 using ced_test::temp_dir;
 using ced_test::temp_file;
@@ -79,31 +80,6 @@ point_cloud all_types_cloud() {
   }
   c.add_rgb({{255, 0, 0}, {0, 255, 0}, {0, 0, 255}, {1, 2, 3}, {200, 100, 50}});
   return c;
-}
-
-void expect_same_float(float a, float b) {
-  if (std::isnan(a))
-    EXPECT_TRUE(std::isnan(b));
-  else
-    EXPECT_EQ(a, b);
-}
-
-void expect_same_cloud(const point_cloud& a, const point_cloud& b) {
-  ASSERT_EQ(a.size(), b.size());
-  EXPECT_EQ(a.origin(), b.origin());
-  for (std::size_t i = 0; i < 3 * a.size(); ++i) expect_same_float(a.positions()[i], b.positions()[i]);
-  ASSERT_EQ(a.fields().size(), b.fields().size());
-  for (std::size_t f = 0; f < a.fields().size(); ++f) {
-    const auto& fa = a.fields()[f];
-    const auto& fb = b.fields()[f];
-    EXPECT_EQ(fa.name, fb.name);
-    EXPECT_EQ(fa.type, fb.type) << fa.name;
-    ASSERT_EQ(fa.values.size(), fb.values.size());
-    for (std::size_t i = 0; i < fa.values.size(); ++i) {
-      EXPECT_EQ(fa.values[i], fb.values[i]) << fa.name << "[" << i << "]";
-      EXPECT_EQ(std::signbit(fa.values[i]), std::signbit(fb.values[i])) << fa.name << "[" << i << "]";
-    }
-  }
 }
 
 class PlyRoundTrip : public ::testing::TestWithParam<ply_format> {};
