@@ -59,6 +59,11 @@ struct append_id {
   std::vector<std::uint32_t>* out;
   void operator()(const indexed_point& k) const { out->push_back(k.id); }
 };
+/// Appends reported points with their positions.
+struct append_located {
+  std::vector<neighbor_index::located_point>* out;
+  void operator()(const indexed_point& k) const { out->push_back({{k.p.x(), k.p.y(), k.p.z()}, k.id}); }
+};
 }  // namespace
 
 struct neighbor_index::impl {
@@ -136,6 +141,13 @@ void neighbor_index::box_search(const float lo[3], const float hi[3], std::vecto
   out.clear();
   if (m_n == 0) return;
   m_impl->tree.search(boost::make_function_output_iterator(append_id{&out}),
+                      iso_box(at(lo), at(hi), 0.0f, m_impl->tree.traits()));
+}
+
+void neighbor_index::box_search(const float lo[3], const float hi[3], std::vector<located_point>& out) const {
+  out.clear();
+  if (m_n == 0) return;
+  m_impl->tree.search(boost::make_function_output_iterator(append_located{&out}),
                       iso_box(at(lo), at(hi), 0.0f, m_impl->tree.traits()));
 }
 

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "ced/ced.hpp"
 #include "test_support.hpp"
@@ -140,7 +141,16 @@ TEST(NeighborIndex, MatchesBruteForce) {
       }
     }
     const float lo[3] = {0.1f, 0.1f, -1}, hi[3] = {0.3f, 0.2f, 1};
+    // With positions: the same points in the same order, each with its own
+    // position (bitwise).
+    std::vector<ced::neighbor_index::located_point> located(3);
+    index.box_search(lo, hi, located);
     index.box_search(lo, hi, got);
+    ASSERT_EQ(located.size(), got.size());
+    for (std::size_t t = 0; t < got.size(); ++t) {
+      EXPECT_EQ(located[t].index, got[t]);
+      EXPECT_EQ(std::memcmp(located[t].xyz, c.position(got[t]), sizeof located[t].xyz), 0);
+    }
     std::sort(got.begin(), got.end());
     std::vector<std::uint32_t> want;
     for (std::size_t i = 0; i < c.size(); ++i) {

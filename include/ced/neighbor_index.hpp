@@ -47,6 +47,14 @@ class neighbor_index {
   /// Replaces `out` with the indices of all points inside the closed box
   /// [lo, hi] (deterministic order, not sorted).
   void box_search(const float lo[3], const float hi[3], std::vector<std::uint32_t>& out) const;
+  /// A point found with its position, as the tree stores it.
+  struct located_point {
+    float xyz[3];
+    std::uint32_t index;
+  };
+  /// The same points in the same order, each with its position (read from
+  /// the tree itself, so the caller need not look them up).
+  void box_search(const float lo[3], const float hi[3], std::vector<located_point>& out) const;
 
  private:
   struct impl;
