@@ -124,6 +124,25 @@ void grow(V& v, std::size_t n) {
   if (v.size() < n) v.resize(n);
 }
 
+/// Copies D channels (row-major, `row` floats a point) of the gathered
+/// points into structure of arrays, and of the block's points into `own`
+/// (`own_stride` floats a point), each less the reference `ref`.
+template <std::size_t D>
+void copy_channels(const float* values, const float* ref_values, const std::uint32_t* gathered, std::size_t g,
+                   float* dst, std::size_t stride, const std::uint32_t* points, std::size_t count, float* own,
+                   std::size_t own_stride, std::size_t row = D) {
+  float ref[D];
+  for (std::size_t d = 0; d < D; ++d) ref[d] = ref_values[d];
+  for (std::size_t t = 0; t < g; ++t) {
+    const float* v = values + row * gathered[t];
+    for (std::size_t d = 0; d < D; ++d) dst[d * stride + t] = v[d] - ref[d];
+  }
+  for (std::size_t k = 0; k < count; ++k) {
+    const float* v = values + row * points[k];
+    for (std::size_t d = 0; d < D; ++d) own[own_stride * k + d] = v[d] - ref[d];
+  }
+}
+
 /// Sub-grids up to this many cells are sorted by counting, larger ones
 /// (blocks far wider than the radius) by comparison.
 constexpr std::uint64_t max_counted_cells = 1u << 14;
@@ -155,7 +174,7 @@ std::size_t neighbor_block::cell_start_sorted(std::uint64_t key) const noexcept 
   return static_cast<std::size_t>(it - m_keyed.begin());
 }
 
-void neighbor_block::sort_into_cells(const float* xyz, const float lo[3], const float hi[3], double r) {
+void neighbor_block::sort_into_cells(const float lo[3], const float hi[3], double r) {
   // Sub-cells a little wider than r in y and z: a neighbour (even one the
   // float test accepts at a true distance a hair over r) is at most one row
   // away. Narrower in x, where each row is cut to the ball's extent.
@@ -178,32 +197,50 @@ void neighbor_block::sort_into_cells(const float* xyz, const float lo[3], const 
   m_single_cell = too_fine;  // absurd radius for the block: one cell, all tested
   if (too_fine) m_dims[0] = m_dims[1] = m_dims[2] = 1;
   for (int a = 0; a < 3; ++a) total *= static_cast<long double>(m_dims[a]);
+  // The gathered points, their positions as structure of arrays, with 8
+  // entries of padding (the kernel and the compaction read whole groups).
   const std::size_t g = m_raw.size();
-  grow(m_keyed, g);
-  for (std::size_t t = 0; t < g; ++t) {
-    std::uint64_t c[3];
-    cell_of(xyz + 3 * std::size_t(m_raw[t]), c);
-    m_keyed[t] = {(c[2] * m_dims[1] + c[1]) * m_dims[0] + c[0], m_raw[t]};
-  }
-  grow(m_gathered, g + 8);  // 8 past the end: the compaction reads whole groups
+  const neighbor_index::located_point* raw = m_raw.data();
+  grow(m_gathered, g + 8);
   std::fill_n(m_gathered.begin() + std::ptrdiff_t(g), 8, 0u);
+  for (auto* v : {&m_gx, &m_gy, &m_gz}) {
+    grow(*v, g + 8);
+    std::fill_n(v->begin() + std::ptrdiff_t(g), 8, 0.0f);
+  }
+  auto key_of = [&](std::size_t t) {
+    std::uint64_t c[3];
+    cell_of(raw[t].xyz, c);
+    return (c[2] * m_dims[1] + c[1]) * m_dims[0] + c[0];
+  };
+  auto place = [&](std::size_t to, std::size_t from) {
+    m_gathered[to] = raw[from].index;
+    m_gx[to] = raw[from].xyz[0];
+    m_gy[to] = raw[from].xyz[1];
+    m_gz[to] = raw[from].xyz[2];
+  };
   if (total <= static_cast<long double>(max_counted_cells)) {
     // Counting sort: stable, so the order is (cell, query order).
     const std::size_t cells = static_cast<std::size_t>(m_dims[0] * m_dims[1] * m_dims[2]);
     grow(m_cell_start, cells + 1);
     std::fill_n(m_cell_start.begin(), cells + 1, 0u);
-    for (std::size_t t = 0; t < g; ++t) ++m_cell_start[m_keyed[t].first + 1];
+    grow(m_cell_key, g);
+    for (std::size_t t = 0; t < g; ++t) {
+      const auto key = static_cast<std::uint32_t>(key_of(t));
+      m_cell_key[t] = key;
+      ++m_cell_start[key + 1];
+    }
     for (std::size_t c = 0; c < cells; ++c) m_cell_start[c + 1] += m_cell_start[c];
     std::vector<std::uint32_t>& next = m_ranges;  // scratch, overwritten later
     grow(next, cells);
     std::copy_n(m_cell_start.begin(), cells, next.begin());
-    for (std::size_t t = 0; t < g; ++t) m_gathered[next[m_keyed[t].first]++] = m_keyed[t].second;
+    for (std::size_t t = 0; t < g; ++t) place(next[m_cell_key[t]]++, t);
     m_counted = true;
   } else {
     // Same order by comparison: (cell, then position in the query's order).
-    for (std::size_t t = 0; t < g; ++t) m_keyed[t].second = static_cast<std::uint32_t>(t);
+    grow(m_keyed, g);
+    for (std::size_t t = 0; t < g; ++t) m_keyed[t] = {key_of(t), static_cast<std::uint32_t>(t)};
     std::sort(m_keyed.begin(), m_keyed.begin() + std::ptrdiff_t(g));
-    for (std::size_t t = 0; t < g; ++t) m_gathered[t] = m_raw[m_keyed[t].second];
+    for (std::size_t t = 0; t < g; ++t) place(t, m_keyed[t].second);
     m_counted = false;  // cell_start() then searches m_keyed
   }
 }
@@ -217,35 +254,41 @@ void neighbor_block::fill(const neighbor_index& index, const float* xyz, const s
   float lo[3], hi[3];
   detail::padded_bounds(xyz, points, count, r, lo, hi);
   index.box_search(lo, hi, m_raw);
-  sort_into_cells(xyz, lo, hi, r);
+  sort_into_cells(lo, hi, r);
 
-  // Gathered positions and channels as structure of arrays, 8 floats of
-  // zero padding at the end (the kernel reads whole groups of 8).
+  // Gathered channels as structure of arrays, 8 floats of zero padding at
+  // the end (the kernel reads whole groups of 8).
   const std::size_t g = m_raw.size(), stride = g + 8;
-  for (auto* v : {&m_gx, &m_gy, &m_gz}) {
-    grow(*v, stride);
-    std::fill_n(v->begin() + std::ptrdiff_t(g), 8, 0.0f);
-  }
-  for (std::size_t t = 0; t < g; ++t) {
-    const float* p = xyz + 3 * std::size_t(m_gathered[t]);
-    m_gx[t] = p[0];
-    m_gy[t] = p[1];
-    m_gz[t] = p[2];
-  }
   grow(m_channel_values, m_channels * stride);
   grow(m_own, m_channels * count);
   grow(m_centre, 3 * count);
+  // Each channel less a reference, the block's first point's value: the
+  // kernel sums these (small, whatever the channel's offset) and takes n
+  // times the point's own off the total.
   std::size_t base = 0;
   for (const channel_source& s : m_sources) {
     if (s.positions || !s.values) continue;
-    for (std::size_t d = 0; d < s.dims; ++d) {
-      float* dst = m_channel_values.data() + (base + d) * stride;
-      for (std::size_t t = 0; t < g; ++t) dst[t] = s.values[std::size_t(s.dims) * m_gathered[t] + d];
-      std::fill(dst + g, dst + stride, 0.0f);
-      for (std::size_t k = 0; k < count; ++k)
-        m_own[m_channels * k + base + d] = s.values[std::size_t(s.dims) * points[k] + d];
+    const std::size_t dims = s.dims;
+    float* const dst = m_channel_values.data() + base * stride;
+    float* const own = m_own.data() + base;
+    const float* const first = s.values + dims * points[0];
+    switch (dims) {
+      case 1:
+        copy_channels<1>(s.values, first, m_gathered.data(), g, dst, stride, points, count, own, m_channels);
+        break;
+      case 2:
+        copy_channels<2>(s.values, first, m_gathered.data(), g, dst, stride, points, count, own, m_channels);
+        break;
+      case 3:
+        copy_channels<3>(s.values, first, m_gathered.data(), g, dst, stride, points, count, own, m_channels);
+        break;
+      default:
+        for (std::size_t d = 0; d < dims; ++d)
+          copy_channels<1>(s.values + d, first + d, m_gathered.data(), g, dst + d * stride, stride, points, count,
+                           own + d, m_channels, dims);
     }
-    base += s.dims;
+    for (std::size_t d = 0; d < dims; ++d) std::fill_n(dst + d * stride + g, 8, 0.0f);
+    base += dims;
   }
 
   // Per point: the runs of sub-cells it tests, one per row (y, z) within one
@@ -255,49 +298,65 @@ void neighbor_block::fill(const neighbor_index& index, const float* xyz, const s
   const double rc2 = r * r * (1.0 + 1e-4), inv_x = m_inv_side[0];
   const std::int64_t dims_x = std::int64_t(m_dims[0]), dims_y = std::int64_t(m_dims[1]),
                      dims_z = std::int64_t(m_dims[2]), last_x = dims_x - 1;
+  const double lo_x = m_lo[0], lo_y = m_lo[1], lo_z = m_lo[2], side_y = m_side[1], side_z = m_side[2];
+  const std::uint32_t* const counted_start = m_counted ? m_cell_start.data() : nullptr;
+  auto start_of = [&](std::int64_t key) {
+    return counted_start ? std::size_t(counted_start[key]) : cell_start_sorted(std::uint64_t(key));
+  };
   constexpr std::int64_t x_reach = detail::x_cells_per_radius + 1;
+  constexpr double far = std::numeric_limits<double>::infinity();
   grow(m_ranges, 2 * detail::kernel_ranges * count);
   grow(m_bit_offsets, count + 1);
   m_bit_offsets[0] = 0;
+  std::uint32_t* const ranges = m_ranges.data();
+  std::uint32_t* const bit_offsets = m_bit_offsets.data();
+  float* const centre = m_centre.data();
   for (std::size_t k = 0; k < count; ++k) {
     const float* p = xyz + 3 * std::size_t(points[k]);
-    std::copy(p, p + 3, m_centre.begin() + static_cast<std::ptrdiff_t>(3 * k));
-    std::uint64_t c[3];
-    cell_of(p, c);
-    std::uint32_t* rg = m_ranges.data() + 2 * detail::kernel_ranges * k;
-    std::fill(rg, rg + 2 * detail::kernel_ranges, 0u);
+    centre[3 * k] = p[0];
+    centre[3 * k + 1] = p[1];
+    centre[3 * k + 2] = p[2];
+    std::uint32_t* rg = ranges + 2 * detail::kernel_ranges * k;
     std::size_t groups = 0;
     if (m_single_cell) {
+      std::fill(rg, rg + 2 * detail::kernel_ranges, 0u);
       rg[1] = static_cast<std::uint32_t>(g);
       groups = (g + 7) / 8;
     } else {
+      std::uint64_t c[3];
+      cell_of(p, c);
       // Squared distances from p to the rows below, at and above its own in
       // y and z (0 for its own); a row out of the grid is infinitely far.
       const std::int64_t cx = std::int64_t(c[0]), cy = std::int64_t(c[1]), cz = std::int64_t(c[2]);
-      const double py = double(p[1]) - m_lo[1] - double(cy) * m_side[1];
-      const double pz = double(p[2]) - m_lo[2] - double(cz) * m_side[2];
-      constexpr double far = std::numeric_limits<double>::infinity();
-      const double gy2[3] = {cy > 0 ? py * py : far, 0.0, cy + 1 < dims_y ? (m_side[1] - py) * (m_side[1] - py) : far};
-      const double gz2[3] = {cz > 0 ? pz * pz : far, 0.0, cz + 1 < dims_z ? (m_side[2] - pz) * (m_side[2] - pz) : far};
-      const double x = double(p[0]) - m_lo[0];
-      for (std::int64_t dz = -1; dz <= 1; ++dz)
-        for (std::int64_t dy = -1; dy <= 1; ++dy) {
+      const double py = double(p[1]) - lo_y - double(cy) * side_y;
+      const double pz = double(p[2]) - lo_z - double(cz) * side_z;
+      const double gy2[3] = {cy > 0 ? py * py : far, 0.0, cy + 1 < dims_y ? (side_y - py) * (side_y - py) : far};
+      const double gz2[3] = {cz > 0 ? pz * pz : far, 0.0, cz + 1 < dims_z ? (side_z - pz) * (side_z - pz) : far};
+      const double x = double(p[0]) - lo_x;
+      const std::int64_t reach_lo = cx - x_reach, reach_hi = std::min(last_x, cx + x_reach);
+      for (int dz = -1; dz <= 1; ++dz) {
+        const std::int64_t plane = (cz + dz) * dims_y;
+        for (int dy = -1; dy <= 1; ++dy, rg += 2) {
           const double left = rc2 - gy2[dy + 1] - gz2[dz + 1];
-          if (!(left >= 0)) continue;
-          const double w = std::sqrt(left);
-          // Truncation is floor for the clamped, non-negative values.
-          const std::int64_t x0 = std::max(cx - x_reach, static_cast<std::int64_t>(std::max(0.0, (x - w) * inv_x)));
-          const std::int64_t x1 = std::min({last_x, cx + x_reach, static_cast<std::int64_t>((x + w) * inv_x)});
-          if (x1 < x0) continue;
-          const std::int64_t row = ((cz + dz) * dims_y + (cy + dy)) * dims_x;
-          const std::size_t b = cell_start(std::uint64_t(row + x0)), e = cell_start(std::uint64_t(row + x1 + 1));
-          const std::size_t q = std::size_t((dz + 1) * 3 + (dy + 1));
-          rg[2 * q] = static_cast<std::uint32_t>(b);
-          rg[2 * q + 1] = static_cast<std::uint32_t>(e);
+          std::size_t b = 0, e = 0;
+          if (left >= 0) {
+            const double w = std::sqrt(left);
+            // Truncation is floor for the clamped, non-negative values.
+            const std::int64_t x0 = std::max(reach_lo, static_cast<std::int64_t>(std::max(0.0, (x - w) * inv_x)));
+            const std::int64_t x1 = std::min(reach_hi, static_cast<std::int64_t>((x + w) * inv_x));
+            if (x1 >= x0) {
+              const std::int64_t row = (plane + (cy + dy)) * dims_x;
+              b = start_of(row + x0);
+              e = start_of(row + x1 + 1);
+            }
+          }
+          rg[0] = static_cast<std::uint32_t>(b);
+          rg[1] = static_cast<std::uint32_t>(e);
           groups += (e - b + 7) / 8;
         }
+      }
     }
-    m_bit_offsets[k + 1] = static_cast<std::uint32_t>(m_bit_offsets[k] + groups);
+    bit_offsets[k + 1] = static_cast<std::uint32_t>(bit_offsets[k] + groups);
   }
   grow(m_bits, m_bit_offsets[count]);
   grow(m_counts, count);

@@ -106,7 +106,7 @@ class neighbor_block {
   std::size_t gathered_count() const noexcept { return m_raw.size(); }
 
  private:
-  void sort_into_cells(const float* xyz, const float lo[3], const float hi[3], double r);
+  void sort_into_cells(const float lo[3], const float hi[3], double r);
   void cell_of(const float* p, std::uint64_t c[3]) const noexcept {
     // Truncation is floor here: the value is clamped to ≥ 0 first.
     for (int a = 0; a < 3; ++a) {
@@ -130,7 +130,9 @@ class neighbor_block {
   double m_lo[3] = {0, 0, 0}, m_side[3] = {1, 1, 1}, m_inv_side[3] = {1, 1, 1};
   std::uint64_t m_dims[3] = {1, 1, 1};
   bool m_single_cell = false, m_counted = false;
-  std::vector<std::uint32_t> m_raw, m_gathered, m_cell_start;
+  // The box query's points and positions, then sorted into sub-cells.
+  std::vector<neighbor_index::located_point> m_raw;
+  std::vector<std::uint32_t> m_gathered, m_cell_start, m_cell_key;
   std::vector<std::pair<std::uint64_t, std::uint32_t>> m_keyed;
   std::vector<float> m_gx, m_gy, m_gz, m_channel_values, m_centre, m_own;
   // Per point: ranges, results, and the neighbour bits of its groups.

@@ -20,12 +20,15 @@ struct block_kernel_input {
   const float* gx;
   const float* gy;
   const float* gz;
-  /// Channel c of the gathered points at channels + c * stride.
+  /// Channel c of the gathered points at channels + c * stride, each less a
+  /// reference value of the block's (any value: it cancels out, it only keeps
+  /// the float sums small).
   const float* channels;
   std::size_t stride;
   std::size_t channel_count;
-  /// The block's points: positions (points × 3), own channel values
-  /// (points × channel_count) and [begin, end) ranges (points × 9 × 2).
+  /// The block's points: positions (points × 3), own channel values less
+  /// the same references (points × channel_count) and [begin, end) ranges
+  /// (points × 9 × 2).
   std::size_t points;
   const float* centre;
   const float* own;
