@@ -94,14 +94,27 @@ void nms_from_hits(const candidate_hits& ch, const float* xyz, const float* scor
     const float si = score[i];
     const float* pi = xyz + 3 * std::size_t(i);
     const std::uint32_t* rg = ch.ranges.data() + nr * k;
-    const std::uint8_t* bits = ch.bits.data() + ch.bit_offsets[k];
+    const std::uint8_t* const bits = ch.bits.data() + ch.bit_offsets[k];
+    // Each range's bits follow those of the ranges before it.
+    std::uint32_t first_bit[neighbor_block::sweep_ranges];
+    for (std::size_t q = 0, at = 0; q < neighbor_block::sweep_ranges; ++q) {
+      first_bit[q] = static_cast<std::uint32_t>(at);
+      at += (rg[2 * q + 1] - rg[2 * q] + 7) / 8;
+    }
+    // The point's own row first, then the rows beside it, then the corners:
+    // nearer neighbours are likelier to beat it, which ends the walk early.
+    // (Whether a greater neighbour exists does not depend on the order.)
+    static constexpr std::size_t walk[neighbor_block::sweep_ranges] = {4, 1, 3, 5, 7, 0, 2, 6, 8};
     bool maximum = true;
-    for (std::size_t q = 0; q < nr && maximum; q += 2)
-      for (std::uint32_t t = rg[q]; t < rg[q + 1] && maximum; t += 8)
-        for (unsigned b = *bits++; b != 0 && maximum; b &= b - 1) {
+    for (std::size_t w = 0; w < neighbor_block::sweep_ranges && maximum; ++w) {
+      const std::size_t q = walk[w];
+      const std::uint8_t* g = bits + first_bit[q];
+      for (std::uint32_t t = rg[2 * q]; t < rg[2 * q + 1] && maximum; t += 8)
+        for (unsigned b = *g++; b != 0 && maximum; b &= b - 1) {
           const std::uint32_t j = ch.gathered[t + static_cast<std::uint32_t>(__builtin_ctz(b))];
           maximum = !(score[j] > si && (whole_ball || squared_distance(xyz + 3 * std::size_t(j), pi) < r2));
         }
+    }
     keep[i] = maximum;
   }
 }
