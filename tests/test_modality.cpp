@@ -186,3 +186,17 @@ TEST(BlockPartition, CoversEveryPointOnce) {
     EXPECT_TRUE(std::all_of(seen.begin(), seen.end(), [](int s) { return s == 1; }));
   }
 }
+
+TEST(BlockPartition, SameBlocksForAnyThreadCount) {
+  // Enough points for the sort to split its work into several chunks, and
+  // cells small enough for keys of more than one radix digit.
+  const auto c = ced_test::make_room(150000, 9);
+  const ced::block_partition one(c.positions().data(), c.size(), 0.004, 1);
+  ASSERT_GT(one.block_count(), std::size_t(1) << 11);
+  for (unsigned t : {2u, 3u, 8u}) {
+    const ced::block_partition b(c.positions().data(), c.size(), 0.004, t);
+    EXPECT_EQ(b.order(), one.order()) << t << " threads";
+    ASSERT_EQ(b.block_count(), one.block_count());
+    for (std::size_t k = 0; k < b.block_count(); ++k) ASSERT_EQ(b.block_size(k), one.block_size(k));
+  }
+}
