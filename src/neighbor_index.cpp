@@ -12,7 +12,9 @@
 #include <CGAL/Simple_cartesian.h>
 
 #include <algorithm>
+#include <boost/iterator/counting_iterator.hpp>
 #include <boost/iterator/function_output_iterator.hpp>
+#include <boost/iterator/transform_iterator.hpp>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -66,10 +68,23 @@ struct append_located {
 };
 }  // namespace
 
+/// The k-th point of the tree's input: point order[k] (or k) of the array.
+struct point_at {
+  const float* xyz;
+  const std::uint32_t* order;
+  indexed_point operator()(std::size_t k) const {
+    const std::size_t i = order ? order[k] : k;
+    return {point_3(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]), static_cast<std::uint32_t>(i)};
+  }
+};
+
 struct neighbor_index::impl {
   tree_type tree;
-  impl(const std::vector<indexed_point>& pts, unsigned bucket)
-      : tree(pts.begin(), pts.end(), splitter(bucket), traits(point_of{})) {}
+  /// The tree copies its points straight from the array, in the given order.
+  impl(const float* xyz, std::size_t n, const std::uint32_t* order, unsigned bucket)
+      : tree(boost::make_transform_iterator(boost::counting_iterator<std::size_t>(0), point_at{xyz, order}),
+             boost::make_transform_iterator(boost::counting_iterator<std::size_t>(n), point_at{xyz, order}),
+             splitter(bucket), traits(point_of{})) {}
 };
 
 neighbor_index::neighbor_index(const float* xyz, std::size_t n, unsigned bucket_size, unsigned threads,
@@ -77,14 +92,9 @@ neighbor_index::neighbor_index(const float* xyz, std::size_t n, unsigned bucket_
     : m_xyz(xyz), m_n(n) {
   if (n > std::size_t(UINT32_MAX) - 1) throw std::length_error("neighbor_index: too many points (max 2^32-2)");
   if (bucket_size == 0) throw std::invalid_argument("neighbor_index: bucket_size must be positive");
-  std::vector<indexed_point> pts;
-  pts.reserve(n);
-  for (std::size_t k = 0; k < n; ++k) {
-    const std::size_t i = order ? order[k] : k;
-    if (i >= n) throw std::invalid_argument("neighbor_index: order is not a permutation");
-    pts.push_back({point_3(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]), static_cast<std::uint32_t>(i)});
-  }
-  m_impl = std::make_unique<impl>(pts, bucket_size);
+  if (order && std::any_of(order, order + n, [n](std::uint32_t i) { return i >= n; }))
+    throw std::invalid_argument("neighbor_index: order is not a permutation");
+  m_impl = std::make_unique<impl>(xyz, n, order, bucket_size);
   if (n == 0) return;
 #if defined(CED_HAS_TBB) && defined(CGAL_LINKED_WITH_TBB)
   if (threads != 1) {
