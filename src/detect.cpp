@@ -217,14 +217,22 @@ detection_result detection_context::finish() {
   r.candidate.assign(n, 0);
   std::vector<const float*> columns;
   for (const auto& s : r.saliency) columns.push_back(s.data());
-  for (std::size_t i = 0; i < n; ++i)
-    r.candidate[i] = is_candidate(columns.data(), r.thresholds, static_cast<std::uint32_t>(i));
-  const std::vector<float> product = saliency_product(r.saliency);
+  std::vector<float> product(n);
+  const unsigned threads = resolve_threads(m_impl->params.threads);
+  parallel_for(n, threads, 1 << 14, [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) {
+      r.candidate[i] = is_candidate(columns.data(), r.thresholds, static_cast<std::uint32_t>(i));
+      // The score of the NMS: the product of the saliencies, in modality order.
+      float p = columns[0][i];
+      for (std::size_t m = 1; m < columns.size(); ++m) p *= columns[m][i];
+      product[i] = p;
+    }
+  });
   const float* xyz = m_impl->cloud.positions().data();
   const auto& blocks = m_impl->blocks;
   const auto& hits = m_impl->hits;
   std::vector<std::uint8_t> keep(n, 0);
-  parallel_for(blocks.block_count(), resolve_threads(m_impl->params.threads), 16, [&](std::size_t b0, std::size_t b1) {
+  parallel_for(blocks.block_count(), threads, 16, [&](std::size_t b0, std::size_t b1) {
     std::vector<std::uint32_t> cand, gathered;
     for (std::size_t b = b0; b < b1; ++b) {
       if (!hits.empty() && hits[b].stored) {
