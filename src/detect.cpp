@@ -86,9 +86,15 @@ void collect_candidate_hits(const neighbor_block& block, const float* const* col
 /// The NMS of the candidates kept in `ch`: a candidate is kept unless a
 /// neighbour within `nms_radius` has a strictly greater score.
 void nms_from_hits(const candidate_hits& ch, const float* xyz, const float* score, double nms_radius, bool whole_ball,
-                   std::uint8_t* keep) {
+                   std::uint8_t* keep, std::vector<float>& local) {
   constexpr std::size_t nr = 2 * neighbor_block::sweep_ranges;
   const float r2 = squared_radius(nms_radius);
+  // The gathered points' scores in sweep order, so that a group of eight
+  // neighbours is compared at once (padded: groups read whole).
+  const std::size_t g = ch.gathered.size();
+  local.resize(g + 8);
+  for (std::size_t t = 0; t < g; ++t) local[t] = score[ch.gathered[t]];
+  std::fill_n(local.begin() + std::ptrdiff_t(g), 8, 0.0f);
   for (std::size_t k = 0; k < ch.points.size(); ++k) {
     const std::uint32_t i = ch.points[k];
     const float si = score[i];
@@ -108,12 +114,21 @@ void nms_from_hits(const candidate_hits& ch, const float* xyz, const float* scor
     bool maximum = true;
     for (std::size_t w = 0; w < neighbor_block::sweep_ranges && maximum; ++w) {
       const std::size_t q = walk[w];
-      const std::uint8_t* g = bits + first_bit[q];
-      for (std::uint32_t t = rg[2 * q]; t < rg[2 * q + 1] && maximum; t += 8)
-        for (unsigned b = *g++; b != 0 && maximum; b &= b - 1) {
-          const std::uint32_t j = ch.gathered[t + static_cast<std::uint32_t>(__builtin_ctz(b))];
-          maximum = !(score[j] > si && (whole_ball || squared_distance(xyz + 3 * std::size_t(j), pi) < r2));
+      const std::uint8_t* gb = bits + first_bit[q];
+      for (std::uint32_t t = rg[2 * q]; t < rg[2 * q + 1] && maximum; t += 8) {
+        const unsigned b = *gb++;
+        unsigned greater = 0;
+        for (unsigned l = 0; l < 8; ++l) greater |= unsigned(local[t + l] > si) << l;
+        if ((b & greater) == 0) continue;
+        if (whole_ball) {
+          maximum = false;
+          break;
         }
+        for (unsigned m = b & greater; m != 0 && maximum; m &= m - 1) {
+          const std::uint32_t j = ch.gathered[t + static_cast<std::uint32_t>(__builtin_ctz(m))];
+          maximum = !(squared_distance(xyz + 3 * std::size_t(j), pi) < r2);
+        }
+      }
     }
     keep[i] = maximum;
   }
@@ -234,10 +249,12 @@ detection_result detection_context::finish() {
   std::vector<std::uint8_t> keep(n, 0);
   parallel_for(blocks.block_count(), threads, 16, [&](std::size_t b0, std::size_t b1) {
     std::vector<std::uint32_t> cand, gathered;
+    std::vector<float> local;
     for (std::size_t b = b0; b < b1; ++b) {
       if (!hits.empty() && hits[b].stored) {
         const auto& params = m_impl->params;
-        nms_from_hits(hits[b], xyz, product.data(), params.nms_radius, params.nms_radius == params.radius, keep.data());
+        nms_from_hits(hits[b], xyz, product.data(), params.nms_radius, params.nms_radius == params.radius, keep.data(),
+                      local);
         continue;
       }
       const std::uint32_t* pts = blocks.block_points(b);
