@@ -20,6 +20,8 @@
 #include <stdexcept>
 #include <thread>
 
+#include "ced/detail/parallel.hpp"
+
 #ifdef CED_HAS_TBB
 #include <oneapi/tbb/task_arena.h>
 #endif
@@ -68,6 +70,7 @@ struct append_located {
 };
 }  // namespace
 
+namespace {
 /// The k-th point of the tree's input: point order[k] (or k) of the array.
 struct point_at {
   const float* xyz;
@@ -78,38 +81,71 @@ struct point_at {
   }
 };
 
+/// Points per tree of the forest (see the header).
+constexpr std::size_t max_tree_points = std::size_t(1) << 16;
+
+bool boxes_meet(const float alo[3], const float ahi[3], const float blo[3], const float bhi[3]) noexcept {
+  for (int k = 0; k < 3; ++k)
+    if (!(alo[k] <= bhi[k] && blo[k] <= ahi[k])) return false;
+  return true;
+}
+}  // namespace
+
 struct neighbor_index::impl {
-  tree_type tree;
-  /// The tree copies its points straight from the array, in the given order.
-  impl(const float* xyz, std::size_t n, const std::uint32_t* order, unsigned bucket)
-      : tree(boost::make_transform_iterator(boost::counting_iterator<std::size_t>(0), point_at{xyz, order}),
-             boost::make_transform_iterator(boost::counting_iterator<std::size_t>(n), point_at{xyz, order}),
-             splitter(bucket), traits(point_of{})) {}
+  /// One tree over points order[begin..end), and their bounds.
+  struct part {
+    tree_type tree;
+    float lo[3], hi[3];
+    /// The tree copies its points straight from the array, in the given order.
+    part(const float* xyz, const std::uint32_t* order, std::size_t begin, std::size_t end, unsigned bucket)
+        : tree(boost::make_transform_iterator(boost::counting_iterator<std::size_t>(begin), point_at{xyz, order}),
+               boost::make_transform_iterator(boost::counting_iterator<std::size_t>(end), point_at{xyz, order}),
+               splitter(bucket), traits(point_of{})) {
+      lo[0] = lo[1] = lo[2] = std::numeric_limits<float>::infinity();
+      hi[0] = hi[1] = hi[2] = -std::numeric_limits<float>::infinity();
+      for (std::size_t k = begin; k < end; ++k) {
+        const float* q = xyz + 3 * std::size_t(order ? order[k] : k);
+        for (int a = 0; a < 3; ++a) {
+          lo[a] = std::min(lo[a], q[a]);
+          hi[a] = std::max(hi[a], q[a]);
+        }
+      }
+    }
+  };
+  std::vector<std::unique_ptr<part>> parts;
 };
 
 neighbor_index::neighbor_index(const float* xyz, std::size_t n, unsigned bucket_size, unsigned threads,
                                const std::uint32_t* order)
-    : m_xyz(xyz), m_n(n) {
+    : m_impl(std::make_unique<impl>()), m_xyz(xyz), m_n(n) {
   if (n > std::size_t(UINT32_MAX) - 1) throw std::length_error("neighbor_index: too many points (max 2^32-2)");
   if (bucket_size == 0) throw std::invalid_argument("neighbor_index: bucket_size must be positive");
   if (order && std::any_of(order, order + n, [n](std::uint32_t i) { return i >= n; }))
     throw std::invalid_argument("neighbor_index: order is not a permutation");
-  m_impl = std::make_unique<impl>(xyz, n, order, bucket_size);
   if (n == 0) return;
+  // With a spatially coherent order, one tree per run of max_tree_points of
+  // it (the number of trees depends on n only, never on the threads).
+  const std::size_t trees = order ? (n + max_tree_points - 1) / max_tree_points : 1;
+  auto& parts = m_impl->parts;
+  parts.resize(trees);
 #if defined(CED_HAS_TBB) && defined(CGAL_LINKED_WITH_TBB)
-  if (threads != 1) {
+  if (trees == 1 && threads != 1) {
     // The tree's shape does not depend on the thread count, so queries see
     // the same tree (and report neighbours in the same order) either way.
+    parts[0] = std::make_unique<impl::part>(xyz, order, 0, n, bucket_size);
     const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
     oneapi::tbb::task_arena arena(threads > 1 ? static_cast<int>(std::min(threads, cores))
                                               : oneapi::tbb::task_arena::automatic);
-    arena.execute([&] { m_impl->tree.build<CGAL::Parallel_tag>(); });
+    arena.execute([&] { parts[0]->tree.build<CGAL::Parallel_tag>(); });
     return;
   }
-#else
-  (void)threads;
 #endif
-  m_impl->tree.build();
+  detail::parallel_for(trees, threads, 1, [&](std::size_t t0, std::size_t t1) {
+    for (std::size_t t = t0; t < t1; ++t) {
+      parts[t] = std::make_unique<impl::part>(xyz, order, n * t / trees, n * (t + 1) / trees, bucket_size);
+      parts[t]->tree.build();
+    }
+  });
 }
 
 neighbor_index::~neighbor_index() = default;
@@ -131,34 +167,44 @@ void neighbor_index::radius_search(const float c[3], double r, std::vector<std::
       if (squared_distance(q, c) < r2) out->push_back(k.id);
     }
   };
-  auto sink = boost::make_function_output_iterator(strict_filter{c, r2, &out});
-  m_impl->tree.search(sink, sphere(at(c), rq, 0.0f, m_impl->tree.traits()));
+  const float qlo[3] = {c[0] - rq, c[1] - rq, c[2] - rq}, qhi[3] = {c[0] + rq, c[1] + rq, c[2] + rq};
+  for (const auto& part : m_impl->parts) {
+    if (!boxes_meet(qlo, qhi, part->lo, part->hi)) continue;
+    auto sink = boost::make_function_output_iterator(strict_filter{c, r2, &out});
+    part->tree.search(sink, sphere(at(c), rq, 0.0f, part->tree.traits()));
+  }
 }
 
 float neighbor_index::nearest_other_distance(std::uint32_t i) const {
   if (i >= m_n) throw std::out_of_range("neighbor_index::nearest_other_distance: index out of range");
   const float* p = m_xyz + 3 * std::size_t(i);
-  const knn search(m_impl->tree, at(p), 2, 0.0f, true, distance(point_of{}));
   float best = std::numeric_limits<float>::infinity();
-  for (const auto& hit : search) {
-    const std::uint32_t j = hit.first.id;
-    if (j != i) best = std::min(best, std::sqrt(squared_distance(m_xyz + 3 * std::size_t(j), p)));
+  // The two nearest in each tree: the point itself (in its own tree) and
+  // the nearest other one are among them.
+  for (const auto& part : m_impl->parts) {
+    const knn search(part->tree, at(p), 2, 0.0f, true, distance(point_of{}));
+    for (const auto& hit : search) {
+      const std::uint32_t j = hit.first.id;
+      if (j != i) best = std::min(best, std::sqrt(squared_distance(m_xyz + 3 * std::size_t(j), p)));
+    }
   }
   return best;
 }
 
 void neighbor_index::box_search(const float lo[3], const float hi[3], std::vector<std::uint32_t>& out) const {
   out.clear();
-  if (m_n == 0) return;
-  m_impl->tree.search(boost::make_function_output_iterator(append_id{&out}),
-                      iso_box(at(lo), at(hi), 0.0f, m_impl->tree.traits()));
+  for (const auto& part : m_impl->parts)
+    if (boxes_meet(lo, hi, part->lo, part->hi))
+      part->tree.search(boost::make_function_output_iterator(append_id{&out}),
+                        iso_box(at(lo), at(hi), 0.0f, part->tree.traits()));
 }
 
 void neighbor_index::box_search(const float lo[3], const float hi[3], std::vector<located_point>& out) const {
   out.clear();
-  if (m_n == 0) return;
-  m_impl->tree.search(boost::make_function_output_iterator(append_located{&out}),
-                      iso_box(at(lo), at(hi), 0.0f, m_impl->tree.traits()));
+  for (const auto& part : m_impl->parts)
+    if (boxes_meet(lo, hi, part->lo, part->hi))
+      part->tree.search(boost::make_function_output_iterator(append_located{&out}),
+                        iso_box(at(lo), at(hi), 0.0f, part->tree.traits()));
 }
 
 }  // namespace ced

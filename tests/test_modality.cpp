@@ -169,6 +169,41 @@ TEST(NeighborIndex, MatchesBruteForce) {
   ced::neighbor_index none(nullptr, 0);
 }
 
+TEST(NeighborIndex, ForestOfTreesMatchesBruteForce) {
+  // More than 65,536 points in a block order: the index is several trees.
+  const auto c = ced_test::make_room(140000, 4);
+  const ced::block_partition blocks(c.positions().data(), c.size(), 0.2, 1);
+  const ced::neighbor_index index(c.positions().data(), c.size(), 256, 1, blocks.order().data());
+  const ced::neighbor_index index2(c.positions().data(), c.size(), 256, 2, blocks.order().data());
+  std::vector<std::uint32_t> got, got2;
+  for (std::size_t i = 0; i < c.size(); i += 9973) {
+    const float* p = c.position(i);
+    std::vector<std::uint32_t> want;
+    float nearest = INFINITY;
+    for (std::size_t j = 0; j < c.size(); ++j) {
+      const float d2 = ced::squared_distance(c.position(j), p);
+      if (d2 < ced::squared_radius(0.05)) want.push_back(static_cast<std::uint32_t>(j));
+      if (j != i) nearest = std::min(nearest, std::sqrt(d2));
+    }
+    index.radius_search(p, 0.05, got);
+    std::sort(got.begin(), got.end());
+    EXPECT_EQ(got, want) << i;
+    EXPECT_FLOAT_EQ(index.nearest_other_distance(static_cast<std::uint32_t>(i)), nearest) << i;
+    const float lo[3] = {p[0] - 0.3f, p[1] - 0.3f, p[2] - 0.3f}, hi[3] = {p[0] + 0.3f, p[1] + 0.3f, p[2] + 0.3f};
+    index.box_search(lo, hi, got);
+    index2.box_search(lo, hi, got2);
+    EXPECT_EQ(got, got2) << "the same points in the same order on 1 and 2 threads";
+    std::sort(got.begin(), got.end());
+    want.clear();
+    for (std::size_t j = 0; j < c.size(); ++j) {
+      const float* q = c.position(j);
+      if (q[0] >= lo[0] && q[0] <= hi[0] && q[1] >= lo[1] && q[1] <= hi[1] && q[2] >= lo[2] && q[2] <= hi[2])
+        want.push_back(static_cast<std::uint32_t>(j));
+    }
+    EXPECT_EQ(got, want) << i;
+  }
+}
+
 TEST(BlockPartition, CoversEveryPointOnce) {
   const auto c = ced_test::make_room(5000, 8);
   for (unsigned t : {1u, 2u}) {

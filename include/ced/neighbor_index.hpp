@@ -12,6 +12,12 @@ namespace ced {
 /// around CGAL's `Kd_tree` (index keys, sliding-midpoint splitter). CGAL is
 /// not included by this header.
 ///
+/// Given a spatially coherent order, the index is a small forest: one tree
+/// per run of 65,536 points of that order, built in parallel, each small
+/// enough to build in cache; queries visit the trees whose bounds they meet
+/// and report their points tree after tree. The number of trees depends on
+/// the number of points only, so results never depend on the thread count.
+///
 /// Semantics match the CED paper's implementation (FLANN): point j is a
 /// neighbour of centre c when the squared distance, computed in float, is
 /// strictly less than r² (float).
@@ -23,9 +29,9 @@ class neighbor_index {
   /// Builds the index over `n` points given as N×3 row-major floats. The
   /// array must outlive the index. `bucket_size` is the kd-tree leaf size.
   /// `order`, when given, is a permutation of [0, n) listing the points in a
-  /// spatially coherent order (e.g. a block_partition's): the tree is built
-  /// over the points laid out in that order, several times faster on large
-  /// clouds. Results are indices into `xyz` either way.
+  /// spatially coherent order (e.g. a block_partition's): the trees are built
+  /// over runs of it, several times faster on large clouds. Without it, one
+  /// tree. Results are indices into `xyz` either way.
   neighbor_index(const float* xyz, std::size_t n, unsigned bucket_size = 32, unsigned threads = 1,
                  const std::uint32_t* order = nullptr);
   ~neighbor_index();
