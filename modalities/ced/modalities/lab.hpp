@@ -4,6 +4,7 @@
 // L*a*b* (ΔE*76) divided by 100, so 0.1 means ΔE 10.
 #pragma once
 
+#include "ced/detail/parallel.hpp"
 #include "ced/modalities/rgb.hpp"
 #include "ced/modality.hpp"
 
@@ -18,7 +19,7 @@ struct lab {
 
   std::string name() const { return "lab"; }
   double threshold(const detect_params&) const { return threshold_value; }
-  centroid_distance<3> bind(const point_cloud& cloud, const detect_params&) const {
+  centroid_distance<3> bind(const point_cloud& cloud, const detect_params& params) const {
     const auto f = rgb::fields(cloud);
     const auto s = rgb::scale(f, std::nullopt);
     const std::size_t n = cloud.size();
@@ -35,10 +36,12 @@ struct lab {
       return table[c].empty() ? srgb_to_linear(static_cast<float>(v * s[c])) : table[c][static_cast<std::size_t>(v)];
     };
     std::vector<float> out(3 * n);
-    for (std::size_t i = 0; i < n; ++i) {
-      const auto l = linear_srgb_to_lab(linear(0, i), linear(1, i), linear(2, i));
-      std::copy(l.begin(), l.end(), out.begin() + static_cast<std::ptrdiff_t>(3 * i));
-    }
+    detail::parallel_for(n, params.threads, 1 << 14, [&](std::size_t b, std::size_t e) {
+      for (std::size_t i = b; i < e; ++i) {
+        const auto l = linear_srgb_to_lab(linear(0, i), linear(1, i), linear(2, i));
+        std::copy(l.begin(), l.end(), out.begin() + static_cast<std::ptrdiff_t>(3 * i));
+      }
+    });
     return centroid_distance<3>(std::move(out), {0.01, 0.01, 0.01}, norm_type::l2);
   }
   static lab from_spec(modality_spec& s) { return lab(s.threshold_or(0.1)); }
