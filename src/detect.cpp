@@ -69,18 +69,34 @@ bool is_candidate(const float* const* columns, const std::vector<double>& thresh
 
 /// Keeps the sweep results of the block's candidates in `ch`.
 void collect_candidate_hits(const neighbor_block& block, const float* const* columns,
-                            const std::vector<double>& thresholds, candidate_hits& ch) {
+                            const std::vector<double>& thresholds, candidate_hits& ch,
+                            std::vector<std::uint32_t>& candidates) {
   constexpr std::size_t nr = 2 * neighbor_block::sweep_ranges;
-  ch.bit_offsets.push_back(0);
-  for (std::size_t k = 0; k < block.size(); ++k) {
-    if (!is_candidate(columns, thresholds, block.point(k))) continue;
+  // Which points are candidates and how many bytes of bits they keep, so
+  // that every array is sized exactly, once.
+  candidates.clear();
+  std::size_t bytes = 0;
+  for (std::size_t k = 0; k < block.size(); ++k)
+    if (is_candidate(columns, thresholds, block.point(k))) {
+      candidates.push_back(static_cast<std::uint32_t>(k));
+      bytes += block.sweep(k).bytes;
+    }
+  if (candidates.empty()) return;
+  ch.points.resize(candidates.size());
+  ch.ranges.resize(nr * candidates.size());
+  ch.bits.resize(bytes);
+  ch.bit_offsets.resize(candidates.size() + 1);
+  ch.bit_offsets[0] = 0;
+  std::uint8_t* bits = ch.bits.data();
+  for (std::size_t c = 0; c < candidates.size(); ++c) {
+    const std::size_t k = candidates[c];
     const auto v = block.sweep(k);
-    ch.points.push_back(block.point(k));
-    ch.ranges.insert(ch.ranges.end(), v.ranges, v.ranges + nr);
-    ch.bits.insert(ch.bits.end(), v.bits, v.bits + v.bytes);
-    ch.bit_offsets.push_back(static_cast<std::uint32_t>(ch.bits.size()));
+    ch.points[c] = block.point(k);
+    for (std::size_t q = 0; q < nr; ++q) ch.ranges[nr * c + q] = v.ranges[q];
+    for (std::size_t b = 0; b < v.bytes; ++b) *bits++ = v.bits[b];
+    ch.bit_offsets[c + 1] = static_cast<std::uint32_t>(bits - ch.bits.data());
   }
-  if (!ch.points.empty()) ch.gathered.assign(block.gathered(), block.gathered() + block.gathered_count());
+  ch.gathered.assign(block.gathered(), block.gathered() + block.gathered_count());
 }
 
 /// The NMS of the candidates kept in `ch`: a candidate is kept unless a
@@ -199,13 +215,14 @@ void detection_context::compute_saliency(const std::vector<channel_source>& sour
   parallel_for(blocks.block_count(), resolve_threads(params.threads), 8, [&](std::size_t b0, std::size_t b1) {
     neighbor_block block;
     block.set_channels(sources);
+    std::vector<std::uint32_t> candidates;
     for (std::size_t b = b0; b < b1; ++b) {
       block.fill(m_impl->index, xyz, blocks.block_points(b), blocks.block_size(b), params.radius);
       for (std::size_t k = 0; k < block.size(); ++k) r.neighbor_count[block.point(k)] = block.count(k);
       f(block, columns.data());
       if (!keep_hits) continue;
       candidate_hits& ch = m_impl->hits[b];
-      collect_candidate_hits(block, columns.data(), r.thresholds, ch);
+      collect_candidate_hits(block, columns.data(), r.thresholds, ch, candidates);
       std::size_t want = ch.bytes(), have = budget.load();
       while (have >= want && !budget.compare_exchange_weak(have, have - want)) {
       }
