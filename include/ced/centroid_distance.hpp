@@ -105,10 +105,11 @@ class centroid_distance {
       }
       // Dimension-outer, so that any number of bands needs no buffer.
       double result = 0;
+      const double inv_n = 1.0 / nb.size;
       for (std::size_t d = 0; d < dims; ++d) {
         double acc = 0;
         for (std::uint32_t j : nb) acc += static_cast<double>(values[dims * j + d] - vi[d]);
-        result = combine(result, acc / nb.size * m_scale[d]);
+        result = combine(result, acc * inv_n * m_scale[d]);
       }
       return static_cast<float>(m_norm == norm_type::l2 ? std::sqrt(result) : result);
     }
@@ -129,8 +130,10 @@ class centroid_distance {
     return so_far;
   }
   float finish(const double* acc, std::size_t dims, std::uint32_t n) const noexcept {
+    // One division per point: the mean of each dimension is its sum × 1/n.
     double result = 0;
-    for (std::size_t d = 0; d < dims; ++d) result = combine(result, acc[d] / n * m_scale[d]);
+    const double inv_n = 1.0 / n;
+    for (std::size_t d = 0; d < dims; ++d) result = combine(result, acc[d] * inv_n * m_scale[d]);
     return static_cast<float>(m_norm == norm_type::l2 ? std::sqrt(result) : result);
   }
 
