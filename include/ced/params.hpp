@@ -18,9 +18,11 @@ struct detect_params {
   std::uint32_t min_neighbors = 5;
   /// Worker threads; 0 = all cores. The result does not depend on it.
   unsigned threads = 0;
-  /// Side of the spatial blocks, as a multiple of the radius (a tuning knob;
-  /// the result does not depend on it).
-  double block_scale = 4.0;
+  /// Side of the spatial blocks, as a multiple of the radius (a tuning knob:
+  /// it changes the order of the neighbour sums, so saliencies may differ in
+  /// the last bits, and only points within a rounding error of a threshold or
+  /// of a neighbour's score can change; the thread count changes nothing).
+  double block_scale = 6.0;
   /// Optional: called with the fraction of the saliency stage done (0..1),
   /// from any worker thread, never concurrently; keep it cheap.
   std::function<void(double)> progress;
