@@ -78,7 +78,9 @@ class neighbor_block {
   /// Neighbours of point k within the radius, itself included.
   std::uint32_t count(std::size_t k) const noexcept { return m_counts[k]; }
   /// Σ_{j ∈ N(i)} (v_j − v_i) for channel slot `slot` (sources[slot].dims
-  /// values), accumulated in float over 8 fixed lanes, reduced in double.
+  /// values), accumulated in float over 8 fixed lanes and reduced in double
+  /// (positions as p_j − p_i; other channels as v_j − ref for a per-block
+  /// reference, then n·(v_i − ref) taken off in double).
   const double* sums(std::size_t k, std::size_t slot) const noexcept {
     return m_sums.data() + m_sum_stride * k + m_slot_offset[slot];
   }
