@@ -100,15 +100,13 @@ struct neighbor_index::impl {
     part(const float* xyz, const std::uint32_t* order, std::size_t begin, std::size_t end, unsigned bucket)
         : tree(boost::make_transform_iterator(boost::counting_iterator<std::size_t>(begin), point_at{xyz, order}),
                boost::make_transform_iterator(boost::counting_iterator<std::size_t>(end), point_at{xyz, order}),
-               splitter(bucket), traits(point_of{})) {
-      lo[0] = lo[1] = lo[2] = std::numeric_limits<float>::infinity();
-      hi[0] = hi[1] = hi[2] = -std::numeric_limits<float>::infinity();
-      for (std::size_t k = begin; k < end; ++k) {
-        const float* q = xyz + 3 * std::size_t(order ? order[k] : k);
-        for (int a = 0; a < 3; ++a) {
-          lo[a] = std::min(lo[a], q[a]);
-          hi[a] = std::max(hi[a], q[a]);
-        }
+               splitter(bucket), traits(point_of{})) {}
+    /// Once built: the bounds of the tree's points, which CGAL computed.
+    void take_bounds() {
+      const auto& box = tree.bounding_box();
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = box.min_coord(a);
+        hi[a] = box.max_coord(a);
       }
     }
   };
@@ -137,6 +135,7 @@ neighbor_index::neighbor_index(const float* xyz, std::size_t n, unsigned bucket_
     oneapi::tbb::task_arena arena(threads > 1 ? static_cast<int>(std::min(threads, cores))
                                               : oneapi::tbb::task_arena::automatic);
     arena.execute([&] { parts[0]->tree.build<CGAL::Parallel_tag>(); });
+    parts[0]->take_bounds();
     return;
   }
 #endif
@@ -144,6 +143,7 @@ neighbor_index::neighbor_index(const float* xyz, std::size_t n, unsigned bucket_
     for (std::size_t t = t0; t < t1; ++t) {
       parts[t] = std::make_unique<impl::part>(xyz, order, n * t / trees, n * (t + 1) / trees, bucket_size);
       parts[t]->tree.build();
+      parts[t]->take_bounds();
     }
   });
 }
