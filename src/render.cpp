@@ -10,18 +10,11 @@
 #include "ced/modalities/rgb.hpp"
 
 // stb is compiled in, with internal linkage so that it cannot clash with a
-// copy in the application; its own warnings are not ours.
+// copy in the application. Its own warnings are not ours: CMake adds its
+// folder as a system include directory, which silences them.
 #define STB_IMAGE_WRITE_STATIC
 #define STB_IMAGE_WRITE_IMPLEMENTATION
-#if defined(__GNUC__)
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wunused-function"
-#pragma GCC diagnostic ignored "-Wmissing-field-initializers"
-#endif
 #include <stb_image_write.h>
-#if defined(__GNUC__)
-#pragma GCC diagnostic pop
-#endif
 
 namespace ced {
 

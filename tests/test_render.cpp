@@ -10,16 +10,9 @@
 #include "ced/render.hpp"
 #include "file_support.hpp"
 
+// stb, a system header for CMake (its warnings are not ours).
 #define STB_IMAGE_IMPLEMENTATION
-#if defined(__GNUC__)
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wunused-function"
-#pragma GCC diagnostic ignored "-Wmissing-field-initializers"
-#endif
 #include <stb_image.h>
-#if defined(__GNUC__)
-#pragma GCC diagnostic pop
-#endif
 
 namespace fs = std::filesystem;
 using ced::point_cloud;

@@ -9,17 +9,10 @@
 #include "ced/io/rgbd.hpp"
 #include "file_support.hpp"
 
+// stb, a system header for CMake (its warnings are not ours).
 #define STB_IMAGE_WRITE_STATIC
 #define STB_IMAGE_WRITE_IMPLEMENTATION
-#if defined(__GNUC__)
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wunused-function"
-#pragma GCC diagnostic ignored "-Wmissing-field-initializers"
-#endif
 #include <stb_image_write.h>
-#if defined(__GNUC__)
-#pragma GCC diagnostic pop
-#endif
 
 using ced_test::read_error_of;
 using ced_test::temp_file;

@@ -12,19 +12,10 @@
 #include "ced/io/output_file.hpp"
 
 // stb_image is compiled in with internal linkage (as stb_image_write in
-// render.cpp); its own warnings are not ours.
+// render.cpp); its warnings are silenced as a system header's (CMake).
 #define STB_IMAGE_STATIC
 #define STB_IMAGE_IMPLEMENTATION
-#if defined(__GNUC__)
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wunused-function"
-#pragma GCC diagnostic ignored "-Wmissing-field-initializers"
-#pragma GCC diagnostic ignored "-Wsign-compare"
-#endif
 #include <stb_image.h>
-#if defined(__GNUC__)
-#pragma GCC diagnostic pop
-#endif
 
 namespace ced::io {
 
