@@ -18,13 +18,8 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
-#include <thread>
 
 #include "ced/detail/parallel.hpp"
-
-#ifdef CED_HAS_TBB
-#include <oneapi/tbb/task_arena.h>
-#endif
 
 namespace ced {
 
@@ -134,10 +129,7 @@ neighbor_index::neighbor_index(const float* xyz, std::size_t n, unsigned bucket_
     // The tree's shape does not depend on the thread count, so queries see
     // the same tree (and report neighbours in the same order) either way.
     parts[0] = std::make_unique<impl::part>(xyz, order, 0, n, bucket_size);
-    const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
-    oneapi::tbb::task_arena arena(threads > 1 ? static_cast<int>(std::min(threads, cores))
-                                              : oneapi::tbb::task_arena::automatic);
-    arena.execute([&] { parts[0]->tree.build<CGAL::Parallel_tag>(); });
+    detail::with_threads(threads, [&] { parts[0]->tree.build<CGAL::Parallel_tag>(); });
     parts[0]->take_bounds();
     return;
   }

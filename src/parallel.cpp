@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <atomic>
 #include <exception>
+#include <memory>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -22,6 +23,22 @@ unsigned resolve_threads(unsigned threads) noexcept {
   return hw == 0 ? 1u : hw;
 }
 
+#ifdef CED_HAS_TBB
+namespace {
+/// One arena per concurrency, made on first use and kept: making an arena
+/// for every call cost 40-170 us a call (a detection makes a dozen calls).
+oneapi::tbb::task_arena& arena_for(unsigned concurrency) {
+  static std::mutex mutex;
+  static std::vector<std::unique_ptr<oneapi::tbb::task_arena>> arenas;
+  std::lock_guard<std::mutex> lock(mutex);
+  if (arenas.size() <= concurrency) arenas.resize(concurrency + 1);
+  auto& a = arenas[concurrency];
+  if (!a) a = std::make_unique<oneapi::tbb::task_arena>(static_cast<int>(concurrency));
+  return *a;
+}
+}  // namespace
+#endif
+
 void parallel_for(std::size_t n, unsigned threads, std::size_t grain,
                   const std::function<void(std::size_t, std::size_t)>& body) {
   if (n == 0) return;
@@ -33,8 +50,7 @@ void parallel_for(std::size_t n, unsigned threads, std::size_t grain,
   }
 #ifdef CED_HAS_TBB
   // More threads than cores buys nothing (and TBB warns); the result is the same.
-  oneapi::tbb::task_arena arena(static_cast<int>(std::min(t, resolve_threads(0))));
-  arena.execute([&] {
+  arena_for(std::min(t, resolve_threads(0))).execute([&] {
     oneapi::tbb::parallel_for(oneapi::tbb::blocked_range<std::size_t>(0, n, grain),
                               [&](const oneapi::tbb::blocked_range<std::size_t>& r) { body(r.begin(), r.end()); });
   });
@@ -61,6 +77,15 @@ void parallel_for(std::size_t n, unsigned threads, std::size_t grain,
   worker();
   for (auto& th : pool) th.join();
   if (error) std::rethrow_exception(error);
+#endif
+}
+
+void with_threads(unsigned threads, const std::function<void()>& f) {
+#ifdef CED_HAS_TBB
+  arena_for(std::min(resolve_threads(threads), resolve_threads(0))).execute(f);
+#else
+  (void)threads;
+  f();
 #endif
 }
 

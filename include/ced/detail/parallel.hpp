@@ -17,4 +17,8 @@ unsigned resolve_threads(unsigned threads) noexcept;
 void parallel_for(std::size_t n, unsigned threads, std::size_t grain,
                   const std::function<void(std::size_t, std::size_t)>& body);
 
+/// Runs `f` where parallel algorithms it calls (TBB, CGAL's Parallel_tag)
+/// use up to `threads` threads (0 = all cores); without TBB, just runs it.
+void with_threads(unsigned threads, const std::function<void()>& f);
+
 }  // namespace ced::detail
