@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 
@@ -123,6 +124,34 @@ TEST(Modality, Normalisation) {
   EXPECT_NEAR(red[2], 67.20, 0.01);
   const double de = std::sqrt(std::pow(red[0] / 2, 2) + std::pow(red[1] / 2, 2) + std::pow(red[2] / 2, 2));
   EXPECT_NEAR(sal("lab"), de / 100.0, 1e-5);
+}
+
+TEST(Lab, MatchesTheCieFormulaWithStdCbrt) {
+  // linear_srgb_to_lab takes its cube roots by iteration: the result must
+  // be the CIE formula's (here with std::cbrt) to a float's last bit, on a
+  // grid of 8-bit colours that spans both branches of f(t).
+  auto reference = [](double R, double G, double B) {
+    const double X = (0.4124564 * R + 0.3575761 * G + 0.1804375 * B) / 0.95047;
+    const double Y = 0.2126729 * R + 0.7151522 * G + 0.0721750 * B;
+    const double Z = (0.0193339 * R + 0.1191920 * G + 0.9503041 * B) / 1.08883;
+    auto f = [](double t) { return t > 216.0 / 24389.0 ? std::cbrt(t) : (24389.0 / 27.0 * t + 16.0) / 116.0; };
+    return std::array<double, 3>{116.0 * f(Y) - 16.0, 500.0 * (f(X) - f(Y)), 200.0 * (f(Y) - f(Z))};
+  };
+  std::size_t same = 0, total = 0;
+  for (int r = 0; r < 256; r += 3)
+    for (int g = 0; g < 256; g += 3)
+      for (int b = 0; b < 256; b += 3) {
+        const double R = ced::srgb_to_linear(float(r / 255.0)), G = ced::srgb_to_linear(float(g / 255.0)),
+                     B = ced::srgb_to_linear(float(b / 255.0));
+        const auto got = ced::linear_srgb_to_lab(R, G, B);
+        const auto want = reference(R, G, B);
+        for (int k = 0; k < 3; ++k) {
+          ASSERT_NEAR(got[k], want[k], 1e-5 * (1.0 + std::fabs(want[k]))) << r << "," << g << "," << b;
+          same += got[k] == static_cast<float>(want[k]);
+          ++total;
+        }
+      }
+  EXPECT_GE(double(same), 0.9999 * double(total));
 }
 
 TEST(NeighborIndex, MatchesBruteForce) {
