@@ -4,8 +4,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
+#include <limits>
 #include <stdexcept>
+#include <string>
 
 #include "ced/modality.hpp"
 
@@ -51,6 +54,40 @@ value_range resolve_range(const field& f, const range_policy& policy) {
   return {0.0, 1.0};
 }
 
+namespace {
+/// The index of the first value of v[0, n) that is NaN, infinite or beyond
+/// the float range (a channel is computed in float), or n. Tested in chunks
+/// without an early exit, on the bits, which the compiler vectorises; the
+/// failing chunk is then searched.
+std::size_t first_unfit(const double* v, std::size_t n) noexcept {
+  const double flt_max = std::numeric_limits<float>::max();
+  std::uint64_t limit;
+  std::memcpy(&limit, &flt_max, sizeof limit);
+  constexpr std::size_t chunk = 4096;
+  for (std::size_t b = 0; b < n; b += chunk) {
+    const std::size_t e = std::min(n, b + chunk);
+    std::uint64_t bad = 0;
+    for (std::size_t i = b; i < e; ++i) {
+      std::uint64_t bits;
+      std::memcpy(&bits, v + i, sizeof bits);
+      // |v| > FLT_MAX (NaN and infinities included) makes the difference
+      // negative: its sign bit is set.
+      bad |= (limit - (bits & 0x7fffffffffffffffULL)) >> 63;
+    }
+    if (bad == 0) continue;
+    for (std::size_t i = b; i < e; ++i)
+      if (!(std::fabs(v[i]) <= flt_max)) return i;
+  }
+  return n;
+}
+
+std::string shortest(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return buf;
+}
+}  // namespace
+
 std::vector<float> interleave(const std::vector<const field*>& fields) {
   const std::size_t d = fields.size();
   if (d == 0) return {};
@@ -58,6 +95,11 @@ std::vector<float> interleave(const std::vector<const field*>& fields) {
   std::vector<float> out(n * d);
   for (std::size_t k = 0; k < d; ++k) {
     const auto& v = fields[k]->values;
+    const std::size_t bad = first_unfit(v.data(), n);
+    if (bad != n)
+      throw std::invalid_argument("field '" + fields[k]->name +
+                                  "' has a value that is not finite or beyond the float range (" + shortest(v[bad]) +
+                                  ") at point " + std::to_string(bad));
     for (std::size_t i = 0; i < n; ++i) out[i * d + k] = static_cast<float>(v[i]);
   }
   return out;
@@ -82,10 +124,15 @@ std::vector<const field*> require_fields(const point_cloud& cloud, const std::ve
 }
 
 void require_finite(const field& f, const std::string& modality) {
-  for (std::size_t i = 0; i < f.values.size(); ++i)
-    if (!std::isfinite(f.values[i]))
-      throw std::invalid_argument("modality '" + modality + "': field '" + f.name + "' has a non-finite value (" +
-                                  std::to_string(f.values[i]) + ") at point " + std::to_string(i));
+  const std::size_t n = f.values.size();
+  const std::size_t i = first_unfit(f.values.data(), n);
+  if (i == n) return;
+  const double v = f.values[i];
+  const std::string where = "modality '" + modality + "': field '" + f.name + "' has ";
+  if (!std::isfinite(v))
+    throw std::invalid_argument(where + "a non-finite value (" + std::to_string(v) + ") at point " + std::to_string(i));
+  throw std::invalid_argument(where + "a value beyond the float range (" + shortest(v) + ") at point " +
+                              std::to_string(i) + ": channels are computed in float; rescale the field");
 }
 
 double srgb_to_linear(float c) noexcept {

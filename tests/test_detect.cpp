@@ -5,6 +5,7 @@
 #include <cmath>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <random>
 #include <set>
 
@@ -437,6 +438,64 @@ std::vector<std::uint32_t> read_indices(const std::string& path) {
 // implementation of the paper (tests/reference/pcl_ced.cpp; see
 // tests/data/SOURCES.md). The paper's code sums in float in FLANN's order, so
 // a point sitting exactly on a threshold or tie may flip: at most 0.5 %.
+TEST(Detect, NonFiniteAndOutOfFloatRangeValuesAreNamedErrors) {
+  // The checks test chunks of values at once: a bad value past the first
+  // chunk, or the last one, is found and named.
+  const auto c = ced_test::make_room(6000, 11);
+  ced::detect_params p;
+  p.radius = 0.05;
+  for (const float bad :
+       {std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(), std::nanf("")})
+    for (const std::size_t i : {std::size_t(4097), c.size() - 1}) {
+      ced::point_cloud cloud = c;
+      cloud.positions()[3 * i + 2] = bad;
+      try {
+        ced::detect(cloud, p, ced::xyz{});
+        ADD_FAILURE() << "no error for point " << i;
+      } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("point " + std::to_string(i) + " has a non-finite coordinate"),
+                  std::string::npos)
+            << e.what();
+      }
+    }
+  for (const double bad :
+       {std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(), std::nan("")})
+    for (const std::size_t i : {std::size_t(4096), std::size_t(5000), c.size() - 1}) {
+      ced::point_cloud cloud = c;
+      for (auto& f : cloud.fields())
+        if (f.name == "green") f.values[i] = bad;
+      try {
+        ced::detect(cloud, p, ced::rgb{});
+        ADD_FAILURE() << "no error for point " << i;
+      } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("field 'green' has a non-finite value"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("at point " + std::to_string(i)), std::string::npos) << e.what();
+      }
+    }
+  // Values a float holds pass; values beyond it (which would become
+  // infinite in the float channels) are named errors, not NaN saliencies.
+  const double flt_max = std::numeric_limits<float>::max();
+  const ced::field fine{"h", ced::scalar_type::float64, {flt_max, -flt_max, 1e-320, -0.0, 1e30}};
+  EXPECT_NO_THROW(ced::require_finite(fine, "bands(h)"));
+  EXPECT_EQ(ced::interleave({&fine}).size(), 5u);
+  for (const double beyond : {std::nextafter(flt_max, 1e300), 1e300, -std::numeric_limits<double>::max()}) {
+    ced::point_cloud cloud = c;
+    std::vector<double> h(c.size(), 1.0);
+    h[4500] = beyond;
+    cloud.add_field("h", ced::scalar_type::float64, h);
+    try {
+      ced::detect(cloud, p, {ced::make_modality("bands(h),range=0..1")});
+      ADD_FAILURE() << "no error for " << beyond;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("field 'h' has a value beyond the float range"), std::string::npos)
+          << e.what();
+      EXPECT_NE(std::string(e.what()).find("at point 4500"), std::string::npos) << e.what();
+    }
+    const ced::field f{"h", ced::scalar_type::float64, h};
+    EXPECT_THROW(ced::interleave({&f}), std::invalid_argument);
+  }
+}
+
 TEST(Detect, MatchesPclReferenceOnRedwoodScan) {
   const auto cloud = ced::io::read_ply(std::string(CED_TEST_DATA_DIR) + "/apartment_mesh_214.ply");
   ASSERT_EQ(cloud.size(), 24574u);

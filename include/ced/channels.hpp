@@ -33,6 +33,8 @@ struct range_policy {
 value_range resolve_range(const field& f, const range_policy& policy);
 
 /// N×D floats, row-major: the raw values of `fields` (D = fields.size()).
+/// Throws std::invalid_argument naming the field and point when a value is
+/// NaN, infinite or beyond the float range (it would become infinite).
 std::vector<float> interleave(const std::vector<const field*>& fields);
 
 /// The fields of `cloud` named in `names` (exact name first, then any case);
@@ -42,7 +44,8 @@ std::vector<const field*> require_fields(const point_cloud& cloud, const std::ve
                                          const std::string& modality);
 
 /// Throws std::invalid_argument naming `modality`, the field and the first
-/// point whose value is NaN or infinite.
+/// point whose value is NaN, infinite or beyond the float range (channels are
+/// computed in float).
 void require_finite(const field& f, const std::string& modality);
 
 /// sRGB in [0,1] to CIELAB (D65 white): L in [0,100], a and b about [-128,127].
