@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "ced/detail/parallel.hpp"
 #include "ced/modality.hpp"
 
 namespace ced {
@@ -88,20 +89,25 @@ std::string shortest(double v) {
 }
 }  // namespace
 
-std::vector<float> interleave(const std::vector<const field*>& fields) {
+std::vector<float> interleave(const std::vector<const field*>& fields) { return interleave(fields, 1); }
+
+std::vector<float> interleave(const std::vector<const field*>& fields, unsigned threads) {
   const std::size_t d = fields.size();
   if (d == 0) return {};
   const std::size_t n = fields[0]->values.size();
-  std::vector<float> out(n * d);
-  for (std::size_t k = 0; k < d; ++k) {
-    const auto& v = fields[k]->values;
-    const std::size_t bad = first_unfit(v.data(), n);
+  for (const field* f : fields) {
+    const std::size_t bad = first_unfit(f->values.data(), n);
     if (bad != n)
-      throw std::invalid_argument("field '" + fields[k]->name +
-                                  "' has a value that is not finite or beyond the float range (" + shortest(v[bad]) +
-                                  ") at point " + std::to_string(bad));
-    for (std::size_t i = 0; i < n; ++i) out[i * d + k] = static_cast<float>(v[i]);
+      throw std::invalid_argument("field '" + f->name + "' has a value that is not finite or beyond the float range (" +
+                                  shortest(f->values[bad]) + ") at point " + std::to_string(bad));
   }
+  std::vector<float> out(n * d);
+  detail::parallel_for(n, threads, 1 << 15, [&](std::size_t b, std::size_t e) {
+    for (std::size_t k = 0; k < d; ++k) {
+      const double* v = fields[k]->values.data();
+      for (std::size_t i = b; i < e; ++i) out[i * d + k] = static_cast<float>(v[i]);
+    }
+  });
   return out;
 }
 

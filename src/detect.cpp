@@ -14,6 +14,7 @@
 #include "ced/detail/parallel.hpp"
 #include "ced/neighbor_index.hpp"
 #include "ced/nms.hpp"
+#include "raw_vector.hpp"
 
 namespace ced {
 
@@ -41,30 +42,6 @@ double ms_since(clock_type::time_point t) {
 /// the NMS when the NMS radius does not exceed the radius, in the sweep's
 /// compact form: the block's gathered points, and per candidate its ranges
 /// and hit bits (about a quarter of the size of neighbour lists).
-/// An allocator whose resize() leaves new elements uninitialised: the arrays
-/// below are written in full right after they are sized, and zeroing them
-/// first was a few per cent of a detection.
-template <class T>
-struct uninitialised_allocator : std::allocator<T> {
-  template <class U>
-  struct rebind {
-    using other = uninitialised_allocator<U>;
-  };
-  uninitialised_allocator() = default;
-  template <class U>
-  uninitialised_allocator(const uninitialised_allocator<U>&) noexcept {}
-  template <class U>
-  void construct(U* p) noexcept {
-    ::new (static_cast<void*>(p)) U;
-  }
-  template <class U, class... A>
-  void construct(U* p, A&&... a) {
-    ::new (static_cast<void*>(p)) U(std::forward<A>(a)...);
-  }
-};
-template <class T>
-using raw_vector = std::vector<T, uninitialised_allocator<T>>;
-
 struct candidate_hits {
   bool stored = false;
   raw_vector<std::uint32_t> points, gathered, ranges, bit_offsets;

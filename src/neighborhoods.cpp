@@ -12,6 +12,7 @@
 
 #include "ced/detail/parallel.hpp"
 #include "kernel/block_kernel.hpp"
+#include "raw_vector.hpp"
 
 namespace ced {
 
@@ -24,7 +25,12 @@ template <class K>
 void sort_into_blocks(const float* xyz, std::size_t n, const float lo[3], const std::uint64_t dims[3], double inv,
                       std::size_t chunks, const chunk_runner& for_chunks, std::vector<std::uint32_t>& order,
                       std::vector<std::size_t>& starts) {
-  std::vector<std::pair<K, std::uint32_t>> keyed(n), scratch(n);
+  // Written in full before they are read: not zeroed first.
+  struct keyed_point {
+    K first;
+    std::uint32_t second;
+  };
+  detail::raw_vector<keyed_point> keyed(n), scratch(n);
   std::vector<K> max_keys(chunks, 0);
   for_chunks([&](std::size_t c, std::size_t b, std::size_t e) {
     K max_key = 0;
@@ -68,14 +74,15 @@ void sort_into_blocks(const float* xyz, std::size_t n, const float lo[3], const 
   }
   scratch = {};
   order.resize(n);
+  for_chunks([&](std::size_t, std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) order[i] = keyed[i].second;
+  });
   starts.clear();
   // Dense cells are split into blocks of at most max_block points, which
   // bounds a block's memory even when many points coincide.
   constexpr std::size_t max_block = 1024;
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::size_t i = 0; i < n; ++i)
     if (i == 0 || keyed[i].first != keyed[i - 1].first || i - starts.back() >= max_block) starts.push_back(i);
-    order[i] = keyed[i].second;
-  }
   starts.push_back(n);
 }
 }  // namespace

@@ -36,6 +36,9 @@ value_range resolve_range(const field& f, const range_policy& policy);
 /// Throws std::invalid_argument naming the field and point when a value is
 /// NaN, infinite or beyond the float range (it would become infinite).
 std::vector<float> interleave(const std::vector<const field*>& fields);
+/// The same on up to `threads` threads (0 = all cores); the result does not
+/// depend on the thread count.
+std::vector<float> interleave(const std::vector<const field*>& fields, unsigned threads);
 
 /// The fields of `cloud` named in `names` (exact name first, then any case);
 /// throws std::invalid_argument naming `modality`, the missing field and the

@@ -30,7 +30,7 @@ struct bands {
     return s + ")";
   }
   double threshold(const detect_params&) const { return threshold_value; }
-  centroid_distance<0> bind(const point_cloud& cloud, const detect_params&) const {
+  centroid_distance<0> bind(const point_cloud& cloud, const detect_params& params) const {
     if (names.empty()) throw std::invalid_argument("bands() needs at least one field name, e.g. bands(nir,red)");
     auto f = require_fields(cloud, names, name());
     std::vector<double> scale;
@@ -38,7 +38,7 @@ struct bands {
       const value_range r = resolve_range(*b, range);
       scale.push_back(1.0 / (r.hi - r.lo));
     }
-    return centroid_distance<0>(interleave(f), scale, norm);
+    return centroid_distance<0>(interleave(f, params.threads), scale, norm);
   }
   static bands from_spec(modality_spec& s) {
     bands m;

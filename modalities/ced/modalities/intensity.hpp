@@ -24,10 +24,10 @@ struct intensity {
 
   std::string name() const { return field_name == "intensity" ? "intensity" : "intensity(" + field_name + ")"; }
   double threshold(const detect_params&) const { return threshold_value; }
-  centroid_distance<1> bind(const point_cloud& cloud, const detect_params&) const {
+  centroid_distance<1> bind(const point_cloud& cloud, const detect_params& params) const {
     auto f = require_fields(cloud, {field_name}, name());
     const value_range r = resolve_range(*f[0], range);
-    return centroid_distance<1>(interleave(f), {1.0 / (r.hi - r.lo)}, norm_type::l1);
+    return centroid_distance<1>(interleave(f, params.threads), {1.0 / (r.hi - r.lo)}, norm_type::l1);
   }
   static intensity from_spec(modality_spec& s) {
     intensity m;

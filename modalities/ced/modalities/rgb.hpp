@@ -24,10 +24,10 @@ struct rgb {
 
   std::string name() const { return "rgb"; }
   double threshold(const detect_params&) const { return threshold_value; }
-  centroid_distance<3> bind(const point_cloud& cloud, const detect_params&) const {
+  centroid_distance<3> bind(const point_cloud& cloud, const detect_params& params) const {
     const auto f = fields(cloud);
     const auto s = scale(f, range);
-    return centroid_distance<3>(interleave({f[0], f[1], f[2]}), {s[0], s[1], s[2]}, norm);
+    return centroid_distance<3>(interleave({f[0], f[1], f[2]}, params.threads), {s[0], s[1], s[2]}, norm);
   }
 
   /// The colour fields; throws naming the fields present when there are none.
