@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "ced/detail/arena.hpp"
 #include "ced/detail/parallel.hpp"
 #include "ced/neighbor_index.hpp"
 #include "ced/nms.hpp"
@@ -42,13 +43,12 @@ double ms_since(clock_type::time_point t) {
 /// the NMS when the NMS radius does not exceed the radius, in the sweep's
 /// compact form: the block's gathered points, and per candidate its ranges
 /// and hit bits (about a quarter of the size of neighbour lists).
+/// Its arrays live in the detection's chunk_arena.
 struct candidate_hits {
   bool stored = false;
-  raw_vector<std::uint32_t> points, gathered, ranges, bit_offsets;
-  raw_vector<std::uint8_t> bits;
-  std::size_t bytes() const noexcept {
-    return 4 * (points.size() + gathered.size() + ranges.size() + bit_offsets.size()) + bits.size();
-  }
+  std::size_t count = 0, gathered_count = 0;
+  const std::uint32_t *points = nullptr, *gathered = nullptr, *ranges = nullptr, *bit_offsets = nullptr;
+  const std::uint8_t* bits = nullptr;
 };
 
 struct detection_context::impl {
@@ -58,6 +58,7 @@ struct detection_context::impl {
   neighbor_index index;
   block_partition blocks;
   std::vector<candidate_hits> hits;
+  chunk_arena hit_memory;  // the hits' arrays
 
   impl(const point_cloud& c, const detect_params& p, neighbor_index&& idx, block_partition&& b)
       : cloud(c), params(p), index(std::move(idx)), blocks(std::move(b)) {}
@@ -71,36 +72,47 @@ bool is_candidate(const float* const* columns, const std::vector<double>& thresh
   return false;
 }
 
-/// Keeps the sweep results of the block's candidates in `ch`.
+/// Keeps the sweep results of the block's candidates in `ch`, in memory from
+/// `arena`, if `budget` (bytes, shared by all blocks) still allows.
 void collect_candidate_hits(const neighbor_block& block, const float* const* columns,
-                            const std::vector<double>& thresholds, candidate_hits& ch,
-                            std::vector<std::uint32_t>& candidates) {
+                            const std::vector<double>& thresholds, chunk_arena& arena, std::atomic<std::size_t>& budget,
+                            candidate_hits& ch, std::vector<std::uint32_t>& candidates) {
   constexpr std::size_t nr = 2 * neighbor_block::sweep_ranges;
   // Which points are candidates and how many bytes of bits they keep, so
   // that every array is sized exactly, once.
   candidates.clear();
-  std::size_t bytes = 0;
+  std::size_t bit_bytes = 0;
   for (std::size_t k = 0; k < block.size(); ++k)
     if (is_candidate(columns, thresholds, block.point(k))) {
       candidates.push_back(static_cast<std::uint32_t>(k));
-      bytes += block.sweep(k).bytes;
+      bit_bytes += block.sweep(k).bytes;
     }
   if (candidates.empty()) return;
-  ch.points.resize(candidates.size());
-  ch.ranges.resize(nr * candidates.size());
-  ch.bits.resize(bytes);
-  ch.bit_offsets.resize(candidates.size() + 1);
-  ch.bit_offsets[0] = 0;
-  std::uint8_t* bits = ch.bits.data();
-  for (std::size_t c = 0; c < candidates.size(); ++c) {
+  const std::size_t n = candidates.size(), g = block.gathered_count();
+  const std::size_t words = n + g + nr * n + (n + 1);
+  const std::size_t want = 4 * words + bit_bytes;
+  std::size_t have = budget.load();
+  while (have >= want && !budget.compare_exchange_weak(have, have - want)) {
+  }
+  if (have < want) return;  // over budget: the NMS queries this block again
+  auto* const memory = static_cast<std::uint32_t*>(arena.allocate(want));
+  std::uint32_t* const points = memory;
+  std::uint32_t* const gathered = points + n;
+  std::uint32_t* const ranges = gathered + g;
+  std::uint32_t* const bit_offsets = ranges + nr * n;
+  std::uint8_t* const bits = reinterpret_cast<std::uint8_t*>(bit_offsets + n + 1);
+  bit_offsets[0] = 0;
+  std::uint8_t* b = bits;
+  for (std::size_t c = 0; c < n; ++c) {
     const std::size_t k = candidates[c];
     const auto v = block.sweep(k);
-    ch.points[c] = block.point(k);
-    for (std::size_t q = 0; q < nr; ++q) ch.ranges[nr * c + q] = v.ranges[q];
-    for (std::size_t b = 0; b < v.bytes; ++b) *bits++ = v.bits[b];
-    ch.bit_offsets[c + 1] = static_cast<std::uint32_t>(bits - ch.bits.data());
+    points[c] = block.point(k);
+    std::copy_n(v.ranges, nr, ranges + nr * c);
+    b = std::copy_n(v.bits, v.bytes, b);
+    bit_offsets[c + 1] = static_cast<std::uint32_t>(b - bits);
   }
-  ch.gathered.assign(block.gathered(), block.gathered() + block.gathered_count());
+  std::copy_n(block.gathered(), g, gathered);
+  ch = {true, n, g, points, gathered, ranges, bit_offsets, bits};
 }
 
 /// The NMS of the candidates kept in `ch`: a candidate is kept unless a
@@ -111,16 +123,16 @@ void nms_from_hits(const candidate_hits& ch, const float* xyz, const float* scor
   const float r2 = squared_radius(nms_radius);
   // The gathered points' scores in sweep order, so that a group of eight
   // neighbours is compared at once (padded: groups read whole).
-  const std::size_t g = ch.gathered.size();
+  const std::size_t g = ch.gathered_count;
   local.resize(g + 8);
   for (std::size_t t = 0; t < g; ++t) local[t] = score[ch.gathered[t]];
   std::fill_n(local.begin() + std::ptrdiff_t(g), 8, 0.0f);
-  for (std::size_t k = 0; k < ch.points.size(); ++k) {
+  for (std::size_t k = 0; k < ch.count; ++k) {
     const std::uint32_t i = ch.points[k];
     const float si = score[i];
     const float* pi = xyz + 3 * std::size_t(i);
-    const std::uint32_t* rg = ch.ranges.data() + nr * k;
-    const std::uint8_t* const bits = ch.bits.data() + ch.bit_offsets[k];
+    const std::uint32_t* rg = ch.ranges + nr * k;
+    const std::uint8_t* const bits = ch.bits + ch.bit_offsets[k];
     // Each range's bits follow those of the ranges before it.
     std::uint32_t first_bit[neighbor_block::sweep_ranges];
     for (std::size_t q = 0, at = 0; q < neighbor_block::sweep_ranges; ++q) {
@@ -239,16 +251,8 @@ void detection_context::compute_saliency(const std::vector<channel_source>& sour
       for (std::size_t k = 0; k < block.size(); ++k) r.neighbor_count[block.point(k)] = block.count(k);
       f(block, columns.data());
       if (!keep_hits) continue;
-      candidate_hits& ch = m_impl->hits[b];
-      collect_candidate_hits(block, columns.data(), r.thresholds, ch, candidates);
-      std::size_t want = ch.bytes(), have = budget.load();
-      while (have >= want && !budget.compare_exchange_weak(have, have - want)) {
-      }
-      if (have >= want) {
-        ch.stored = true;
-      } else {
-        ch = candidate_hits{};  // over budget: the NMS queries this block again
-      }
+      collect_candidate_hits(block, columns.data(), r.thresholds, m_impl->hit_memory, budget, m_impl->hits[b],
+                             candidates);
     }
     if (params.progress) {
       const std::size_t done = blocks_done.fetch_add(b1 - b0) + (b1 - b0);
