@@ -5,6 +5,8 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <random>
+#include <vector>
 
 #include "ced/ced.hpp"
 #include "test_support.hpp"
@@ -152,6 +154,28 @@ TEST(Lab, MatchesTheCieFormulaWithStdCbrt) {
         }
       }
   EXPECT_GE(double(same), 0.9999 * double(total));
+}
+
+TEST(Lab, BatchConversionMatchesOneByOneBitwise) {
+  // The batch form computes several colours per instruction; every value must
+  // be the one-colour function's, whatever the count (tails included).
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<int> u(0, 255);
+  for (std::size_t n : {std::size_t(1), std::size_t(7), std::size_t(8), std::size_t(9), std::size_t(1000)}) {
+    std::vector<double> r(n), g(n), b(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      r[i] = ced::srgb_to_linear(float(u(rng) / 255.0));
+      g[i] = ced::srgb_to_linear(float(u(rng) / 255.0));
+      b[i] = ced::srgb_to_linear(float(i % 5 == 0 ? 0 : u(rng) / 255.0));  // some dark: the linear branch
+    }
+    std::vector<float> lab(3 * n + 1, -1.0f);
+    ced::linear_srgb_to_lab(r.data(), g.data(), b.data(), n, lab.data());
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto one = ced::linear_srgb_to_lab(r[i], g[i], b[i]);
+      for (std::size_t k = 0; k < 3; ++k) ASSERT_EQ(lab[3 * i + k], one[k]) << n << " colours, colour " << i;
+    }
+    EXPECT_EQ(lab[3 * n], -1.0f) << "wrote past the end";
+  }
 }
 
 TEST(NeighborIndex, MatchesBruteForce) {

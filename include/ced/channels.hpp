@@ -2,6 +2,7 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -58,5 +59,8 @@ std::array<float, 3> srgb_to_lab(float r, float g, float b) noexcept;
 /// linear_srgb_to_lab(srgb_to_linear(r), srgb_to_linear(g), srgb_to_linear(b)).
 double srgb_to_linear(float c) noexcept;
 std::array<float, 3> linear_srgb_to_lab(double r, double g, double b) noexcept;
+/// linear_srgb_to_lab of n colours (r[i], g[i], b[i]) into lab[3i .. 3i+2],
+/// several at a time: the same values, at about half the cost.
+void linear_srgb_to_lab(const double* r, const double* g, const double* b, std::size_t n, float* lab) noexcept;
 
 }  // namespace ced

@@ -4,6 +4,8 @@
 // L*a*b* (ΔE*76) divided by 100, so 0.1 means ΔE 10.
 #pragma once
 
+#include <algorithm>
+
 #include "ced/detail/parallel.hpp"
 #include "ced/modalities/rgb.hpp"
 #include "ced/modality.hpp"
@@ -37,9 +39,13 @@ struct lab {
     };
     std::vector<float> out(3 * n);
     detail::parallel_for(n, params.threads, 1 << 14, [&](std::size_t b, std::size_t e) {
-      for (std::size_t i = b; i < e; ++i) {
-        const auto l = linear_srgb_to_lab(linear(0, i), linear(1, i), linear(2, i));
-        std::copy(l.begin(), l.end(), out.begin() + static_cast<std::ptrdiff_t>(3 * i));
+      constexpr std::size_t batch = 256;
+      double rgb[3][batch];
+      for (std::size_t i = b; i < e; i += batch) {
+        const std::size_t m = std::min(batch, e - i);
+        for (std::size_t c = 0; c < 3; ++c)
+          for (std::size_t k = 0; k < m; ++k) rgb[c][k] = linear(c, i + k);
+        linear_srgb_to_lab(rgb[0], rgb[1], rgb[2], m, out.data() + 3 * i);
       }
     });
     return centroid_distance<3>(std::move(out), {0.01, 0.01, 0.01}, norm_type::l2);
