@@ -326,7 +326,11 @@ void neighbor_block::fill(const neighbor_index& index, const float* xyz, const s
 
   // Gathered channels as structure of arrays, 8 floats of zero padding at
   // the end (the kernel reads whole groups of 8).
-  const std::size_t g = m_raw.size(), stride = g + 8;
+  const std::size_t g = m_raw.size();
+  const std::size_t stride =
+      m_channels >= std::size_t(detail::min_fixed_stride_channels) && g + 8 <= detail::fixed_channel_stride
+          ? detail::fixed_channel_stride
+          : g + 8;
   grow(m_channel_values, m_channels * stride);
   grow(m_own, m_channels * count);
   grow(m_centre, 3 * count);

@@ -13,6 +13,13 @@ namespace ced::detail {
 /// nine ranges of gathered points.
 inline constexpr int x_cells_per_radius = 8;
 inline constexpr std::size_t kernel_ranges = 9;
+/// Blocks of at most fixed_channel_stride − 8 gathered points lay their
+/// channels out this many floats apart, a constant, so that the kernel
+/// addresses all channels from one register (with 7 or more channels it
+/// otherwise runs out of general registers). 64 bytes more than a power of
+/// two, so that the channels of one point do not share a cache set.
+inline constexpr std::size_t fixed_channel_stride = 8192 + 16;
+inline constexpr int min_fixed_stride_channels = 7;
 
 struct block_kernel_input {
   /// Gathered points in sub-cell order (structure of arrays), each array
@@ -20,7 +27,9 @@ struct block_kernel_input {
   const float* gx;
   const float* gy;
   const float* gz;
-  /// Channel c of the gathered points at channels + c * stride, each less a
+  /// Channel c of the gathered points at channels + c * stride (stride is
+  /// fixed_channel_stride when the block allows and there are at least
+  /// min_fixed_stride_channels channels), each less a
   /// reference value of the block's (any value: it cancels out, it only keeps
   /// the float sums small).
   const float* channels;
