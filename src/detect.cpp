@@ -11,6 +11,10 @@
 #include <stdexcept>
 #include <utility>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include "ced/detail/arena.hpp"
 #include "ced/detail/parallel.hpp"
 #include "ced/neighbor_index.hpp"
@@ -115,6 +119,19 @@ void collect_candidate_hits(const neighbor_block& block, const float* const* col
   ch = {true, n, g, points, gathered, ranges, bit_offsets, bits};
 }
 
+/// Bit l set when s[l] > x, for l < 8.
+unsigned greater_lanes(const float* s, float x) noexcept {
+#if defined(__SSE2__)
+  const __m128 v = _mm_set1_ps(x);
+  return static_cast<unsigned>(_mm_movemask_ps(_mm_cmpgt_ps(_mm_loadu_ps(s), v))) |
+         (static_cast<unsigned>(_mm_movemask_ps(_mm_cmpgt_ps(_mm_loadu_ps(s + 4), v))) << 4);
+#else
+  unsigned greater = 0;
+  for (unsigned l = 0; l < 8; ++l) greater |= unsigned(s[l] > x) << l;
+  return greater;
+#endif
+}
+
 /// The NMS of the candidates kept in `ch`: a candidate is kept unless a
 /// neighbour within `nms_radius` has a strictly greater score.
 void nms_from_hits(const candidate_hits& ch, const float* xyz, const float* score, double nms_radius, bool whole_ball,
@@ -149,8 +166,7 @@ void nms_from_hits(const candidate_hits& ch, const float* xyz, const float* scor
       const std::uint8_t* gb = bits + first_bit[q];
       for (std::uint32_t t = rg[2 * q]; t < rg[2 * q + 1] && maximum; t += 8) {
         const unsigned b = *gb++;
-        unsigned greater = 0;
-        for (unsigned l = 0; l < 8; ++l) greater |= unsigned(local[t + l] > si) << l;
+        const unsigned greater = greater_lanes(local.data() + t, si);
         if ((b & greater) == 0) continue;
         if (whole_ball) {
           maximum = false;

@@ -131,10 +131,25 @@ class centroid_distance {
   }
   float finish(const double* acc, std::size_t dims, std::uint32_t n) const noexcept {
     // One division per point: the mean of each dimension is its sum × 1/n.
+    // The norm chosen once, not per dimension (the same arithmetic as combine()).
     double result = 0;
     const double inv_n = 1.0 / n;
-    for (std::size_t d = 0; d < dims; ++d) result = combine(result, acc[d] * inv_n * m_scale[d]);
-    return static_cast<float>(m_norm == norm_type::l2 ? std::sqrt(result) : result);
+    const double* scale = m_scale.data();
+    switch (m_norm) {
+      case norm_type::l1:
+        for (std::size_t d = 0; d < dims; ++d) result += std::abs(acc[d] * inv_n * scale[d]);
+        return static_cast<float>(result);
+      case norm_type::l2:
+        for (std::size_t d = 0; d < dims; ++d) {
+          const double m = acc[d] * inv_n * scale[d];
+          result += m * m;
+        }
+        return static_cast<float>(std::sqrt(result));
+      case norm_type::linf:
+        for (std::size_t d = 0; d < dims; ++d) result = std::max(result, std::abs(acc[d] * inv_n * scale[d]));
+        return static_cast<float>(result);
+    }
+    return 0.0f;
   }
 
   std::vector<float> m_values;
