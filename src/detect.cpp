@@ -290,12 +290,20 @@ detection_result detection_context::finish() {
   raw_vector<float> product(n);  // written in full below
   const unsigned threads = resolve_threads(m_impl->params.threads);
   parallel_for(n, threads, 1 << 14, [&](std::size_t b, std::size_t e) {
-    for (std::size_t i = b; i < e; ++i) {
-      r.candidate[i] = is_candidate(columns.data(), r.thresholds, static_cast<std::uint32_t>(i));
-      // The score of the NMS: the product of the saliencies, in modality order.
-      float p = columns[0][i];
-      for (std::size_t m = 1; m < columns.size(); ++m) p *= columns[m][i];
-      product[i] = p;
+    // Modality by modality over the chunk, so that the loops vectorise: the
+    // candidate rule (some modality reaches its threshold, compared in
+    // double) and the NMS's score, the product of the saliencies in modality
+    // order.
+    auto* const cand = r.candidate.data();
+    float* const p = product.data();
+    for (std::size_t m = 0; m < columns.size(); ++m) {
+      const float* col = columns[m];
+      const double t = r.thresholds[m];
+      for (std::size_t i = b; i < e; ++i) cand[i] |= static_cast<double>(col[i]) >= t;
+      if (m == 0)
+        std::copy(col + b, col + e, p + b);
+      else
+        for (std::size_t i = b; i < e; ++i) p[i] *= col[i];
     }
   });
   const float* xyz = m_impl->cloud.positions().data();
