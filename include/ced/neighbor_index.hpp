@@ -13,7 +13,8 @@ namespace ced {
 /// not included by this header.
 ///
 /// Given a spatially coherent order, the index is a small forest: one tree
-/// per run of 16,384 points of that order, built in parallel, each small
+/// per run of at most 16,384 points of that order (past one tree, a multiple
+/// of four runs of equal length), built in parallel, each small
 /// enough to build in cache; queries visit the trees whose bounds they meet
 /// and report their points tree after tree. The number of trees depends on
 /// the number of points only, so results never depend on the thread count.
