@@ -258,10 +258,29 @@ void detection_context::compute_saliency(const std::vector<channel_source>& sour
   std::atomic<std::size_t> blocks_done{0};
   std::mutex progress_mutex;
   const std::size_t report_every = std::max<std::size_t>(1, blocks.block_count() / 100);
-  parallel_for(blocks.block_count(), resolve_threads(params.threads), 8, [&](std::size_t b0, std::size_t b1) {
+  // Work buffers, reused by whichever chunk runs next (their growth is
+  // costly), so that chunks can be small and the threads finish together.
+  struct worker {
     neighbor_block block;
-    block.set_channels(sources);
     std::vector<std::uint32_t> candidates;
+  };
+  std::vector<std::unique_ptr<worker>> idle;
+  std::mutex idle_mutex;
+  parallel_for(blocks.block_count(), resolve_threads(params.threads), 2, [&](std::size_t b0, std::size_t b1) {
+    std::unique_ptr<worker> w;
+    {
+      std::lock_guard<std::mutex> lock(idle_mutex);
+      if (!idle.empty()) {
+        w = std::move(idle.back());
+        idle.pop_back();
+      }
+    }
+    if (!w) {
+      w = std::make_unique<worker>();
+      w->block.set_channels(sources);
+    }
+    neighbor_block& block = w->block;
+    std::vector<std::uint32_t>& candidates = w->candidates;
     for (std::size_t b = b0; b < b1; ++b) {
       block.fill(m_impl->index, xyz, blocks.block_points(b), blocks.block_size(b), params.radius);
       for (std::size_t k = 0; k < block.size(); ++k) r.neighbor_count[block.point(k)] = block.count(k);
@@ -269,6 +288,10 @@ void detection_context::compute_saliency(const std::vector<channel_source>& sour
       if (!keep_hits) continue;
       collect_candidate_hits(block, columns.data(), r.thresholds, m_impl->hit_memory, budget, m_impl->hits[b],
                              candidates);
+    }
+    {
+      std::lock_guard<std::mutex> lock(idle_mutex);
+      idle.push_back(std::move(w));
     }
     if (params.progress) {
       const std::size_t done = blocks_done.fetch_add(b1 - b0) + (b1 - b0);
