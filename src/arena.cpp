@@ -32,6 +32,15 @@ std::size_t chunk_arena::cached_bytes() {
   return c.chunks.size() * chunk_size;
 }
 
+void chunk_arena::release_cache() noexcept {
+  std::vector<std::unique_ptr<std::byte[]>> chunks;
+  {
+    chunk_cache& c = cache();
+    std::lock_guard<std::mutex> lock(c.mutex);
+    chunks.swap(c.chunks);
+  }  // freed outside the lock
+}
+
 void* chunk_arena::allocate(std::size_t bytes) {
   // Room for aligning the start within a chunk.
   const std::size_t need = bytes + alignment;

@@ -360,6 +360,8 @@ detection_result detection_context::finish() {
 
 }  // namespace detail
 
+void release_cached_memory() noexcept { detail::chunk_arena::release_cache(); }
+
 detection_result detect(const point_cloud& cloud, const detect_params& params,
                         const std::vector<any_modality>& modalities) {
   std::vector<std::string> names;

@@ -615,4 +615,10 @@ TEST(Detect, RepeatedDetectionsAgreeBitwise) {
     EXPECT_EQ(again.keypoints, first.keypoints);
     EXPECT_EQ(again.saliency, first.saliency);
   }
+  // The cache can be emptied; the next detection starts without it.
+  ced::release_cached_memory();
+  EXPECT_EQ(ced::detail::chunk_arena::cached_bytes(), 0u);
+  const auto after = ced::detect(c, p, mods);
+  EXPECT_EQ(after.keypoints, first.keypoints);
+  EXPECT_EQ(after.saliency, first.saliency);
 }

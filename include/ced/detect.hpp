@@ -47,6 +47,12 @@ struct detection_result {
 detection_result detect(const point_cloud& cloud, const detect_params& params,
                         const std::vector<any_modality>& modalities);
 
+/// Frees the working memory that detections keep cached for the next one (at
+/// most 32 MiB: the NMS's chunks, which would otherwise be page-faulted in
+/// again at every detection). Thread-safe; a later detection simply starts
+/// with an empty cache.
+void release_cached_memory() noexcept;
+
 namespace detail {
 /// The non-template part of detection, shared by both composition paths.
 class detection_context {

@@ -35,6 +35,8 @@ class chunk_arena {
 
   /// Bytes of chunks in the process-wide cache now (for tests).
   static std::size_t cached_bytes();
+  /// Frees the chunks in the process-wide cache.
+  static void release_cache() noexcept;
 
  private:
   struct chunk {
