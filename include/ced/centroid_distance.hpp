@@ -118,36 +118,44 @@ class centroid_distance {
  private:
   static constexpr std::size_t k_small = 16;
 
+  /// Adds one scaled mean difference m to the norm's running value.
+  template <norm_type N>
+  static double combine(double so_far, double m) noexcept {
+    if constexpr (N == norm_type::l1)
+      return so_far + std::abs(m);
+    else if constexpr (N == norm_type::l2)
+      return so_far + m * m;
+    else
+      return std::max(so_far, std::abs(m));
+  }
   double combine(double so_far, double m) const noexcept {
     switch (m_norm) {
       case norm_type::l1:
-        return so_far + std::abs(m);
+        return combine<norm_type::l1>(so_far, m);
       case norm_type::l2:
-        return so_far + m * m;
+        return combine<norm_type::l2>(so_far, m);
       case norm_type::linf:
-        return std::max(so_far, std::abs(m));
+        return combine<norm_type::linf>(so_far, m);
     }
     return so_far;
   }
+  template <norm_type N>
+  float finish(const double* acc, std::size_t dims, double inv_n) const noexcept {
+    double result = 0;
+    for (std::size_t d = 0; d < dims; ++d) result = combine<N>(result, acc[d] * inv_n * m_scale[d]);
+    return static_cast<float>(N == norm_type::l2 ? std::sqrt(result) : result);
+  }
   float finish(const double* acc, std::size_t dims, std::uint32_t n) const noexcept {
     // One division per point: the mean of each dimension is its sum × 1/n.
-    // The norm chosen once, not per dimension (the same arithmetic as combine()).
-    double result = 0;
+    // The norm is chosen once, not per dimension.
     const double inv_n = 1.0 / n;
-    const double* scale = m_scale.data();
     switch (m_norm) {
       case norm_type::l1:
-        for (std::size_t d = 0; d < dims; ++d) result += std::abs(acc[d] * inv_n * scale[d]);
-        return static_cast<float>(result);
+        return finish<norm_type::l1>(acc, dims, inv_n);
       case norm_type::l2:
-        for (std::size_t d = 0; d < dims; ++d) {
-          const double m = acc[d] * inv_n * scale[d];
-          result += m * m;
-        }
-        return static_cast<float>(std::sqrt(result));
+        return finish<norm_type::l2>(acc, dims, inv_n);
       case norm_type::linf:
-        for (std::size_t d = 0; d < dims; ++d) result = std::max(result, std::abs(acc[d] * inv_n * scale[d]));
-        return static_cast<float>(result);
+        return finish<norm_type::linf>(acc, dims, inv_n);
     }
     return 0.0f;
   }
