@@ -70,9 +70,11 @@ struct detection_context::impl {
 
 namespace {
 /// The paper's candidate rule: some modality reaches its threshold.
+/// A saliency reaches its modality's threshold (compared in double).
+inline bool reaches(float saliency, double threshold) noexcept { return static_cast<double>(saliency) >= threshold; }
 bool is_candidate(const float* const* columns, const std::vector<double>& thresholds, std::uint32_t p) {
   for (std::size_t c = 0; c < thresholds.size(); ++c)
-    if (static_cast<double>(columns[c][p]) >= thresholds[c]) return true;
+    if (reaches(columns[c][p], thresholds[c])) return true;
   return false;
 }
 
@@ -313,16 +315,15 @@ detection_result detection_context::finish() {
   raw_vector<float> product(n);  // written in full below
   const unsigned threads = resolve_threads(m_impl->params.threads);
   parallel_for(n, threads, 1 << 14, [&](std::size_t b, std::size_t e) {
-    // Modality by modality over the chunk, so that the loops vectorise: the
-    // candidate rule (some modality reaches its threshold, compared in
-    // double) and the NMS's score, the product of the saliencies in modality
-    // order.
+    // is_candidate() and the NMS's score (the product of the saliencies in
+    // modality order), modality by modality over the chunk so that the loops
+    // vectorise.
     auto* const cand = r.candidate.data();
     float* const p = product.data();
     for (std::size_t m = 0; m < columns.size(); ++m) {
       const float* col = columns[m];
       const double t = r.thresholds[m];
-      for (std::size_t i = b; i < e; ++i) cand[i] |= static_cast<double>(col[i]) >= t;
+      for (std::size_t i = b; i < e; ++i) cand[i] |= reaches(col[i], t);
       if (m == 0)
         std::copy(col + b, col + e, p + b);
       else
