@@ -11,7 +11,8 @@
 #include <thread>
 
 #include "ced/ced.hpp"
-#include "ced/detail/arena.hpp"
+#include "core/arena.hpp"
+#include "core/neighbor_block.hpp"
 #include "test_support.hpp"
 
 using ced_test::field_channel;

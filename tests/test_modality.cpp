@@ -9,6 +9,8 @@
 #include <vector>
 
 #include "ced/ced.hpp"
+#include "core/block_partition.hpp"
+#include "core/neighbor_index.hpp"
 #include "test_support.hpp"
 
 static_assert(ced::is_modality_v<ced::xyz>);

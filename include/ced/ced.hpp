@@ -1,15 +1,9 @@
 // SPDX-License-Identifier: MIT
-// Umbrella header: the detector, the built-in modalities and PLY I/O.
+// Umbrella header (ced::ced): the detector and the built-in modalities
+// (ced/core.hpp), and reading and writing every supported file format
+// (ced::io::read_cloud, ced::io::write_cloud). Evaluation (ced/eval.hpp),
+// rendering (ced/render.hpp) and plugins (ced/plugin.hpp) have their own.
 #pragma once
 
-#include "ced/cloud.hpp"
-#include "ced/detect.hpp"
-#include "ced/io/ply.hpp"
-#include "ced/modalities/bands.hpp"
-#include "ced/modalities/intensity.hpp"
-#include "ced/modalities/lab.hpp"
-#include "ced/modalities/rgb.hpp"
-#include "ced/modalities/xyz.hpp"
-#include "ced/modality.hpp"
-#include "ced/params.hpp"
-#include "ced/version.hpp"
+#include "ced/core.hpp"
+#include "ced/io/io.hpp"

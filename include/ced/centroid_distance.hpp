@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "ced/cloud.hpp"
-#include "ced/neighborhoods.hpp"
+#include "ced/neighborhood.hpp"
 
 namespace ced {
 

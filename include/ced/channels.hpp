@@ -62,5 +62,10 @@ std::array<float, 3> linear_srgb_to_lab(double r, double g, double b) noexcept;
 /// linear_srgb_to_lab of n colours (r[i], g[i], b[i]) into lab[3i .. 3i+2],
 /// several at a time: the same values, at about half the cost.
 void linear_srgb_to_lab(const double* r, const double* g, const double* b, std::size_t n, float* lab) noexcept;
+/// N×3 floats, row-major: the CIELAB colour of every point, from its red,
+/// green and blue fields `f` scaled into [0,1] by `scale` (sRGB), on up to
+/// `threads` threads (0 = all cores; the result does not depend on it).
+std::vector<float> lab_values(const std::array<const field*, 3>& f, const std::array<double, 3>& scale,
+                              unsigned threads);
 
 }  // namespace ced

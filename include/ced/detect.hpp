@@ -64,7 +64,7 @@ class detection_context {
   /// `sources` (one per modality), and calls `f(block, columns)`; columns[m]
   /// is modality m's saliency column, to be written at the block's points.
   void compute_saliency(const std::vector<channel_source>& sources,
-                        const std::function<void(const neighbor_block&, float* const*)>& f);
+                        const std::function<void(const block_view&, float* const*)>& f);
   /// Candidates, products and NMS; moves the result out.
   detection_result finish();
 
@@ -85,7 +85,7 @@ detection_result detect(const point_cloud& cloud, const detect_params& params, c
   const auto evaluators = std::make_tuple(modalities.bind(cloud, params)...);
   const auto sources =
       std::apply([](const auto&... e) { return std::vector<channel_source>{channels_of(e)...}; }, evaluators);
-  ctx.compute_saliency(sources, [&](const neighbor_block& block, float* const* columns) {
+  ctx.compute_saliency(sources, [&](const block_view& block, float* const* columns) {
     std::apply(
         [&](const auto&... e) {
           std::size_t m = 0;

@@ -14,28 +14,35 @@
 
 #include "ced/centroid_distance.hpp"
 #include "ced/cloud.hpp"
-#include "ced/neighborhoods.hpp"
+#include "ced/neighborhood.hpp"
 #include "ced/params.hpp"
 
 namespace ced {
 
 // ---------------------------------------------------------------------------
-// The Modality concept
+// The Modality concept (docs/MODALITIES.md has the full contract)
 //
 // A modality is a small value type `M` with
 //   std::string name() const;                       // e.g. "rgb", "bands(nir,red)"
 //   double threshold(const detect_params&) const;   // absolute, in saliency units
 //   E bind(const point_cloud&, const detect_params&) const;
-// where the evaluator E returned by bind() is callable as
-//   float E::operator()(const neighborhood&) const; // the saliency of one point
-// E owns whatever per-point data it prepared (normalised channel values...)
-// and must be safe to call concurrently. Most modalities return a
-// `centroid_distance<D>`, whose saliency the detector computes from sums of
-// (v_j − v_i) in its vectorised neighbour pass (see sums_neighbors_v); a
-// modality that measures saliency differently (a circular mean, a median)
-// returns its own callable and is given neighbour lists.
+// where the evaluator E returned by bind() owns whatever per-point data it
+// prepared, must be safe to call concurrently, and is one of two kinds:
 //
-// To be usable from strings (CLI, config), M also provides
+// (a) Sums of channels, the fast path (SumsEvaluator):
+//       channel_source channels() const;   // N×dims floats the pass sums
+//       float from_sums(const double* sums, std::uint32_t n) const;
+//     The detector sums Σ_{j ∈ N(i)} (v_j − v_i) of the channels in its own
+//     vectorised neighbour pass, for all such modalities at once, and calls
+//     from_sums(sums, |N(i)|) per point. centroid_distance<D> is the model
+//     the built-ins return.
+// (b) Neighbour lists (ListEvaluator), for any other measure (a circular
+//     mean, a median, a covariance...):
+//       float operator()(const neighborhood&) const;   // one point's saliency
+//     It is given the point and the indices of its neighbours.
+// An evaluator that offers both is run as (a).
+//
+// To be usable from strings (CLI, config, plugins), M also provides
 //   static constexpr const char* spec_name = "rgb";
 //   static M from_spec(modality_spec&);
 // and is registered once with register_modality<M>().
@@ -46,26 +53,6 @@ using evaluator_t =
     decltype(std::declval<const M&>().bind(std::declval<const point_cloud&>(), std::declval<const detect_params&>()));
 
 namespace detail {
-template <class M, class = void>
-struct is_modality : std::false_type {};
-template <class M>
-struct is_modality<
-    M, std::void_t<decltype(std::string(std::declval<const M&>().name())),
-                   decltype(double(std::declval<const M&>().threshold(std::declval<const detect_params&>()))),
-                   decltype(float(std::declval<const evaluator_t<M>&>()(std::declval<const neighborhood&>())))>>
-    : std::true_type {};
-}  // namespace detail
-
-/// True when M models the Modality concept above.
-template <class M>
-inline constexpr bool is_modality_v = detail::is_modality<M>::value;
-
-#ifdef __cpp_concepts
-template <class M>
-concept Modality = is_modality_v<M>;
-#endif
-
-namespace detail {
 template <class E, class = void>
 struct sums_neighbors : std::false_type {};
 template <class E>
@@ -73,12 +60,45 @@ struct sums_neighbors<
     E, std::void_t<decltype(channel_source(std::declval<const E&>().channels())),
                    decltype(float(std::declval<const E&>().from_sums(std::declval<const double*>(), std::uint32_t{})))>>
     : std::true_type {};
+
+template <class E, class = void>
+struct reads_neighbors : std::false_type {};
+template <class E>
+struct reads_neighbors<E, std::void_t<decltype(float(std::declval<const E&>()(std::declval<const neighborhood&>())))>>
+    : std::true_type {};
+
+template <class M, class = void>
+struct is_modality : std::false_type {};
+template <class M>
+struct is_modality<
+    M, std::void_t<decltype(std::string(std::declval<const M&>().name())),
+                   decltype(double(std::declval<const M&>().threshold(std::declval<const detect_params&>()))),
+                   evaluator_t<M>>>
+    : std::bool_constant<sums_neighbors<evaluator_t<M>>::value || reads_neighbors<evaluator_t<M>>::value> {};
 }  // namespace detail
 
 /// True for evaluators (like centroid_distance) whose saliency the detector
-/// computes from neighbourhood sums of their channels in its own pass.
+/// computes from neighbourhood sums of their channels in its own pass: (a).
 template <class E>
 inline constexpr bool sums_neighbors_v = detail::sums_neighbors<E>::value;
+
+/// True for evaluators that compute a point's saliency from its neighbour
+/// list: (b).
+template <class E>
+inline constexpr bool reads_neighbors_v = detail::reads_neighbors<E>::value;
+
+/// True when M models the Modality concept above.
+template <class M>
+inline constexpr bool is_modality_v = detail::is_modality<M>::value;
+
+#ifdef __cpp_concepts
+template <class E>
+concept SumsEvaluator = sums_neighbors_v<E>;
+template <class E>
+concept ListEvaluator = reads_neighbors_v<E>;
+template <class M>
+concept Modality = is_modality_v<M>;
+#endif
 
 /// The channels the neighbour pass sums for evaluator `e` (none for an
 /// evaluator that reads neighbour lists).
@@ -94,7 +114,7 @@ channel_source channels_of(const E& e) {
 /// fewer than `min_neighbors` neighbours). `slot` is the modality's channel
 /// slot in the block. Shared by both composition paths.
 template <class Evaluator>
-void evaluate_block(const Evaluator& e, const neighbor_block& block, std::size_t slot, std::uint32_t min_neighbors,
+void evaluate_block(const Evaluator& e, const block_view& block, std::size_t slot, std::uint32_t min_neighbors,
                     float* column) {
   for (std::size_t k = 0; k < block.size(); ++k) {
     const std::uint32_t n = block.count(k);
@@ -118,7 +138,7 @@ class bound_modality {
  public:
   virtual ~bound_modality() = default;
   virtual channel_source channels() const = 0;
-  virtual void evaluate(const neighbor_block& block, std::size_t slot, std::uint32_t min_neighbors,
+  virtual void evaluate(const block_view& block, std::size_t slot, std::uint32_t min_neighbors,
                         float* column) const = 0;
 };
 
@@ -151,7 +171,7 @@ class any_modality {
     struct bound final : bound_modality {
       explicit bound(evaluator_t<M> e) : evaluator(std::move(e)) {}
       channel_source channels() const override { return channels_of(evaluator); }
-      void evaluate(const neighbor_block& b, std::size_t slot, std::uint32_t k, float* column) const override {
+      void evaluate(const block_view& b, std::size_t slot, std::uint32_t k, float* column) const override {
         evaluate_block(evaluator, b, slot, k, column);
       }
       evaluator_t<M> evaluator;

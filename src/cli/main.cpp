@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "ced/ced.hpp"
-#include "ced/detail/parallel.hpp"
+#include "core/parallel.hpp"
 #include "ced/eval.hpp"
 #include "ced/io/io.hpp"
 #include "ced/io/rgbd.hpp"

@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "ced/io/output_file.hpp"
+#include "ced/io/transform.hpp"
 
 // stb_image is compiled in with internal linkage (as stb_image_write in
 // render.cpp); its warnings are silenced as a system header's (CMake).

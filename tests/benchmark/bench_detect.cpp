@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "ced/ced.hpp"
-#include "ced/nms.hpp"
+#include "core/neighbor_index.hpp"
 #ifdef CED_HAS_PCL
 #include "pcl_bridge.hpp"  // ced's optional PCL component: PCL's own detectors
 #endif

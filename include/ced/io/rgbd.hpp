@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "ced/cloud.hpp"
-#include "ced/eval.hpp"
+#include "ced/transform.hpp"
 
 namespace ced::io {
 

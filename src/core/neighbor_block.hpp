@@ -1,4 +1,5 @@
 // SPDX-License-Identifier: MIT
+// Private: the neighbour pass over one spatial block (stage 2 of detection).
 #pragma once
 
 #include <algorithm>
@@ -7,53 +8,10 @@
 #include <utility>
 #include <vector>
 
-#include "ced/neighbor_index.hpp"
+#include "ced/neighborhood.hpp"
+#include "core/neighbor_index.hpp"
 
 namespace ced {
-
-/// The neighbourhood of one point, as a saliency measure sees it: the point's
-/// index and the indices of all points within the radius (itself included),
-/// in a deterministic order.
-struct neighborhood {
-  std::uint32_t point;
-  const std::uint32_t* indices;
-  std::uint32_t size;
-
-  const std::uint32_t* begin() const noexcept { return indices; }
-  const std::uint32_t* end() const noexcept { return indices + size; }
-};
-
-/// The points grouped into spatial blocks (cubic grid cells). Work is done
-/// block by block: one index query per block, then an exact per-point filter.
-/// The grouping depends only on the points and the cell size, never on the
-/// number of threads. Points of a block are in ascending index order.
-class block_partition {
- public:
-  block_partition() = default;
-  block_partition(const float* xyz, std::size_t n, double cell_size, unsigned threads = 1);
-
-  std::size_t block_count() const noexcept { return m_starts.empty() ? 0 : m_starts.size() - 1; }
-  const std::uint32_t* block_points(std::size_t b) const noexcept { return m_order.data() + m_starts[b]; }
-  std::size_t block_size(std::size_t b) const noexcept { return m_starts[b + 1] - m_starts[b]; }
-  /// All points, block after block: a spatially coherent permutation.
-  const std::vector<std::uint32_t>& order() const noexcept { return m_order; }
-
- private:
-  std::vector<std::uint32_t> m_order;
-  std::vector<std::size_t> m_starts;
-};
-
-/// Per-point values whose neighbourhood sums the neighbour pass computes: the
-/// input of every centroid-distance saliency.
-struct channel_source {
-  /// N×dims floats, row-major; nullptr when the modality needs no sums (it
-  /// reads neighbour lists instead).
-  const float* values = nullptr;
-  std::uint32_t dims = 0;
-  /// The values are the cloud's positions: their sums come from the distance
-  /// test itself.
-  bool positions = false;
-};
 
 /// The neighbour pass over one spatial block: one box query to the index for
 /// the whole block, the gathered points sorted into sub-cells (≈ r wide in y
@@ -88,6 +46,10 @@ class neighbor_block {
   void neighbors(std::size_t k, std::uint32_t* out) const noexcept;
   /// Point k's neighbourhood as a list (all lists are built on first use).
   neighborhood operator[](std::size_t k) const;
+  /// The block as modalities see it (valid while the block is not refilled).
+  block_view view() const noexcept {
+    return {m_count, m_points, m_counts.data(), m_sums.data(), m_sum_stride, m_slot_offset.data(), this, &list_of};
+  }
 
   /// The sweep's raw result for point k: nine [begin, end) ranges into
   /// gathered(), walked in order eight points at a time, and one byte of hit
@@ -108,6 +70,9 @@ class neighbor_block {
   std::size_t gathered_count() const noexcept { return m_raw.size(); }
 
  private:
+  static neighborhood list_of(const void* block, std::size_t k) {
+    return (*static_cast<const neighbor_block*>(block))[k];
+  }
   void sort_into_cells(const float lo[3], const float hi[3], double r);
   void cell_of(const float* p, std::uint64_t c[3]) const noexcept {
     // Truncation is floor here: the value is clamped to ≥ 0 first.
@@ -147,10 +112,6 @@ class neighbor_block {
 };
 
 namespace detail {
-/// Bounds of points[0..count) grown by a little more than r, widened by one
-/// ulp: a box that holds every point within r of any of them.
-void padded_bounds(const float* xyz, const std::uint32_t* points, std::size_t count, double r, float lo[3],
-                   float hi[3]) noexcept;
 /// Which build of the neighbour pass runs: "avx2" when the CPU has it,
 /// otherwise "generic". Both give bitwise identical results; tests force one.
 const char* kernel_isa() noexcept;

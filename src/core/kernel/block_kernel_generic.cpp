@@ -2,4 +2,4 @@
 // The block kernel for the baseline instruction set (SSE2 on x86-64).
 #define CED_KERNEL_NAME block_kernel_generic
 #define CED_KERNEL_NAME_COMPACT compact_generic
-#include "kernel/block_kernel.inc"
+#include "core/kernel/block_kernel.inc"

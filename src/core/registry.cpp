@@ -1,4 +1,7 @@
 // SPDX-License-Identifier: MIT
+// Modality specs (the CLI grammar), the registry of modalities, presets.
+#include "core/registry.hpp"
+
 #include <algorithm>
 #include <cctype>
 #include <charconv>
@@ -124,8 +127,12 @@ void add_builtin(std::map<std::string, std::pair<modality_factory, std::string>>
 }
 
 struct registry {
+  using table = std::map<std::string, std::pair<modality_factory, std::string>>;
   std::mutex mutex;
-  std::map<std::string, std::pair<modality_factory, std::string>> factories;
+  table factories;
+  // While a plugin registers: the table before it, and the names it registers.
+  std::optional<table> saved;
+  std::vector<std::string> log;
 
   registry() {
     add_builtin<xyz>(factories, "geometry: L2 distance to the neighbours' centroid; threshold = ratio of the radius");
@@ -146,7 +153,29 @@ void register_modality(const std::string& name, modality_factory factory, std::s
   auto& r = registry::instance();
   std::lock_guard<std::mutex> lock(r.mutex);
   r.factories[name] = {std::move(factory), std::move(help)};
+  if (r.saved) r.log.push_back(name);
 }
+
+namespace detail {
+void begin_registration_log() {
+  auto& r = registry::instance();
+  std::lock_guard<std::mutex> lock(r.mutex);
+  r.saved = r.factories;
+  r.log.clear();
+}
+
+std::vector<std::string> end_registration_log(bool roll_back) {
+  auto& r = registry::instance();
+  std::lock_guard<std::mutex> lock(r.mutex);
+  if (roll_back && r.saved) r.factories = std::move(*r.saved);
+  r.saved.reset();
+  std::vector<std::string> names = std::move(r.log);
+  r.log.clear();
+  std::sort(names.begin(), names.end());
+  names.erase(std::unique(names.begin(), names.end()), names.end());
+  return names;
+}
+}  // namespace detail
 
 std::vector<std::pair<std::string, std::string>> registered_modalities() {
   auto& r = registry::instance();

@@ -2,4 +2,4 @@
 // The block kernel for AVX2 (compiled with -mavx2, chosen at run time).
 #define CED_KERNEL_NAME block_kernel_avx2
 #define CED_KERNEL_NAME_COMPACT compact_avx2
-#include "kernel/block_kernel.inc"
+#include "core/kernel/block_kernel.inc"

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-#include "ced/detail/arena.hpp"
+#include "core/arena.hpp"
 
 #include <cstdint>
 #include <utility>

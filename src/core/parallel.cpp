@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-#include "ced/detail/parallel.hpp"
+#include "core/parallel.hpp"
 
 #include <algorithm>
 #include <atomic>

@@ -7,7 +7,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "ced/neighbor_index.hpp"
+#include "core/neighbor_index.hpp"
 
 namespace ced {
 

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 // The only translation unit that includes CGAL's spatial search.
-#include "ced/neighbor_index.hpp"
+#include "core/neighbor_index.hpp"
 
 #include <CGAL/Euclidean_distance.h>
 #include <CGAL/Fuzzy_iso_box.h>
@@ -19,7 +19,7 @@
 #include <limits>
 #include <stdexcept>
 
-#include "ced/detail/parallel.hpp"
+#include "core/parallel.hpp"
 
 namespace ced {
 

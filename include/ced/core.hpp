@@ -1,0 +1,19 @@
+// SPDX-License-Identifier: MIT
+// ced::core in one include: the cloud, parameters, the modality concept and
+// the built-in modalities, runtime modalities and their registry, detect().
+#pragma once
+
+#include "ced/centroid_distance.hpp"
+#include "ced/channels.hpp"
+#include "ced/cloud.hpp"
+#include "ced/detect.hpp"
+#include "ced/modalities/bands.hpp"
+#include "ced/modalities/intensity.hpp"
+#include "ced/modalities/lab.hpp"
+#include "ced/modalities/rgb.hpp"
+#include "ced/modalities/xyz.hpp"
+#include "ced/modality.hpp"
+#include "ced/neighborhood.hpp"
+#include "ced/params.hpp"
+#include "ced/preprocess.hpp"
+#include "ced/version.hpp"

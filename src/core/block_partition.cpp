@@ -1,0 +1,164 @@
+// SPDX-License-Identifier: MIT
+// Stage 1 of detection: the points grouped into spatial blocks.
+#include "core/block_partition.hpp"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <stdexcept>
+#include <utility>
+
+#include "core/parallel.hpp"
+#include "core/raw_vector.hpp"
+
+namespace ced {
+
+namespace {
+using chunk_runner = std::function<void(const std::function<void(std::size_t, std::size_t, std::size_t)>&)>;
+
+/// Sorts the points by grid cell (key K) and index, and cuts the order into
+/// blocks: one cell each, split after max_block points.
+template <class K>
+void sort_into_blocks(const float* xyz, std::size_t n, const float lo[3], const std::uint64_t dims[3], double inv,
+                      std::size_t chunks, const chunk_runner& for_chunks, std::vector<std::uint32_t>& order,
+                      std::vector<std::size_t>& starts) {
+  // Written in full before they are read: not zeroed first.
+  struct keyed_point {
+    K first;
+    std::uint32_t second;
+  };
+  detail::raw_vector<keyed_point> keyed(n), scratch(n);
+  std::vector<K> max_keys(chunks, 0);
+  for_chunks([&](std::size_t c, std::size_t b, std::size_t e) {
+    K max_key = 0;
+    for (std::size_t i = b; i < e; ++i) {
+      std::uint64_t cc[3];
+      for (int k = 0; k < 3; ++k) {  // truncation is floor: the value is ≥ 0
+        const double v = (double(xyz[3 * i + std::size_t(k)]) - double(lo[k])) * inv;
+        cc[k] = static_cast<std::uint64_t>(std::min(std::max(v, 0.0), double(dims[k] - 1)));
+      }
+      const auto key = static_cast<K>((cc[2] * dims[1] + cc[1]) * dims[0] + cc[0]);
+      keyed[i] = {key, static_cast<std::uint32_t>(i)};
+      max_key = std::max(max_key, key);
+    }
+    max_keys[c] = max_key;
+  });
+  const K max_key = *std::max_element(max_keys.begin(), max_keys.end());
+  // Least-significant-digit radix sort on the key, 11 bits a pass, as many
+  // passes as the largest key needs. Stable, so the order is (key, index):
+  // the same on any number of threads. Each chunk counts its digits, and
+  // scatters from its own offsets (digit by digit, chunk after chunk).
+  constexpr unsigned digit_bits = 11, digits = 1u << digit_bits;
+  std::vector<std::size_t> count(chunks * digits);
+  for (unsigned shift = 0; shift < 8 * sizeof(K) && (max_key >> shift) != 0; shift += digit_bits) {
+    for_chunks([&](std::size_t c, std::size_t b, std::size_t e) {
+      std::size_t* cnt = count.data() + c * digits;
+      std::fill_n(cnt, digits, 0);
+      for (std::size_t i = b; i < e; ++i) ++cnt[(keyed[i].first >> shift) & (digits - 1)];
+    });
+    std::size_t at = 0;
+    for (unsigned d = 0; d < digits; ++d)
+      for (std::size_t c = 0; c < chunks; ++c) {
+        const std::size_t here = count[c * digits + d];
+        count[c * digits + d] = at;
+        at += here;
+      }
+    for_chunks([&](std::size_t c, std::size_t b, std::size_t e) {
+      std::size_t* next = count.data() + c * digits;
+      for (std::size_t i = b; i < e; ++i) scratch[next[(keyed[i].first >> shift) & (digits - 1)]++] = keyed[i];
+    });
+    keyed.swap(scratch);
+  }
+  scratch = {};
+  order.resize(n);
+  for_chunks([&](std::size_t, std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) order[i] = keyed[i].second;
+  });
+  starts.clear();
+  // Dense cells are split into blocks of at most max_block points, which
+  // bounds a block's memory even when many points coincide.
+  constexpr std::size_t max_block = 1024;
+  for (std::size_t i = 0; i < n; ++i)
+    if (i == 0 || keyed[i].first != keyed[i - 1].first || i - starts.back() >= max_block) starts.push_back(i);
+  starts.push_back(n);
+}
+}  // namespace
+
+block_partition::block_partition(const float* xyz, std::size_t n, double cell_size, unsigned threads) {
+  if (!(cell_size > 0) || !std::isfinite(cell_size)) throw std::invalid_argument("block_partition: bad cell size");
+  if (n == 0) {
+    m_starts = {0};
+    return;
+  }
+  // Fixed chunks of the points for the passes below; any chunking gives the
+  // same result (min/max, and a stable sort), the threads only share work.
+  const std::size_t chunks =
+      std::max<std::size_t>(1, std::min<std::size_t>(detail::resolve_threads(threads), n / (1 << 15)));
+  auto chunk_begin = [&](std::size_t c) { return n * c / chunks; };
+  auto for_chunks = [&](const std::function<void(std::size_t, std::size_t, std::size_t)>& body) {
+    detail::parallel_for(chunks, threads, 1, [&](std::size_t c0, std::size_t c1) {
+      for (std::size_t c = c0; c < c1; ++c) body(c, chunk_begin(c), chunk_begin(c + 1));
+    });
+  };
+  std::vector<std::array<float, 6>> bounds(chunks);
+  for_chunks([&](std::size_t c, std::size_t b, std::size_t e) {
+    float lo[3] = {xyz[3 * b], xyz[3 * b + 1], xyz[3 * b + 2]}, hi[3] = {lo[0], lo[1], lo[2]};
+    for (std::size_t i = b; i < e; ++i)
+      for (int k = 0; k < 3; ++k) {
+        lo[k] = std::min(lo[k], xyz[3 * i + std::size_t(k)]);
+        hi[k] = std::max(hi[k], xyz[3 * i + std::size_t(k)]);
+      }
+    bounds[c] = {lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]};
+  });
+  float lo[3], hi[3];
+  for (int k = 0; k < 3; ++k) {
+    lo[k] = bounds[0][std::size_t(k)];
+    hi[k] = bounds[0][std::size_t(k) + 3];
+    for (const auto& bd : bounds) {
+      lo[k] = std::min(lo[k], bd[std::size_t(k)]);
+      hi[k] = std::max(hi[k], bd[std::size_t(k) + 3]);
+    }
+  }
+  // Cells per axis; grow the cell if the grid would not fit a 64-bit key.
+  double cell = cell_size;
+  std::uint64_t dims[3];
+  for (;;) {
+    long double total = 1;
+    for (int k = 0; k < 3; ++k) {
+      dims[k] = static_cast<std::uint64_t>(std::floor((double(hi[k]) - double(lo[k])) / cell)) + 1;
+      total *= static_cast<long double>(dims[k]);
+    }
+    if (total < 1e18L) break;
+    cell *= 2;
+  }
+  const double inv = 1.0 / cell;
+  // Keys of 32 bits when the grid allows (half the memory to sort).
+  if (static_cast<long double>(dims[0]) * static_cast<long double>(dims[1]) * static_cast<long double>(dims[2]) <
+      4294967296.0L)
+    sort_into_blocks<std::uint32_t>(xyz, n, lo, dims, inv, chunks, for_chunks, m_order, m_starts);
+  else
+    sort_into_blocks<std::uint64_t>(xyz, n, lo, dims, inv, chunks, for_chunks, m_order, m_starts);
+}
+
+namespace detail {
+void padded_bounds(const float* xyz, const std::uint32_t* points, std::size_t count, double r, float lo[3],
+                   float hi[3]) noexcept {
+  for (int k = 0; k < 3; ++k) lo[k] = hi[k] = xyz[3 * std::size_t(points[0]) + std::size_t(k)];
+  for (std::size_t q = 1; q < count; ++q)
+    for (int k = 0; k < 3; ++k) {
+      const float v = xyz[3 * std::size_t(points[q]) + std::size_t(k)];
+      lo[k] = std::min(lo[k], v);
+      hi[k] = std::max(hi[k], v);
+    }
+  const float pad = static_cast<float>(r) * 1.001f;
+  for (int k = 0; k < 3; ++k) {
+    lo[k] = std::nextafter(lo[k] - pad, -std::numeric_limits<float>::infinity());
+    hi[k] = std::nextafter(hi[k] + pad, std::numeric_limits<float>::infinity());
+  }
+}
+}  // namespace detail
+
+}  // namespace ced

@@ -1,0 +1,87 @@
+// SPDX-License-Identifier: MIT
+// Detection, stage by stage: validate.cpp → block_partition.cpp and
+// neighbor_index.cpp (here: the index) → saliency.cpp (neighbourhoods and
+// saliencies) → candidates.cpp → nms.cpp → the result (here).
+#include "ced/detect.hpp"
+
+#include <memory>
+#include <stdexcept>
+#include <utility>
+
+#include "core/candidates.hpp"
+#include "core/detection.hpp"
+#include "core/parallel.hpp"
+#include "core/raw_vector.hpp"
+#include "core/validate.hpp"
+
+namespace ced {
+
+namespace detail {
+
+detection_context::detection_context(const point_cloud& cloud, const detect_params& params,
+                                     std::vector<std::string> names, std::vector<double> thresholds) {
+  check_inputs(cloud, params, names, thresholds);
+  const auto t0 = clock_type::now();
+  const unsigned threads = resolve_threads(params.threads);
+  const float* xyz = cloud.positions().data();
+  // Blocks first: the tree is built over the points in block order, which is
+  // several times faster than over an arbitrary order on large clouds. Its
+  // leaves hold up to 256 points: the tree is only asked for whole blocks'
+  // boxes, and a shallower tree builds faster (its build is most of this
+  // stage) for a few more points tested per query.
+  block_partition blocks(xyz, cloud.size(), params.radius * params.block_scale, threads);
+  neighbor_index index(xyz, cloud.size(), 256, threads, blocks.order().data());
+  m_impl = std::make_unique<impl>(cloud, params, std::move(index), std::move(blocks));
+  m_impl->result.names = std::move(names);
+  m_impl->result.thresholds = std::move(thresholds);
+  m_impl->result.times.index_ms = ms_since(t0);
+}
+
+detection_context::~detection_context() = default;
+
+detection_result detection_context::finish() {
+  const auto t0 = clock_type::now();
+  auto& r = m_impl->result;
+  const auto& params = m_impl->params;
+  const std::size_t n = m_impl->cloud.size();
+  const unsigned threads = resolve_threads(params.threads);
+  r.candidate.assign(n, 0);
+  std::vector<const float*> columns;
+  for (const auto& s : r.saliency) columns.push_back(s.data());
+  raw_vector<float> product(n);  // written in full below
+  candidates_and_scores(columns, r.thresholds, n, threads, r.candidate.data(), product.data());
+  r.keypoints = non_maximum_suppression(m_impl->index, m_impl->blocks, m_impl->cloud.positions().data(), product.data(),
+                                        r.candidate.data(), params.nms_radius, params.radius, m_impl->hits, threads);
+  m_impl->hits.clear();
+  m_impl->hits.shrink_to_fit();
+  r.times.nms_ms = ms_since(t0);
+  return std::move(r);
+}
+
+}  // namespace detail
+
+void release_cached_memory() noexcept { detail::chunk_arena::release_cache(); }
+
+detection_result detect(const point_cloud& cloud, const detect_params& params,
+                        const std::vector<any_modality>& modalities) {
+  std::vector<std::string> names;
+  std::vector<double> thresholds;
+  for (const auto& m : modalities) {
+    if (!m) throw std::invalid_argument("empty modality in the list");
+    names.push_back(m.name());
+    thresholds.push_back(m.threshold(params));
+  }
+  detail::detection_context ctx(cloud, params, std::move(names), std::move(thresholds));
+  std::vector<std::unique_ptr<bound_modality>> bound;
+  std::vector<channel_source> sources;
+  for (const auto& m : modalities) {
+    bound.push_back(m.bind(cloud, params));
+    sources.push_back(bound.back()->channels());
+  }
+  ctx.compute_saliency(sources, [&](const block_view& block, float* const* columns) {
+    for (std::size_t k = 0; k < bound.size(); ++k) bound[k]->evaluate(block, k, params.min_neighbors, columns[k]);
+  });
+  return ctx.finish();
+}
+
+}  // namespace ced

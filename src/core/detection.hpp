@@ -1,0 +1,38 @@
+// SPDX-License-Identifier: MIT
+// Private: the state of one detection, shared by its stages (detect.cpp,
+// saliency.cpp).
+#pragma once
+
+#include <chrono>
+#include <utility>
+#include <vector>
+
+#include "ced/detect.hpp"
+#include "core/arena.hpp"
+#include "core/block_partition.hpp"
+#include "core/neighbor_block.hpp"
+#include "core/neighbor_index.hpp"
+#include "core/nms.hpp"
+
+namespace ced::detail {
+
+using clock_type = std::chrono::steady_clock;
+/// Milliseconds since `t`.
+inline double ms_since(clock_type::time_point t) {
+  return std::chrono::duration<double, std::milli>(clock_type::now() - t).count();
+}
+
+struct detection_context::impl {
+  const point_cloud& cloud;
+  detect_params params;
+  detection_result result;
+  neighbor_index index;
+  block_partition blocks;
+  std::vector<candidate_hits> hits;
+  chunk_arena hit_memory;  // the hits' arrays
+
+  impl(const point_cloud& c, const detect_params& p, neighbor_index&& idx, block_partition&& b)
+      : cloud(c), params(p), index(std::move(idx)), blocks(std::move(b)) {}
+};
+
+}  // namespace ced::detail

@@ -1,0 +1,177 @@
+// SPDX-License-Identifier: MIT
+// Stage 5 of detection: the multi-modal non-maximum suppression.
+#include "core/nms.hpp"
+
+#include <algorithm>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
+#include "core/candidates.hpp"
+#include "core/parallel.hpp"
+
+namespace ced::detail {
+
+/// Keeps the sweep results of the block's candidates in `ch`, in memory from
+/// `arena`, if `budget` (bytes, shared by all blocks) still allows.
+void collect_candidate_hits(const neighbor_block& block, const float* const* columns,
+                            const std::vector<double>& thresholds, chunk_arena& arena, std::atomic<std::size_t>& budget,
+                            candidate_hits& ch, std::vector<std::uint32_t>& candidates) {
+  constexpr std::size_t nr = 2 * neighbor_block::sweep_ranges;
+  // Which points are candidates and how many bytes of bits they keep, so
+  // that every array is sized exactly, once.
+  candidates.clear();
+  std::size_t bit_bytes = 0;
+  for (std::size_t k = 0; k < block.size(); ++k)
+    if (is_candidate(columns, thresholds, block.point(k))) {
+      candidates.push_back(static_cast<std::uint32_t>(k));
+      bit_bytes += block.sweep(k).bytes;
+    }
+  if (candidates.empty()) return;
+  const std::size_t n = candidates.size(), g = block.gathered_count();
+  const std::size_t words = n + g + nr * n + (n + 1);
+  const std::size_t want = 4 * words + bit_bytes;
+  std::size_t have = budget.load();
+  while (have >= want && !budget.compare_exchange_weak(have, have - want)) {
+  }
+  if (have < want) return;  // over budget: the NMS queries this block again
+  auto* const memory = static_cast<std::uint32_t*>(arena.allocate(want));
+  std::uint32_t* const points = memory;
+  std::uint32_t* const gathered = points + n;
+  std::uint32_t* const ranges = gathered + g;
+  std::uint32_t* const bit_offsets = ranges + nr * n;
+  std::uint8_t* const bits = reinterpret_cast<std::uint8_t*>(bit_offsets + n + 1);
+  bit_offsets[0] = 0;
+  std::uint8_t* b = bits;
+  for (std::size_t c = 0; c < n; ++c) {
+    const std::size_t k = candidates[c];
+    const auto v = block.sweep(k);
+    points[c] = block.point(k);
+    std::copy_n(v.ranges, nr, ranges + nr * c);
+    b = std::copy_n(v.bits, v.bytes, b);
+    bit_offsets[c + 1] = static_cast<std::uint32_t>(b - bits);
+  }
+  std::copy_n(block.gathered(), g, gathered);
+  ch = {true, n, g, points, gathered, ranges, bit_offsets, bits};
+}
+
+namespace {
+/// Bit l set when s[l] > x, for l < 8.
+unsigned greater_lanes(const float* s, float x) noexcept {
+#if defined(__SSE2__)
+  const __m128 v = _mm_set1_ps(x);
+  return static_cast<unsigned>(_mm_movemask_ps(_mm_cmpgt_ps(_mm_loadu_ps(s), v))) |
+         (static_cast<unsigned>(_mm_movemask_ps(_mm_cmpgt_ps(_mm_loadu_ps(s + 4), v))) << 4);
+#else
+  unsigned greater = 0;
+  for (unsigned l = 0; l < 8; ++l) greater |= unsigned(s[l] > x) << l;
+  return greater;
+#endif
+}
+
+/// The NMS of the candidates kept in `ch`: a candidate is kept unless a
+/// neighbour within `nms_radius` has a strictly greater score.
+void nms_from_hits(const candidate_hits& ch, const float* xyz, const float* score, double nms_radius, bool whole_ball,
+                   std::uint8_t* keep, std::vector<float>& local) {
+  constexpr std::size_t nr = 2 * neighbor_block::sweep_ranges;
+  const float r2 = squared_radius(nms_radius);
+  // The gathered points' scores in sweep order, so that a group of eight
+  // neighbours is compared at once (padded: groups read whole).
+  const std::size_t g = ch.gathered_count;
+  local.resize(g + 8);
+  for (std::size_t t = 0; t < g; ++t) local[t] = score[ch.gathered[t]];
+  std::fill_n(local.begin() + std::ptrdiff_t(g), 8, 0.0f);
+  for (std::size_t k = 0; k < ch.count; ++k) {
+    const std::uint32_t i = ch.points[k];
+    const float si = score[i];
+    const float* pi = xyz + 3 * std::size_t(i);
+    const std::uint32_t* rg = ch.ranges + nr * k;
+    const std::uint8_t* const bits = ch.bits + ch.bit_offsets[k];
+    // Each range's bits follow those of the ranges before it.
+    std::uint32_t first_bit[neighbor_block::sweep_ranges];
+    for (std::size_t q = 0, at = 0; q < neighbor_block::sweep_ranges; ++q) {
+      first_bit[q] = static_cast<std::uint32_t>(at);
+      at += (rg[2 * q + 1] - rg[2 * q] + 7) / 8;
+    }
+    // The point's own row first, then the rows beside it, then the corners:
+    // nearer neighbours are likelier to beat it, which ends the walk early.
+    // (Whether a greater neighbour exists does not depend on the order.)
+    static constexpr std::size_t walk[neighbor_block::sweep_ranges] = {4, 1, 3, 5, 7, 0, 2, 6, 8};
+    bool maximum = true;
+    for (std::size_t w = 0; w < neighbor_block::sweep_ranges && maximum; ++w) {
+      const std::size_t q = walk[w];
+      const std::uint8_t* gb = bits + first_bit[q];
+      for (std::uint32_t t = rg[2 * q]; t < rg[2 * q + 1] && maximum; t += 8) {
+        const unsigned b = *gb++;
+        const unsigned greater = greater_lanes(local.data() + t, si);
+        if ((b & greater) == 0) continue;
+        if (whole_ball) {
+          maximum = false;
+          break;
+        }
+        for (unsigned m = b & greater; m != 0 && maximum; m &= m - 1) {
+          const std::uint32_t j = ch.gathered[t + static_cast<std::uint32_t>(__builtin_ctz(m))];
+          maximum = !(squared_distance(xyz + 3 * std::size_t(j), pi) < r2);
+        }
+      }
+    }
+    keep[i] = maximum;
+  }
+}
+
+}  // namespace
+
+void nms_block_by_query(const neighbor_index& index, const float* xyz, const std::uint32_t* candidates,
+                        std::size_t count, const float* score, double radius, std::uint8_t* keep,
+                        std::vector<std::uint32_t>& gathered) {
+  if (count == 0) return;
+  float lo[3], hi[3];
+  padded_bounds(xyz, candidates, count, radius, lo, hi);
+  index.box_search(lo, hi, gathered);
+  const float r2 = squared_radius(radius);
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::uint32_t i = candidates[k];
+    const float si = score[i];
+    const float* pi = xyz + 3 * std::size_t(i);
+    bool maximum = true;
+    for (std::uint32_t j : gathered)
+      if (score[j] > si && squared_distance(xyz + 3 * std::size_t(j), pi) < r2) {
+        maximum = false;
+        break;
+      }
+    keep[i] = maximum;
+  }
+}
+
+std::vector<std::uint32_t> non_maximum_suppression(const neighbor_index& index, const block_partition& blocks,
+                                                   const float* xyz, const float* score, const std::uint8_t* candidate,
+                                                   double nms_radius, double radius,
+                                                   const std::vector<candidate_hits>& hits, unsigned threads) {
+  std::vector<std::uint8_t> keep(index.size(), 0);
+  parallel_for(blocks.block_count(), threads, 16, [&](std::size_t b0, std::size_t b1) {
+    std::vector<std::uint32_t> cand, gathered;
+    std::vector<float> local;
+    for (std::size_t b = b0; b < b1; ++b) {
+      if (!hits.empty() && hits[b].stored) {
+        nms_from_hits(hits[b], xyz, score, nms_radius, nms_radius == radius, keep.data(), local);
+        continue;
+      }
+      const std::uint32_t* pts = blocks.block_points(b);
+      cand.clear();
+      for (std::size_t k = 0; k < blocks.block_size(b); ++k)
+        if (candidate[pts[k]]) cand.push_back(pts[k]);
+      nms_block_by_query(index, xyz, cand.data(), cand.size(), score, nms_radius, keep.data(), gathered);
+    }
+  });
+  return compact_flags(keep);
+}
+
+std::vector<std::uint32_t> compact_flags(const std::vector<std::uint8_t>& flags) {
+  std::vector<std::uint32_t> out;
+  for (std::size_t i = 0; i < flags.size(); ++i)
+    if (flags[i]) out.push_back(static_cast<std::uint32_t>(i));
+  return out;
+}
+
+}  // namespace ced::detail

@@ -1,0 +1,58 @@
+// SPDX-License-Identifier: MIT
+// Private: stage 5 of detection, the multi-modal non-maximum suppression.
+#pragma once
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "core/arena.hpp"
+#include "core/block_partition.hpp"
+#include "core/neighbor_block.hpp"
+#include "core/neighbor_index.hpp"
+
+namespace ced::detail {
+
+/// The neighbourhoods of a block's candidates, kept from the saliency pass for
+/// the NMS when the NMS radius does not exceed the radius, in the sweep's
+/// compact form: the block's gathered points, and per candidate its ranges
+/// and hit bits (about a quarter of the size of neighbour lists).
+/// Its arrays live in the detection's chunk_arena.
+struct candidate_hits {
+  bool stored = false;
+  std::size_t count = 0, gathered_count = 0;
+  const std::uint32_t *points = nullptr, *gathered = nullptr, *ranges = nullptr, *bit_offsets = nullptr;
+  const std::uint8_t* bits = nullptr;
+};
+
+/// Keeps the sweep results of the block's candidates in `ch`, in memory from
+/// `arena`, if `budget` (bytes, shared by all blocks) still allows. Called by
+/// the saliency pass, block by block, once the block's saliencies are known.
+void collect_candidate_hits(const neighbor_block& block, const float* const* columns,
+                            const std::vector<double>& thresholds, chunk_arena& arena, std::atomic<std::size_t>& budget,
+                            candidate_hits& ch, std::vector<std::uint32_t>& candidates);
+
+/// Non-maximum suppression: candidate i is kept when no point j with
+/// |p_j - p_i|² < nms_radius² (float, strict) has score[j] > score[i]. Ties
+/// keep both; non-candidates suppress too. Returns the kept indices,
+/// ascending. `blocks` groups the points spatially (any partition works; it
+/// only affects speed). A block whose candidates' neighbourhoods were kept in
+/// `hits` (which is empty, or has one entry per block) is suppressed from
+/// them, without a query; `radius` is the radius they were found with.
+/// Deterministic for any thread count.
+std::vector<std::uint32_t> non_maximum_suppression(const neighbor_index& index, const block_partition& blocks,
+                                                   const float* xyz, const float* score, const std::uint8_t* candidate,
+                                                   double nms_radius, double radius,
+                                                   const std::vector<candidate_hits>& hits, unsigned threads);
+
+/// NMS for `candidates[0..count)` of one spatial block, with one box query:
+/// sets keep[i] for each candidate i.
+void nms_block_by_query(const neighbor_index& index, const float* xyz, const std::uint32_t* candidates,
+                        std::size_t count, const float* score, double radius, std::uint8_t* keep,
+                        std::vector<std::uint32_t>& gathered);
+
+/// Indices of the non-zero flags, ascending.
+std::vector<std::uint32_t> compact_flags(const std::vector<std::uint8_t>& flags);
+
+}  // namespace ced::detail

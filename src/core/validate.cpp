@@ -1,0 +1,57 @@
+// SPDX-License-Identifier: MIT
+// Stage 0 of detection: parameters, modalities and coordinates are checked.
+#include "core/validate.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+
+namespace ced {
+
+void validate(const detect_params& p) {
+  auto positive = [](double v, const char* what) {
+    if (!std::isfinite(v) || !(v > 0))
+      throw std::invalid_argument(std::string(what) + " must be a positive finite number, got " + std::to_string(v));
+  };
+  positive(p.radius, "radius");
+  positive(p.nms_radius, "nms_radius");
+  positive(p.block_scale, "block_scale");
+  if (p.threads > 4096) throw std::invalid_argument("threads must be at most 4096, got " + std::to_string(p.threads));
+}
+
+namespace detail {
+
+void check_inputs(const point_cloud& cloud, const detect_params& params, const std::vector<std::string>& names,
+                  const std::vector<double>& thresholds) {
+  validate(params);
+  if (names.empty()) throw std::invalid_argument("no modality given: detection needs at least one");
+  for (std::size_t m = 0; m < names.size(); ++m)
+    if (!std::isfinite(thresholds[m]) || thresholds[m] < 0)
+      throw std::invalid_argument("threshold of modality '" + names[m] + "' must be a finite number >= 0, got " +
+                                  std::to_string(thresholds[m]));
+  const auto& xyz = cloud.positions();
+  // In chunks without an early exit, on the bits, which vectorises; the
+  // failing chunk is then searched.
+  constexpr std::size_t chunk = 4096;
+  for (std::size_t b = 0; b < xyz.size(); b += chunk) {
+    const std::size_t e = std::min(xyz.size(), b + chunk);
+    std::uint32_t bad = 0;
+    for (std::size_t i = b; i < e; ++i) {
+      std::uint32_t bits;
+      std::memcpy(&bits, xyz.data() + i, sizeof bits);
+      // The exponent field all ones (NaN or infinite) carries into bit 31.
+      bad |= ((bits & 0x7f800000u) + (1u << 23)) & (1u << 31);
+    }
+    if (bad == 0) continue;
+    for (std::size_t i = b; i < e; ++i)
+      if (!std::isfinite(xyz[i]))
+        throw std::invalid_argument("point " + std::to_string(i / 3) +
+                                    " has a non-finite coordinate (remove NaN/Inf points first)");
+  }
+  if (cloud.size() >= std::size_t(UINT32_MAX)) throw std::invalid_argument("too many points (at most 2^32-2)");
+}
+}  // namespace detail
+
+}  // namespace ced
