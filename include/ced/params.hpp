@@ -28,6 +28,9 @@ struct detect_params {
   std::function<void(double)> progress;
 };
 
+/// The number of worker threads a request of `threads` means (0 = all cores).
+unsigned resolve_threads(unsigned threads) noexcept;
+
 /// Throws std::invalid_argument naming the parameter when one is out of range
 /// (radius ≤ 0, NaN or infinite, ...).
 void validate(const detect_params& params);

@@ -15,13 +15,15 @@
 #include <oneapi/tbb/task_arena.h>
 #endif
 
-namespace ced::detail {
-
+namespace ced {
 unsigned resolve_threads(unsigned threads) noexcept {
   if (threads != 0) return threads;
   const unsigned hw = std::thread::hardware_concurrency();
   return hw == 0 ? 1u : hw;
 }
+}  // namespace ced
+
+namespace ced::detail {
 
 #ifdef CED_HAS_TBB
 namespace {

@@ -4,10 +4,11 @@
 #include <cstddef>
 #include <functional>
 
+#include "ced/params.hpp"
+
 namespace ced::detail {
 
-/// Number of threads to use for a request of `threads` (0 = all cores).
-unsigned resolve_threads(unsigned threads) noexcept;
+using ::ced::resolve_threads;  // ced/params.hpp
 
 /// Calls `body(begin, end)` on disjoint chunks covering [0, n), on up to
 /// `threads` threads (0 = all cores), and returns when all are done. Chunks

@@ -1,0 +1,287 @@
+// SPDX-License-Identifier: MIT
+#include "common.hpp"
+
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "ced/ced.hpp"
+#include "ced/eval.hpp"
+#include "ced/io/io.hpp"
+#include "ced/plugin.hpp"
+#include "ced/preprocess.hpp"
+#ifdef CED_HAS_PCL
+#include "pcl_bridge.hpp"
+#endif
+
+namespace ced_cli {
+
+void add_plugin_option(CLI::App* app, std::vector<std::string>& plugins) {
+  app->add_option("--plugin", plugins,
+                  "Load modalities from a plugin, a shared library built with ced/plugin.hpp (repeatable)");
+}
+
+void load_plugins(const std::vector<std::string>& plugins) {
+  for (const auto& p : plugins) ced::load_plugin(p);
+}
+
+double ms_since(clock_type::time_point t) {
+  return std::chrono::duration<double, std::milli>(clock_type::now() - t).count();
+}
+
+std::vector<CLI::ConfigItem> json_config::from_config(std::istream& in) const {
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    throw CLI::ConversionError("--config: not valid JSON: " + std::string(e.what()));
+  }
+  if (!j.is_object()) throw CLI::ConversionError("--config: the JSON file must hold one object");
+  std::vector<CLI::ConfigItem> items;
+  auto text = [](const nlohmann::json& v) { return v.is_string() ? v.get<std::string>() : v.dump(); };
+  for (const auto& [key, value] : j.items()) {
+    CLI::ConfigItem item;
+    item.name = key;
+    if (value.is_array())
+      for (const auto& v : value) item.inputs.push_back(text(v));
+    else
+      item.inputs.push_back(text(value));
+    items.push_back(std::move(item));
+  }
+  return items;
+}
+
+namespace {
+
+/// The items of the --config file at `path`: JSON for .json, else TOML/INI.
+std::vector<CLI::ConfigItem> read_config_items(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw usage_error("--config: cannot open '" + path + "'");
+  const bool json = path.size() > 5 && path.compare(path.size() - 5, 5, ".json") == 0;
+  try {
+    return json ? json_config().from_config(in) : CLI::ConfigTOML().from_config(in);
+  } catch (const std::exception& e) {
+    throw usage_error("--config " + path + ": " + e.what());
+  }
+}
+
+/// Whether `opt` is among the command-line arguments `rest`.
+bool given_on_command_line(const CLI::Option* opt, const std::vector<std::string>& rest) {
+  for (const auto& a : rest) {
+    for (const auto& l : opt->get_lnames())
+      if (a == "--" + l || a.rfind("--" + l + "=", 0) == 0) return true;
+    for (const auto& sn : opt->get_snames())
+      if (a == "-" + sn) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+std::vector<std::string> expand_config(const std::vector<std::string>& args, CLI::App& det) {
+  const auto sub = std::find(args.begin(), args.end(), "detect");
+  if (sub == args.end()) return args;
+  std::string path;
+  std::vector<std::string> rest;
+  for (auto it = sub + 1; it != args.end(); ++it) {
+    if (*it == "--config" && it + 1 != args.end()) {
+      path = *++it;
+    } else if (it->rfind("--config=", 0) == 0) {
+      path = it->substr(9);
+    } else {
+      rest.push_back(*it);
+    }
+  }
+  if (path.empty()) return args;
+  const std::vector<CLI::ConfigItem> items = read_config_items(path);
+  std::vector<std::string> out(args.begin(), sub + 1);
+  for (const auto& item : items) {
+    if (item.name == "++" || item.name == "--") continue;  // TOML section markers
+    const CLI::Option* opt = det.get_option_no_throw("--" + item.name);
+    if (!opt || item.name == "config") throw usage_error("--config " + path + ": unknown key '" + item.name + "'");
+    if (given_on_command_line(opt, rest)) continue;
+    if (opt->get_type_size() == 0) {  // a flag
+      if (!item.inputs.empty() && (item.inputs[0] == "true" || item.inputs[0] == "1")) out.push_back("--" + item.name);
+      continue;
+    }
+    for (const auto& v : item.inputs) {
+      out.push_back("--" + item.name);
+      out.push_back(v);
+    }
+  }
+  out.insert(out.end(), rest.begin(), rest.end());
+  return out;
+}
+
+progress_bar::progress_bar(bool enabled) : m_enabled(enabled && isatty(STDERR_FILENO)) {}
+
+void progress_bar::stage(const std::string& name) {
+  if (!m_enabled) return;
+  std::lock_guard<std::mutex> lock(m_mutex);
+  m_stage = name;
+  draw(0);
+}
+
+std::function<void(double)> progress_bar::callback() {
+  if (!m_enabled) return {};
+  return [this](double f) {
+    std::unique_lock<std::mutex> lock(m_mutex, std::try_to_lock);
+    if (lock) draw(f);
+  };
+}
+
+void progress_bar::done() {
+  if (m_enabled && !m_stage.empty()) std::fprintf(stderr, "\r\033[K");
+  m_stage.clear();
+}
+
+void progress_bar::draw(double f) {
+  const int width = 30, filled = static_cast<int>(std::clamp(f, 0.0, 1.0) * width);
+  std::fprintf(stderr, "\r\033[Kced: %-10s [%s%s] %3d%%", m_stage.c_str(), std::string(filled, '#').c_str(),
+               std::string(width - filled, ' ').c_str(), static_cast<int>(f * 100));
+  std::fflush(stderr);
+}
+
+ced::io::read_options make_read_options(const std::string& format, const std::string& columns) {
+  ced::io::read_options r;
+  try {
+    r.format = ced::io::parse_format(format);
+  } catch (const std::invalid_argument& e) {
+    throw usage_error(std::string("--format: ") + e.what());
+  }
+  if (!columns.empty()) {
+    std::stringstream ss(columns);
+    for (std::string c; std::getline(ss, c, ',');) r.csv.columns.push_back(c);
+  }
+  return r;
+}
+
+ced::point_cloud read_finite(const std::string& path, const std::string& format, const std::string& columns,
+                             double voxel) {
+  ced::point_cloud c = ced::io::read_cloud(path, make_read_options(format, columns));
+  ced::remove_nonfinite(c);
+  if (c.empty()) throw ced::io::io_error(path + ": the cloud has no (finite) points");
+  if (voxel > 0) c = ced::voxel_downsample(c, voxel).cloud;
+  return c;
+}
+
+const std::vector<std::string> pcl_detector_names = {"iss3d", "harris3d", "harris6d", "sift"};
+const char* const no_pcl_message =
+    "needs ced's PCL component (ced_pcl), and this ced was built without it: install PCL (Debian: libpcl-dev) and "
+    "reconfigure with -DCED_WITH_PCL=ON";
+
+namespace {
+
+/// Modality specs joined by commas, split at top-level commas; a piece of
+/// the form key=value (before any ':' or '(') is an option of the modality
+/// before it.
+std::vector<std::string> split_modality_specs(const std::string& text) {
+  std::vector<std::string> specs;
+  std::string cur;
+  int depth = 0;
+  auto flush = [&] {
+    const auto eq = cur.find('='), colon = cur.find_first_of(":(");
+    if (!specs.empty() && eq != std::string::npos && (colon == std::string::npos || eq < colon))
+      specs.back() += "," + cur;
+    else if (!cur.empty())
+      specs.push_back(cur);
+    cur.clear();
+  };
+  for (char c : text) {
+    depth += c == '(' ? 1 : c == ')' ? -1 : 0;
+    if (c == ',' && depth == 0)
+      flush();
+    else
+      cur += c;
+  }
+  flush();
+  return specs;
+}
+
+}  // namespace
+
+eval_detector parse_detector(const std::string& text) {
+  eval_detector d;
+  d.name = text;
+  if (text == "random") {
+    d.type = eval_detector::kind::random;
+    return d;
+  }
+  if (std::find(pcl_detector_names.begin(), pcl_detector_names.end(), text) != pcl_detector_names.end()) {
+#ifdef CED_HAS_PCL
+    d.type = eval_detector::kind::pcl;
+    return d;
+#else
+    throw std::invalid_argument("--detector " + text + " " + no_pcl_message);
+#endif
+  }
+  if (text == "ced6d" || text == "ced3d") {
+    d.modalities = ced::preset(text);
+    return d;
+  }
+  for (const auto& s : split_modality_specs(text)) d.modalities.push_back(ced::make_modality(s));
+  if (d.modalities.empty()) throw std::invalid_argument("--detector '" + text + "' names no modality");
+  return d;
+}
+
+std::vector<eval_detector> parse_detectors(const std::vector<std::string>& names) {
+  std::vector<eval_detector> out;
+  try {
+    for (const auto& d : names) out.push_back(parse_detector(d));
+  } catch (const std::invalid_argument& e) {
+    throw usage_error(e.what());
+  }
+  if (out.empty()) throw usage_error("--detector: no detector given");
+  return out;
+}
+
+eval_setting make_setting(const ced::point_cloud& p, const std::string& name, double resolution, double radius,
+                          int min_neighbors, int threads) {
+  eval_setting s;
+  s.resolution = resolution > 0 ? resolution : ced::estimate_resolution(p);
+  if (!(s.resolution > 0)) throw ced::io::io_error(name + ": cannot estimate the resolution; give --resolution");
+  s.params.radius = s.params.nms_radius = radius > 0 ? radius : 5 * s.resolution;
+  s.params.min_neighbors = static_cast<std::uint32_t>(std::max(0, min_neighbors));
+  s.params.threads = static_cast<unsigned>(std::max(0, threads));
+  return s;
+}
+
+detection run_detector(const eval_detector& d, const ced::point_cloud& cloud, const eval_setting& s,
+                       std::size_t random_count, std::mt19937_64& rng) {
+  const auto t0 = clock_type::now();
+  detection out;
+  switch (d.type) {
+    case eval_detector::kind::random:
+      out.keypoints = ced::eval::random_keypoints(cloud.size(), random_count, rng);
+      break;
+    case eval_detector::kind::ced: {
+      const auto r = ced::detect(cloud, s.params, d.modalities);
+      out.keypoints = r.keypoints;
+      out.ms = r.times.total_ms();
+      return out;
+    }
+    case eval_detector::kind::pcl: {
+#ifdef CED_HAS_PCL
+      ced::pcl_bridge::detector_params p;  // the CED paper's settings, scaled to the resolution
+      p.radius = s.params.radius;
+      p.nms_radius = s.params.nms_radius;
+      p.min_neighbors = static_cast<int>(s.params.min_neighbors);
+      p.sift_min_scale = s.resolution;
+      p.threads = ced::resolve_threads(s.params.threads);
+      out.keypoints = ced::pcl_bridge::detect(cloud, *ced::pcl_bridge::parse_detector(d.name), p);
+#endif
+      break;
+    }
+  }
+  out.ms = ms_since(t0);
+  return out;
+}
+
+}  // namespace ced_cli

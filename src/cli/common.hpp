@@ -1,0 +1,109 @@
+// SPDX-License-Identifier: MIT
+// What the `ced` subcommands share: exit codes, usage errors, the --config
+// reader, the progress bar, reading options, and the evaluated detectors.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cstddef>
+#include <functional>
+#include <iosfwd>
+#include <mutex>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "ced/ced.hpp"
+#include "ced/io/io.hpp"
+
+namespace ced_cli {
+
+// Exit codes (documented in docs/CLI.md).
+constexpr int exit_ok = 0;
+constexpr int exit_failure = 1;  // bad input data, I/O error
+constexpr int exit_usage = 2;    // bad command line or parameters
+
+struct usage_error : std::invalid_argument {
+  using std::invalid_argument::invalid_argument;
+};
+
+using clock_type = std::chrono::steady_clock;
+double ms_since(clock_type::time_point t);
+
+/// Reads `--config FILE.json`: a JSON object whose keys are the long option
+/// names (without --), values numbers, strings, booleans or arrays.
+class json_config : public CLI::Config {
+ public:
+  std::string to_config(const CLI::App*, bool, bool, std::string) const override { return {}; }
+  std::vector<CLI::ConfigItem> from_config(std::istream& in) const override;
+};
+
+/// Replaces `detect ... --config FILE ...` by the file's options, inserted
+/// right after `detect`; options also given on the command line win (the
+/// file's value is dropped).
+std::vector<std::string> expand_config(const std::vector<std::string>& args, CLI::App& det);
+
+/// `--plugin FILE.so` (repeatable) on a subcommand.
+void add_plugin_option(CLI::App* app, std::vector<std::string>& plugins);
+/// Loads the plugins (ced::load_plugin); a plugin that cannot be loaded is a
+/// ced::plugin_error (exit code 1) naming the file and why.
+void load_plugins(const std::vector<std::string>& plugins);
+
+/// A one-line progress bar on stderr, only when stderr is a terminal.
+class progress_bar {
+ public:
+  explicit progress_bar(bool enabled);
+  ~progress_bar() { done(); }
+  void stage(const std::string& name);
+  std::function<void(double)> callback();
+  void done();
+
+ private:
+  void draw(double f);
+  bool m_enabled;
+  std::string m_stage;
+  std::mutex m_mutex;
+};
+
+ced::io::read_options make_read_options(const std::string& format, const std::string& columns);
+
+/// Reads a cloud, drops its non-finite points, then voxel down-samples it when `voxel` > 0.
+ced::point_cloud read_finite(const std::string& path, const std::string& format, const std::string& columns,
+                             double voxel = 0);
+
+// PCL's detectors, available when ced is built with its PCL component.
+extern const std::vector<std::string> pcl_detector_names;
+extern const char* const no_pcl_message;
+
+/// A detector of the evaluation: "random", a preset, one of PCL's, or
+/// modality specs joined by commas ("xyz:0.2,bands(nir):0.1,range=0..255").
+struct eval_detector {
+  enum class kind { ced, random, pcl };
+  std::string name;
+  kind type = kind::ced;
+  std::vector<ced::any_modality> modalities;
+};
+
+eval_detector parse_detector(const std::string& text);
+std::vector<eval_detector> parse_detectors(const std::vector<std::string>& names);
+
+/// What the evaluated detectors share: the detector parameters and the resolution.
+struct eval_setting {
+  ced::detect_params params;
+  double resolution = 0;
+};
+
+eval_setting make_setting(const ced::point_cloud& p, const std::string& name, double resolution, double radius,
+                          int min_neighbors, int threads);
+
+struct detection {
+  std::vector<std::uint32_t> keypoints;
+  double ms = 0;
+};
+
+/// Runs `d` on `cloud`. "random" picks `random_count` points.
+detection run_detector(const eval_detector& d, const ced::point_cloud& cloud, const eval_setting& s,
+                       std::size_t random_count, std::mt19937_64& rng);
+
+}  // namespace ced_cli

@@ -1,0 +1,214 @@
+// SPDX-License-Identifier: MIT
+// `ced detect`: the keypoints of one cloud, to stdout or to output files.
+#include "detect.hpp"
+
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "ced/ced.hpp"
+#include "ced/io/io.hpp"
+#include "ced/preprocess.hpp"
+#include "ced/render.hpp"
+#include "commands.hpp"
+#include "common.hpp"
+
+namespace ced_cli {
+
+detect_outputs::detect_outputs(const detect_options& o) {
+  indices = open(o.indices);
+  original = open(o.indices_original);
+  keypoints = open(o.output);
+  viewer = open(o.viewer);
+  png = open(o.png);
+  summary = open(o.summary);
+}
+
+ced::io::atomic_output_file* detect_outputs::open(const std::string& path) {
+  if (path.empty()) return nullptr;
+  files.push_back(std::make_unique<ced::io::atomic_output_file>(path));
+  return files.back().get();
+}
+
+namespace {
+
+/// The radius (unless automatic), the numeric options and their validation.
+void check_numbers(const detect_options& o, detect_plan& plan) {
+  ced::detect_params& params = plan.params;
+  plan.auto_radius = o.radius == "auto" || (o.radius.empty() && o.preset.empty());
+  if (!plan.auto_radius) {
+    try {
+      params.radius = o.radius.empty() ? 0.05 : ced::parse_number(o.radius, "--radius");
+    } catch (const std::invalid_argument& e) {
+      throw usage_error(e.what());
+    }
+  }
+  if (!(o.radius_factor > 0) || !std::isfinite(o.radius_factor))
+    throw usage_error("--radius-factor must be a positive number");
+  if (o.min_neighbors < 0) throw usage_error("--min-neighbors must be >= 0");
+  if (o.threads < 0) throw usage_error("--threads must be >= 0");
+  if (o.voxel < 0 || !std::isfinite(o.voxel)) throw usage_error("--voxel must be a positive size in metres");
+  params.min_neighbors = static_cast<std::uint32_t>(o.min_neighbors);
+  params.threads = static_cast<unsigned>(o.threads);
+  ced::detect_params check = params;
+  check.nms_radius = std::isnan(o.nms_radius) ? check.radius : o.nms_radius;
+  try {
+    ced::validate(check);
+  } catch (const std::invalid_argument& e) {
+    throw usage_error(e.what());
+  }
+}
+
+/// --preset and --modality; empty when neither is given.
+std::vector<ced::any_modality> chosen_modalities(const detect_options& o) {
+  std::vector<ced::any_modality> modalities;
+  load_plugins(o.plugins);
+  try {
+    if (!o.preset.empty()) modalities = ced::preset(o.preset);
+    for (const auto& spec : o.modalities) modalities.push_back(ced::make_modality(spec));
+  } catch (const std::invalid_argument& e) {
+    throw usage_error(e.what());
+  }
+  return modalities;
+}
+
+/// --view and --png-size.
+ced::render_options render_view(const detect_options& o) {
+  ced::render_options view;
+  if (o.view == "top")
+    view.view = ced::view_direction::top;
+  else if (o.view == "front")
+    view.view = ced::view_direction::front;
+  else if (o.view == "iso")
+    view.view = ced::view_direction::iso;
+  else
+    throw usage_error("--view must be top, front or iso");
+  if (std::sscanf(o.png_size.c_str(), "%dx%d", &view.width, &view.height) != 2 || view.width < 16 || view.height < 16 ||
+      view.width > 16384 || view.height > 16384)
+    throw usage_error("--png-size must be WIDTHxHEIGHT, 16..16384 each, got '" + o.png_size + "'");
+  return view;
+}
+
+/// Parameters first: a usage error must not cost a file read.
+detect_plan make_plan(const detect_options& o) {
+  detect_plan plan;
+  check_numbers(o, plan);
+  plan.modalities = chosen_modalities(o);
+  plan.view = render_view(o);
+  if (!o.output.empty()) plan.out_format = ced::io::format_of(o.output);
+  if (!o.viewer.empty() && ced::io::format_of(o.viewer) != ced::io::file_format::ply)
+    throw usage_error("--viewer writes PLY: give it a .ply file name");
+  plan.read_opts = make_read_options(o.format, o.columns);
+  return plan;
+}
+
+/// Reads the input; drops non-finite points; voxel down-samples with --voxel.
+detect_input read_input(const detect_options& o, const ced::io::read_options& read_opts, progress_bar& progress) {
+  detect_input in;
+  progress.stage("reading");
+  const auto t_load = clock_type::now();
+  in.cloud = ced::io::read_cloud(o.input, read_opts, &in.report);
+  in.load_ms = ms_since(t_load);
+  in.n_file = in.cloud.size() + in.report.nonfinite_removed;
+  in.original = ced::remove_nonfinite(in.cloud);
+  in.n_finite = in.cloud.size();
+  in.n_dropped = in.n_file - in.n_finite;  // by the reader (PCD) and just now
+  if (in.cloud.empty()) throw ced::io::io_error(o.input + ": the cloud has no (finite) points");
+  if (o.voxel > 0) {
+    progress.stage("voxels");
+    const auto t = clock_type::now();
+    ced::voxel_result v = ced::voxel_downsample(in.cloud, o.voxel);
+    for (auto& r : v.representative) r = in.original[r];
+    in.original = std::move(v.representative);
+    in.cloud = std::move(v.cloud);
+    in.voxel_ms = ms_since(t);
+  }
+  return in;
+}
+
+/// What depends on the cloud: the automatic radius, the NMS radius, the default modalities.
+void complete_plan(const detect_options& o, const ced::point_cloud& cloud, detect_plan& plan) {
+  if (plan.auto_radius) {
+    plan.resolution = ced::estimate_resolution(cloud);
+    if (!(plan.resolution > 0))
+      throw ced::io::io_error(o.input +
+                              ": cannot estimate the resolution (fewer than two distinct points); give --radius");
+    plan.params.radius = o.radius_factor * plan.resolution;
+  }
+  plan.params.nms_radius = std::isnan(o.nms_radius) ? plan.params.radius : o.nms_radius;
+  if (plan.modalities.empty()) plan.modalities = ced::preset(cloud.has_rgb() ? "ced6d" : "ced3d");
+}
+
+int run_detect(const detect_options& o) {
+  const auto t_start = clock_type::now();
+  detect_plan plan = make_plan(o);
+  detect_outputs out(o);
+  progress_bar progress(!o.quiet);
+  const detect_input in = read_input(o, plan.read_opts, progress);
+  complete_plan(o, in.cloud, plan);
+
+  progress.stage("detecting");
+  plan.params.progress = progress.callback();
+  const ced::detection_result r = ced::detect(in.cloud, plan.params, plan.modalities);
+  progress.stage("writing");
+  write_outputs(o, plan, in, r, out);
+  progress.done();
+
+  if (!o.quiet) print_report(o, plan, in, r, t_start);
+  if (out.files.empty())
+    for (std::uint32_t k : r.keypoints) std::cout << k << '\n';
+  return exit_ok;
+}
+
+}  // namespace
+
+command add_detect_command(CLI::App& app) {
+  auto o = std::make_shared<detect_options>();
+  auto* det = app.add_subcommand("detect", "Detect keypoints");
+  det->add_option("input", o->input, "Input cloud: .ply, .pcd, .las, .csv/.xyz/.txt/.pts")->required();
+  det->add_option("--format", o->format, "Input format when the extension does not say: ply, pcd, las, csv, auto");
+  det->add_option("--columns", o->columns, "CSV column names, e.g. x,y,z,intensity (the file then has no header)");
+  det->add_option("--preset", o->preset, "ced3d (xyz:0.2) or ced6d (xyz:0.2 + rgb:0.1), with the paper's radius 0.05")
+      ->check(CLI::IsMember({"ced3d", "ced6d"}));
+  det->add_option(
+      "-m,--modality", o->modalities,
+      "Modality spec, repeatable: xyz:0.2, rgb:0.1, lab:0.1, intensity:0.05, bands(nir,red):0.1,range=0..255"
+      " (default: ced6d when the cloud has colour, else ced3d)");
+  add_plugin_option(det, o->plugins);
+  det->add_option(
+      "-r,--radius", o->radius,
+      "Neighbourhood radius in metres, or auto = factor x resolution (default: 0.05 with --preset, else auto)");
+  det->add_option("--radius-factor", o->radius_factor, "For --radius auto: radius = factor x resolution (default 5)");
+  det->add_option("--nms-radius", o->nms_radius, "Non-maximum-suppression radius (default: the radius)");
+  det->add_option("-k,--min-neighbors", o->min_neighbors, "Minimum neighbours, the point included (default 5)");
+  det->add_option("--voxel", o->voxel, "Down-sample first: average every channel per voxel of this size (metres)");
+  det->add_option("-j,--threads", o->threads, "Threads (default 0 = all cores; the result does not depend on it)");
+  det->add_option("--indices", o->indices, "Keypoint indices into the cloud the detector saw (0-based, ascending)");
+  det->add_option(
+      "--indices-original", o->indices_original,
+      "Keypoint indices into the input file's points (after --voxel: the point nearest each voxel centroid)");
+  det->add_option("-o,--output", o->output,
+                  "Keypoints with all fields + saliency_<modality>: .ply, .pcd, .las or .csv");
+  det->add_option("--viewer", o->viewer, "Whole cloud as PLY, keypoints red, scalar_keypoint/scalar_saliency_* fields");
+  det->add_option("--png", o->png, "Picture of the cloud with the keypoints as red discs");
+  det->add_option("--view", o->view, "View for --png: top, front or iso (default iso)");
+  det->add_option("--png-size", o->png_size, "Size for --png, WIDTHxHEIGHT (default 1280x960)");
+  det->add_option("--summary", o->summary, "JSON summary: input, parameters used, counts, per-stage times");
+  det->add_flag("-q,--quiet", o->quiet, "Print nothing on stderr");
+  det->add_option("--config", o->config,
+                  "Read options from a file: JSON (.json) or TOML/INI, keys = long option names; flags override it");
+  det->footer(
+      "Examples:\n"
+      "  ced detect scan.ply --preset ced6d --indices kp.txt --png kp.png\n"
+      "  ced detect raw.pcd --voxel 0.01 --preset ced6d -o keypoints.ply\n"
+      "  ced detect tile.las -m xyz:0.2 -m 'intensity:0.05' --radius auto --summary run.json\n"
+      "  ced detect field.ply -m xyz:0.2 -m 'bands(NIR,RED,REG):0.1' --radius 0.5 --viewer view.ply\n"
+      "Without any output option the indices go to stdout. Exit codes: 0 ok, 1 bad input data or I/O, 2 usage.");
+  return {det, [o] { return run_detect(*o); }};
+}
+
+}  // namespace ced_cli

@@ -1,0 +1,76 @@
+// SPDX-License-Identifier: MIT
+// `ced detect`, shared by its two files: detect.cpp (options, checks,
+// reading, detection) and detect_write.cpp (the outputs and the report).
+#pragma once
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "ced/ced.hpp"
+#include "ced/io/io.hpp"
+#include "ced/render.hpp"
+#include "common.hpp"
+
+namespace ced_cli {
+
+struct detect_options {
+  std::string input, format = "auto", columns;
+  std::string preset;
+  std::vector<std::string> modalities;
+  std::vector<std::string> plugins;
+  std::string radius = "";  // a number or "auto"; empty = default
+  double nms_radius = std::nan("");
+  double radius_factor = 5.0;
+  double voxel = 0;
+  int min_neighbors = 5;
+  int threads = 0;
+  std::string indices, indices_original, output, viewer, png, summary;
+  std::string view = "iso", png_size = "1280x960";
+  bool quiet = false;
+  std::string config;  // --config: expand_config() has already replaced it by the file's options
+};
+
+/// What the options ask for, checked before any file is read.
+struct detect_plan {
+  ced::detect_params params;
+  bool auto_radius = false;
+  double resolution = 0;  // estimated on the input for --radius auto
+  std::vector<ced::any_modality> modalities;
+  ced::render_options view;
+  ced::io::file_format out_format = ced::io::file_format::automatic;
+  ced::io::read_options read_opts;
+};
+
+/// Every output, opened first (temporary files beside the targets), so that a
+/// bad output path fails before the work and no output is half-written.
+struct detect_outputs {
+  std::vector<std::unique_ptr<ced::io::atomic_output_file>> files;
+  ced::io::atomic_output_file *indices = nullptr, *original = nullptr, *keypoints = nullptr, *viewer = nullptr,
+                              *png = nullptr, *summary = nullptr;
+
+  explicit detect_outputs(const detect_options& o);
+  ced::io::atomic_output_file* open(const std::string& path);
+};
+
+/// The cloud the detector sees: finite points, voxel down-sampled with --voxel.
+struct detect_input {
+  ced::io::read_report report;
+  ced::point_cloud cloud;
+  std::vector<std::uint32_t> original;  // original[i]: index in the input file's (finite) points of point i
+  std::size_t n_file = 0, n_finite = 0, n_dropped = 0;
+  double load_ms = 0, voxel_ms = 0;
+};
+
+/// Writes every output file of `out` and commits them.
+void write_outputs(const detect_options& o, const detect_plan& plan, const detect_input& in,
+                   const ced::detection_result& r, detect_outputs& out);
+
+/// The run's report on stderr (unless --quiet).
+void print_report(const detect_options& o, const detect_plan& plan, const detect_input& in,
+                  const ced::detection_result& r, clock_type::time_point t_start);
+
+}  // namespace ced_cli

@@ -1,0 +1,161 @@
+// SPDX-License-Identifier: MIT
+// `ced detect`'s outputs: indices, keypoints, viewer cloud, picture, summary,
+// and the report on stderr.
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cstdint>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "ced/ced.hpp"
+#include "ced/io/io.hpp"
+#include "ced/render.hpp"
+#include "common.hpp"
+#include "detect.hpp"
+
+namespace ced_cli {
+namespace {
+
+std::string column_name(const std::string& modality) {
+  std::string s;
+  for (char c : modality) s += std::isalnum(static_cast<unsigned char>(c)) ? c : '_';
+  while (!s.empty() && s.back() == '_') s.pop_back();
+  return s;
+}
+
+/// Adds one saliency field per modality to `c`: of every point, or of `subset`'s.
+void add_saliency(ced::point_cloud& c, const ced::detection_result& r, const std::vector<std::uint32_t>* subset,
+                  const std::string& prefix) {
+  for (std::size_t m = 0; m < r.names.size(); ++m) {
+    std::vector<double> v;
+    if (subset)
+      for (std::uint32_t k : *subset) v.push_back(r.saliency[m][k]);
+    else
+      v.assign(r.saliency[m].begin(), r.saliency[m].end());
+    c.add_field(prefix + column_name(r.names[m]), ced::scalar_type::float32, std::move(v));
+  }
+}
+
+/// -o: the keypoints with all their fields and their saliencies.
+void write_keypoints(std::ostream& out, const ced::point_cloud& cloud, const ced::detection_result& r,
+                     ced::io::file_format format) {
+  std::vector<std::uint8_t> keep(cloud.size(), 0);
+  for (std::uint32_t k : r.keypoints) keep[k] = 1;
+  ced::point_cloud kp = cloud;
+  kp.filter(keep);
+  add_saliency(kp, r, &r.keypoints, "saliency_");
+  ced::io::write_cloud(out, kp, format);
+}
+
+/// --viewer: the whole cloud, keypoints red, with scalar_* fields.
+void write_viewer(std::ostream& out, const ced::point_cloud& cloud, const ced::detection_result& r) {
+  ced::point_cloud v = cloud;
+  std::vector<std::array<std::uint8_t, 3>> colours(cloud.size(), {170, 170, 170});
+  const auto f = ced::find_rgb_fields(cloud);
+  if (f[0]) {
+    const auto s = ced::rgb::scale(f, std::nullopt);
+    for (std::size_t i = 0; i < cloud.size(); ++i)
+      for (std::size_t c = 0; c < 3; ++c)
+        colours[i][c] = static_cast<std::uint8_t>(std::clamp(f[c]->values[i] * s[c] * 255.0 + 0.5, 0.0, 255.0));
+  }
+  std::vector<double> is_kp(cloud.size(), 0.0);
+  for (std::uint32_t k : r.keypoints) {
+    colours[k] = {255, 0, 0};
+    is_kp[k] = 1.0;
+  }
+  if (f[0]) {  // replace the colour fields by the keypoint-marked colours
+    const std::string names[3] = {f[0]->name, f[1]->name, f[2]->name};
+    auto& fs = v.fields();
+    fs.erase(std::remove_if(
+                 fs.begin(), fs.end(),
+                 [&](const ced::field& x) { return x.name == names[0] || x.name == names[1] || x.name == names[2]; }),
+             fs.end());
+  }
+  v.add_rgb(colours);
+  v.add_field("scalar_keypoint", ced::scalar_type::float32, std::move(is_kp));
+  add_saliency(v, r, nullptr, "scalar_saliency_");
+  ced::io::write_ply(out, v, ced::io::ply_format::binary_little_endian);
+}
+
+/// --summary: input, parameters used, counts, per-stage times.
+nlohmann::json summary_json(const detect_options& o, const detect_plan& plan, const detect_input& in,
+                            const ced::detection_result& r) {
+  const ced::point_cloud& cloud = in.cloud;
+  const ced::detect_params& params = plan.params;
+  nlohmann::json j;
+  j["input"] = {{"path", o.input},
+                {"format", ced::io::format_name(in.report.format)},
+                {"details", in.report.details},
+                {"points_in_file", in.n_file},
+                {"nonfinite_removed", in.n_dropped},
+                {"points_after_voxel", cloud.size()},
+                {"points_used", cloud.size()}};
+  j["params"] = {{"radius", params.radius},
+                 {"radius_auto", plan.auto_radius},
+                 {"resolution", plan.resolution},
+                 {"nms_radius", params.nms_radius},
+                 {"min_neighbors", params.min_neighbors},
+                 {"voxel", o.voxel},
+                 {"threads", ced::resolve_threads(params.threads)}};
+  auto& mods = j["modalities"] = nlohmann::json::array();
+  for (std::size_t m = 0; m < r.names.size(); ++m) {
+    std::size_t cand = 0;
+    for (std::size_t i = 0; i < cloud.size(); ++i) cand += r.saliency[m][i] >= r.thresholds[m];
+    mods.push_back({{"name", r.names[m]}, {"threshold", r.thresholds[m]}, {"candidates", cand}});
+  }
+  std::size_t candidates = 0;
+  for (auto c : r.candidate) candidates += c;
+  j["counts"] = {{"candidates", candidates}, {"keypoints", r.keypoints.size()}};
+  j["times_ms"] = {{"read", in.load_ms},        {"voxel", in.voxel_ms},
+                   {"index", r.times.index_ms}, {"saliency", r.times.saliency_ms},
+                   {"nms", r.times.nms_ms},     {"detect", r.times.total_ms()}};
+  return j;
+}
+
+}  // namespace
+
+void write_outputs(const detect_options& o, const detect_plan& plan, const detect_input& in,
+                   const ced::detection_result& r, detect_outputs& out) {
+  if (out.indices)
+    for (std::uint32_t k : r.keypoints) out.indices->stream() << k << '\n';
+  if (out.original)
+    for (std::uint32_t k : r.keypoints) out.original->stream() << in.original[k] << '\n';
+  if (out.keypoints) write_keypoints(out.keypoints->stream(), in.cloud, r, plan.out_format);
+  if (out.viewer) write_viewer(out.viewer->stream(), in.cloud, r);
+  if (out.png) {
+    int w = 0, h = 0;
+    const auto rgb = ced::render_rgb(in.cloud, r.keypoints, plan.view, w, h);
+    out.png->stream() << ced::encode_png(rgb, w, h);
+  }
+  if (out.summary) out.summary->stream() << summary_json(o, plan, in, r).dump(2) << '\n';
+  for (auto& file : out.files) file->commit();
+}
+
+void print_report(const detect_options& o, const detect_plan& plan, const detect_input& in,
+                  const ced::detection_result& r, clock_type::time_point t_start) {
+  const ced::detect_params& params = plan.params;
+  std::fprintf(stderr, "ced: %s: %zu points (%s, %.1f ms)\n", o.input.c_str(), in.n_file, in.report.details.c_str(),
+               in.load_ms);
+  if (in.n_dropped) std::fprintf(stderr, "ced: dropped %zu points with non-finite coordinates\n", in.n_dropped);
+  if (o.voxel > 0)
+    std::fprintf(stderr, "ced: voxel %g: %zu -> %zu points (%.1f ms)\n", o.voxel, in.n_finite, in.cloud.size(),
+                 in.voxel_ms);
+  if (plan.auto_radius)
+    std::fprintf(stderr, "ced: radius auto = %g x resolution %g = %g\n", o.radius_factor, plan.resolution,
+                 params.radius);
+  std::string mods;
+  for (std::size_t m = 0; m < r.names.size(); ++m)
+    mods += (m ? " + " : "") + r.names[m] + " (t=" + std::to_string(r.thresholds[m]) + ")";
+  std::fprintf(stderr, "ced: modalities %s; radius %g, nms radius %g, min neighbours %u, %u thread(s)\n", mods.c_str(),
+               params.radius, params.nms_radius, params.min_neighbors, ced::resolve_threads(params.threads));
+  std::fprintf(stderr, "ced: %zu keypoints; detect %.1f ms (index %.1f, saliency %.1f, nms %.1f); total %.1f ms\n",
+               r.keypoints.size(), r.times.total_ms(), r.times.index_ms, r.times.saliency_ms, r.times.nms_ms,
+               ms_since(t_start));
+}
+
+}  // namespace ced_cli

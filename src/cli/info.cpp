@@ -1,0 +1,81 @@
+// SPDX-License-Identifier: MIT
+// `ced info`: a cloud's fields, point count, bounds and resolution.
+#include <algorithm>
+#include <cmath>
+#include <iostream>
+#include <memory>
+#include <string>
+
+#include "ced/ced.hpp"
+#include "ced/io/io.hpp"
+#include "ced/preprocess.hpp"
+#include "commands.hpp"
+#include "common.hpp"
+
+namespace ced_cli {
+namespace {
+
+struct info_options {
+  std::string input, format = "auto", columns;
+};
+
+/// The bounds (absolute coordinates) and the resolution of a cloud of finite points.
+void print_extent(const ced::point_cloud& cloud) {
+  const auto& o = cloud.origin();
+  float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], cloud.position(i)[k]);
+      hi[k] = std::max(hi[k], cloud.position(i)[k]);
+    }
+  std::cout.precision(10);
+  std::cout << "bounds: x " << lo[0] + o[0] << " .. " << hi[0] + o[0] << ", y " << lo[1] + o[1] << " .. "
+            << hi[1] + o[1] << ", z " << lo[2] + o[2] << " .. " << hi[2] + o[2] << "\n";
+  std::cout.precision(6);
+  const double res = ced::estimate_resolution(cloud);
+  std::cout << "resolution (median nearest-neighbour distance): " << res << "  -> --radius auto = " << 5 * res << "\n";
+}
+
+/// Each field's name, type and range.
+void print_fields(const ced::point_cloud& cloud) {
+  std::cout << "fields:\n";
+  for (const auto& f : cloud.fields()) {
+    double mn = INFINITY, mx = -INFINITY;
+    for (double v : f.values) {
+      mn = std::min(mn, v);
+      mx = std::max(mx, v);
+    }
+    std::cout << "  " << f.name << " (" << ced::name_of(f.type) << ") " << mn << " .. " << mx << "\n";
+  }
+}
+
+int run_info(const std::string& path, const std::string& format, const std::string& columns) {
+  ced::io::read_report report;
+  ced::point_cloud cloud = ced::io::read_cloud(path, make_read_options(format, columns), &report);
+  std::cout << path << ": " << cloud.size() << " points (" << report.details << ")\n";
+  if (report.nonfinite_removed)
+    std::cout << "non-finite points dropped while reading: " << report.nonfinite_removed << "\n";
+  const auto& o = cloud.origin();
+  if (o[0] != 0 || o[1] != 0 || o[2] != 0)
+    std::cout << "origin: " << o[0] << " " << o[1] << " " << o[2] << " (positions are stored relative to it)\n";
+  const std::size_t before = cloud.size();
+  ced::remove_nonfinite(cloud);
+  if (cloud.size() != before) std::cout << "non-finite points: " << before - cloud.size() << "\n";
+  if (!cloud.empty()) print_extent(cloud);
+  print_fields(cloud);
+  std::cout << "colour: " << (cloud.has_rgb() ? "yes (default preset ced6d)" : "no (default preset ced3d)") << "\n";
+  return exit_ok;
+}
+
+}  // namespace
+
+command add_info_command(CLI::App& app) {
+  auto o = std::make_shared<info_options>();
+  auto* info = app.add_subcommand("info", "Print a cloud's fields, point count, bounds and resolution");
+  info->add_option("input", o->input, "Input point cloud")->required();
+  info->add_option("--format", o->format, "Input format: ply, pcd, las, csv, auto");
+  info->add_option("--columns", o->columns, "CSV column names");
+  return {info, [o] { return run_info(o->input, o->format, o->columns); }};
+}
+
+}  // namespace ced_cli

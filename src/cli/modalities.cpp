@@ -1,0 +1,30 @@
+// SPDX-License-Identifier: MIT
+// `ced modalities`: the modalities that --modality accepts.
+#include <iostream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "ced/ced.hpp"
+#include "commands.hpp"
+#include "common.hpp"
+
+namespace ced_cli {
+namespace {
+
+int run_modalities(const std::vector<std::string>& plugins) {
+  load_plugins(plugins);
+  for (const auto& [name, help] : ced::registered_modalities()) std::cout << name << "\t" << help << "\n";
+  return exit_ok;
+}
+
+}  // namespace
+
+command add_modalities_command(CLI::App& app) {
+  auto plugins = std::make_shared<std::vector<std::string>>();
+  auto* mods = app.add_subcommand("modalities", "List the modalities that --modality accepts");
+  add_plugin_option(mods, *plugins);
+  return {mods, [plugins] { return run_modalities(*plugins); }};
+}
+
+}  // namespace ced_cli
