@@ -32,6 +32,8 @@ struct ndvi {
 
   std::string name() const { return nir == "nir" && red == "red" ? "ndvi" : "ndvi(" + nir + "," + red + ")"; }
   double threshold(const ced::detect_params&) const { return threshold_value; }
+  /// The fields bind() reads, so that the CLI reads only those from a file.
+  std::vector<std::string> fields() const { return {nir, red}; }
 
   /// The fast-path evaluator: channels() + from_sums().
   struct evaluator {

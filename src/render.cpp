@@ -50,8 +50,8 @@ struct channel {
   /// `integer_scale`: the scale the rgb modality uses for integer channels
   /// (their range, or 1/255 for 16-bit fields holding 8-bit values).
   channel(const field* fld, double integer_scale) : f(fld) {
-    if (is_integer(f->type)) {
-      offset = natural_range(f->type)[0];
+    if (is_integer(f->type())) {
+      offset = natural_range(f->type())[0];
       scale = integer_scale;
       return;
     }

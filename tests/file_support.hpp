@@ -85,7 +85,7 @@ inline void expect_same_cloud(const ced::point_cloud& a, const ced::point_cloud&
     const auto& fa = a.fields()[f];
     const auto& fb = b.fields()[f];
     EXPECT_EQ(fa.name, fb.name);
-    EXPECT_EQ(fa.type, fb.type) << fa.name;
+    EXPECT_EQ(fa.type(), fb.type()) << fa.name;
     ASSERT_EQ(fa.values.size(), fb.values.size());
     for (std::size_t i = 0; i < fa.values.size(); ++i)
       expect_same_value(fa.values[i], fb.values[i], fa.name + "[" + std::to_string(i) + "]");

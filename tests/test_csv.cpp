@@ -47,7 +47,7 @@ void expect_two_points_with_red(const point_cloud& c) {
   EXPECT_EQ(c.position(0)[2], 3.f);
   EXPECT_EQ(c.position(1)[1], 5.f);
   EXPECT_EQ(c.get_field("red").values, (std::vector<double>{10, 20}));
-  EXPECT_EQ(c.get_field("red").type, scalar_type::uint8);
+  EXPECT_EQ(c.get_field("red").type(), scalar_type::uint8);
 }
 
 }  // namespace
@@ -83,11 +83,11 @@ TEST(CsvRoundTrip, FieldsAndPositions) {
   EXPECT_EQ(r.positions(), c.positions());  // shortest float text reads back exactly
   EXPECT_TRUE(std::signbit(r.position(0)[2]));
   ASSERT_EQ(field_names(r), field_names(c));
-  EXPECT_EQ(r.get_field("red").type, scalar_type::uint8);
-  EXPECT_EQ(r.get_field("label").type, scalar_type::int32);
-  EXPECT_EQ(r.get_field("value").type, scalar_type::float64);
-  EXPECT_EQ(r.get_field("intensity").type, scalar_type::float64);  // CSV keeps no types
-  EXPECT_EQ(r.get_field("wide").type, scalar_type::int32);
+  EXPECT_EQ(r.get_field("red").type(), scalar_type::uint8);
+  EXPECT_EQ(r.get_field("label").type(), scalar_type::int32);
+  EXPECT_EQ(r.get_field("value").type(), scalar_type::float64);
+  EXPECT_EQ(r.get_field("intensity").type(), scalar_type::float64);  // CSV keeps no types
+  EXPECT_EQ(r.get_field("wide").type(), scalar_type::int32);
   EXPECT_EQ(r.get_field("red").values, red);
   EXPECT_EQ(r.get_field("label").values, label);
   EXPECT_EQ(r.get_field("value").values, value);  // shortest double text reads back exactly
@@ -158,13 +158,13 @@ TEST(CsvRead, NoHeaderDefaultColumns) {
   EXPECT_TRUE(c3.fields().empty());
   const point_cloud c4 = read_text("1,2,3,0.5\n4,5,6,1\n");
   EXPECT_EQ(field_names(c4), std::vector<std::string>{"intensity"});
-  EXPECT_EQ(c4.get_field("intensity").type, scalar_type::float64);
+  EXPECT_EQ(c4.get_field("intensity").type(), scalar_type::float64);
   const point_cloud c6 = read_text("1 2 3 10 20 30\n4 5 6 20 30 40\n");
   EXPECT_EQ(field_names(c6), (std::vector<std::string>{"red", "green", "blue"}));
   expect_two_points_with_red(c6);
   const point_cloud c7 = read_text("1 2 3 100 10 20 30\n4 5 6 -5 20 30 40\n");
   EXPECT_EQ(field_names(c7), (std::vector<std::string>{"intensity", "red", "green", "blue"}));
-  EXPECT_EQ(c7.get_field("intensity").type, scalar_type::int32);
+  EXPECT_EQ(c7.get_field("intensity").type(), scalar_type::int32);
   expect_two_points_with_red(c7);
 }
 
@@ -202,13 +202,13 @@ TEST(CsvRead, FieldTypes) {
       "x,y,z,red,green,blue,count,big,frac,intlike\n"
       "0,0,0,0,0,0.5,-7,3000000000,0.25,1.0\n"
       "1,1,1,255,256,1,2147483647,1,1,2\n");
-  EXPECT_EQ(c.get_field("red").type, scalar_type::uint8);
-  EXPECT_EQ(c.get_field("green").type, scalar_type::int32);   // 256 is not a byte
-  EXPECT_EQ(c.get_field("blue").type, scalar_type::float64);  // 0.5: already normalised colour
-  EXPECT_EQ(c.get_field("count").type, scalar_type::int32);
-  EXPECT_EQ(c.get_field("big").type, scalar_type::float64);  // beyond int32
-  EXPECT_EQ(c.get_field("frac").type, scalar_type::float64);
-  EXPECT_EQ(c.get_field("intlike").type, scalar_type::float64);  // written as a float
+  EXPECT_EQ(c.get_field("red").type(), scalar_type::uint8);
+  EXPECT_EQ(c.get_field("green").type(), scalar_type::int32);   // 256 is not a byte
+  EXPECT_EQ(c.get_field("blue").type(), scalar_type::float64);  // 0.5: already normalised colour
+  EXPECT_EQ(c.get_field("count").type(), scalar_type::int32);
+  EXPECT_EQ(c.get_field("big").type(), scalar_type::float64);  // beyond int32
+  EXPECT_EQ(c.get_field("frac").type(), scalar_type::float64);
+  EXPECT_EQ(c.get_field("intlike").type(), scalar_type::float64);  // written as a float
   EXPECT_EQ(c.get_field("big").values[0], 3000000000.0);
 }
 

@@ -18,6 +18,7 @@
 using ced_test::field_channel;
 using ced_test::make_room;
 using ced_test::oracle;
+using ced_test::with_value;
 using ced_test::xyz_channel;
 
 namespace {
@@ -405,7 +406,7 @@ TEST(Detect, BadParametersAreClearErrors) {
   }
   ced::point_cloud nan_colour = c;  // a NaN in a field a modality reads is an error, named
   for (auto& f : nan_colour.fields())
-    if (f.name == "red") f.values[5] = std::nan("");
+    if (f.name == "red") f.values = ced::column(ced::scalar_type::float64, with_value(f.values, 5, std::nan("")));
   try {
     ced::detect(nan_colour, p, ced::rgb{});
     FAIL();
@@ -461,20 +462,22 @@ TEST(Detect, NonFiniteAndOutOfFloatRangeValuesAreNamedErrors) {
             << e.what();
       }
     }
-  for (const double bad :
-       {std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(), std::nan("")})
-    for (const std::size_t i : {std::size_t(4096), std::size_t(5000), c.size() - 1}) {
-      ced::point_cloud cloud = c;
-      for (auto& f : cloud.fields())
-        if (f.name == "green") f.values[i] = bad;
-      try {
-        ced::detect(cloud, p, ced::rgb{});
-        ADD_FAILURE() << "no error for point " << i;
-      } catch (const std::invalid_argument& e) {
-        EXPECT_NE(std::string(e.what()).find("field 'green' has a non-finite value"), std::string::npos) << e.what();
-        EXPECT_NE(std::string(e.what()).find("at point " + std::to_string(i)), std::string::npos) << e.what();
+  // Fields keep their type: non-finite values live in float fields.
+  for (const auto type : {ced::scalar_type::float64, ced::scalar_type::float32})
+    for (const double bad :
+         {std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(), std::nan("")})
+      for (const std::size_t i : {std::size_t(4096), std::size_t(5000), c.size() - 1}) {
+        ced::point_cloud cloud = c;
+        for (auto& f : cloud.fields())
+          if (f.name == "green") f.values = ced::column(type, with_value(f.values, i, bad));
+        try {
+          ced::detect(cloud, p, ced::rgb{});
+          ADD_FAILURE() << "no error for point " << i;
+        } catch (const std::invalid_argument& e) {
+          EXPECT_NE(std::string(e.what()).find("field 'green' has a non-finite value"), std::string::npos) << e.what();
+          EXPECT_NE(std::string(e.what()).find("at point " + std::to_string(i)), std::string::npos) << e.what();
+        }
       }
-    }
   // Values a float holds pass; values beyond it (which would become
   // infinite in the float channels) are named errors, not NaN saliencies.
   const double flt_max = std::numeric_limits<float>::max();

@@ -265,7 +265,7 @@ std::string read_error(const std::string& bytes, const std::string& name = "bad.
   return ced_test::read_error_of([](const std::string& path) { ced::io::read_las(path); }, bytes, name);
 }
 
-const std::vector<double>& values(const point_cloud& c, const std::string& name) { return c.get_field(name).values; }
+const ced::column& values(const point_cloud& c, const std::string& name) { return c.get_field(name).values; }
 
 double absolute(const point_cloud& c, std::size_t i, std::size_t k) { return c.origin()[k] + c.position(i)[k]; }
 
@@ -318,21 +318,21 @@ TEST_P(LasFormat, EveryFieldIsRead) {
   for (const auto& fld : c.fields()) names.push_back(fld.name);
   EXPECT_EQ(names, expected_names);
 
-  EXPECT_EQ(c.get_field("intensity").type, scalar_type::uint16);
-  EXPECT_EQ(c.get_field("return_number").type, scalar_type::uint8);
-  EXPECT_EQ(c.get_field("number_of_returns").type, scalar_type::uint8);
-  EXPECT_EQ(c.get_field("classification").type, scalar_type::uint8);
-  EXPECT_EQ(c.get_field("scan_angle").type, f >= 6 ? scalar_type::int16 : scalar_type::int8);
-  EXPECT_EQ(c.get_field("user_data").type, scalar_type::uint8);
-  EXPECT_EQ(c.get_field("point_source_id").type, scalar_type::uint16);
+  EXPECT_EQ(c.get_field("intensity").type(), scalar_type::uint16);
+  EXPECT_EQ(c.get_field("return_number").type(), scalar_type::uint8);
+  EXPECT_EQ(c.get_field("number_of_returns").type(), scalar_type::uint8);
+  EXPECT_EQ(c.get_field("classification").type(), scalar_type::uint8);
+  EXPECT_EQ(c.get_field("scan_angle").type(), f >= 6 ? scalar_type::int16 : scalar_type::int8);
+  EXPECT_EQ(c.get_field("user_data").type(), scalar_type::uint8);
+  EXPECT_EQ(c.get_field("point_source_id").type(), scalar_type::uint16);
   if (has_gps(f)) {
-    EXPECT_EQ(c.get_field("gps_time").type, scalar_type::float64);
+    EXPECT_EQ(c.get_field("gps_time").type(), scalar_type::float64);
   }
   if (has_rgb(f)) {
-    for (const char* n : {"red", "green", "blue"}) EXPECT_EQ(c.get_field(n).type, scalar_type::uint16);
+    for (const char* n : {"red", "green", "blue"}) EXPECT_EQ(c.get_field(n).type(), scalar_type::uint16);
   }
   if (has_nir(f)) {
-    EXPECT_EQ(c.get_field("nir").type, scalar_type::uint16);
+    EXPECT_EQ(c.get_field("nir").type(), scalar_type::uint16);
   }
 
   for (std::size_t i = 0; i < 3; ++i) {
@@ -391,7 +391,7 @@ TEST_P(LasFormat, FlagsBecomeFieldsWhenSet) {
     EXPECT_EQ(values(c, "return_number")[i], file.points[i].return_number);
     EXPECT_EQ(values(c, "number_of_returns")[i], file.points[i].number_of_returns);
   }
-  EXPECT_EQ(c.get_field("withheld").type, scalar_type::uint8);
+  EXPECT_EQ(c.get_field("withheld").type(), scalar_type::uint8);
 
   // Without any flag set, no flag fields.
   file.points = sample_points(f);
@@ -549,7 +549,7 @@ TEST(LasRead, ExtraBytesOfSeveralTypes) {
   const auto expect = [&](const std::string& name, scalar_type type, std::vector<double> v) {
     const ced::field* fld = c.find_field(name);
     ASSERT_NE(fld, nullptr) << name;
-    EXPECT_EQ(fld->type, type) << name;
+    EXPECT_EQ(fld->type(), type) << name;
     EXPECT_EQ(fld->values, v) << name;
   };
   expect("u8", scalar_type::uint8, {0, 255});
@@ -832,14 +832,14 @@ TEST_P(LasRoundTrip, EveryFieldAndMillimetres) {
   EXPECT_LT(worst, 1e-3);
   expect_same_fields(c, r);
   // Standard fields come back with their LAS types, extra bytes with their own.
-  EXPECT_EQ(r.get_field("intensity").type, scalar_type::uint16);
-  EXPECT_EQ(r.get_field("scan_angle").type, scalar_type::int16);
+  EXPECT_EQ(r.get_field("intensity").type(), scalar_type::uint16);
+  EXPECT_EQ(r.get_field("scan_angle").type(), scalar_type::int16);
   for (const auto& f : c.fields()) {
     if (f.name.rfind("e_", 0) == 0 || f.name == "curvature") {
-      EXPECT_EQ(r.get_field(f.name).type, f.type) << f.name;
+      EXPECT_EQ(r.get_field(f.name).type(), f.type()) << f.name;
     }
   }
-  EXPECT_EQ(r.get_field("distance_to_something_long_name").type, scalar_type::float64);
+  EXPECT_EQ(r.get_field("distance_to_something_long_name").type(), scalar_type::float64);
 }
 
 INSTANTIATE_TEST_SUITE_P(Formats678, LasRoundTrip, ::testing::Values(6, 7, 8),
@@ -910,7 +910,7 @@ TEST(LasWrite, SmallestFormatAndColourValuesAsTheyAre) {
   EXPECT_EQ(info.point_format, 7);
   EXPECT_EQ(values(r, "red"), (std::vector<double>{255, 1}));
   EXPECT_EQ(values(r, "blue"), (std::vector<double>{128, 3}));
-  EXPECT_EQ(r.get_field("red").type, scalar_type::uint16);
+  EXPECT_EQ(r.get_field("red").type(), scalar_type::uint16);
 
   c.add_field("NIR", scalar_type::uint8, {9, 10});  // any case
   s.str("");
@@ -1070,7 +1070,7 @@ TEST(LasWrite, ReadThenWriteIsLossless) {
   ASSERT_EQ(b.fields().size(), a.fields().size());
   for (std::size_t j = 0; j < a.fields().size(); ++j) {
     EXPECT_EQ(b.fields()[j].name, a.fields()[j].name);
-    EXPECT_EQ(b.fields()[j].type, a.fields()[j].type) << a.fields()[j].name;
+    EXPECT_EQ(b.fields()[j].type(), a.fields()[j].type()) << a.fields()[j].name;
     EXPECT_EQ(b.fields()[j].values, a.fields()[j].values) << a.fields()[j].name;
   }
 }

@@ -325,10 +325,10 @@ TEST(PcdRead, HandWrittenAscii) {
   EXPECT_EQ(c.origin(), (std::array<double, 3>{0, 0, 0}));
   ASSERT_EQ(c.fields().size(), 2u);
   EXPECT_EQ(c.fields()[0].name, "intensity");
-  EXPECT_EQ(c.fields()[0].type, scalar_type::float32);
+  EXPECT_EQ(c.fields()[0].type(), scalar_type::float32);
   EXPECT_EQ(c.fields()[0].values, (std::vector<double>{0.75, 1, 0.125}));
   EXPECT_EQ(c.fields()[1].name, "label");
-  EXPECT_EQ(c.fields()[1].type, scalar_type::uint16);
+  EXPECT_EQ(c.fields()[1].type(), scalar_type::uint16);
   EXPECT_EQ(c.fields()[1].values, (std::vector<double>{7, 65535, 0}));
   EXPECT_EQ(info.data_format, "ascii");
 }
@@ -338,7 +338,7 @@ TEST(PcdRead, OldHeaderWithoutVersionSizeAndType) {
   const point_cloud c = read_string("COLUMNS x y z w\nPOINTS 2\nDATA ascii\n1 2 3 4\n5 6 7 8\n");
   ASSERT_EQ(c.size(), 2u);
   EXPECT_EQ(c.position(1)[2], 7.f);
-  EXPECT_EQ(c.get_field("w").type, scalar_type::float32);
+  EXPECT_EQ(c.get_field("w").type(), scalar_type::float32);
   EXPECT_EQ(c.get_field("w").values[1], 8.0);
   // WIDTH without POINTS.
   EXPECT_EQ(read_string("VERSION .7\nFIELDS x y z\nWIDTH 1\nHEIGHT 1\nDATA ascii\n1 2 3\n").size(), 1u);
@@ -359,7 +359,7 @@ TEST(PcdRead, PackedRgbAsFloatAndAsUnsigned) {
     EXPECT_EQ(c.fields()[0].name, "red");
     EXPECT_EQ(c.fields()[1].name, "green");
     EXPECT_EQ(c.fields()[2].name, "blue");
-    for (const auto& fld : c.fields()) EXPECT_EQ(fld.type, scalar_type::uint8);
+    for (const auto& fld : c.fields()) EXPECT_EQ(fld.type(), scalar_type::uint8);
     EXPECT_EQ(c.get_field("red").values, (std::vector<double>{255, 0x12}));
     EXPECT_EQ(c.get_field("green").values, (std::vector<double>{128, 0x34}));
     EXPECT_EQ(c.get_field("blue").values, (std::vector<double>{1, 0x56}));

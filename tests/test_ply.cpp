@@ -147,7 +147,7 @@ TEST(PlyWrite, Int64FieldsAreWrittenAsDouble) {
   std::stringstream s;
   ced::io::write_ply(s, c, ply_format::binary_little_endian);
   const point_cloud r = ced::io::read_ply(s, "s");
-  EXPECT_EQ(r.get_field("id").type, scalar_type::float64);
+  EXPECT_EQ(r.get_field("id").type(), scalar_type::float64);
   EXPECT_EQ(r.get_field("id").values[0], -123456789012.0);
   EXPECT_EQ(r.get_field("big").values[0], 9007199254740992.0);
 }
@@ -200,13 +200,13 @@ TEST(PlyRead, HandWrittenBigEndian) {
             (std::vector<float>{1, 2, -0.5f, 3, 0, 1.5f}));
   ASSERT_EQ(c.fields().size(), 4u);
   EXPECT_EQ(c.fields()[0].name, "red");
-  EXPECT_EQ(c.fields()[0].type, scalar_type::uint8);
+  EXPECT_EQ(c.fields()[0].type(), scalar_type::uint8);
   EXPECT_EQ(c.fields()[0].values, (std::vector<double>{200, 7}));
-  EXPECT_EQ(c.fields()[1].type, scalar_type::int16);
+  EXPECT_EQ(c.fields()[1].type(), scalar_type::int16);
   EXPECT_EQ(c.fields()[1].values, (std::vector<double>{-2, 258}));
-  EXPECT_EQ(c.fields()[2].type, scalar_type::float64);
+  EXPECT_EQ(c.fields()[2].type(), scalar_type::float64);
   EXPECT_EQ(c.fields()[2].values, (std::vector<double>{0.25, -2.0}));
-  EXPECT_EQ(c.fields()[3].type, scalar_type::uint32);
+  EXPECT_EQ(c.fields()[3].type(), scalar_type::uint32);
   EXPECT_EQ(c.fields()[3].values, (std::vector<double>{70000, 1}));
   EXPECT_EQ(c.origin(), (std::array<double, 3>{0, 0, 0}));
 }

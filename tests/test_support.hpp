@@ -12,6 +12,14 @@
 
 namespace ced_test {
 
+/// The values of `c` as doubles, with value i replaced by `v` (for fields
+/// whose type cannot hold v: rebuild them as float columns).
+inline std::vector<double> with_value(const ced::column& c, std::size_t i, double v) {
+  std::vector<double> out = c.to_doubles();
+  out.at(i) = v;
+  return out;
+}
+
 /// A noisy coloured "room corner": three planes plus a box, coloured patches,
 /// extra channels `nir` (uint8) and `intensity` (uint16). Deterministic.
 inline ced::point_cloud make_room(std::size_t n, std::uint32_t seed, float noise = 0.002f) {

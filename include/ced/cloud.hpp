@@ -3,18 +3,24 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <iosfwd>
+#include <iterator>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace ced {
 
-/// Storage type a per-point field had in its file. Values are kept as double
-/// in memory; the type is remembered to normalise integers by their range and
-/// to write the field back as it was.
+/// Storage type of a per-point field: the type it had in its file, which it
+/// keeps in memory (a LAS intensity stays 2 bytes a point). Integers are
+/// normalised by their type's range, and fields are written back as they were.
 enum class scalar_type : std::uint8_t { int8, uint8, int16, uint16, int32, uint32, int64, uint64, float32, float64 };
 
 /// Size in bytes of one value of `t`.
@@ -27,11 +33,274 @@ bool is_integer(scalar_type t) noexcept;
 /// types, [0,1]: float fields are taken to be already normalised.
 std::array<double, 2> natural_range(scalar_type t) noexcept;
 
+/// The C++ type that stores values of scalar_type `T` (uint8 → std::uint8_t ...).
+template <scalar_type T>
+struct storage_of;
+template <>
+struct storage_of<scalar_type::int8> {
+  using type = std::int8_t;
+};
+template <>
+struct storage_of<scalar_type::uint8> {
+  using type = std::uint8_t;
+};
+template <>
+struct storage_of<scalar_type::int16> {
+  using type = std::int16_t;
+};
+template <>
+struct storage_of<scalar_type::uint16> {
+  using type = std::uint16_t;
+};
+template <>
+struct storage_of<scalar_type::int32> {
+  using type = std::int32_t;
+};
+template <>
+struct storage_of<scalar_type::uint32> {
+  using type = std::uint32_t;
+};
+template <>
+struct storage_of<scalar_type::int64> {
+  using type = std::int64_t;
+};
+template <>
+struct storage_of<scalar_type::uint64> {
+  using type = std::uint64_t;
+};
+template <>
+struct storage_of<scalar_type::float32> {
+  using type = float;
+};
+template <>
+struct storage_of<scalar_type::float64> {
+  using type = double;
+};
+
+/// The scalar_type that stores C++ type `T`.
+template <class T>
+constexpr scalar_type scalar_type_of() noexcept {
+  if constexpr (std::is_same_v<T, std::int8_t>)
+    return scalar_type::int8;
+  else if constexpr (std::is_same_v<T, std::uint8_t>)
+    return scalar_type::uint8;
+  else if constexpr (std::is_same_v<T, std::int16_t>)
+    return scalar_type::int16;
+  else if constexpr (std::is_same_v<T, std::uint16_t>)
+    return scalar_type::uint16;
+  else if constexpr (std::is_same_v<T, std::int32_t>)
+    return scalar_type::int32;
+  else if constexpr (std::is_same_v<T, std::uint32_t>)
+    return scalar_type::uint32;
+  else if constexpr (std::is_same_v<T, std::int64_t>)
+    return scalar_type::int64;
+  else if constexpr (std::is_same_v<T, std::uint64_t>)
+    return scalar_type::uint64;
+  else if constexpr (std::is_same_v<T, float>)
+    return scalar_type::float32;
+  else {
+    static_assert(std::is_same_v<T, double>, "not a storage type of a field");
+    return scalar_type::float64;
+  }
+}
+
+/// Calls `f(tag)` with `tag` a value of the C++ type that stores `t`
+/// (`decltype(tag)` is std::uint8_t for uint8, ...).
+template <class F>
+decltype(auto) visit_type(scalar_type t, F&& f) {
+  switch (t) {
+    case scalar_type::int8:
+      return f(std::int8_t{});
+    case scalar_type::uint8:
+      return f(std::uint8_t{});
+    case scalar_type::int16:
+      return f(std::int16_t{});
+    case scalar_type::uint16:
+      return f(std::uint16_t{});
+    case scalar_type::int32:
+      return f(std::int32_t{});
+    case scalar_type::uint32:
+      return f(std::uint32_t{});
+    case scalar_type::int64:
+      return f(std::int64_t{});
+    case scalar_type::uint64:
+      return f(std::uint64_t{});
+    case scalar_type::float32:
+      return f(float{});
+    case scalar_type::float64:
+      break;
+  }
+  return f(double{});
+}
+
+/// `v` converted to storage type T, as fields store values given as double
+/// and as writers encode them: integers rounded to nearest and clamped to
+/// T's range, NaN to 0; floats by a cast (beyond the float range: ±inf).
+/// Never undefined behaviour.
+template <class T>
+T convert_value(double v) noexcept {
+  if constexpr (std::is_floating_point_v<T>) {
+    if (std::is_same_v<T, float> && v - v == 0 &&
+        (v > double(std::numeric_limits<float>::max()) || v < -double(std::numeric_limits<float>::max())))
+      return v > 0 ? std::numeric_limits<T>::infinity() : -std::numeric_limits<T>::infinity();
+    return static_cast<T>(v);
+  } else {
+    if (!(v == v)) return T(0);
+    constexpr double lo = double(std::numeric_limits<T>::min()), hi = double(std::numeric_limits<T>::max());
+    v = std::round(v);
+    if (v <= lo) return std::numeric_limits<T>::min();
+    if (v >= hi) return std::numeric_limits<T>::max();
+    return static_cast<T>(v);
+  }
+}
+
+/// One column of per-point values kept in their storage type (1 to 8 bytes a
+/// value), read as doubles or through a typed pointer.
+///
+///     double v = column[i];                       // any type, as double
+///     if (column.type() == ced::scalar_type::uint16) {
+///       const std::uint16_t* p = column.data<std::uint16_t>();  // no copy
+///     }
+///     column.visit([](const auto* p, std::size_t n) { ... });  // p typed
+///
+/// Threading: const member functions may be called concurrently.
+class column {
+ public:
+  column() = default;
+  /// `n` zeros of `type`.
+  explicit column(scalar_type type, std::size_t n = 0) : m_type(type) { resize(n); }
+  /// `values` converted to `type` (see convert_value()).
+  column(scalar_type type, const std::vector<double>& values);
+
+  scalar_type type() const noexcept { return m_type; }
+  std::size_t size() const noexcept { return m_size; }
+  bool empty() const noexcept { return m_size == 0; }
+
+  /// Value i as a double (exact for every type but 64-bit integers beyond 2^53).
+  double operator[](std::size_t i) const noexcept {
+    return visit_type(m_type, [&](auto tag) { return static_cast<double>(data<decltype(tag)>()[i]); });
+  }
+  /// Sets value i, converted to the column's type (see convert_value()).
+  void set(std::size_t i, double v) noexcept {
+    visit_type(m_type, [&](auto tag) { data<decltype(tag)>()[i] = convert_value<decltype(tag)>(v); });
+  }
+
+  /// The values as `T`, which must be the storage type (throws
+  /// std::logic_error naming both types otherwise).
+  template <class T>
+  const T* data() const {
+    check_type(scalar_type_of<T>());
+    return reinterpret_cast<const T*>(m_bytes.data());
+  }
+  template <class T>
+  T* data() {
+    check_type(scalar_type_of<T>());
+    return reinterpret_cast<T*>(m_bytes.data());
+  }
+  /// Calls `f(const T* values, std::size_t n)` with the column's own type T.
+  template <class F>
+  decltype(auto) visit(F&& f) const {
+    return visit_type(m_type, [&](auto tag) { return f(data<decltype(tag)>(), m_size); });
+  }
+  template <class F>
+  decltype(auto) visit(F&& f) {
+    return visit_type(m_type, [&](auto tag) { return f(data<decltype(tag)>(), m_size); });
+  }
+  /// The raw bytes: size() × size_of(type()).
+  const unsigned char* bytes() const noexcept { return m_bytes.data(); }
+  unsigned char* bytes() noexcept { return m_bytes.data(); }
+
+  /// Resizes; new values are 0.
+  void resize(std::size_t n) {
+    m_bytes.resize(n * size_of(m_type));
+    m_size = n;
+  }
+  /// All values as doubles (a copy).
+  std::vector<double> to_doubles() const;
+
+  /// Iterates over the values as doubles.
+  class const_iterator {
+   public:
+    using iterator_category = std::random_access_iterator_tag;
+    using value_type = double;
+    using difference_type = std::ptrdiff_t;
+    using pointer = void;
+    using reference = double;
+    const_iterator(const column* c, std::size_t i) noexcept : m_c(c), m_i(i) {}
+    double operator*() const noexcept { return (*m_c)[m_i]; }
+    double operator[](difference_type k) const noexcept { return (*m_c)[m_i + std::size_t(k)]; }
+    const_iterator& operator++() noexcept { return ++m_i, *this; }
+    const_iterator operator++(int) noexcept { return {m_c, m_i++}; }
+    const_iterator& operator--() noexcept { return --m_i, *this; }
+    const_iterator& operator+=(difference_type k) noexcept { return m_i += std::size_t(k), *this; }
+    const_iterator operator+(difference_type k) const noexcept { return {m_c, m_i + std::size_t(k)}; }
+    const_iterator operator-(difference_type k) const noexcept { return {m_c, m_i - std::size_t(k)}; }
+    difference_type operator-(const const_iterator& o) const noexcept { return difference_type(m_i - o.m_i); }
+    bool operator==(const const_iterator& o) const noexcept { return m_i == o.m_i; }
+    bool operator!=(const const_iterator& o) const noexcept { return m_i != o.m_i; }
+    bool operator<(const const_iterator& o) const noexcept { return m_i < o.m_i; }
+
+   private:
+    const column* m_c;
+    std::size_t m_i;
+  };
+  const_iterator begin() const noexcept { return {this, 0}; }
+  const_iterator end() const noexcept { return {this, m_size}; }
+
+  /// Value by value, as doubles (the types may differ; NaN equals nothing).
+  friend bool operator==(const column& a, const column& b) noexcept { return a.equals(b.begin(), b.size()); }
+  friend bool operator==(const column& a, const std::vector<double>& b) noexcept {
+    return a.equals(b.begin(), b.size());
+  }
+  friend bool operator==(const std::vector<double>& a, const column& b) noexcept { return b == a; }
+  friend bool operator!=(const column& a, const column& b) noexcept { return !(a == b); }
+  friend bool operator!=(const column& a, const std::vector<double>& b) noexcept { return !(a == b); }
+  friend bool operator!=(const std::vector<double>& a, const column& b) noexcept { return !(b == a); }
+
+ private:
+  void check_type(scalar_type t) const {
+    if (t != m_type)
+      throw std::logic_error("column of " + std::string(name_of(m_type)) + " read as " + std::string(name_of(t)));
+  }
+  template <class It>
+  bool equals(It b, std::size_t n) const noexcept {
+    if (n != m_size) return false;
+    for (std::size_t i = 0; i < n; ++i, ++b)
+      if (!((*this)[i] == *b)) return false;
+    return true;
+  }
+
+  scalar_type m_type = scalar_type::float64;
+  std::size_t m_size = 0;
+  std::vector<unsigned char> m_bytes;  // operator new's alignment: enough for any type
+};
+
+/// Prints a column as its values (for test failures).
+std::ostream& operator<<(std::ostream& out, const column& c);
+
 /// One named per-point field (a "channel"): intensity, red, nir, ...
 struct field {
   std::string name;
-  scalar_type type = scalar_type::float32;
-  std::vector<double> values;  ///< one value per point, as stored in the file
+  column values;  ///< one value per point, in the type it had in its file
+
+  field() = default;
+  field(std::string n, column v) : name(std::move(n)), values(std::move(v)) {}
+  field(std::string n, scalar_type t, const std::vector<double>& v) : name(std::move(n)), values(t, v) {}
+  /// The storage type (the file's).
+  scalar_type type() const noexcept { return values.type(); }
+};
+
+/// Which fields a reader keeps: every field (the default), or those named
+/// (matched ignoring ASCII case). A reader skips the others while reading
+/// where its format allows (LAS), or drops them right after.
+struct field_selection {
+  bool all = true;
+  std::vector<std::string> names;
+
+  /// Only the fields named in `names`.
+  static field_selection only(std::vector<std::string> names) { return {false, std::move(names)}; }
+  /// True when the field `name` is kept.
+  bool wants(std::string_view name) const noexcept;
 };
 
 /// A point cloud: N positions (float, struct of rows: x0 y0 z0 x1 y1 z1 ...)
@@ -79,14 +348,20 @@ class point_cloud {
   /// the fields present when it is missing.
   const field& get_field(std::string_view name) const;
 
-  /// Adds (or replaces) a field. `values.size()` must equal size().
-  field& add_field(std::string name, scalar_type type, std::vector<double> values);
+  /// Adds (or replaces) a field. `values.size()` must equal size(); the
+  /// values are converted to `type` (see convert_value()).
+  field& add_field(std::string name, scalar_type type, const std::vector<double>& values);
+  /// Adds (or replaces) a field that keeps `values` as they are.
+  field& add_field(std::string name, column values);
 
   /// Convenience: adds uchar red/green/blue fields from N×3 bytes.
   void add_rgb(const std::vector<std::array<std::uint8_t, 3>>& rgb);
 
   /// True when the cloud has red, green and blue fields (any case, or r/g/b).
   bool has_rgb() const noexcept;
+
+  /// Removes the fields that `selection` does not want.
+  void keep_fields(const field_selection& selection);
 
   /// Keeps only the points whose `keep[i]` is non-zero, in order (positions and fields).
   void filter(const std::vector<std::uint8_t>& keep);

@@ -42,6 +42,11 @@ namespace ced {
 //     It is given the point and the indices of its neighbours.
 // An evaluator that offers both is run as (a).
 //
+// Optionally, M declares the fields bind() reads (names matched ignoring
+// case), so that the CLI reads only those from a file:
+//   std::vector<std::string> fields() const;        // {} for positions only
+// Without it, every field is read.
+//
 // To be usable from strings (CLI, config, plugins), M also provides
 //   static constexpr const char* spec_name = "rgb";
 //   static M from_spec(modality_spec&);
@@ -68,6 +73,12 @@ struct reads_neighbors<E, std::void_t<decltype(float(std::declval<const E&>()(st
     : std::true_type {};
 
 template <class M, class = void>
+struct declares_fields : std::false_type {};
+template <class M>
+struct declares_fields<M, std::void_t<decltype(std::vector<std::string>(std::declval<const M&>().fields()))>>
+    : std::true_type {};
+
+template <class M, class = void>
 struct is_modality : std::false_type {};
 template <class M>
 struct is_modality<
@@ -86,6 +97,16 @@ inline constexpr bool sums_neighbors_v = detail::sums_neighbors<E>::value;
 /// list: (b).
 template <class E>
 inline constexpr bool reads_neighbors_v = detail::reads_neighbors<E>::value;
+
+/// The fields modality `m` reads (matched ignoring case), or nullopt when it
+/// does not say (then it may read any).
+template <class M>
+std::optional<std::vector<std::string>> fields_of(const M& m) {
+  if constexpr (detail::declares_fields<M>::value)
+    return std::vector<std::string>(m.fields());
+  else
+    return std::nullopt;
+}
 
 /// True when M models the Modality concept above.
 template <class M>
@@ -154,6 +175,8 @@ class any_modality {
   explicit operator bool() const noexcept { return m_self != nullptr; }
   std::string name() const { return m_self->name(); }
   double threshold(const detect_params& p) const { return m_self->threshold(p); }
+  /// The fields it reads (matched ignoring case), or nullopt: any.
+  std::optional<std::vector<std::string>> fields() const { return m_self->fields(); }
   std::unique_ptr<bound_modality> bind(const point_cloud& c, const detect_params& p) const {
     return m_self->bind(c, p);
   }
@@ -163,6 +186,7 @@ class any_modality {
     virtual ~concept_t() = default;
     virtual std::string name() const = 0;
     virtual double threshold(const detect_params&) const = 0;
+    virtual std::optional<std::vector<std::string>> fields() const = 0;
     virtual std::unique_ptr<bound_modality> bind(const point_cloud&, const detect_params&) const = 0;
   };
   template <class M>
@@ -178,6 +202,7 @@ class any_modality {
     };
     std::string name() const override { return std::string(modality.name()); }
     double threshold(const detect_params& p) const override { return modality.threshold(p); }
+    std::optional<std::vector<std::string>> fields() const override { return fields_of(modality); }
     std::unique_ptr<bound_modality> bind(const point_cloud& c, const detect_params& p) const override {
       return std::make_unique<bound>(modality.bind(c, p));
     }

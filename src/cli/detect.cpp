@@ -93,6 +93,21 @@ ced::render_options render_view(const detect_options& o) {
   return view;
 }
 
+/// The fields to read: those the modalities and the outputs need. -o and
+/// --viewer write every field; --png and the default preset look for colour.
+ced::field_selection needed_fields(const detect_options& o, const std::vector<ced::any_modality>& modalities) {
+  if (!o.output.empty() || !o.viewer.empty()) return {};
+  const std::vector<std::string> colour = {"red", "green", "blue", "r", "g", "b"};
+  std::vector<std::string> names;
+  if (modalities.empty() || !o.png.empty()) names = colour;
+  for (const auto& m : modalities) {
+    const auto f = m.fields();
+    if (!f) return {};  // a modality that does not say: everything
+    names.insert(names.end(), f->begin(), f->end());
+  }
+  return ced::field_selection::only(std::move(names));
+}
+
 /// Parameters first: a usage error must not cost a file read.
 detect_plan make_plan(const detect_options& o) {
   detect_plan plan;
@@ -103,6 +118,7 @@ detect_plan make_plan(const detect_options& o) {
   if (!o.viewer.empty() && ced::io::format_of(o.viewer) != ced::io::file_format::ply)
     throw usage_error("--viewer writes PLY: give it a .ply file name");
   plan.read_opts = make_read_options(o.format, o.columns);
+  plan.read_opts.fields = needed_fields(o, plan.modalities);
   return plan;
 }
 

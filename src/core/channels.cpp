@@ -38,16 +38,19 @@ value_range resolve_range(const field& f, const range_policy& policy) {
     case range_policy::kind::fixed:
       return policy.fixed;
     case range_policy::kind::natural: {
-      const auto r = natural_range(f.type);
+      const auto r = natural_range(f.type());
       return {r[0], r[1]};
     }
     case range_policy::kind::data: {
       if (f.values.empty()) return {0.0, 1.0};
       double lo = f.values[0], hi = f.values[0];
-      for (double v : f.values) {
-        lo = std::min(lo, v);
-        hi = std::max(hi, v);
-      }
+      f.values.visit([&](const auto* p, std::size_t n) {
+        for (std::size_t i = 0; i < n; ++i) {
+          const double v = static_cast<double>(p[i]);
+          lo = std::min(lo, v);
+          hi = std::max(hi, v);
+        }
+      });
       if (!(hi > lo)) hi = lo + 1.0;
       return {lo, hi};
     }
@@ -82,6 +85,36 @@ std::size_t first_unfit(const double* v, std::size_t n) noexcept {
   return n;
 }
 
+/// The same for a float column: NaN or infinite.
+std::size_t first_unfit(const float* v, std::size_t n) noexcept {
+  constexpr std::size_t chunk = 4096;
+  for (std::size_t b = 0; b < n; b += chunk) {
+    const std::size_t e = std::min(n, b + chunk);
+    std::uint32_t bad = 0;
+    for (std::size_t i = b; i < e; ++i) {
+      std::uint32_t bits;
+      std::memcpy(&bits, v + i, sizeof bits);
+      bad |= ((bits & 0x7f800000u) + (1u << 23)) & (1u << 31);  // exponent all ones
+    }
+    if (bad == 0) continue;
+    for (std::size_t i = b; i < e; ++i)
+      if (!std::isfinite(v[i])) return i;
+  }
+  return n;
+}
+
+/// The same for any column: integers always fit (even 2^64 is a finite float).
+std::size_t first_unfit(const column& c) noexcept {
+  switch (c.type()) {
+    case scalar_type::float64:
+      return first_unfit(c.data<double>(), c.size());
+    case scalar_type::float32:
+      return first_unfit(c.data<float>(), c.size());
+    default:
+      return c.size();
+  }
+}
+
 std::string shortest(double v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.10g", v);
@@ -96,7 +129,7 @@ std::vector<float> interleave(const std::vector<const field*>& fields, unsigned 
   if (d == 0) return {};
   const std::size_t n = fields[0]->values.size();
   for (const field* f : fields) {
-    const std::size_t bad = first_unfit(f->values.data(), n);
+    const std::size_t bad = first_unfit(f->values);
     if (bad != n)
       throw std::invalid_argument("field '" + f->name + "' has a value that is not finite or beyond the float range (" +
                                   shortest(f->values[bad]) + ") at point " + std::to_string(bad));
@@ -104,8 +137,10 @@ std::vector<float> interleave(const std::vector<const field*>& fields, unsigned 
   std::vector<float> out(n * d);
   detail::parallel_for(n, threads, 1 << 15, [&](std::size_t b, std::size_t e) {
     for (std::size_t k = 0; k < d; ++k) {
-      const double* v = fields[k]->values.data();
-      for (std::size_t i = b; i < e; ++i) out[i * d + k] = static_cast<float>(v[i]);
+      // Through double, as the values were read before fields kept their type.
+      fields[k]->values.visit([&](const auto* v, std::size_t) {
+        for (std::size_t i = b; i < e; ++i) out[i * d + k] = static_cast<float>(static_cast<double>(v[i]));
+      });
     }
   });
   return out;
@@ -131,7 +166,7 @@ std::vector<const field*> require_fields(const point_cloud& cloud, const std::ve
 
 void require_finite(const field& f, const std::string& modality) {
   const std::size_t n = f.values.size();
-  const std::size_t i = first_unfit(f.values.data(), n);
+  const std::size_t i = first_unfit(f.values);
   if (i == n) return;
   const double v = f.values[i];
   const std::string where = "modality '" + modality + "': field '" + f.name + "' has ";

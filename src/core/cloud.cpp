@@ -5,6 +5,8 @@
 #include <cctype>
 #include <cmath>
 #include <limits>
+#include <ostream>
+#include <type_traits>
 
 namespace ced {
 
@@ -90,6 +92,20 @@ bool iequal(std::string_view a, std::string_view b) {
 }
 }  // namespace
 
+bool field_selection::wants(std::string_view name) const noexcept {
+  if (all) return true;
+  for (const auto& n : names)
+    if (iequal(n, name)) return true;
+  return false;
+}
+
+void point_cloud::keep_fields(const field_selection& selection) {
+  if (selection.all) return;
+  m_fields.erase(
+      std::remove_if(m_fields.begin(), m_fields.end(), [&](const field& f) { return !selection.wants(f.name); }),
+      m_fields.end());
+}
+
 const field* point_cloud::find_field(std::string_view name) const noexcept {
   for (const auto& f : m_fields)
     if (f.name == name) return &f;
@@ -111,26 +127,55 @@ const field& point_cloud::get_field(std::string_view name) const {
                               "' (fields present: " + (present.empty() ? "none" : present) + ")");
 }
 
-field& point_cloud::add_field(std::string name, scalar_type type, std::vector<double> values) {
+column::column(scalar_type type, const std::vector<double>& values) : m_type(type) {
+  resize(values.size());
+  visit([&](auto* p, std::size_t n) {
+    using T = std::remove_cv_t<std::remove_pointer_t<decltype(p)>>;
+    for (std::size_t i = 0; i < n; ++i) p[i] = convert_value<T>(values[i]);
+  });
+}
+
+std::vector<double> column::to_doubles() const {
+  std::vector<double> out(m_size);
+  visit([&](const auto* p, std::size_t n) {
+    for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<double>(p[i]);
+  });
+  return out;
+}
+
+std::ostream& operator<<(std::ostream& out, const column& c) {
+  out << name_of(c.type()) << "{";
+  for (std::size_t i = 0; i < c.size(); ++i) out << (i ? ", " : "") << c[i];
+  return out << "}";
+}
+
+field& point_cloud::add_field(std::string name, scalar_type type, const std::vector<double>& values) {
+  if (values.size() != size())
+    throw std::invalid_argument("field '" + name + "' has " + std::to_string(values.size()) + " values for " +
+                                std::to_string(size()) + " points");
+  return add_field(std::move(name), column(type, values));
+}
+
+field& point_cloud::add_field(std::string name, column values) {
   if (values.size() != size())
     throw std::invalid_argument("field '" + name + "' has " + std::to_string(values.size()) + " values for " +
                                 std::to_string(size()) + " points");
   for (auto& f : m_fields)
     if (f.name == name) {
-      f.type = type;
       f.values = std::move(values);
       return f;
     }
-  m_fields.push_back(field{std::move(name), type, std::move(values)});
+  m_fields.emplace_back(std::move(name), std::move(values));
   return m_fields.back();
 }
 
 void point_cloud::add_rgb(const std::vector<std::array<std::uint8_t, 3>>& rgb) {
   const char* names[3] = {"red", "green", "blue"};
   for (int c = 0; c < 3; ++c) {
-    std::vector<double> v(rgb.size());
-    for (std::size_t i = 0; i < rgb.size(); ++i) v[i] = rgb[i][static_cast<std::size_t>(c)];
-    add_field(names[c], scalar_type::uint8, std::move(v));
+    column v(scalar_type::uint8, rgb.size());
+    std::uint8_t* p = v.data<std::uint8_t>();
+    for (std::size_t i = 0; i < rgb.size(); ++i) p[i] = rgb[i][static_cast<std::size_t>(c)];
+    add_field(names[c], std::move(v));
   }
 }
 
@@ -177,7 +222,10 @@ void point_cloud::filter(const std::vector<std::uint8_t>& keep) {
     if (out != i) {
       for (int k = 0; k < 3; ++k)
         m_xyz[3 * out + static_cast<std::size_t>(k)] = m_xyz[3 * i + static_cast<std::size_t>(k)];
-      for (auto& f : m_fields) f.values[out] = f.values[i];
+      for (auto& f : m_fields) {
+        const std::size_t w = size_of(f.type());
+        std::copy_n(f.values.bytes() + w * i, w, f.values.bytes() + w * out);
+      }
     }
     ++out;
   }

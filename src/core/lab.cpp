@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <type_traits>
 #include <vector>
 
 #include "ced/channels.hpp"
@@ -105,15 +106,11 @@ std::vector<float> lab_values(const std::array<const field*, 3>& f, const std::a
   // 8- and 16-bit channels hold few distinct values: linearise each once.
   std::array<std::vector<double>, 3> table;
   for (std::size_t c = 0; c < 3; ++c)
-    if (f[c]->type == scalar_type::uint8 || f[c]->type == scalar_type::uint16) {
-      table[c].resize(f[c]->type == scalar_type::uint8 ? 256 : 65536);
+    if (f[c]->type() == scalar_type::uint8 || f[c]->type() == scalar_type::uint16) {
+      table[c].resize(f[c]->type() == scalar_type::uint8 ? 256 : 65536);
       for (std::size_t v = 0; v < table[c].size(); ++v)
         table[c][v] = srgb_to_linear(static_cast<float>(double(v) * scale[c]));
     }
-  auto linear = [&](std::size_t c, std::size_t i) {
-    const double v = f[c]->values[i];
-    return table[c].empty() ? srgb_to_linear(static_cast<float>(v * scale[c])) : table[c][static_cast<std::size_t>(v)];
-  };
   std::vector<float> out(3 * n);
   detail::parallel_for(n, threads, 1 << 14, [&](std::size_t b, std::size_t e) {
     constexpr std::size_t batch = 256;
@@ -121,7 +118,17 @@ std::vector<float> lab_values(const std::array<const field*, 3>& f, const std::a
     for (std::size_t i = b; i < e; i += batch) {
       const std::size_t m = std::min(batch, e - i);
       for (std::size_t c = 0; c < 3; ++c)
-        for (std::size_t k = 0; k < m; ++k) rgb[c][k] = linear(c, i + k);
+        f[c]->values.visit([&](const auto* v, std::size_t) {
+          using T = std::remove_cv_t<std::remove_reference_t<decltype(*v)>>;
+          if constexpr (std::is_same_v<T, std::uint8_t> || std::is_same_v<T, std::uint16_t>) {
+            if (!table[c].empty()) {
+              for (std::size_t k = 0; k < m; ++k) rgb[c][k] = table[c][v[i + k]];
+              return;
+            }
+          }
+          for (std::size_t k = 0; k < m; ++k)
+            rgb[c][k] = srgb_to_linear(static_cast<float>(static_cast<double>(v[i + k]) * scale[c]));
+        });
       linear_srgb_to_lab(rgb[0], rgb[1], rgb[2], m, out.data() + 3 * i);
     }
   });

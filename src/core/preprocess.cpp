@@ -36,7 +36,7 @@ voxel_result voxel_downsample(const point_cloud& cloud, double size) {
   out.cloud.set_origin(cloud.origin());
   const std::size_t n = cloud.size();
   if (n == 0) {
-    for (const auto& f : cloud.fields()) out.cloud.add_field(f.name, f.type, {});
+    for (const auto& f : cloud.fields()) out.cloud.add_field(f.name, f.type(), {});
     return out;
   }
   const float inv = static_cast<float>(1.0 / size);
@@ -91,12 +91,12 @@ voxel_result voxel_downsample(const point_cloud& cloud, double size) {
       double sum = 0;
       for (std::size_t q = a; q < b; ++q) sum += src.values[keyed[q].second];
       const double mean = sum / m;
-      fields[f].push_back(is_integer(src.type) ? std::trunc(mean) : mean);
+      fields[f].push_back(is_integer(src.type()) ? std::trunc(mean) : mean);
     }
     a = b;
   }
   for (std::size_t f = 0; f < fields.size(); ++f)
-    out.cloud.add_field(cloud.fields()[f].name, cloud.fields()[f].type, std::move(fields[f]));
+    out.cloud.add_field(cloud.fields()[f].name, cloud.fields()[f].type(), std::move(fields[f]));
   return out;
 }
 

@@ -445,7 +445,7 @@ void write_csv_unchecked(std::ostream& out, const point_cloud& cloud) {
         *p++ = ',';
       }
       for (const auto& f : cloud.fields()) {
-        visit_type(f.type, [&](auto tag) {
+        visit_type(f.type(), [&](auto tag) {
           using T = decltype(tag);
           p = std::to_chars(p, end, convert<T>(f.values[i])).ptr;
         });

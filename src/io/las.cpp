@@ -27,7 +27,6 @@ namespace {
 // ---------------------------------------------------------------- utilities
 
 using detail::convert;
-using detail::visit_type;
 
 [[noreturn]] void fail(const std::string& file, const std::string& msg) { throw io_error(file + ": " + msg); }
 
@@ -156,6 +155,15 @@ std::vector<extra_desc> parse_extra_bytes(const unsigned char* p, std::size_t le
   return out;
 }
 
+/// Values of type T at p, p + stride, ... as a column of their own type.
+template <class T>
+column decode_typed(const unsigned char* p, std::size_t stride, std::size_t n) {
+  column c(scalar_type_of<T>(), n);
+  T* v = c.data<T>();
+  for (std::size_t i = 0; i < n; ++i) v[i] = load_le<T>(p + i * stride);
+  return c;
+}
+
 template <class T>
 std::vector<double> decode_column(const unsigned char* p, std::size_t stride, std::size_t n) {
   std::vector<double> v(n);
@@ -163,10 +171,11 @@ std::vector<double> decode_column(const unsigned char* p, std::size_t stride, st
   return v;
 }
 
-std::vector<double> decode_bits(const unsigned char* p, std::size_t stride, std::size_t n, int shift, unsigned mask) {
-  std::vector<double> v(n);
-  for (std::size_t i = 0; i < n; ++i) v[i] = static_cast<double>((p[i * stride] >> shift) & mask);
-  return v;
+column decode_bits(const unsigned char* p, std::size_t stride, std::size_t n, int shift, unsigned mask) {
+  column c(scalar_type::uint8, n);
+  std::uint8_t* v = c.data<std::uint8_t>();
+  for (std::size_t i = 0; i < n; ++i) v[i] = static_cast<std::uint8_t>((p[i * stride] >> shift) & mask);
+  return c;
 }
 
 /// The bitwise OR of the byte at p + i * stride over all i < n.
@@ -177,13 +186,15 @@ unsigned or_of_bytes(const unsigned char* p, std::size_t stride, std::size_t n) 
 }
 
 /// `name`, or `name` with a suffix when the cloud already has such a field.
-std::string unique_name(const point_cloud& cloud, std::string name, std::size_t index) {
+/// `taken` holds every field name of the file so far, selected or not, so
+/// that a field's name never depends on the selection.
+std::string unique_name(std::vector<std::string>& taken, std::string name, std::size_t index) {
   if (name.empty()) name = "extra_" + std::to_string(index);
-  if (!cloud.find_field(name)) return name;
-  for (int k = 1;; ++k) {
-    std::string candidate = name + "_extra" + (k == 1 ? std::string() : std::to_string(k));
-    if (!cloud.find_field(candidate)) return candidate;
-  }
+  const auto free = [&](const std::string& c) { return std::find(taken.begin(), taken.end(), c) == taken.end(); };
+  std::string candidate = name;
+  for (int k = 1; !free(candidate); ++k) candidate = name + "_extra" + (k == 1 ? std::string() : std::to_string(k));
+  taken.push_back(candidate);
+  return candidate;
 }
 
 /// A one-bit flag (or the 2-bit scanner channel) in byte 14 or 15 of a record.
@@ -194,7 +205,8 @@ struct flag_spec {
   unsigned mask;
 };
 
-point_cloud parse_las(std::string_view bytes, const std::string& file, las_read_info* info) {
+point_cloud parse_las(std::string_view bytes, const std::string& file, las_read_info* info,
+                      const field_selection& selection) {
   const auto* d = reinterpret_cast<const unsigned char*>(bytes.data());
   const std::size_t size = bytes.size();
   if (size < 4 || std::memcmp(d, "LASF", 4) != 0)
@@ -350,39 +362,45 @@ point_cloud parse_las(std::string_view bytes, const std::string& file, las_read_
                                                    {"withheld", 15, 2, 1},           {"overlap", 15, 3, 1},
                                                    {"scanner_channel", 15, 4, 3},    {"scan_direction_flag", 15, 6, 1},
                                                    {"edge_of_flight_line", 15, 7, 1}};
-  cloud.add_field("intensity", st::uint16, decode_column<std::uint16_t>(at(12), stride, n));
+  // Only the selected fields are decoded.
+  std::vector<std::string> taken;  // every standard field's name, selected or not
+  const auto add = [&](const char* name, const auto& decode) {
+    taken.push_back(name);
+    if (selection.wants(name)) cloud.add_field(name, decode());
+  };
+  const auto typed = [&](auto tag, std::size_t off) {
+    return [&, off] { return decode_typed<decltype(tag)>(at(off), stride, n); };
+  };
+  const auto bits = [&](std::size_t off, int shift, unsigned mask) {
+    return [&, off, shift, mask] { return decode_bits(at(off), stride, n, shift, mask); };
+  };
+  add("intensity", typed(std::uint16_t{}, 12));
   if (layout.extended) {
-    cloud.add_field("return_number", st::uint8, decode_bits(at(14), stride, n, 0, 0x0F));
-    cloud.add_field("number_of_returns", st::uint8, decode_bits(at(14), stride, n, 4, 0x0F));
-    cloud.add_field("classification", st::uint8, decode_column<std::uint8_t>(at(16), stride, n));
-    cloud.add_field("scan_angle", st::int16, decode_column<std::int16_t>(at(18), stride, n));
-    cloud.add_field("user_data", st::uint8, decode_column<std::uint8_t>(at(17), stride, n));
-    cloud.add_field("point_source_id", st::uint16, decode_column<std::uint16_t>(at(20), stride, n));
+    add("return_number", bits(14, 0, 0x0F));
+    add("number_of_returns", bits(14, 4, 0x0F));
+    add("classification", typed(std::uint8_t{}, 16));
+    add("scan_angle", typed(std::int16_t{}, 18));
+    add("user_data", typed(std::uint8_t{}, 17));
+    add("point_source_id", typed(std::uint16_t{}, 20));
   } else {
-    cloud.add_field("return_number", st::uint8, decode_bits(at(14), stride, n, 0, 0x07));
-    cloud.add_field("number_of_returns", st::uint8, decode_bits(at(14), stride, n, 3, 0x07));
-    cloud.add_field("classification", st::uint8, decode_bits(at(15), stride, n, 0, 0x1F));
-    cloud.add_field("scan_angle", st::int8, decode_column<std::int8_t>(at(16), stride, n));
-    cloud.add_field("user_data", st::uint8, decode_column<std::uint8_t>(at(17), stride, n));
-    cloud.add_field("point_source_id", st::uint16, decode_column<std::uint16_t>(at(18), stride, n));
+    add("return_number", bits(14, 0, 0x07));
+    add("number_of_returns", bits(14, 3, 0x07));
+    add("classification", bits(15, 0, 0x1F));
+    add("scan_angle", typed(std::int8_t{}, 16));
+    add("user_data", typed(std::uint8_t{}, 17));
+    add("point_source_id", typed(std::uint16_t{}, 18));
   }
-  if (layout.gps >= 0)
-    cloud.add_field("gps_time", st::float64,
-                    decode_column<double>(at(static_cast<std::size_t>(layout.gps)), stride, n));
+  if (layout.gps >= 0) add("gps_time", typed(double{}, static_cast<std::size_t>(layout.gps)));
   if (layout.rgb >= 0) {
     const char* names[3] = {"red", "green", "blue"};
     for (std::size_t c = 0; c < 3; ++c)
-      cloud.add_field(names[c], st::uint16,
-                      decode_column<std::uint16_t>(at(static_cast<std::size_t>(layout.rgb) + 2 * c), stride, n));
+      add(names[c], typed(std::uint16_t{}, static_cast<std::size_t>(layout.rgb) + 2 * c));
   }
-  if (layout.nir >= 0)
-    cloud.add_field("nir", st::uint16,
-                    decode_column<std::uint16_t>(at(static_cast<std::size_t>(layout.nir)), stride, n));
+  if (layout.nir >= 0) add("nir", typed(std::uint16_t{}, static_cast<std::size_t>(layout.nir)));
   const unsigned bits_set[2] = {or_of_bytes(at(14), stride, n), or_of_bytes(at(15), stride, n)};
   const auto add_flags = [&](const auto& table) {
     for (const flag_spec& fl : table)
-      if ((bits_set[fl.offset - 14] >> fl.shift) & fl.mask)
-        cloud.add_field(fl.name, st::uint8, decode_bits(at(fl.offset), stride, n, fl.shift, fl.mask));
+      if ((bits_set[fl.offset - 14] >> fl.shift) & fl.mask) add(fl.name, bits(fl.offset, fl.shift, fl.mask));
   };
   if (layout.extended)
     add_flags(k_extended_flags);
@@ -394,6 +412,10 @@ point_cloud parse_las(std::string_view bytes, const std::string& file, las_read_
     const extra_desc& e = extras[j];
     for (int k = 0; k < e.count; ++k) {
       const std::size_t off = e.offset + size_of(e.type) * static_cast<std::size_t>(k);
+      std::string name =
+          e.count == 1 ? e.name : (e.name.empty() ? "extra_" + std::to_string(j) : e.name) + "_" + std::to_string(k);
+      name = unique_name(taken, std::move(name), j);
+      if (!selection.wants(name)) continue;
       std::vector<double> v;
       visit_type(e.type, [&](auto tag) { v = decode_column<decltype(tag)>(at(off), stride, n); });
       const bool scaled = (e.options & 8) != 0, offsetted = (e.options & 16) != 0;
@@ -401,9 +423,6 @@ point_cloud parse_las(std::string_view bytes, const std::string& file, las_read_
         for (double& x : v) x *= e.scale[k];
       if (offsetted)
         for (double& x : v) x += e.offset_value[k];
-      std::string name =
-          e.count == 1 ? e.name : (e.name.empty() ? "extra_" + std::to_string(j) : e.name) + "_" + std::to_string(k);
-      name = unique_name(cloud, std::move(name), j);
       cloud.add_field(std::move(name), scaled || offsetted ? st::float64 : e.type, std::move(v));
     }
   }
@@ -468,7 +487,7 @@ std::vector<slot_spec> standard_slots(const format_layout& layout) {
 
 /// A column to encode: a slot or an extra-bytes field.
 struct out_column {
-  const double* values = nullptr;  ///< nullptr: `constant` for every point
+  const column* values = nullptr;  ///< nullptr: `constant` for every point
   double constant = 0;
   double factor = 1;  ///< applied before conversion (scan angle units)
   slot_kind kind = slot_kind::u8;
@@ -481,7 +500,7 @@ struct out_column {
 };
 
 void encode_column(const out_column& c, std::size_t i0, std::size_t m, unsigned char* buf, std::size_t record) {
-  const auto value = [&](std::size_t i) { return (c.values ? c.values[i0 + i] : c.constant) * c.factor; };
+  const auto value = [&](std::size_t i) { return (c.values ? (*c.values)[i0 + i] : c.constant) * c.factor; };
   unsigned char* p = buf + c.offset;
   if (c.extra) {
     visit_type(c.type, [&](auto tag) {
@@ -586,10 +605,10 @@ void write_las_unchecked(std::ostream& out, const point_cloud& cloud, const las_
     c.max = s.max;
     c.flag = s.flag;
     if (f) {
-      c.values = f->values.data();
+      c.values = &f->values;
       used.push_back(f);
       if (name == "scan_angle") {
-        const bool degrees = f->type == scalar_type::int8;
+        const bool degrees = f->type() == scalar_type::int8;
         if (layout.extended && degrees) c.factor = 1 / 0.006;
         if (!layout.extended && !degrees) c.factor = 0.006;
       }
@@ -614,11 +633,11 @@ void write_las_unchecked(std::ostream& out, const point_cloud& cloud, const las_
   std::size_t record = layout.min_size;
   for (const field* f : extras) {
     out_column c;
-    c.values = f->values.data();
+    c.values = &f->values;
     c.extra = true;
-    c.type = f->type;
+    c.type = f->type();
     c.offset = record;
-    record += size_of(f->type);
+    record += size_of(f->type());
     cols.push_back(c);
   }
   if (record > std::numeric_limits<std::uint16_t>::max() ||
@@ -701,9 +720,9 @@ void write_las_unchecked(std::ostream& out, const point_cloud& cloud, const las_
     put_string(h, v + 22, 32, "extra bytes");
     v += k_vlr_header_size;
     for (const field* f : extras) {
-      put<std::uint8_t>(h, v + 2, static_cast<std::uint8_t>(extra_type_code(f->type)));
+      put<std::uint8_t>(h, v + 2, static_cast<std::uint8_t>(extra_type_code(f->type())));
       put_string(h, v + 4, 32, f->name);
-      put_string(h, v + 160, 32, "ced field (" + std::string(name_of(f->type)) + ")");
+      put_string(h, v + 160, 32, "ced field (" + std::string(name_of(f->type())) + ")");
       v += k_extra_bytes_descriptor_size;
     }
   }
@@ -727,13 +746,14 @@ void write_las_unchecked(std::ostream& out, const point_cloud& cloud, const las_
 
 }  // namespace
 
-point_cloud read_las_buffer(std::string_view bytes, const std::string& name, las_read_info* info) {
-  return parse_las(bytes, name, info);
+point_cloud read_las_buffer(std::string_view bytes, const std::string& name, las_read_info* info,
+                            const field_selection& fields) {
+  return parse_las(bytes, name, info, fields);
 }
 
-point_cloud read_las(const std::string& path, las_read_info* info) {
+point_cloud read_las(const std::string& path, las_read_info* info, const field_selection& fields) {
   const std::string data = detail::read_whole_file(path);
-  return parse_las(data, path, info);
+  return parse_las(data, path, info, fields);
 }
 
 void write_las(std::ostream& out, const point_cloud& cloud, const las_write_options& options) {

@@ -540,9 +540,9 @@ struct out_column {
   char type = 'F';
   std::size_t size = 4;
   scalar_type enc = scalar_type::float32;  ///< how values are encoded (rgb: uint32 bits)
-  const double* values = nullptr;          ///< field values, or nullptr
+  const column* values = nullptr;          ///< field values, or nullptr
   int axis = -1;                           ///< 0/1/2 for positions
-  const double* rgb[3] = {nullptr, nullptr, nullptr};
+  const column* rgb[3] = {nullptr, nullptr, nullptr};
 };
 
 char type_char(scalar_type t) noexcept {
@@ -561,8 +561,8 @@ char type_char(scalar_type t) noexcept {
 std::vector<out_column> plan_columns(const point_cloud& cloud, pcd_format fmt) {
   const std::size_t n = cloud.size();
   const field* rgb[3] = {cloud.find_field("red"), cloud.find_field("green"), cloud.find_field("blue")};
-  const bool pack = rgb[0] && rgb[1] && rgb[2] && rgb[0]->type == scalar_type::uint8 &&
-                    rgb[1]->type == scalar_type::uint8 && rgb[2]->type == scalar_type::uint8;
+  const bool pack = rgb[0] && rgb[1] && rgb[2] && rgb[0]->type() == scalar_type::uint8 &&
+                    rgb[1]->type() == scalar_type::uint8 && rgb[2]->type() == scalar_type::uint8;
   for (const auto& f : cloud.fields()) {
     if (f.name.empty() || f.name == "_" ||
         std::any_of(f.name.begin(), f.name.end(), [](char c) { return is_space(c) || c < 32 || c == 127; }))
@@ -596,13 +596,13 @@ std::vector<out_column> plan_columns(const point_cloud& cloud, pcd_format fmt) {
       c.type = fmt == pcd_format::ascii ? 'U' : 'F';
       c.size = 4;
       c.enc = scalar_type::uint32;
-      for (int k = 0; k < 3; ++k) c.rgb[k] = rgb[k]->values.data();
+      for (int k = 0; k < 3; ++k) c.rgb[k] = &rgb[k]->values;
     } else {
       c.name = f.name;
-      c.type = type_char(f.type);
-      c.size = size_of(f.type);
-      c.enc = f.type;
-      c.values = f.values.data();
+      c.type = type_char(f.type());
+      c.size = size_of(f.type());
+      c.enc = f.type();
+      c.values = &f.values;
     }
     cols.push_back(c);
   }
@@ -627,7 +627,9 @@ std::string make_header(const std::vector<out_column>& cols, std::size_t n, pcd_
 /// v[i] = value of column c for point i0 + i, i < m.
 void column_values(const out_column& c, const point_cloud& cloud, std::size_t i0, std::size_t m, double* v) {
   if (c.values) {
-    std::copy(c.values + i0, c.values + i0 + m, v);
+    c.values->visit([&](const auto* src, std::size_t) {
+      for (std::size_t i = 0; i < m; ++i) v[i] = static_cast<double>(src[i0 + i]);
+    });
   } else if (c.axis >= 0) {
     const auto k = static_cast<std::size_t>(c.axis);
     const double o = cloud.origin()[k];
@@ -638,9 +640,9 @@ void column_values(const out_column& c, const point_cloud& cloud, std::size_t i0
       for (std::size_t i = 0; i < m; ++i) v[i] = o + static_cast<double>(xyz[3 * (i0 + i) + k]);
   } else {
     for (std::size_t i = 0; i < m; ++i) {
-      const std::uint32_t r = convert<std::uint8_t>(c.rgb[0][i0 + i]);
-      const std::uint32_t g = convert<std::uint8_t>(c.rgb[1][i0 + i]);
-      const std::uint32_t b = convert<std::uint8_t>(c.rgb[2][i0 + i]);
+      const std::uint32_t r = convert<std::uint8_t>((*c.rgb[0])[i0 + i]);
+      const std::uint32_t g = convert<std::uint8_t>((*c.rgb[1])[i0 + i]);
+      const std::uint32_t b = convert<std::uint8_t>((*c.rgb[2])[i0 + i]);
       v[i] = static_cast<double>((r << 16) | (g << 8) | b);
     }
   }

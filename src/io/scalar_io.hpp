@@ -49,43 +49,6 @@ inline bool host_little_endian() noexcept {
   return b == 1;
 }
 
-/// Calls f(T{}) with the C++ type stored for `t`.
-template <class F>
-void visit_type(scalar_type t, F&& f) {
-  switch (t) {
-    case scalar_type::int8:
-      f(std::int8_t{});
-      return;
-    case scalar_type::uint8:
-      f(std::uint8_t{});
-      return;
-    case scalar_type::int16:
-      f(std::int16_t{});
-      return;
-    case scalar_type::uint16:
-      f(std::uint16_t{});
-      return;
-    case scalar_type::int32:
-      f(std::int32_t{});
-      return;
-    case scalar_type::uint32:
-      f(std::uint32_t{});
-      return;
-    case scalar_type::int64:
-      f(std::int64_t{});
-      return;
-    case scalar_type::uint64:
-      f(std::uint64_t{});
-      return;
-    case scalar_type::float32:
-      f(float{});
-      return;
-    case scalar_type::float64:
-      f(double{});
-      return;
-  }
-}
-
 /// Little-endian load/store (PCD binary data is little-endian in practice).
 template <class T>
 T load_le(const unsigned char* p) noexcept {
@@ -108,19 +71,7 @@ void store_le(unsigned char* p, T v) noexcept {
 /// Rounds and clamps to T's range (NaN -> 0) for integers; float: overflow -> inf.
 template <class T>
 T convert(double v) noexcept {
-  if constexpr (std::is_floating_point_v<T>) {
-    if (std::is_same_v<T, float> && std::isfinite(v) && std::fabs(v) > std::numeric_limits<float>::max())
-      return v > 0 ? std::numeric_limits<float>::infinity() : -std::numeric_limits<float>::infinity();
-    return static_cast<T>(v);
-  } else {
-    if (std::isnan(v)) return T(0);
-    const double lo = static_cast<double>(std::numeric_limits<T>::min());
-    const double hi = static_cast<double>(std::numeric_limits<T>::max());
-    v = std::round(v);
-    if (v <= lo) return std::numeric_limits<T>::min();
-    if (v >= hi) return std::numeric_limits<T>::max();
-    return static_cast<T>(v);
-  }
+  return convert_value<T>(v);
 }
 
 enum class parse_status { ok, not_a_number, not_an_integer, out_of_range };

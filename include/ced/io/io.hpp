@@ -30,6 +30,9 @@ file_format format_of(const std::string& path);
 struct read_options {
   file_format format = file_format::automatic;
   csv_options csv;
+  /// The fields to keep (default: all). LAS files decode only these; other
+  /// formats drop the rest right after reading.
+  field_selection fields;
 };
 
 /// What reading found besides the points.

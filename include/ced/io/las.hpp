@@ -57,9 +57,12 @@ struct las_read_info {
 /// before allocating).
 ///
 /// Threading: reentrant (no shared state).
-point_cloud read_las(const std::string& path, las_read_info* info = nullptr);
+/// With `fields`, only the fields it selects are decoded (the others cost
+/// nothing but their bytes in the file).
+point_cloud read_las(const std::string& path, las_read_info* info = nullptr, const field_selection& fields = {});
 /// Same, from the bytes of a whole LAS file; `name` names it in error messages.
-point_cloud read_las_buffer(std::string_view bytes, const std::string& name, las_read_info* info = nullptr);
+point_cloud read_las_buffer(std::string_view bytes, const std::string& name, las_read_info* info = nullptr,
+                            const field_selection& fields = {});
 
 /// Options for write_las().
 struct las_write_options {

@@ -30,6 +30,8 @@ struct bands {
     return s + ")";
   }
   double threshold(const detect_params&) const { return threshold_value; }
+  /// The fields bind() reads.
+  std::vector<std::string> fields() const { return names; }
   centroid_distance<0> bind(const point_cloud& cloud, const detect_params& params) const {
     if (names.empty()) throw std::invalid_argument("bands() needs at least one field name, e.g. bands(nir,red)");
     auto f = require_fields(cloud, names, name());

@@ -24,6 +24,8 @@ struct intensity {
 
   std::string name() const { return field_name == "intensity" ? "intensity" : "intensity(" + field_name + ")"; }
   double threshold(const detect_params&) const { return threshold_value; }
+  /// The fields bind() reads.
+  std::vector<std::string> fields() const { return {field_name}; }
   centroid_distance<1> bind(const point_cloud& cloud, const detect_params& params) const {
     auto f = require_fields(cloud, {field_name}, name());
     const value_range r = resolve_range(*f[0], range);

@@ -24,6 +24,8 @@ struct rgb {
 
   std::string name() const { return "rgb"; }
   double threshold(const detect_params&) const { return threshold_value; }
+  /// The fields bind() reads.
+  std::vector<std::string> fields() const { return {"red", "green", "blue", "r", "g", "b"}; }
   centroid_distance<3> bind(const point_cloud& cloud, const detect_params& params) const {
     const auto f = fields(cloud);
     const auto s = scale(f, range);
@@ -42,8 +44,13 @@ struct rgb {
   static std::array<double, 3> scale(const std::array<const field*, 3>& f, const std::optional<range_policy>& range) {
     bool eight_bit_in_16 = !range;
     for (const field* c : f) {
-      if (c->type != scalar_type::uint16 && c->type != scalar_type::int16) eight_bit_in_16 = false;
-      for (std::size_t i = 0; eight_bit_in_16 && i < c->values.size(); ++i) eight_bit_in_16 = c->values[i] <= 255.0;
+      if (c->type() != scalar_type::uint16 && c->type() != scalar_type::int16) eight_bit_in_16 = false;
+      if (eight_bit_in_16)
+        eight_bit_in_16 = c->values.visit([](const auto* v, std::size_t n) {
+          for (std::size_t i = 0; i < n; ++i)
+            if (v[i] > 255) return false;
+          return true;
+        });
     }
     std::array<double, 3> s{};
     for (std::size_t c = 0; c < 3; ++c) {

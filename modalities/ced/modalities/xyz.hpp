@@ -17,6 +17,8 @@ struct xyz {
 
   std::string name() const { return "xyz"; }
   double threshold(const detect_params& p) const { return ratio * p.radius; }
+  /// The fields bind() reads.
+  std::vector<std::string> fields() const { return {}; }
   centroid_distance<3> bind(const point_cloud& cloud, const detect_params&) const {
     return centroid_distance<3>(cloud, {1.0, 1.0, 1.0});
   }
