@@ -5,20 +5,17 @@
 #include <cmath>
 #include <fstream>
 #include <iterator>
-#include <limits>
 #include <random>
 #include <set>
-#include <thread>
 
 #include "ced/ced.hpp"
 #include "core/arena.hpp"
-#include "core/neighbor_block.hpp"
+#include "core/neighbor_index.hpp"
 #include "test_support.hpp"
 
 using ced_test::field_channel;
 using ced_test::make_room;
 using ced_test::oracle;
-using ced_test::with_value;
 using ced_test::xyz_channel;
 
 namespace {
@@ -104,80 +101,6 @@ TEST(Detect, SameResultForAnyThreadCountAndBlockSize) {
   EXPECT_EQ(r.keypoints, ref.keypoints);
 }
 
-// Four points: a cube corner and its three edge neighbours, 1 cm apart, radius
-// 1.5 cm, so every point sees all four. Centroid (0.25, 0.25, 0.25) cm:
-//   corner: |(0.25,0.25,0.25)| = 0.25·√3 cm;  tips: |(-0.75,0.25,0.25)| = √0.6875 cm.
-// The three tips tie for the maximum and all are kept; the corner is suppressed.
-// The neighbour pass is built for the baseline instruction set and for AVX2
-// (chosen at run time); both must give bitwise identical results, through
-// the register-accumulator paths (≤ 16 channels) and the any-count path.
-TEST(Detect, GenericAndAvx2NeighbourPassesAgreeBitwise) {
-  auto c = make_room(6000, 13);
-  std::vector<std::string> many;
-  std::mt19937 rng(3);
-  for (int b = 0; b < 20; ++b) {
-    std::vector<double> v(c.size());
-    for (double& x : v) x = double(rng() % 256);
-    many.push_back("b" + std::to_string(b));
-    c.add_field(many.back(), ced::scalar_type::uint8, std::move(v));
-  }
-  ced::detect_params p;
-  p.threads = 2;
-  const std::vector<ced::any_modality> mods = {ced::xyz{}, ced::rgb{}, ced::lab{}, ced::bands(many, 0.3)};
-  ced::detail::force_generic_kernel(false);
-  const std::string isa = ced::detail::kernel_isa();
-  const auto a = ced::detect(c, p, mods);
-  const auto a6 = ced::detect(c, p, ced::xyz{}, ced::rgb{});
-  ced::detail::force_generic_kernel(true);
-  EXPECT_STREQ(ced::detail::kernel_isa(), "generic");
-  const auto b = ced::detect(c, p, mods);
-  const auto b6 = ced::detect(c, p, ced::xyz{}, ced::rgb{});
-  ced::detail::force_generic_kernel(false);
-  if (isa == "generic") std::printf("note: this CPU has no AVX2; both runs used the generic pass\n");
-  ASSERT_GT(a.keypoints.size(), 10u);
-  EXPECT_EQ(a.saliency, b.saliency);  // bitwise
-  EXPECT_EQ(a.keypoints, b.keypoints);
-  EXPECT_EQ(a.neighbor_count, b.neighbor_count);
-  EXPECT_EQ(a6.saliency, b6.saliency);
-  EXPECT_EQ(a6.keypoints, b6.keypoints);
-}
-
-// A modality whose evaluator reads neighbour lists (not sums) gets exactly
-// the neighbourhoods of the definition: a checksum of each point's neighbour
-// indices matches brute force, for several block sizes.
-namespace {
-struct neighbour_checksum {
-  std::string name() const { return "checksum"; }
-  double threshold(const ced::detect_params&) const { return 1e30; }
-  struct evaluator {
-    float operator()(const ced::neighborhood& nb) const {
-      std::uint32_t sum = 0;
-      for (std::uint32_t j : nb) sum += (j * 2654435761u) % 1000u;
-      return static_cast<float>(sum);
-    }
-  };
-  evaluator bind(const ced::point_cloud&, const ced::detect_params&) const { return {}; }
-};
-}  // namespace
-
-TEST(Detect, ListEvaluatorsSeeExactNeighbourhoods) {
-  static_assert(!ced::sums_neighbors_v<neighbour_checksum::evaluator>);
-  const auto c = make_room(3000, 23);
-  ced::detect_params p;
-  p.min_neighbors = 0;
-  const auto nb = ced_test::brute_neighbors(c, p.radius);
-  for (double scale : {1.0, 4.0}) {
-    p.block_scale = scale;
-    const auto r = ced::detect(c, p, neighbour_checksum{}, ced::xyz{});
-    for (std::size_t i = 0; i < c.size(); ++i) {
-      std::uint32_t sum = 0;
-      for (auto j : nb[i]) sum += (static_cast<std::uint32_t>(j) * 2654435761u) % 1000u;
-      ASSERT_EQ(r.saliency[0][i], static_cast<float>(sum)) << "point " << i << ", block scale " << scale;
-      ASSERT_EQ(r.neighbor_count[i], nb[i].size());
-    }
-  }
-}
-
 // Block sizes from a fraction of the radius to many radii (few and many
 // gathered points per block, sub-grids of every shape) all match the oracle.
 TEST(Detect, AnyBlockScaleMatchesOracle) {
@@ -194,6 +117,10 @@ TEST(Detect, AnyBlockScaleMatchesOracle) {
   }
 }
 
+// Four points: a cube corner and its three edge neighbours, 1 cm apart, radius
+// 1.5 cm, so every point sees all four. Centroid (0.25, 0.25, 0.25) cm:
+//   corner: |(0.25,0.25,0.25)| = 0.25·√3 cm;  tips: |(-0.75,0.25,0.25)| = √0.6875 cm.
+// The three tips tie for the maximum and all are kept; the corner is suppressed.
 TEST(Detect, HandComputedTetrahedronTiesKeepAll) {
   ced::point_cloud c;
   c.push_back(0, 0, 0);
@@ -372,62 +299,6 @@ TEST(Detect, EdgeCases) {
   EXPECT_EQ(r.keypoints, (std::vector<std::uint32_t>{0, 49}));
 }
 
-TEST(Detect, BadParametersAreClearErrors) {
-  const auto c = make_room(100, 1);
-  ced::detect_params p;
-  auto expect_error = [&](const ced::detect_params& q, const std::string& what) {
-    try {
-      ced::detect(c, q, ced::xyz{});
-      FAIL() << "no error for " << what;
-    } catch (const std::invalid_argument& e) {
-      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
-    }
-  };
-  p.radius = 0;
-  expect_error(p, "radius");
-  p.radius = -1;
-  expect_error(p, "radius");
-  p.radius = std::nan("");
-  expect_error(p, "radius");
-  p.radius = 0.05;
-  p.nms_radius = INFINITY;
-  expect_error(p, "nms_radius");
-  p.nms_radius = 0.05;
-  EXPECT_THROW(ced::detect(c, p, ced::xyz{-0.1}), std::invalid_argument);
-  EXPECT_THROW(ced::detect(c, p, ced::xyz{std::nan("")}), std::invalid_argument);
-  EXPECT_THROW(ced::detect(c, p, std::vector<ced::any_modality>{}), std::invalid_argument);
-  ced::point_cloud bad = c;
-  bad.positions()[7] = std::nanf("");
-  try {
-    ced::detect(bad, p, ced::xyz{});
-    FAIL();
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("point 2"), std::string::npos) << e.what();
-  }
-  ced::point_cloud nan_colour = c;  // a NaN in a field a modality reads is an error, named
-  for (auto& f : nan_colour.fields())
-    if (f.name == "red") f.values = ced::column(ced::scalar_type::float64, with_value(f.values, 5, std::nan("")));
-  try {
-    ced::detect(nan_colour, p, ced::rgb{});
-    FAIL();
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("field 'red' has a non-finite value (nan) at point 5"), std::string::npos)
-        << e.what();
-  }
-  EXPECT_THROW(ced::detect(nan_colour, p, {ced::make_modality("bands(red)")}), std::invalid_argument);
-  EXPECT_THROW(ced::detect(nan_colour, p, ced::lab{}), std::invalid_argument);
-  EXPECT_NO_THROW(ced::detect(nan_colour, p, ced::xyz{}));  // fields no modality reads may hold anything
-
-  ced::point_cloud grey;
-  grey.push_back(0, 0, 0);
-  try {
-    ced::detect(grey, p, ced::rgb{});
-    FAIL();
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("red"), std::string::npos) << e.what();
-  }
-}
-
 namespace {
 std::vector<std::uint32_t> read_indices(const std::string& path) {
   std::ifstream in(path);
@@ -442,65 +313,6 @@ std::vector<std::uint32_t> read_indices(const std::string& path) {
 // implementation of the paper (tests/reference/pcl_ced.cpp; see
 // tests/data/SOURCES.md). The paper's code sums in float in FLANN's order, so
 // a point sitting exactly on a threshold or tie may flip: at most 0.5 %.
-TEST(Detect, NonFiniteAndOutOfFloatRangeValuesAreNamedErrors) {
-  // The checks test chunks of values at once: a bad value past the first
-  // chunk, or the last one, is found and named.
-  const auto c = ced_test::make_room(6000, 11);
-  ced::detect_params p;
-  p.radius = 0.05;
-  for (const float bad :
-       {std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(), std::nanf("")})
-    for (const std::size_t i : {std::size_t(4097), c.size() - 1}) {
-      ced::point_cloud cloud = c;
-      cloud.positions()[3 * i + 2] = bad;
-      try {
-        ced::detect(cloud, p, ced::xyz{});
-        ADD_FAILURE() << "no error for point " << i;
-      } catch (const std::invalid_argument& e) {
-        EXPECT_NE(std::string(e.what()).find("point " + std::to_string(i) + " has a non-finite coordinate"),
-                  std::string::npos)
-            << e.what();
-      }
-    }
-  // Fields keep their type: non-finite values live in float fields.
-  for (const auto type : {ced::scalar_type::float64, ced::scalar_type::float32})
-    for (const double bad :
-         {std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(), std::nan("")})
-      for (const std::size_t i : {std::size_t(4096), std::size_t(5000), c.size() - 1}) {
-        ced::point_cloud cloud = c;
-        for (auto& f : cloud.fields())
-          if (f.name == "green") f.values = ced::column(type, with_value(f.values, i, bad));
-        try {
-          ced::detect(cloud, p, ced::rgb{});
-          ADD_FAILURE() << "no error for point " << i;
-        } catch (const std::invalid_argument& e) {
-          EXPECT_NE(std::string(e.what()).find("field 'green' has a non-finite value"), std::string::npos) << e.what();
-          EXPECT_NE(std::string(e.what()).find("at point " + std::to_string(i)), std::string::npos) << e.what();
-        }
-      }
-  // Values a float holds pass; values beyond it (which would become
-  // infinite in the float channels) are named errors, not NaN saliencies.
-  const double flt_max = std::numeric_limits<float>::max();
-  const ced::field fine{"h", ced::scalar_type::float64, {flt_max, -flt_max, 1e-320, -0.0, 1e30}};
-  EXPECT_NO_THROW(ced::require_finite(fine, "bands(h)"));
-  EXPECT_EQ(ced::interleave({&fine}).size(), 5u);
-  for (const double beyond : {std::nextafter(flt_max, 1e300), 1e300, -std::numeric_limits<double>::max()}) {
-    ced::point_cloud cloud = c;
-    std::vector<double> h(c.size(), 1.0);
-    h[4500] = beyond;
-    cloud.add_field("h", ced::scalar_type::float64, h);
-    try {
-      ced::detect(cloud, p, {ced::make_modality("bands(h),range=0..1")});
-      ADD_FAILURE() << "no error for " << beyond;
-    } catch (const std::invalid_argument& e) {
-      EXPECT_NE(std::string(e.what()).find("field 'h' has a value beyond the float range"), std::string::npos)
-          << e.what();
-      EXPECT_NE(std::string(e.what()).find("at point 4500"), std::string::npos) << e.what();
-    }
-    const ced::field f{"h", ced::scalar_type::float64, h};
-    EXPECT_THROW(ced::interleave({&f}), std::invalid_argument);
-  }
-}
 
 TEST(Detect, MatchesPclReferenceOnRedwoodScan) {
   const auto cloud = ced::io::read_ply(std::string(CED_TEST_DATA_DIR) + "/apartment_mesh_214.ply");
@@ -538,64 +350,6 @@ TEST(Detect, ManyBandsMatchOracle) {
                           p.min_neighbors);
     expect_matches_oracle(r, o);
   }
-}
-
-// The NMS keeps its working memory in a chunk_arena, recycled across
-// detections: blocks must be aligned and disjoint, big requests served, and
-// the process-wide cache bounded.
-TEST(ChunkArena, AlignedDisjointBoundedAndReused) {
-  using ced::detail::chunk_arena;
-  const std::vector<std::size_t> sizes = {
-      1,    100, 4096, 70000, chunk_arena::chunk_size, 3 * chunk_arena::chunk_size, 5, chunk_arena::chunk_size - 64,
-      12345};
-  {
-    chunk_arena a;
-    std::vector<unsigned char*> blocks;
-    for (std::size_t k = 0; k < sizes.size(); ++k) {
-      auto* p = static_cast<unsigned char*>(a.allocate(sizes[k]));
-      ASSERT_EQ(reinterpret_cast<std::uintptr_t>(p) % 64, 0u) << k;
-      std::fill_n(p, sizes[k], static_cast<unsigned char>(k + 1));
-      blocks.push_back(p);
-    }
-    for (std::size_t k = 0; k < sizes.size(); ++k)  // an overlap would have overwritten some bytes
-      ASSERT_TRUE(std::all_of(blocks[k], blocks[k] + sizes[k], [&](unsigned char b) { return b == k + 1; })) << k;
-  }
-  const std::size_t cached = chunk_arena::cached_bytes();
-  EXPECT_GT(cached, 0u);
-  EXPECT_LE(cached, chunk_arena::cache_limit);
-  {
-    chunk_arena b;
-    b.allocate(10);  // takes a cached chunk
-    EXPECT_EQ(chunk_arena::cached_bytes(), cached - chunk_arena::chunk_size);
-  }
-  EXPECT_EQ(chunk_arena::cached_bytes(), cached);
-  {
-    chunk_arena big;  // more standard chunks than the cache keeps
-    for (std::size_t k = 0; k < 2 * chunk_arena::cache_limit / chunk_arena::chunk_size; ++k)
-      big.allocate(chunk_arena::chunk_size - 64);
-  }
-  EXPECT_EQ(chunk_arena::cached_bytes(), chunk_arena::cache_limit);
-}
-
-TEST(ChunkArena, ThreadSafe) {
-  ced::detail::chunk_arena a;
-  constexpr int threads = 4, per_thread = 3000;
-  std::vector<std::vector<std::pair<unsigned char*, std::size_t>>> got(threads);
-  std::vector<std::thread> pool;
-  for (int t = 0; t < threads; ++t)
-    pool.emplace_back([&, t] {
-      std::mt19937 rng(static_cast<unsigned>(t));
-      for (int k = 0; k < per_thread; ++k) {
-        const std::size_t n = 1 + rng() % 5000;
-        auto* p = static_cast<unsigned char*>(a.allocate(n));
-        std::fill_n(p, n, static_cast<unsigned char>(t + 1));
-        got[std::size_t(t)].push_back({p, n});
-      }
-    });
-  for (auto& th : pool) th.join();
-  for (int t = 0; t < threads; ++t)
-    for (const auto& [p, n] : got[std::size_t(t)])
-      ASSERT_TRUE(std::all_of(p, p + n, [&](unsigned char b) { return b == t + 1; })) << "thread " << t;
 }
 
 // Every point a candidate (random bands), so the NMS keeps every sweep: the

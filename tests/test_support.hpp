@@ -68,6 +68,17 @@ inline ced::point_cloud make_room(std::size_t n, std::uint32_t seed, float noise
   return c;
 }
 
+/// Five points: the origin, one on each axis at 1, 2 and 3, and (4, 4, 4).
+inline ced::point_cloud five_points() {
+  ced::point_cloud c;
+  c.push_back(0, 0, 0);
+  c.push_back(1, 0, 0);
+  c.push_back(0, 2, 0);
+  c.push_back(0, 0, 3);
+  c.push_back(4, 4, 4);
+  return c;
+}
+
 /// A channel for the oracle: per-point values (D each) and per-dimension scale.
 struct oracle_channel {
   std::vector<std::vector<double>> values;  // [i][d]

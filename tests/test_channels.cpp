@@ -1,0 +1,240 @@
+// SPDX-License-Identifier: MIT
+// Channels (ced/channels.hpp): value ranges, interleaving fields into float
+// rows, and finding and checking the fields a modality reads.
+#include <gtest/gtest.h>
+
+#include <cctype>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "ced/channels.hpp"
+#include "ced/cloud.hpp"
+
+namespace {
+
+/// The message of the std::invalid_argument `f` throws, or "" when it throws none.
+template <class F>
+std::string invalid_argument_of(F&& f) {
+  try {
+    f();
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
+}
+
+/// A cloud of n points on the x axis.
+ced::point_cloud line_cloud(std::size_t n) {
+  ced::point_cloud c;
+  for (std::size_t i = 0; i < n; ++i) c.push_back(static_cast<float>(i), 0.0f, 0.0f);
+  return c;
+}
+
+bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+/// `text` says "at point <i>" (and not a longer number starting with i's digits).
+bool names_point(const std::string& text, std::size_t i) {
+  const std::string part = "at point " + std::to_string(i);
+  const auto at = text.find(part);
+  if (at == std::string::npos) return false;
+  const auto next = at + part.size();
+  return next == text.size() || !std::isdigit(static_cast<unsigned char>(text[next]));
+}
+
+}  // namespace
+
+TEST(Channels, RangePolicyParsesGoodTexts) {
+  EXPECT_EQ(ced::range_policy{}.how, ced::range_policy::kind::natural);
+  EXPECT_EQ(ced::range_policy::parse("auto").how, ced::range_policy::kind::data);
+  struct good {
+    const char* text;
+    double lo, hi;
+  };
+  for (const good& g : {good{"0..255", 0, 255}, good{"-1..1", -1, 1}, good{"0.25..0.5", 0.25, 0.5},
+                        good{"-10..-2.5", -10, -2.5}, good{"1e-3..2e3", 1e-3, 2e3}}) {
+    const auto p = ced::range_policy::parse(g.text);
+    EXPECT_EQ(p.how, ced::range_policy::kind::fixed) << g.text;
+    EXPECT_EQ(p.fixed.lo, g.lo) << g.text;
+    EXPECT_EQ(p.fixed.hi, g.hi) << g.text;
+  }
+}
+
+TEST(Channels, RangePolicyRejectsBadTextsNamingTheOption) {
+  for (const char* bad :
+       {"", "0", "0-255", "auto..1", "a..b", "0..", "..1", "0..1x", "5..1", "1..1", "nan..1", "0..inf", "Auto"}) {
+    const auto what = invalid_argument_of([&] { ced::range_policy::parse(bad, "my-range"); });
+    EXPECT_TRUE(contains(what, "my-range")) << "'" << bad << "': " << what;
+  }
+  EXPECT_TRUE(contains(invalid_argument_of([] { ced::range_policy::parse("0-255"); }), "LO..HI"));
+  EXPECT_TRUE(contains(invalid_argument_of([] { ced::range_policy::parse("5..1"); }), "high end"));
+  EXPECT_TRUE(contains(invalid_argument_of([] { ced::range_policy::parse("3..3"); }), "high end"));
+  EXPECT_TRUE(contains(invalid_argument_of([] { ced::range_policy::parse("x..1"); }), "low end"));
+  EXPECT_TRUE(contains(invalid_argument_of([] { ced::range_policy::parse("0..y"); }), "high end"));
+  // The default option name.
+  EXPECT_TRUE(contains(invalid_argument_of([] { ced::range_policy::parse("?"); }), "'range'"));
+}
+
+TEST(Channels, ResolveRange) {
+  auto c = line_cloud(4);
+  c.add_field("u8", ced::scalar_type::uint8, std::vector<double>{3, 2, 7, 1});
+  c.add_field("i16", ced::scalar_type::int16, std::vector<double>{5, 5, 5, 5});
+  c.add_field("u16", ced::scalar_type::uint16, std::vector<double>{0, 1, 2, 3});
+  c.add_field("f", ced::scalar_type::float32, std::vector<double>{0.5, 0.25, 0.75, 0.5});
+  const auto& u8 = c.get_field("u8");
+  const auto& i16 = c.get_field("i16");
+  const auto& u16 = c.get_field("u16");
+  const auto& f = c.get_field("f");
+  auto expect_range = [](const ced::value_range& got, double lo, double hi, const char* what) {
+    EXPECT_EQ(got.lo, lo) << what;
+    EXPECT_EQ(got.hi, hi) << what;
+  };
+  // Natural: the type's range; floats are taken as they are ([0, 1]).
+  const ced::range_policy natural;
+  expect_range(ced::resolve_range(u8, natural), 0, 255, "natural uint8");
+  expect_range(ced::resolve_range(i16, natural), -32768, 32767, "natural int16");
+  expect_range(ced::resolve_range(u16, natural), 0, 65535, "natural uint16");
+  expect_range(ced::resolve_range(f, natural), 0, 1, "natural float32");
+  // Fixed: the given range, whatever the field.
+  const auto fixed = ced::range_policy::parse("-4..12");
+  expect_range(ced::resolve_range(u8, fixed), -4, 12, "fixed");
+  expect_range(ced::resolve_range(f, fixed), -4, 12, "fixed");
+  // Data: the values' own min..max (the minimum and maximum are not first
+  // nor last here).
+  const auto data = ced::range_policy::parse("auto");
+  expect_range(ced::resolve_range(u8, data), 1, 7, "data");
+  expect_range(ced::resolve_range(f, data), 0.25, 0.75, "data float");
+  // A degenerate data range (all values equal) becomes [lo, lo + 1].
+  expect_range(ced::resolve_range(i16, data), 5, 6, "degenerate data");
+  auto one = line_cloud(1);
+  one.add_field("v", ced::scalar_type::float64, std::vector<double>{-3.5});
+  expect_range(ced::resolve_range(one.get_field("v"), data), -3.5, -2.5, "one value");
+  // No values: [0, 1].
+  auto none = line_cloud(0);
+  none.add_field("v", ced::scalar_type::uint8, std::vector<double>{});
+  expect_range(ced::resolve_range(none.get_field("v"), data), 0, 1, "no values");
+}
+
+TEST(Channels, InterleaveIsRowMajor) {
+  auto c = line_cloud(3);
+  c.add_field("a", ced::scalar_type::float64, std::vector<double>{1, 2, 3});
+  c.add_field("b", ced::scalar_type::float64, std::vector<double>{10, 20, 30});
+  c.add_field("c", ced::scalar_type::float64, std::vector<double>{0.1, -0.2, 1e30});
+  const auto* a = c.find_field("a");
+  const auto* b = c.find_field("b");
+  const auto* cc = c.find_field("c");
+  EXPECT_EQ(ced::interleave({a, b, cc}),
+            (std::vector<float>{1, 10, 0.1f, 2, 20, -0.2f, 3, 30, static_cast<float>(1e30)}));
+  // In the order given, not the cloud's.
+  EXPECT_EQ(ced::interleave({cc, a}), (std::vector<float>{0.1f, 1, -0.2f, 2, static_cast<float>(1e30), 3}));
+  EXPECT_EQ(ced::interleave({b}), (std::vector<float>{10, 20, 30}));
+  EXPECT_TRUE(ced::interleave({}).empty());
+}
+
+TEST(Channels, InterleaveIsTheSameForAnyThreadCount) {
+  // More points than one chunk of the parallel loop (2^15), not a multiple of it.
+  const std::size_t n = 100003;
+  auto c = line_cloud(n);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1000.0, 1000.0);
+  std::vector<const ced::field*> fields;
+  for (const char* name : {"x0", "x1", "x2", "x3", "x4"}) {
+    std::vector<double> v(n);
+    for (auto& x : v) x = u(rng);
+    c.add_field(name, ced::scalar_type::float64, std::move(v));
+  }
+  for (const auto& f : c.fields()) fields.push_back(&f);
+  const auto one = ced::interleave(fields);
+  ASSERT_EQ(one.size(), n * fields.size());
+  for (std::size_t i = 0; i < n; i += 997)
+    for (std::size_t k = 0; k < fields.size(); ++k)
+      ASSERT_EQ(one[i * fields.size() + k], static_cast<float>(fields[k]->values[i])) << i << " " << k;
+  for (std::size_t k = 0; k < fields.size(); ++k)  // the last row
+    ASSERT_EQ(one[(n - 1) * fields.size() + k], static_cast<float>(fields[k]->values[n - 1]));
+  for (const unsigned threads : {0u, 1u, 2u, 3u, 8u}) EXPECT_EQ(ced::interleave(fields, threads), one) << threads;
+}
+
+TEST(Channels, InterleaveNamesTheFieldAndPointOfABadValue) {
+  auto c = line_cloud(5000);
+  std::vector<double> good(5000, 1.0), bad(5000, 2.0);
+  bad[4321] = std::nan("");
+  c.add_field("good", ced::scalar_type::float64, good);
+  c.add_field("bad", ced::scalar_type::float64, bad);
+  const auto what = invalid_argument_of([&] { ced::interleave({c.find_field("good"), c.find_field("bad")}, 2); });
+  EXPECT_TRUE(contains(what, "field 'bad'")) << what;
+  EXPECT_TRUE(names_point(what, 4321)) << what;
+  bad[4321] = 1e300;  // finite, but infinite as a float
+  c.add_field("bad", ced::scalar_type::float64, bad);
+  EXPECT_TRUE(names_point(invalid_argument_of([&] { ced::interleave({c.find_field("bad")}); }), 4321));
+}
+
+TEST(Channels, RequireFieldsMatchesExactNamesFirstThenAnyCase) {
+  auto c = line_cloud(2);
+  c.add_field("RED", ced::scalar_type::uint8, std::vector<double>{1, 2});
+  c.add_field("red", ced::scalar_type::uint8, std::vector<double>{3, 4});
+  c.add_field("Nir", ced::scalar_type::uint16, std::vector<double>{5, 6});
+  const auto f = ced::require_fields(c, {"red", "nir", "Red", "RED"}, "test");
+  ASSERT_EQ(f.size(), 4u);
+  EXPECT_EQ(f[0], c.find_field("red"));  // exact, though "RED" comes first
+  EXPECT_EQ(f[1], c.find_field("Nir"));  // any case
+  EXPECT_EQ(f[2], c.find_field("RED"));  // no exact match: the first of any case
+  EXPECT_EQ(f[3], c.find_field("RED"));
+  EXPECT_TRUE(ced::require_fields(c, {}, "test").empty());
+}
+
+TEST(Channels, RequireFieldsNamesTheMissingFieldAndListsThePresentOnes) {
+  auto c = line_cloud(2);
+  c.add_field("intensity", ced::scalar_type::uint16, std::vector<double>{1, 2});
+  c.add_field("nir", ced::scalar_type::uint8, std::vector<double>{3, 4});
+  const auto what = invalid_argument_of([&] { ced::require_fields(c, {"nir", "red_edge"}, "bands(nir,red_edge)"); });
+  EXPECT_TRUE(contains(what, "modality 'bands(nir,red_edge)'")) << what;
+  EXPECT_TRUE(contains(what, "field 'red_edge'")) << what;
+  EXPECT_TRUE(contains(what, "intensity, nir")) << what;
+  const auto empty = line_cloud(2);
+  const auto none = invalid_argument_of([&] { ced::require_fields(empty, {"red"}, "rgb"); });
+  EXPECT_TRUE(contains(none, "field 'red'")) << none;
+  EXPECT_TRUE(contains(none, "none")) << none;
+  // A field that is found but holds a non-finite value is an error too.
+  c.add_field("nir", ced::scalar_type::float32, std::vector<double>{3, INFINITY});  // floats hold infinities
+  const auto inf = invalid_argument_of([&] { ced::require_fields(c, {"intensity", "NIR"}, "m"); });
+  EXPECT_TRUE(contains(inf, "field 'nir'")) << inf;
+  EXPECT_TRUE(names_point(inf, 1)) << inf;
+}
+
+TEST(Channels, RequireFiniteNamesModalityFieldAndPoint) {
+  const double flt_max = std::numeric_limits<float>::max();
+  const std::size_t n = 9000;  // more than two chunks of the check (4096)
+  auto c = line_cloud(n);
+  std::vector<double> v(n, 0.5);
+  v[0] = flt_max;
+  v[1] = -flt_max;
+  v[2] = 1e-320;  // subnormal
+  v[3] = -0.0;
+  c.add_field("h", ced::scalar_type::float64, v);
+  EXPECT_NO_THROW(ced::require_finite(c.get_field("h"), "bands(h)"));
+  struct bad_value {
+    double value;
+    const char* says;
+  };
+  for (const bad_value& b : {bad_value{std::nan(""), "non-finite value"}, bad_value{INFINITY, "non-finite value"},
+                             bad_value{-INFINITY, "non-finite value"},
+                             bad_value{std::nextafter(flt_max, INFINITY), "beyond the float range"},
+                             bad_value{-1e300, "beyond the float range"}})
+    for (const std::size_t at : {std::size_t(0), std::size_t(4095), std::size_t(4096), n - 1}) {
+      std::vector<double> w(n, 0.5);
+      w[at] = b.value;
+      if (at + 1 < n) w[n - 1] = std::nan("");  // only the first bad value is named
+      c.add_field("h", ced::scalar_type::float64, w);
+      const auto what = invalid_argument_of([&] { ced::require_finite(c.get_field("h"), "bands(h)"); });
+      SCOPED_TRACE(testing::Message() << b.value << " at " << at << ": " << what);
+      EXPECT_TRUE(contains(what, "modality 'bands(h)'"));
+      EXPECT_TRUE(contains(what, "field 'h'"));
+      EXPECT_TRUE(contains(what, b.says));
+      EXPECT_TRUE(names_point(what, at));
+    }
+}

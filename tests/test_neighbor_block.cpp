@@ -1,0 +1,84 @@
+// SPDX-License-Identifier: MIT
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <cstdio>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "ced/core.hpp"
+#include "core/neighbor_block.hpp"
+#include "test_support.hpp"
+
+using ced_test::make_room;
+
+// The neighbour pass is built for the baseline instruction set and for AVX2
+// (chosen at run time); both must give bitwise identical results, through
+// the register-accumulator paths (≤ 16 channels) and the any-count path.
+TEST(Detect, GenericAndAvx2NeighbourPassesAgreeBitwise) {
+  auto c = make_room(6000, 13);
+  std::vector<std::string> many;
+  std::mt19937 rng(3);
+  for (int b = 0; b < 20; ++b) {
+    std::vector<double> v(c.size());
+    for (double& x : v) x = double(rng() % 256);
+    many.push_back("b" + std::to_string(b));
+    c.add_field(many.back(), ced::scalar_type::uint8, std::move(v));
+  }
+  ced::detect_params p;
+  p.threads = 2;
+  const std::vector<ced::any_modality> mods = {ced::xyz{}, ced::rgb{}, ced::lab{}, ced::bands(many, 0.3)};
+  ced::detail::force_generic_kernel(false);
+  const std::string isa = ced::detail::kernel_isa();
+  const auto a = ced::detect(c, p, mods);
+  const auto a6 = ced::detect(c, p, ced::xyz{}, ced::rgb{});
+  ced::detail::force_generic_kernel(true);
+  EXPECT_STREQ(ced::detail::kernel_isa(), "generic");
+  const auto b = ced::detect(c, p, mods);
+  const auto b6 = ced::detect(c, p, ced::xyz{}, ced::rgb{});
+  ced::detail::force_generic_kernel(false);
+  if (isa == "generic") std::printf("note: this CPU has no AVX2; both runs used the generic pass\n");
+  ASSERT_GT(a.keypoints.size(), 10u);
+  EXPECT_EQ(a.saliency, b.saliency);  // bitwise
+  EXPECT_EQ(a.keypoints, b.keypoints);
+  EXPECT_EQ(a.neighbor_count, b.neighbor_count);
+  EXPECT_EQ(a6.saliency, b6.saliency);
+  EXPECT_EQ(a6.keypoints, b6.keypoints);
+}
+
+// A modality whose evaluator reads neighbour lists (not sums) gets exactly
+// the neighbourhoods of the definition: a checksum of each point's neighbour
+// indices matches brute force, for several block sizes.
+namespace {
+struct neighbour_checksum {
+  std::string name() const { return "checksum"; }
+  double threshold(const ced::detect_params&) const { return 1e30; }
+  struct evaluator {
+    float operator()(const ced::neighborhood& nb) const {
+      std::uint32_t sum = 0;
+      for (std::uint32_t j : nb) sum += (j * 2654435761u) % 1000u;
+      return static_cast<float>(sum);
+    }
+  };
+  evaluator bind(const ced::point_cloud&, const ced::detect_params&) const { return {}; }
+};
+}  // namespace
+
+TEST(Detect, ListEvaluatorsSeeExactNeighbourhoods) {
+  static_assert(!ced::sums_neighbors_v<neighbour_checksum::evaluator>);
+  const auto c = make_room(3000, 23);
+  ced::detect_params p;
+  p.min_neighbors = 0;
+  const auto nb = ced_test::brute_neighbors(c, p.radius);
+  for (double scale : {1.0, 4.0}) {
+    p.block_scale = scale;
+    const auto r = ced::detect(c, p, neighbour_checksum{}, ced::xyz{});
+    for (std::size_t i = 0; i < c.size(); ++i) {
+      std::uint32_t sum = 0;
+      for (auto j : nb[i]) sum += (static_cast<std::uint32_t>(j) * 2654435761u) % 1000u;
+      ASSERT_EQ(r.saliency[0][i], static_cast<float>(sum)) << "point " << i << ", block scale " << scale;
+      ASSERT_EQ(r.neighbor_count[i], nb[i].size());
+    }
+  }
+}
