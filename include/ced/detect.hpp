@@ -82,17 +82,19 @@ template <class... M, class = std::enable_if_t<(sizeof...(M) > 0) && (is_modalit
 detection_result detect(const point_cloud& cloud, const detect_params& params, const M&... modalities) {
   detail::detection_context ctx(cloud, params, {std::string(modalities.name())...},
                                 {double(modalities.threshold(params))...});
-  const auto evaluators = std::make_tuple(modalities.bind(cloud, params)...);
-  const auto sources =
-      std::apply([](const auto&... e) { return std::vector<channel_source>{channels_of(e)...}; }, evaluators);
-  ctx.compute_saliency(sources, [&](const block_view& block, float* const* columns) {
-    std::apply(
-        [&](const auto&... e) {
-          std::size_t m = 0;
-          ((evaluate_block(e, block, m, params.min_neighbors, columns[m]), ++m), ...);
-        },
-        evaluators);
-  });
+  {  // the evaluators (and their channels) end before the NMS: less peak memory
+    const auto evaluators = std::make_tuple(modalities.bind(cloud, params)...);
+    const auto sources =
+        std::apply([](const auto&... e) { return std::vector<channel_source>{channels_of(e)...}; }, evaluators);
+    ctx.compute_saliency(sources, [&](const block_view& block, float* const* columns) {
+      std::apply(
+          [&](const auto&... e) {
+            std::size_t m = 0;
+            ((evaluate_block(e, block, m, params.min_neighbors, columns[m]), ++m), ...);
+          },
+          evaluators);
+    });
+  }
   return ctx.finish();
 }
 

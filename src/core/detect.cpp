@@ -81,6 +81,7 @@ detection_result detect(const point_cloud& cloud, const detect_params& params,
   ctx.compute_saliency(sources, [&](const block_view& block, float* const* columns) {
     for (std::size_t k = 0; k < bound.size(); ++k) bound[k]->evaluate(block, k, params.min_neighbors, columns[k]);
   });
+  bound.clear();  // the modalities' channels are not needed by the NMS: less peak memory
   return ctx.finish();
 }
 

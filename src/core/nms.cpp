@@ -3,6 +3,7 @@
 #include "core/nms.hpp"
 
 #include <algorithm>
+#include <limits>
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -28,10 +29,11 @@ void collect_candidate_hits(const neighbor_block& block, const float* const* col
       candidates.push_back(static_cast<std::uint32_t>(k));
       bit_bytes += block.sweep(k).bytes;
     }
-  if (candidates.empty()) return;
   const std::size_t n = candidates.size(), g = block.gathered_count();
-  const std::size_t words = n + g + nr * n + (n + 1);
-  const std::size_t want = 4 * words + bit_bytes;
+  // Ranges index the gathered points: 16 bits hold them in all but blocks of
+  // more than 65,535 gathered points, which are left to the NMS's queries.
+  if (n == 0 || g > std::numeric_limits<std::uint16_t>::max()) return;
+  const std::size_t want = 4 * (n + g) + 2 * nr * n + bit_bytes;
   std::size_t have = budget.load();
   while (have >= want && !budget.compare_exchange_weak(have, have - want)) {
   }
@@ -39,21 +41,18 @@ void collect_candidate_hits(const neighbor_block& block, const float* const* col
   auto* const memory = static_cast<std::uint32_t*>(arena.allocate(want));
   std::uint32_t* const points = memory;
   std::uint32_t* const gathered = points + n;
-  std::uint32_t* const ranges = gathered + g;
-  std::uint32_t* const bit_offsets = ranges + nr * n;
-  std::uint8_t* const bits = reinterpret_cast<std::uint8_t*>(bit_offsets + n + 1);
-  bit_offsets[0] = 0;
+  auto* const ranges = reinterpret_cast<std::uint16_t*>(gathered + g);
+  std::uint8_t* const bits = reinterpret_cast<std::uint8_t*>(ranges + nr * n);
   std::uint8_t* b = bits;
   for (std::size_t c = 0; c < n; ++c) {
     const std::size_t k = candidates[c];
     const auto v = block.sweep(k);
     points[c] = block.point(k);
-    std::copy_n(v.ranges, nr, ranges + nr * c);
+    for (std::size_t q = 0; q < nr; ++q) ranges[nr * c + q] = static_cast<std::uint16_t>(v.ranges[q]);
     b = std::copy_n(v.bits, v.bytes, b);
-    bit_offsets[c + 1] = static_cast<std::uint32_t>(b - bits);
   }
   std::copy_n(block.gathered(), g, gathered);
-  ch = {true, n, g, points, gathered, ranges, bit_offsets, bits};
+  ch = {true, n, g, points, gathered, ranges, bits};
 }
 
 namespace {
@@ -82,18 +81,22 @@ void nms_from_hits(const candidate_hits& ch, const float* xyz, const float* scor
   local.resize(g + 8);
   for (std::size_t t = 0; t < g; ++t) local[t] = score[ch.gathered[t]];
   std::fill_n(local.begin() + std::ptrdiff_t(g), 8, 0.0f);
+  // Each candidate's bits follow those of the candidates before it, and
+  // each range's those of the ranges before it.
+  const std::uint8_t* next_bits = ch.bits;
   for (std::size_t k = 0; k < ch.count; ++k) {
     const std::uint32_t i = ch.points[k];
     const float si = score[i];
     const float* pi = xyz + 3 * std::size_t(i);
-    const std::uint32_t* rg = ch.ranges + nr * k;
-    const std::uint8_t* const bits = ch.bits + ch.bit_offsets[k];
-    // Each range's bits follow those of the ranges before it.
+    const std::uint16_t* rg = ch.ranges + nr * k;
+    const std::uint8_t* const bits = next_bits;
     std::uint32_t first_bit[neighbor_block::sweep_ranges];
-    for (std::size_t q = 0, at = 0; q < neighbor_block::sweep_ranges; ++q) {
+    std::size_t at = 0;
+    for (std::size_t q = 0; q < neighbor_block::sweep_ranges; ++q) {
       first_bit[q] = static_cast<std::uint32_t>(at);
-      at += (rg[2 * q + 1] - rg[2 * q] + 7) / 8;
+      at += (std::size_t(rg[2 * q + 1]) - rg[2 * q] + 7) / 8;
     }
+    next_bits += at;
     // The point's own row first, then the rows beside it, then the corners:
     // nearer neighbours are likelier to beat it, which ends the walk early.
     // (Whether a greater neighbour exists does not depend on the order.)

@@ -19,10 +19,14 @@ namespace ced::detail {
 /// compact form: the block's gathered points, and per candidate its ranges
 /// and hit bits (about a quarter of the size of neighbour lists).
 /// Its arrays live in the detection's chunk_arena.
+/// Per candidate: its index, its nine ranges as 16-bit indices into the
+/// gathered points, and its hit bits (those of all candidates one after the
+/// other; each candidate's length follows from its ranges).
 struct candidate_hits {
   bool stored = false;
   std::size_t count = 0, gathered_count = 0;
-  const std::uint32_t *points = nullptr, *gathered = nullptr, *ranges = nullptr, *bit_offsets = nullptr;
+  const std::uint32_t *points = nullptr, *gathered = nullptr;
+  const std::uint16_t* ranges = nullptr;
   const std::uint8_t* bits = nullptr;
 };
 
