@@ -1,17 +1,41 @@
 # Builds and runs the consumer project against ced.
-#   find_package:     installs the already-built ced into WORK_DIR/prefix first.
+#   find_package:     installs the already-built ced into WORK_DIR/prefix first,
+#                     checks the installed headers (exactly the API list, no
+#                     private or third-party include), compiles each on its
+#                     own, and loads an out-of-tree plugin into the installed
+#                     `ced`.
 #   add_subdirectory: builds ced from source inside the consumer.
 file(REMOVE_RECURSE ${WORK_DIR})
-set(args -DCED_CONSUMER_MODE=${MODE} -DCMAKE_BUILD_TYPE=Release)
+set(args -DCED_CONSUMER_MODE=${MODE} -DCMAKE_BUILD_TYPE=Release -DCED_SOURCE_DIR=${CED_SOURCE_DIR})
 if(MODE STREQUAL "find_package")
   execute_process(COMMAND ${CMAKE_COMMAND} --install ${CED_BINARY_DIR} --prefix ${WORK_DIR}/prefix
                   RESULT_VARIABLE rc OUTPUT_QUIET)
   if(rc)
     message(FATAL_ERROR "install failed: ${rc}")
   endif()
-  list(APPEND args -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix)
-else()
-  list(APPEND args -DCED_SOURCE_DIR=${CED_SOURCE_DIR})
+  set(include_dir ${WORK_DIR}/prefix/include)
+  # The installed tree is the API list, nothing more, nothing less.
+  file(GLOB_RECURSE installed RELATIVE ${include_dir} ${include_dir}/*)
+  list(SORT installed)
+  file(STRINGS ${EXPECTED_HEADERS} expected)
+  list(SORT expected)
+  if(NOT installed STREQUAL expected)
+    set(extra ${installed})
+    list(REMOVE_ITEM extra ${expected})
+    set(missing ${expected})
+    list(REMOVE_ITEM missing ${installed})
+    message(FATAL_ERROR "installed headers differ from the API list: not in the list: [${extra}]; "
+                        "missing: [${missing}]")
+  endif()
+  foreach(header ${installed})
+    file(STRINGS ${include_dir}/${header} includes REGEX "^[ \t]*#[ \t]*include")
+    foreach(line ${includes})
+      if(line MATCHES "[<\"](CGAL|tbb|oneapi|Eigen|nlohmann|stb|core|io/scalar_io|kernel)[/_.]")
+        message(FATAL_ERROR "installed header ${header} includes a private or third-party header: ${line}")
+      endif()
+    endforeach()
+  endforeach()
+  list(APPEND args -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix -DCED_INCLUDE_DIR=${include_dir})
 endif()
 execute_process(COMMAND ${CMAKE_COMMAND} -S ${CED_SOURCE_DIR}/tests/consumer -B ${WORK_DIR}/build ${args}
                 RESULT_VARIABLE rc)
@@ -22,7 +46,17 @@ execute_process(COMMAND ${CMAKE_COMMAND} --build ${WORK_DIR}/build -j2 RESULT_VA
 if(rc)
   message(FATAL_ERROR "build failed: ${rc}")
 endif()
-execute_process(COMMAND ${WORK_DIR}/build/consumer RESULT_VARIABLE rc)
-if(rc)
-  message(FATAL_ERROR "consumer failed: ${rc}")
+foreach(program consumer consumer_core)
+  execute_process(COMMAND ${WORK_DIR}/build/${program} WORKING_DIRECTORY ${WORK_DIR}/build RESULT_VARIABLE rc)
+  if(rc)
+    message(FATAL_ERROR "${program} failed: ${rc}")
+  endif()
+endforeach()
+if(MODE STREQUAL "find_package" AND EXISTS ${WORK_DIR}/prefix/bin/ced)
+  execute_process(COMMAND ${WORK_DIR}/prefix/bin/ced modalities --plugin ${WORK_DIR}/build/libced_ndvi.so
+                  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(rc OR NOT out MATCHES "ndvi")
+    message(FATAL_ERROR "the installed ced did not load the out-of-tree plugin (exit ${rc}): ${out}${err}")
+  endif()
+  message(STATUS "installed ced loaded the out-of-tree plugin: ndvi listed")
 endif()
