@@ -62,6 +62,17 @@ check "las gives the same keypoints" cmp -s "$T/kp_las.txt" "$T/kp_mm.txt"
 n_las=$(wc -l < "$T/kp_las.txt")
 check "las keypoint count close to the original" test "$n_las" -ge 156 -a "$n_las" -le 190
 
+# --- Only the fields a run needs are read (the summary lists them) ---
+"$CED" detect "$T/sample.las" --preset ced6d --summary "$T/f6.json" -q > /dev/null
+fields_read() { tr -d ' \n' < "$1" | grep -o '"fields_read":\[[^]]*\]'; }
+check "ced6d reads colour only" test "$(fields_read "$T/f6.json")" = '"fields_read":["red","green","blue"]'
+"$CED" detect "$T/sample.las" -m xyz:0.2 --summary "$T/f3.json" -q > /dev/null
+check "xyz reads no field" test "$(fields_read "$T/f3.json")" = '"fields_read":[]'
+"$CED" detect "$T/sample.las" -m xyz:0.2 -m 'intensity:0.05' --summary "$T/fi.json" -q > /dev/null
+check "intensity reads its field" test "$(fields_read "$T/fi.json")" = '"fields_read":["intensity"]'
+"$CED" detect "$T/sample.las" -m xyz:0.2 -o "$T/all.ply" --summary "$T/fa.json" -q
+check "-o reads every field" test "$(fields_read "$T/fa.json" | tr -cd , | wc -c)" -ge 8
+
 # --- Config file; flags override it ---
 printf '{"preset": "ced3d", "min-neighbors": 5, "radius": "0.05"}\n' > "$T/c.json"
 check "json config" test "$("$CED" detect "$sample" --config "$T/c.json" -q | wc -l)" = 118

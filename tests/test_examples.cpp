@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "../examples/hue_modality.hpp"
+#include "../examples/ndvi_modality.hpp"
 
 namespace {
 // A 1 cm plane split at x = 0 into two hues (degrees, full saturation).
@@ -56,4 +57,47 @@ TEST(Example, CircularHueSeesThroughTheWrapAround) {
   for (auto k : edge.keypoints) EXPECT_LT(std::abs(c.position(k)[0] - 0.005f), 0.006f);
   // Interior points see one hue: saliency 0.
   EXPECT_EQ(edge.saliency[0][10 * 21 + 2], 0.0f);
+}
+
+TEST(Example, NdviOnTheFastPathHandComputed) {
+  // A 1 cm grid whose NDVI is 0.2 for x <= 0 (NIR 120, red 80) and 0.6 for
+  // x > 0 (NIR 160, red 40).
+  ced::point_cloud c;
+  std::vector<double> nir, red;
+  for (int y = -10; y <= 10; ++y)
+    for (int x = -10; x <= 10; ++x) {
+      c.push_back(x * 0.01f, y * 0.01f, 0.0f);
+      nir.push_back(x <= 0 ? 120 : 160);
+      red.push_back(x <= 0 ? 80 : 40);
+    }
+  c.add_field("NIR", ced::scalar_type::uint16, nir);  // names match ignoring case
+  c.add_field("Red", ced::scalar_type::uint16, red);
+  static_assert(ced::sums_neighbors_v<ced::evaluator_t<example::ndvi>>, "the fast path");
+  static_assert(!ced::reads_neighbors_v<ced::evaluator_t<example::ndvi>>, "sums only");
+  ced::detect_params p;
+  p.radius = p.nms_radius = 0.035;
+  const auto r = ced::detect(c, p, example::ndvi{0.05});
+  // At (0, 0), the last column of the left half: 37 neighbours within
+  // 3.5 cm, 15 of them to the right. Saliency = |15 (0.6 - 0.2) / 37| / 2.
+  const std::size_t edge = 10 * 21 + 10;
+  EXPECT_EQ(r.neighbor_count[edge], 37u);
+  EXPECT_NEAR(r.saliency[0][edge], 15 * 0.4 / 37 / 2, 1e-6);
+  // One column to the right: 15 neighbours on the left, at -0.4.
+  EXPECT_NEAR(r.saliency[0][edge + 1], 15 * 0.4 / 37 / 2, 1e-6);
+  EXPECT_EQ(r.saliency[0][10 * 21 + 2], 0.0f);  // interior: one NDVI
+  // The same by name once registered, and the fields it declares.
+  ced::register_modality<example::ndvi>("NDVI");
+  const auto by_name = ced::detect(c, p, {ced::make_modality("ndvi(NIR,Red):0.05")});
+  EXPECT_EQ(by_name.saliency, r.saliency);
+  EXPECT_EQ(ced::make_modality("ndvi").fields(), (std::vector<std::string>{"nir", "red"}));
+  EXPECT_THROW(ced::make_modality("ndvi(a,b,c)"), std::invalid_argument);
+  // A missing field is a clear error naming it.
+  ced::point_cloud bare;
+  for (int i = 0; i < 10; ++i) bare.push_back(i * 0.01f, 0, 0);
+  try {
+    ced::detect(bare, p, example::ndvi{});
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("needs field 'nir'"), std::string::npos) << e.what();
+  }
 }

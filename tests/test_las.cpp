@@ -11,6 +11,7 @@
 #include <limits>
 #include <sstream>
 
+#include "ced/io/io.hpp"
 #include "ced/io/las.hpp"
 #include "file_support.hpp"
 
@@ -580,6 +581,52 @@ TEST(LasRead, ExtraBytesOfSeveralTypes) {
 }
 
 // ------------------------------------------------------------ malformed input
+
+TEST(LasRead, OnlySelectedFieldsAreDecoded) {
+  las_file file;
+  file.minor = 4;
+  file.format = 7;  // colour
+  file.vlrs.push_back(vlr("LASF_Spec", 4, descriptor(1, 0, "intensity") + descriptor(3, 0, "nir_extra")));
+  for (int i = 0; i < 3; ++i) {
+    las_point p;
+    p.intensity = static_cast<std::uint16_t>(100 + i);
+    p.red = static_cast<std::uint16_t>(10 * i);
+    p.green = static_cast<std::uint16_t>(20 * i);
+    p.blue = static_cast<std::uint16_t>(30 * i);
+    p.x = 1000 * i;
+    put(p.extra, static_cast<std::uint8_t>(7 + i));
+    put(p.extra, static_cast<std::uint16_t>(500 + i));
+    file.points.push_back(p);
+  }
+  const std::string bytes = file.build();
+  const point_cloud all = ced::io::read_las_buffer(bytes, "mem.las");
+  ASSERT_NE(all.find_field("intensity_extra"), nullptr);  // the extra field's name, with every field read
+  // Names matched ignoring case; an extra field keeps the name it has when
+  // every field is read, whatever is selected.
+  const point_cloud some = ced::io::read_las_buffer(bytes, "mem.las", nullptr,
+                                                    ced::field_selection::only({"RED", "green", "intensity_extra"}));
+  std::vector<std::string> names;
+  for (const auto& f : some.fields()) names.push_back(f.name);
+  EXPECT_EQ(names, (std::vector<std::string>{"red", "green", "intensity_extra"}));
+  for (const auto& f : some.fields()) {
+    EXPECT_EQ(f.values, all.get_field(f.name).values) << f.name;
+    EXPECT_EQ(f.type(), all.get_field(f.name).type()) << f.name;
+  }
+  EXPECT_EQ(some.positions(), all.positions());
+  EXPECT_EQ(some.origin(), all.origin());
+  // Nothing selected: positions only. Everything: the default.
+  EXPECT_TRUE(ced::io::read_las_buffer(bytes, "mem.las", nullptr, ced::field_selection::only({})).fields().empty());
+  EXPECT_EQ(ced::io::read_las_buffer(bytes, "mem.las", nullptr, {}).fields().size(), all.fields().size());
+  // read_cloud applies the selection to every format.
+  const std::string dir = ced_test::temp_dir().string();
+  ced::io::write_cloud(dir + "/all.ply", all);
+  ced::io::read_options o;
+  o.fields = ced::field_selection::only({"blue", "nir_extra"});
+  const point_cloud ply = ced::io::read_cloud(dir + "/all.ply", o);
+  ASSERT_EQ(ply.fields().size(), 2u);
+  EXPECT_EQ(ply.get_field("blue").values, all.get_field("blue").values);
+  EXPECT_EQ(ply.get_field("nir_extra").values, all.get_field("nir_extra").values);
+}
 
 TEST(LasMalformed, BadSignature) {
   las_file file;

@@ -82,6 +82,13 @@ void write_viewer(std::ostream& out, const ced::point_cloud& cloud, const ced::d
   ced::io::write_ply(out, v, ced::io::ply_format::binary_little_endian);
 }
 
+/// The names of the cloud's fields: those the run read.
+std::vector<std::string> field_names(const ced::point_cloud& cloud) {
+  std::vector<std::string> names;
+  for (const auto& f : cloud.fields()) names.push_back(f.name);
+  return names;
+}
+
 /// --summary: input, parameters used, counts, per-stage times.
 nlohmann::json summary_json(const detect_options& o, const detect_plan& plan, const detect_input& in,
                             const ced::detection_result& r) {
@@ -94,7 +101,8 @@ nlohmann::json summary_json(const detect_options& o, const detect_plan& plan, co
                 {"points_in_file", in.n_file},
                 {"nonfinite_removed", in.n_dropped},
                 {"points_after_voxel", cloud.size()},
-                {"points_used", cloud.size()}};
+                {"points_used", cloud.size()},
+                {"fields_read", field_names(cloud)}};
   j["params"] = {{"radius", params.radius},
                  {"radius_auto", plan.auto_radius},
                  {"resolution", plan.resolution},
