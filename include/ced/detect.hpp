@@ -90,7 +90,7 @@ detection_result detect(const point_cloud& cloud, const detect_params& params, c
       std::apply(
           [&](const auto&... e) {
             std::size_t m = 0;
-            ((evaluate_block(e, block, m, params.min_neighbors, columns[m]), ++m), ...);
+            ((ced::evaluate_block(e, block, m, params.min_neighbors, columns[m]), ++m), ...);
           },
           evaluators);
     });

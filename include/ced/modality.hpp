@@ -196,7 +196,7 @@ class any_modality {
       explicit bound(evaluator_t<M> e) : evaluator(std::move(e)) {}
       channel_source channels() const override { return channels_of(evaluator); }
       void evaluate(const block_view& b, std::size_t slot, std::uint32_t k, float* column) const override {
-        evaluate_block(evaluator, b, slot, k, column);
+        ced::evaluate_block(evaluator, b, slot, k, column);
       }
       evaluator_t<M> evaluator;
     };
@@ -216,7 +216,7 @@ class any_modality {
 // ---------------------------------------------------------------------------
 
 /// A parsed modality spec: `name[(arg,...)][:threshold][,key=value...]`, e.g.
-/// `xyz:0.2`, `rgb`, `bands(nir,red_edge):0.1,range=0..255`, `intensity,norm=l2`.
+/// `xyz:0.2`, `rgb`, `bands(nir,red_edge):0.1,range=0..255`, `intensity(amplitude),range=auto`.
 class modality_spec {
  public:
   /// Throws std::invalid_argument with the spec and the position of the problem.

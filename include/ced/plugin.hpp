@@ -11,8 +11,8 @@
 //     void register_mine() { ced::register_modality<my_modality>("one line of help"); }
 //     CED_PLUGIN(register_mine)
 //
-// The host checks, before it runs any of the plugin's code, that the plugin
-// was built for the same plugin ABI (CED_PLUGIN_ABI: the ABI version below,
+// The host checks, before it calls the plugin's registration, that the
+// plugin was built for the same plugin ABI (CED_PLUGIN_ABI: the ABI version below,
 // ced's major.minor version, and the C++ standard library's ABI). ced's
 // functions that the plugin calls (register_modality, require_fields,
 // interleave, ...) are the host's own: the host exports them (CMake:
@@ -83,6 +83,8 @@ struct plugin_info {
 /// the file is missing or not a shared library, lacks the entry points, was
 /// built for another CED_PLUGIN_ABI, needs symbols this program does not
 /// export, or its registration fails; nothing of such a plugin stays loaded.
+/// (Loading a library runs its static initialisers, as for any dlopen: a
+/// plugin should do its work in its registration function, not in them.)
 /// Loading the same path again returns the first load's info. Plugins stay
 /// loaded until the program exits. Thread-safe.
 plugin_info load_plugin(const std::string& path);
