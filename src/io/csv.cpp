@@ -24,15 +24,8 @@ using namespace detail;  // scalar_io.hpp
 
 namespace {
 
-[[noreturn]] void fail(const std::string& file, const std::string& msg) { throw io_error(file + ": " + msg); }
-
-bool is_blank(char c) noexcept { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
-
-std::string_view trim(std::string_view s) noexcept {
-  while (!s.empty() && is_blank(s.front())) s.remove_prefix(1);
-  while (!s.empty() && is_blank(s.back())) s.remove_suffix(1);
-  return s;
-}
+// The text is read line by line: no value or name holds a '\n', and blanks
+// (is_space) separate values.
 
 std::string_view unquote(std::string_view s) noexcept {
   if (s.size() >= 2 && s.front() == '"' && s.back() == '"') s = trim(s.substr(1, s.size() - 2));
@@ -43,33 +36,13 @@ bool is_comment(std::string_view trimmed) noexcept {
   return !trimmed.empty() && (trimmed[0] == '#' || trimmed.substr(0, 2) == "//");
 }
 
-/// At most 40 characters of `s`, non-printable bytes replaced by '?', for messages.
-std::string printable(std::string_view s) {
-  std::string r;
-  for (char c : s.substr(0, 40)) r += (c >= 32 && c < 127) ? c : '?';
-  if (s.size() > 40) r += "...";
-  return r;
-}
-
-std::string lower(std::string_view s) {
-  std::string r(s);
-  for (char& c : r)
-    if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
-  return r;
-}
-
 /// Splits `line` at `delim` (' ' = runs of blanks), trimming and unquoting
 /// each value. Appends to `out`.
 void split(std::string_view line, char delim, std::vector<std::string_view>& out) {
   out.clear();
   if (delim == ' ') {
-    std::size_t i = 0;
-    while (i < line.size()) {
-      while (i < line.size() && is_blank(line[i])) ++i;
-      const std::size_t b = i;
-      while (i < line.size() && !is_blank(line[i])) ++i;
-      if (i > b) out.push_back(unquote(line.substr(b, i - b)));
-    }
+    word_reader<> words(line);
+    for (std::string_view w; words.next(w);) out.push_back(unquote(w));
     return;
   }
   std::size_t b = 0;
@@ -114,18 +87,15 @@ bool parse_number(std::string_view tok, double& out, bool& is_int) noexcept {
   return rd.ec == std::errc();
 }
 
+bool is_separator(char c) noexcept { return is_space(c) || c == ',' || c == ';'; }
+
 bool is_numeric_line(std::string_view line) {
-  std::size_t i = 0, tokens = 0;
-  while (i < line.size()) {
-    while (i < line.size() && (is_blank(line[i]) || line[i] == ',' || line[i] == ';')) ++i;
-    const std::size_t b = i;
-    while (i < line.size() && !(is_blank(line[i]) || line[i] == ',' || line[i] == ';')) ++i;
-    if (i > b) {
-      double v;
-      bool is_int;
-      if (!parse_number(unquote(line.substr(b, i - b)), v, is_int)) return false;
-      ++tokens;
-    }
+  std::size_t tokens = 0;
+  word_reader<is_separator> words(line);
+  for (std::string_view w; words.next(w); ++tokens) {
+    double v;
+    bool is_int;
+    if (!parse_number(unquote(w), v, is_int)) return false;
   }
   return tokens > 0;
 }
@@ -163,7 +133,7 @@ std::vector<std::string> header_names(std::string_view line, char delim) {
   split(line, delim, tok);
   std::vector<std::string> names;
   for (auto t : tok) {
-    const std::string l = lower(t);
+    const std::string l = to_lower(t);
     if (l == "x" || l == "y" || l == "z")
       names.push_back(l);
     else if (l == "r")
@@ -246,7 +216,7 @@ point_cloud parse_csv(std::string_view text, const std::string& file, const csv_
   std::string source;  // where the names came from, for messages
   if (!opt.columns.empty()) {
     for (const auto& c : opt.columns) {
-      const std::string l = lower(c);
+      const std::string l = to_lower(c);
       names.push_back(l == "x" || l == "y" || l == "z" ? l
                       : l == "r"                       ? "red"
                       : l == "g"                       ? "green"
@@ -382,14 +352,8 @@ point_cloud parse_csv(std::string_view text, const std::string& file, const csv_
 
   // --- the cloud
   const std::size_t n = cols[0].values.size();
-  const double* xyz[3] = {cols[axis[0]].values.data(), cols[axis[1]].values.data(), cols[axis[2]].values.data()};
-  const std::array<double, 3> origin = choose_origin(xyz[0], xyz[1], xyz[2], n);
-  point_cloud cloud;
-  cloud.set_origin(origin);
-  cloud.resize(n);
-  float* out = cloud.positions().data();
-  for (std::size_t k = 0; k < 3; ++k)
-    for (std::size_t i = 0; i < n; ++i) out[3 * i + k] = static_cast<float>(xyz[k][i] - origin[k]);
+  point_cloud cloud =
+      cloud_at(cols[axis[0]].values.data(), cols[axis[1]].values.data(), cols[axis[2]].values.data(), n);
   for (std::size_t j = 0; j < ncols; ++j) {
     if (j == axis[0] || j == axis[1] || j == axis[2]) continue;
     column_state& c = cols[j];
@@ -411,11 +375,11 @@ void write_csv_unchecked(std::ostream& out, const point_cloud& cloud) {
   const std::size_t n = cloud.size();
   for (const auto& f : cloud.fields()) {
     if (f.name.empty() || std::any_of(f.name.begin(), f.name.end(), [](char c) {
-          return is_blank(c) || c == '\n' || c == ',' || c == ';' || c == '"' || c == '#' || c < 32 || c == 127;
+          return is_space(c) || c == ',' || c == ';' || c == '"' || c == '#' || c < 32 || c == 127;
         }))
       throw std::invalid_argument("field name '" + f.name +
                                   "' cannot be written to CSV (empty, or has whitespace, a delimiter, '\"' or '#')");
-    const std::string l = lower(f.name);
+    const std::string l = to_lower(f.name);
     if (l == "x" || l == "y" || l == "z" || f.name.substr(0, 2) == "//")
       throw std::invalid_argument("field '" + f.name + "' clashes with the CSV coordinate columns");
     if (f.values.size() != n)
@@ -445,10 +409,7 @@ void write_csv_unchecked(std::ostream& out, const point_cloud& cloud) {
         *p++ = ',';
       }
       for (const auto& f : cloud.fields()) {
-        visit_type(f.type(), [&](auto tag) {
-          using T = decltype(tag);
-          p = std::to_chars(p, end, convert<T>(f.values[i])).ptr;
-        });
+        p = format_value(p, end, f.values[i], f.type());
         *p++ = ',';
       }
       p[-1] = '\n';

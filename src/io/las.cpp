@@ -22,40 +22,11 @@
 
 namespace ced::io {
 
+using namespace detail;  // scalar_io.hpp
+
 namespace {
 
 // ---------------------------------------------------------------- utilities
-
-using detail::convert;
-
-[[noreturn]] void fail(const std::string& file, const std::string& msg) { throw io_error(file + ": " + msg); }
-
-template <class T>
-using uint_of_size =
-    std::conditional_t<sizeof(T) == 1, std::uint8_t,
-                       std::conditional_t<sizeof(T) == 2, std::uint16_t,
-                                          std::conditional_t<sizeof(T) == 4, std::uint32_t, std::uint64_t>>>;
-
-/// Little-endian load, whatever the host byte order (compiles to a plain load
-/// on little-endian hosts).
-template <class T>
-T load_le(const unsigned char* p) noexcept {
-  using U = uint_of_size<T>;
-  U u = 0;
-  for (std::size_t i = 0; i < sizeof(T); ++i) u = static_cast<U>(u | static_cast<U>(static_cast<U>(p[i]) << (8 * i)));
-  T v;
-  std::memcpy(&v, &u, sizeof(T));
-  return v;
-}
-
-/// Little-endian store, whatever the host byte order.
-template <class T>
-void store_le(unsigned char* p, T v) noexcept {
-  using U = uint_of_size<T>;
-  U u;
-  std::memcpy(&u, &v, sizeof(T));
-  for (std::size_t i = 0; i < sizeof(T); ++i) p[i] = static_cast<unsigned char>(u >> (8 * i));
-}
 
 /// A fixed-size char field: up to the first NUL, without surrounding spaces.
 std::string fixed_string(const unsigned char* p, std::size_t n) {
@@ -162,13 +133,6 @@ column decode_typed(const unsigned char* p, std::size_t stride, std::size_t n) {
   T* v = c.data<T>();
   for (std::size_t i = 0; i < n; ++i) v[i] = load_le<T>(p + i * stride);
   return c;
-}
-
-template <class T>
-std::vector<double> decode_column(const unsigned char* p, std::size_t stride, std::size_t n) {
-  std::vector<double> v(n);
-  for (std::size_t i = 0; i < n; ++i) v[i] = static_cast<double>(load_le<T>(p + i * stride));
-  return v;
 }
 
 column decode_bits(const unsigned char* p, std::size_t stride, std::size_t n, int shift, unsigned mask) {
@@ -416,8 +380,8 @@ point_cloud parse_las(std::string_view bytes, const std::string& file, las_read_
           e.count == 1 ? e.name : (e.name.empty() ? "extra_" + std::to_string(j) : e.name) + "_" + std::to_string(k);
       name = unique_name(taken, std::move(name), j);
       if (!selection.wants(name)) continue;
-      std::vector<double> v;
-      visit_type(e.type, [&](auto tag) { v = decode_column<decltype(tag)>(at(off), stride, n); });
+      std::vector<double> v(n);
+      decode_column(at(off), stride, n, e.type, !host_little_endian(), v.data());
       const bool scaled = (e.options & 8) != 0, offsetted = (e.options & 16) != 0;
       if (scaled)
         for (double& x : v) x *= e.scale[k];
@@ -503,10 +467,7 @@ void encode_column(const out_column& c, std::size_t i0, std::size_t m, unsigned 
   const auto value = [&](std::size_t i) { return (c.values ? (*c.values)[i0 + i] : c.constant) * c.factor; };
   unsigned char* p = buf + c.offset;
   if (c.extra) {
-    visit_type(c.type, [&](auto tag) {
-      using T = decltype(tag);
-      for (std::size_t i = 0; i < m; ++i) store_le<T>(p + i * record, convert<T>(value(i)));
-    });
+    encode_values(c.type, !host_little_endian(), p, record, m, value);
     return;
   }
   switch (c.kind) {
@@ -546,12 +507,6 @@ void put(std::string& s, std::size_t offset, T v) {
 
 void put_string(std::string& s, std::size_t offset, std::size_t width, const std::string& text) {
   std::memcpy(&s[offset], text.data(), std::min(width, text.size()));
-}
-
-bool iequal(std::string_view a, std::string_view b) noexcept {
-  return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](char x, char y) {
-           return std::tolower(static_cast<unsigned char>(x)) == std::tolower(static_cast<unsigned char>(y));
-         });
 }
 
 void write_las_unchecked(std::ostream& out, const point_cloud& cloud, const las_write_options& opt) {

@@ -28,38 +28,6 @@ namespace {
 
 // ---------------------------------------------------------------- utilities
 
-[[noreturn]] void fail(const std::string& file, const std::string& msg) { throw io_error(file + ": " + msg); }
-
-/// out[i] = value at p + i * stride, for i < n.
-void decode_column(const unsigned char* p, std::size_t stride, std::size_t n, scalar_type t, double* out) {
-  visit_type(t, [&](auto tag) {
-    using T = decltype(tag);
-    for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<double>(load_le<T>(p + i * stride));
-  });
-}
-
-bool is_space(char c) noexcept { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\v' || c == '\f'; }
-
-std::vector<std::string_view> split_words(std::string_view line) {
-  std::vector<std::string_view> words;
-  std::size_t i = 0;
-  while (i < line.size()) {
-    while (i < line.size() && is_space(line[i])) ++i;
-    const std::size_t b = i;
-    while (i < line.size() && !is_space(line[i])) ++i;
-    if (i > b) words.push_back(line.substr(b, i - b));
-  }
-  return words;
-}
-
-/// At most 40 characters of `s`, non-printable bytes replaced by '?', for messages.
-std::string printable(std::string_view s) {
-  std::string r;
-  for (char c : s.substr(0, 40)) r += (c >= 32 && c < 127) ? c : '?';
-  if (s.size() > 40) r += "...";
-  return r;
-}
-
 bool parse_u64(std::string_view s, std::uint64_t& v) noexcept {
   const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
   return r.ec == std::errc() && r.ptr == s.data() + s.size();
@@ -296,7 +264,7 @@ void read_binary(std::string_view data, const pcd_header& h, const std::vector<s
         auto& col = cols[col_of[j] + c];
         col.resize(n);
         decode_column(body + offset + c * f.size, point_size, n, f.packed_rgb ? scalar_type::uint32 : f.stype,
-                      col.data());
+                      !host_little_endian(), col.data());
       }
     offset += f.size * f.count;
   }
@@ -350,7 +318,7 @@ void read_compressed(std::string_view data, const pcd_header& h, const std::vect
         auto& col = cols[col_of[j] + c];
         col.resize(n);
         decode_column(p + offset + c * f.size, f.size * f.count, n, f.packed_rgb ? scalar_type::uint32 : f.stype,
-                      col.data());
+                      !host_little_endian(), col.data());
       }
     offset += n * f.size * f.count;
   }
@@ -383,13 +351,11 @@ void read_ascii(std::string_view data, const pcd_header& h, const std::vector<st
         fail(file, "truncated: the file ends after " + std::to_string(i) + " of " + std::to_string(n) + " points");
       ++line_no;
       tok.clear();
-      while (p < end && *p != '\n') {
-        while (p < end && *p != '\n' && is_space(*p)) ++p;
-        const char* b = p;
-        while (p < end && !is_space(*p)) ++p;
-        if (p > b) tok.emplace_back(b, static_cast<std::size_t>(p - b));
-      }
-      if (p < end) ++p;  // the '\n'
+      const auto* nl = static_cast<const char*>(std::memchr(p, '\n', static_cast<std::size_t>(end - p)));
+      const char* line_end = nl ? nl : end;
+      word_reader<> words(std::string_view(p, static_cast<std::size_t>(line_end - p)));
+      for (std::string_view w; words.next(w);) tok.push_back(w);
+      p = nl ? nl + 1 : end;
       if (!tok.empty()) break;
     }
     const bool with_padding = tok.size() == values_all;
@@ -487,15 +453,7 @@ point_cloud parse_pcd(std::string_view data, const std::string& file, pcd_read_i
       }
   }
 
-  const std::array<double, 3> origin = choose_origin(xyz[0]->data(), xyz[1]->data(), xyz[2]->data(), n);
-  point_cloud cloud;
-  cloud.set_origin(origin);
-  cloud.resize(n);
-  float* out = cloud.positions().data();
-  for (std::size_t k = 0; k < 3; ++k) {
-    const double* v = xyz[k]->data();
-    for (std::size_t i = 0; i < n; ++i) out[3 * i + k] = static_cast<float>(v[i] - origin[k]);
-  }
+  point_cloud cloud = cloud_at(xyz[0]->data(), xyz[1]->data(), xyz[2]->data(), n);
 
   for (std::size_t j = 0; j < h.fields.size(); ++j) {
     const pcd_field& f = h.fields[j];
@@ -650,10 +608,7 @@ void column_values(const out_column& c, const point_cloud& cloud, std::size_t i0
 
 /// Encodes m values little-endian at p, p + stride, ...
 void encode_column(const double* v, std::size_t m, scalar_type t, unsigned char* p, std::size_t stride) {
-  visit_type(t, [&](auto tag) {
-    using T = decltype(tag);
-    for (std::size_t i = 0; i < m; ++i) store_le<T>(p + i * stride, convert<T>(v[i]));
-  });
+  encode_values(t, !host_little_endian(), p, stride, m, [v](std::size_t i) { return v[i]; });
 }
 
 void write_pcd_unchecked(std::ostream& out, const point_cloud& cloud, pcd_format fmt) {
@@ -701,11 +656,7 @@ void write_pcd_unchecked(std::ostream& out, const point_cloud& cloud, pcd_format
       char* const end = p + buf.size();
       for (std::size_t i = 0; i < m; ++i) {
         for (std::size_t c = 0; c < cols.size(); ++c) {
-          const double v = vals[c * chunk + i];
-          visit_type(cols[c].enc, [&](auto tag) {
-            using T = decltype(tag);
-            p = std::to_chars(p, end, convert<T>(v)).ptr;
-          });
+          p = format_value(p, end, vals[c * chunk + i], cols[c].enc);
           *p++ = c + 1 == cols.size() ? '\n' : ' ';
         }
       }

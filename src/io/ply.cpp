@@ -27,31 +27,11 @@ namespace {
 
 // ---------------------------------------------------------------- utilities
 
-[[noreturn]] void fail(const std::string& file, const std::string& msg) { throw io_error(file + ": " + msg); }
-
 // Header limits. Duplicate names are checked, and vertex properties become
 // cloud fields, by linear search: bounding the counts keeps a small hostile
 // header from costing quadratic time.
 constexpr std::size_t max_elements = 4096;
 constexpr std::size_t max_properties = 4096;
-
-template <class T, bool Swap>
-T load(const unsigned char* p) noexcept {
-  unsigned char b[sizeof(T)];
-  std::memcpy(b, p, sizeof(T));
-  if constexpr (Swap) std::reverse(b, b + sizeof(T));
-  T v;
-  std::memcpy(&v, b, sizeof(T));
-  return v;
-}
-
-template <class T, bool Swap>
-void store(unsigned char* p, T v) noexcept {
-  unsigned char b[sizeof(T)];
-  std::memcpy(b, &v, sizeof(T));
-  if constexpr (Swap) std::reverse(b, b + sizeof(T));
-  std::memcpy(p, b, sizeof(T));
-}
 
 double read_value(const unsigned char* p, scalar_type t, bool swap) noexcept {
   double v = 0;
@@ -61,19 +41,6 @@ double read_value(const unsigned char* p, scalar_type t, bool swap) noexcept {
   });
   return v;
 }
-
-/// out[i] = value at p + i * stride, for i < n.
-void decode_column(const unsigned char* p, std::size_t stride, std::size_t n, scalar_type t, bool swap, double* out) {
-  visit_type(t, [&](auto tag) {
-    using T = decltype(tag);
-    if (swap)
-      for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<double>(load<T, true>(p + i * stride));
-    else
-      for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<double>(load<T, false>(p + i * stride));
-  });
-}
-
-bool is_space(char c) noexcept { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\v' || c == '\f'; }
 
 std::string plural(const std::string& element) {
   return element == "vertex" ? std::string("vertices") : "'" + element + "' elements";
@@ -111,18 +78,6 @@ std::optional<scalar_type> parse_type(std::string_view s) noexcept {
   for (const auto& [name, type] : table)
     if (name == s) return type;
   return std::nullopt;
-}
-
-std::vector<std::string_view> split_words(std::string_view line) {
-  std::vector<std::string_view> words;
-  std::size_t i = 0;
-  while (i < line.size()) {
-    while (i < line.size() && is_space(line[i])) ++i;
-    const std::size_t b = i;
-    while (i < line.size() && !is_space(line[i])) ++i;
-    if (i > b) words.push_back(line.substr(b, i - b));
-  }
-  return words;
 }
 
 ply_header parse_header(std::string_view data, const std::string& file) {
@@ -289,19 +244,6 @@ std::size_t read_binary_element(std::string_view data, std::size_t pos, const el
 
 // -------------------------------------------------------------- ascii body
 
-struct tokenizer {
-  const char* p;
-  const char* end;
-  bool next(std::string_view& tok) noexcept {
-    while (p < end && is_space(*p)) ++p;
-    if (p == end) return false;
-    const char* b = p;
-    while (p < end && !is_space(*p)) ++p;
-    tok = std::string_view(b, static_cast<std::size_t>(p - b));
-    return true;
-  }
-};
-
 std::size_t read_ascii_element(std::string_view data, std::size_t pos, const element_desc& e, columns* cols,
                                const std::string& file) {
   if (e.count == 0 || e.props.empty()) return pos;
@@ -318,7 +260,7 @@ std::size_t read_ascii_element(std::string_view data, std::size_t pos, const ele
     for (std::size_t j = 0; j < e.props.size(); ++j)
       if (!e.props[j].is_list) (*cols)[j].resize(n);
 
-  tokenizer tk{data.data() + pos, data.data() + data.size()};
+  word_reader<> tk(data.substr(pos));
   std::string_view tok;
   const auto truncated = [&](std::size_t i) {
     fail(file,
@@ -386,15 +328,7 @@ point_cloud parse_ply(std::string_view data, const std::string& file) {
   }
 
   const auto n = static_cast<std::size_t>(vertex->count);
-  const double* xyz[3] = {cols[axis[0]].data(), cols[axis[1]].data(), cols[axis[2]].data()};
-  const std::array<double, 3> origin = choose_origin(xyz[0], xyz[1], xyz[2], n);
-
-  point_cloud cloud;
-  cloud.set_origin(origin);
-  cloud.resize(n);
-  float* out = cloud.positions().data();
-  for (std::size_t i = 0; i < n; ++i)
-    for (std::size_t k = 0; k < 3; ++k) out[3 * i + k] = static_cast<float>(xyz[k][i] - origin[k]);
+  point_cloud cloud = cloud_at(cols[axis[0]].data(), cols[axis[1]].data(), cols[axis[2]].data(), n);
   for (std::size_t j = 0; j < vertex->props.size(); ++j) {
     const property_desc& p = vertex->props[j];
     if (p.is_list || j == axis[0] || j == axis[1] || j == axis[2]) continue;
@@ -428,16 +362,6 @@ const char* ply_type_name(scalar_type t) noexcept {
 
 scalar_type written_type(scalar_type t) noexcept {
   return t == scalar_type::int64 || t == scalar_type::uint64 ? scalar_type::float64 : t;
-}
-
-/// Appends the shortest text that reads back as the same value of type t.
-char* format_value(char* p, char* end, double v, scalar_type t) noexcept {
-  std::to_chars_result r{};
-  visit_type(t, [&](auto tag) {
-    using T = decltype(tag);
-    r = std::to_chars(p, end, convert<T>(v));
-  });
-  return r.ptr;
 }
 
 void write_ply_unchecked(std::ostream& out, const point_cloud& cloud, ply_format fmt) {
@@ -512,13 +436,7 @@ void write_ply_unchecked(std::ostream& out, const point_cloud& cloud, ply_format
       std::size_t offset = 0;
       for (std::size_t c = 0; c < cols.size(); ++c) {
         const double* v = vals.data() + c * chunk;
-        visit_type(cols[c].type, [&](auto tag) {
-          using T = decltype(tag);
-          if (swap)
-            for (std::size_t i = 0; i < m; ++i) store<T, true>(base + i * record + offset, convert<T>(v[i]));
-          else
-            for (std::size_t i = 0; i < m; ++i) store<T, false>(base + i * record + offset, convert<T>(v[i]));
-        });
+        encode_values(cols[c].type, swap, base + offset, record, m, [v](std::size_t i) { return v[i]; });
         offset += size_of(cols[c].type);
       }
       out.write(buf.data(), static_cast<std::streamsize>(buf.size()));

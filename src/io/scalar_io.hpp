@@ -3,6 +3,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -17,6 +18,7 @@
 
 #include "ced/cloud.hpp"
 #include "ced/io/output_file.hpp"
+#include "core/text.hpp"
 
 namespace ced::io::detail {
 
@@ -42,6 +44,18 @@ void write_to_file(const std::string& path, Write&& write) {
   file.commit();
 }
 
+/// Throws io_error("file: msg").
+[[noreturn]] inline void fail(const std::string& file, const std::string& msg) { throw io_error(file + ": " + msg); }
+
+// The text helpers of core, for the readers.
+using ced::detail::iequal;
+using ced::detail::is_space;
+using ced::detail::printable;
+using ced::detail::split_words;
+using ced::detail::to_lower;
+using ced::detail::trim;
+using ced::detail::word_reader;
+
 inline bool host_little_endian() noexcept {
   const std::uint16_t one = 1;
   unsigned char b = 0;
@@ -49,29 +63,96 @@ inline bool host_little_endian() noexcept {
   return b == 1;
 }
 
-/// Little-endian load/store (PCD binary data is little-endian in practice).
-template <class T>
-T load_le(const unsigned char* p) noexcept {
+/// The sizeof(T) bytes at p as a T, in reverse order when Swap.
+template <class T, bool Swap>
+T load(const unsigned char* p) noexcept {
   unsigned char b[sizeof(T)];
   std::memcpy(b, p, sizeof(T));
-  if (!host_little_endian()) std::reverse(b, b + sizeof(T));
+  if constexpr (Swap) std::reverse(b, b + sizeof(T));
   T v;
   std::memcpy(&v, b, sizeof(T));
   return v;
 }
 
-template <class T>
-void store_le(unsigned char* p, T v) noexcept {
+/// Stores the bytes of `v` at p, in reverse order when Swap.
+template <class T, bool Swap>
+void store(unsigned char* p, T v) noexcept {
   unsigned char b[sizeof(T)];
   std::memcpy(b, &v, sizeof(T));
-  if (!host_little_endian()) std::reverse(b, b + sizeof(T));
+  if constexpr (Swap) std::reverse(b, b + sizeof(T));
   std::memcpy(p, b, sizeof(T));
+}
+
+/// Little-endian load/store, whatever the host byte order (a plain load or
+/// store on little-endian hosts).
+template <class T>
+T load_le(const unsigned char* p) noexcept {
+  return host_little_endian() ? load<T, false>(p) : load<T, true>(p);
+}
+
+template <class T>
+void store_le(unsigned char* p, T v) noexcept {
+  if (host_little_endian())
+    store<T, false>(p, v);
+  else
+    store<T, true>(p, v);
+}
+
+/// out[i] = the value of type t at p + i * stride, for i < n; its bytes
+/// reversed when `swap`.
+inline void decode_column(const unsigned char* p, std::size_t stride, std::size_t n, scalar_type t, bool swap,
+                          double* out) noexcept {
+  visit_type(t, [&](auto tag) {
+    using T = decltype(tag);
+    if (swap)
+      for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<double>(load<T, true>(p + i * stride));
+    else
+      for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<double>(load<T, false>(p + i * stride));
+  });
 }
 
 /// Rounds and clamps to T's range (NaN -> 0) for integers; float: overflow -> inf.
 template <class T>
 T convert(double v) noexcept {
   return convert_value<T>(v);
+}
+
+/// Stores convert<T>(value(i)) at p + i * stride for i < n, T the type that
+/// stores t; its bytes reversed when `swap`.
+template <class Value>
+void encode_values(scalar_type t, bool swap, unsigned char* p, std::size_t stride, std::size_t n, Value&& value) {
+  visit_type(t, [&](auto tag) {
+    using T = decltype(tag);
+    if (swap)
+      for (std::size_t i = 0; i < n; ++i) store<T, true>(p + i * stride, convert<T>(value(i)));
+    else
+      for (std::size_t i = 0; i < n; ++i) store<T, false>(p + i * stride, convert<T>(value(i)));
+  });
+}
+
+/// Writes at p the shortest text that reads back as convert<T>(v), T the type
+/// that stores t; returns the end of the text.
+inline char* format_value(char* p, char* end, double v, scalar_type t) noexcept {
+  std::to_chars_result r{};
+  visit_type(t, [&](auto tag) {
+    using T = decltype(tag);
+    r = std::to_chars(p, end, convert<T>(v));
+  });
+  return r.ptr;
+}
+
+/// A cloud of the n points (x[i], y[i], z[i]), absolute coordinates: its
+/// origin from choose_origin(), its positions relative to that; no fields.
+inline point_cloud cloud_at(const double* x, const double* y, const double* z, std::size_t n) {
+  const double* xyz[3] = {x, y, z};
+  const std::array<double, 3> origin = choose_origin(x, y, z, n);
+  point_cloud cloud;
+  cloud.set_origin(origin);
+  cloud.resize(n);
+  float* out = cloud.positions().data();
+  for (std::size_t k = 0; k < 3; ++k)
+    for (std::size_t i = 0; i < n; ++i) out[3 * i + k] = static_cast<float>(xyz[k][i] - origin[k]);
+  return cloud;
 }
 
 enum class parse_status { ok, not_a_number, not_an_integer, out_of_range };
