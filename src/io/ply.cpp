@@ -80,6 +80,80 @@ std::optional<scalar_type> parse_type(std::string_view s) noexcept {
   return std::nullopt;
 }
 
+/// One line of the header: its text, words and number (for messages).
+struct header_line {
+  std::string_view text;
+  std::vector<std::string_view> words;
+  int number = 0;
+  std::string where() const { return "header line " + std::to_string(number) + ": "; }
+};
+
+/// "format ascii|binary_little_endian|binary_big_endian 1.0".
+void read_format_line(const header_line& l, const std::string& file, ply_header& h) {
+  const auto& w = l.words;
+  if (w.size() != 3) fail(file, l.where() + "malformed format line '" + std::string(l.text) + "'");
+  if (w[1] == "ascii")
+    h.format = ply_format::ascii;
+  else if (w[1] == "binary_little_endian")
+    h.format = ply_format::binary_little_endian;
+  else if (w[1] == "binary_big_endian")
+    h.format = ply_format::binary_big_endian;
+  else
+    fail(file, l.where() + "unknown PLY format '" + std::string(w[1]) +
+                   "' (expected ascii, binary_little_endian or binary_big_endian)");
+  if (w[2] != "1.0" && w[2] != "1") fail(file, l.where() + "unsupported PLY version '" + std::string(w[2]) + "'");
+}
+
+/// "element NAME COUNT": a new element, named once.
+void read_element_line(const header_line& l, const std::string& file, ply_header& h) {
+  const auto& w = l.words;
+  if (w.size() != 3) fail(file, l.where() + "malformed element line '" + std::string(l.text) + "'");
+  element_desc e;
+  e.name = std::string(w[1]);
+  const auto r = std::from_chars(w[2].data(), w[2].data() + w[2].size(), e.count);
+  if (r.ec != std::errc() || r.ptr != w[2].data() + w[2].size())
+    fail(file, l.where() + "invalid count '" + std::string(w[2]) + "' for element '" + e.name + "'");
+  if (h.elements.size() >= max_elements)
+    fail(file, l.where() + "too many elements (more than " + std::to_string(max_elements) + ")");
+  for (const auto& other : h.elements)
+    if (other.name == e.name) fail(file, l.where() + "element '" + e.name + "' is declared twice");
+  h.elements.push_back(std::move(e));
+}
+
+/// "property TYPE NAME" or "property list COUNT_TYPE TYPE NAME": a property
+/// of the last element, named once in it.
+void read_property_line(const header_line& l, const std::string& file, ply_header& h) {
+  const auto& w = l.words;
+  if (h.elements.empty()) fail(file, l.where() + "property before any element");
+  property_desc p;
+  const auto type_of = [&](std::string_view s) {
+    const auto t = parse_type(s);
+    if (!t) fail(file, l.where() + "unknown property type '" + std::string(s) + "'");
+    return *t;
+  };
+  if (w.size() == 5 && w[1] == "list") {
+    p.is_list = true;
+    p.count_type = type_of(w[2]);
+    p.type = type_of(w[3]);
+    p.name = std::string(w[4]);
+    if (!is_integer(p.count_type))
+      fail(file, l.where() + "list count type of property '" + p.name + "' must be an integer type");
+  } else if (w.size() == 3 && w[1] != "list") {
+    p.type = type_of(w[1]);
+    p.name = std::string(w[2]);
+  } else {
+    fail(file, l.where() + "malformed property line '" + std::string(l.text) + "'");
+  }
+  auto& e = h.elements.back();
+  if (e.props.size() >= max_properties)
+    fail(file, l.where() + "element '" + e.name + "' has too many properties (more than " +
+                   std::to_string(max_properties) + ")");
+  for (const auto& other : e.props)
+    if (other.name == p.name)
+      fail(file, l.where() + "property '" + p.name + "' is declared twice in element '" + e.name + "'");
+  e.props.push_back(std::move(p));
+}
+
 ply_header parse_header(std::string_view data, const std::string& file) {
   std::size_t pos = 0;
   if (data.substr(0, 4) == "ply\n")
@@ -92,75 +166,28 @@ ply_header parse_header(std::string_view data, const std::string& file) {
 
   ply_header h;
   bool have_format = false;
-  int line_no = 1;
-  const auto where = [&] { return "header line " + std::to_string(line_no) + ": "; };
+  header_line l;
+  l.number = 1;
   for (;;) {
     if (pos >= data.size()) fail(file, "the PLY header has no end_header line");
     const std::size_t nl = data.find('\n', pos);
-    const std::string_view line = data.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos);
+    l.text = data.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos);
     pos = nl == std::string_view::npos ? data.size() : nl + 1;
-    ++line_no;
-    const auto w = split_words(line);
-    if (w.empty()) continue;
-    const std::string_view kw = w[0];
+    ++l.number;
+    l.words = split_words(l.text);
+    if (l.words.empty()) continue;
+    const std::string_view kw = l.words[0];
     if (kw == "end_header") break;
     if (kw == "comment" || kw == "obj_info") continue;
     if (kw == "format") {
-      if (w.size() != 3) fail(file, where() + "malformed format line '" + std::string(line) + "'");
-      if (w[1] == "ascii")
-        h.format = ply_format::ascii;
-      else if (w[1] == "binary_little_endian")
-        h.format = ply_format::binary_little_endian;
-      else if (w[1] == "binary_big_endian")
-        h.format = ply_format::binary_big_endian;
-      else
-        fail(file, where() + "unknown PLY format '" + std::string(w[1]) +
-                       "' (expected ascii, binary_little_endian or binary_big_endian)");
-      if (w[2] != "1.0" && w[2] != "1") fail(file, where() + "unsupported PLY version '" + std::string(w[2]) + "'");
+      read_format_line(l, file, h);
       have_format = true;
     } else if (kw == "element") {
-      if (w.size() != 3) fail(file, where() + "malformed element line '" + std::string(line) + "'");
-      element_desc e;
-      e.name = std::string(w[1]);
-      const auto r = std::from_chars(w[2].data(), w[2].data() + w[2].size(), e.count);
-      if (r.ec != std::errc() || r.ptr != w[2].data() + w[2].size())
-        fail(file, where() + "invalid count '" + std::string(w[2]) + "' for element '" + e.name + "'");
-      if (h.elements.size() >= max_elements)
-        fail(file, where() + "too many elements (more than " + std::to_string(max_elements) + ")");
-      for (const auto& other : h.elements)
-        if (other.name == e.name) fail(file, where() + "element '" + e.name + "' is declared twice");
-      h.elements.push_back(std::move(e));
+      read_element_line(l, file, h);
     } else if (kw == "property") {
-      if (h.elements.empty()) fail(file, where() + "property before any element");
-      property_desc p;
-      const auto type_of = [&](std::string_view s) {
-        const auto t = parse_type(s);
-        if (!t) fail(file, where() + "unknown property type '" + std::string(s) + "'");
-        return *t;
-      };
-      if (w.size() == 5 && w[1] == "list") {
-        p.is_list = true;
-        p.count_type = type_of(w[2]);
-        p.type = type_of(w[3]);
-        p.name = std::string(w[4]);
-        if (!is_integer(p.count_type))
-          fail(file, where() + "list count type of property '" + p.name + "' must be an integer type");
-      } else if (w.size() == 3 && w[1] != "list") {
-        p.type = type_of(w[1]);
-        p.name = std::string(w[2]);
-      } else {
-        fail(file, where() + "malformed property line '" + std::string(line) + "'");
-      }
-      auto& e = h.elements.back();
-      if (e.props.size() >= max_properties)
-        fail(file, where() + "element '" + e.name + "' has too many properties (more than " +
-                       std::to_string(max_properties) + ")");
-      for (const auto& other : e.props)
-        if (other.name == p.name)
-          fail(file, where() + "property '" + p.name + "' is declared twice in element '" + e.name + "'");
-      e.props.push_back(std::move(p));
+      read_property_line(l, file, h);
     } else {
-      fail(file, where() + "unknown header keyword '" + std::string(kw) + "'");
+      fail(file, l.where() + "unknown header keyword '" + std::string(kw) + "'");
     }
   }
   if (!have_format) fail(file, "the PLY header has no format line");
@@ -364,7 +391,8 @@ scalar_type written_type(scalar_type t) noexcept {
   return t == scalar_type::int64 || t == scalar_type::uint64 ? scalar_type::float64 : t;
 }
 
-void write_ply_unchecked(std::ostream& out, const point_cloud& cloud, ply_format fmt) {
+/// Throws std::invalid_argument when a field cannot be written as a vertex property.
+void check_writable(const point_cloud& cloud) {
   const std::size_t n = cloud.size();
   for (const auto& f : cloud.fields()) {
     if (f.name.empty() || std::any_of(f.name.begin(), f.name.end(), [](char c) { return is_space(c); }))
@@ -375,30 +403,32 @@ void write_ply_unchecked(std::ostream& out, const point_cloud& cloud, ply_format
       throw std::invalid_argument("field '" + f.name + "' has " + std::to_string(f.values.size()) + " values for " +
                                   std::to_string(n) + " points");
   }
-  const auto& origin = cloud.origin();
-  const bool georef = origin[0] != 0 || origin[1] != 0 || origin[2] != 0;
+}
 
-  struct out_column {
-    scalar_type type;
-    const column* values;  // nullptr for positions
-    int axis;
-  };
-  std::vector<out_column> cols;
-  const scalar_type pos_type = georef ? scalar_type::float64 : scalar_type::float32;
-  for (int k = 0; k < 3; ++k) cols.push_back({pos_type, nullptr, k});
-  for (const auto& f : cloud.fields()) cols.push_back({written_type(f.type()), &f.values, -1});
+/// A vertex property to write: a coordinate or a field.
+struct out_column {
+  scalar_type type;
+  const column* values;  // nullptr for positions
+  int axis;
+};
 
+std::string make_header(const point_cloud& cloud, ply_format fmt, scalar_type pos_type) {
   std::string header = "ply\nformat ";
   header += fmt == ply_format::ascii                  ? "ascii"
             : fmt == ply_format::binary_little_endian ? "binary_little_endian"
                                                       : "binary_big_endian";
-  header += " 1.0\ncomment generated by ced\nelement vertex " + std::to_string(n) + "\n";
+  header += " 1.0\ncomment generated by ced\nelement vertex " + std::to_string(cloud.size()) + "\n";
   for (int k = 0; k < 3; ++k) header += std::string("property ") + ply_type_name(pos_type) + " " + char('x' + k) + "\n";
   for (const auto& f : cloud.fields())
     header += std::string("property ") + ply_type_name(f.type()) + " " + f.name + "\n";
   header += "end_header\n";
-  out.write(header.data(), static_cast<std::streamsize>(header.size()));
+  return header;
+}
 
+/// The vertices, in chunks of points.
+void write_vertices(std::ostream& out, const point_cloud& cloud, ply_format fmt, const std::vector<out_column>& cols) {
+  const std::size_t n = cloud.size();
+  const auto& origin = cloud.origin();
   std::size_t record = 0;
   for (const auto& c : cols) record += size_of(c.type);
   const bool swap = fmt != ply_format::ascii && (fmt == ply_format::binary_little_endian) != host_little_endian();
@@ -442,6 +472,19 @@ void write_ply_unchecked(std::ostream& out, const point_cloud& cloud, ply_format
       out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
     }
   }
+}
+
+void write_ply_unchecked(std::ostream& out, const point_cloud& cloud, ply_format fmt) {
+  check_writable(cloud);
+  const auto& origin = cloud.origin();
+  const bool georef = origin[0] != 0 || origin[1] != 0 || origin[2] != 0;
+  const scalar_type pos_type = georef ? scalar_type::float64 : scalar_type::float32;
+  std::vector<out_column> cols;
+  for (int k = 0; k < 3; ++k) cols.push_back({pos_type, nullptr, k});
+  for (const auto& f : cloud.fields()) cols.push_back({written_type(f.type()), &f.values, -1});
+  const std::string header = make_header(cloud, fmt, pos_type);
+  out.write(header.data(), static_cast<std::streamsize>(header.size()));
+  write_vertices(out, cloud, fmt, cols);
 }
 
 }  // namespace
