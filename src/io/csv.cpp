@@ -422,40 +422,30 @@ void write_csv_unchecked(std::ostream& out, const point_cloud& cloud) {
     const std::string l = to_lower(f.name);
     if (l == "x" || l == "y" || l == "z" || f.name.substr(0, 2) == "//")
       throw std::invalid_argument("field '" + f.name + "' clashes with the CSV coordinate columns");
-    if (f.values.size() != n)
-      throw std::invalid_argument("field '" + f.name + "' has " + std::to_string(f.values.size()) + " values for " +
-                                  std::to_string(n) + " points");
+    check_field_size(f, n);
   }
   std::string header = "x,y,z";
   for (const auto& f : cloud.fields()) header += "," + f.name;
   header += "\n";
   out.write(header.data(), static_cast<std::streamsize>(header.size()));
 
+  // Positions as float (their own shortest text), or as double offset by a
+  // non-zero origin; fields as their type.
   const auto& origin = cloud.origin();
   const bool georef = origin[0] != 0 || origin[1] != 0 || origin[2] != 0;
-  const std::size_t ncols = 3 + cloud.fields().size();
-  std::string buf;
-  constexpr std::size_t chunk = 4096;
+  std::vector<scalar_type> types(3, georef ? scalar_type::float64 : scalar_type::float32);
+  for (const auto& f : cloud.fields()) types.push_back(f.type());
   const float* xyz = cloud.positions().data();
-  for (std::size_t i0 = 0; i0 < n; i0 += chunk) {
-    const std::size_t m = std::min(chunk, n - i0);
-    buf.resize(m * ncols * 32);
-    char* p = buf.data();
-    char* const end = p + buf.size();
-    for (std::size_t i = i0; i < i0 + m; ++i) {
-      for (std::size_t k = 0; k < 3; ++k) {
-        const float v = xyz[3 * i + k];
-        p = georef ? std::to_chars(p, end, origin[k] + static_cast<double>(v)).ptr : std::to_chars(p, end, v).ptr;
-        *p++ = ',';
-      }
-      for (const auto& f : cloud.fields()) {
-        p = format_value(p, end, f.values[i], f.type());
-        *p++ = ',';
-      }
-      p[-1] = '\n';
+  point_format pf;
+  pf.text = true;
+  pf.separator = ',';
+  write_points(out, n, types, pf, [&](std::size_t c, std::size_t i0, std::size_t m, double* v) {
+    if (c >= 3) return copy_values(cloud.fields()[c - 3].values, i0, m, v);
+    for (std::size_t i = 0; i < m; ++i) {
+      const double p = xyz[3 * (i0 + i) + c];
+      v[i] = georef ? origin[c] + p : p;  // without an origin, -0 stays -0
     }
-    out.write(buf.data(), p - buf.data());
-  }
+  });
 }
 
 }  // namespace

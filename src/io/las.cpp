@@ -458,6 +458,10 @@ point_cloud parse_las(std::string_view bytes, const std::string& file, las_read_
 
 enum class slot_kind { u8, i8, u16, i16, f64, bits };
 
+/// The type of the slots of each kind but bits.
+constexpr scalar_type k_slot_types[] = {scalar_type::uint8, scalar_type::int8, scalar_type::uint16, scalar_type::int16,
+                                        scalar_type::float64};
+
 /// One standard LAS field in a point record.
 struct slot_spec {
   const char* name;
@@ -514,11 +518,10 @@ std::vector<slot_spec> standard_slots(const format_layout& layout) {
 struct out_column {
   const column* values = nullptr;  ///< nullptr: `constant` for every point
   double constant = 0;
-  double factor = 1;  ///< applied before conversion (scan angle units)
-  slot_kind kind = slot_kind::u8;
-  bool extra = false;  ///< extra-bytes field of type `type`
-  scalar_type type = scalar_type::uint8;
+  double factor = 1;                      ///< applied before conversion (scan angle units)
+  scalar_type type = scalar_type::uint8;  ///< unless `bits`
   std::size_t offset = 0;
+  bool bits = false;  ///< bits of a byte: `shift`, `max`, `flag` as in slot_spec
   int shift = 0;
   unsigned max = 0;
   bool flag = false;
@@ -527,37 +530,15 @@ struct out_column {
 void encode_column(const out_column& c, std::size_t i0, std::size_t m, unsigned char* buf, std::size_t record) {
   const auto value = [&](std::size_t i) { return (c.values ? (*c.values)[i0 + i] : c.constant) * c.factor; };
   unsigned char* p = buf + c.offset;
-  if (c.extra) {
-    encode_values(c.type, !host_little_endian(), p, record, m, value);
-    return;
-  }
-  switch (c.kind) {
-    case slot_kind::u8:
-      for (std::size_t i = 0; i < m; ++i) store_le<std::uint8_t>(p + i * record, convert<std::uint8_t>(value(i)));
-      return;
-    case slot_kind::i8:
-      for (std::size_t i = 0; i < m; ++i) store_le<std::int8_t>(p + i * record, convert<std::int8_t>(value(i)));
-      return;
-    case slot_kind::u16:
-      for (std::size_t i = 0; i < m; ++i) store_le<std::uint16_t>(p + i * record, convert<std::uint16_t>(value(i)));
-      return;
-    case slot_kind::i16:
-      for (std::size_t i = 0; i < m; ++i) store_le<std::int16_t>(p + i * record, convert<std::int16_t>(value(i)));
-      return;
-    case slot_kind::f64:
-      for (std::size_t i = 0; i < m; ++i) store_le<double>(p + i * record, value(i));
-      return;
-    case slot_kind::bits:
-      for (std::size_t i = 0; i < m; ++i) {
-        const double v = value(i);
-        unsigned b = 0;
-        if (c.flag)
-          b = v != 0 && !std::isnan(v) ? 1u : 0u;
-        else
-          b = std::min<unsigned>(convert<std::uint8_t>(v), c.max);
-        p[i * record] = static_cast<unsigned char>(p[i * record] | (b << c.shift));
-      }
-      return;
+  if (!c.bits) return encode_values(c.type, !host_little_endian(), p, record, m, value);
+  for (std::size_t i = 0; i < m; ++i) {
+    const double v = value(i);
+    unsigned b = 0;
+    if (c.flag)
+      b = v != 0 && !std::isnan(v) ? 1u : 0u;
+    else
+      b = std::min<unsigned>(convert<std::uint8_t>(v), c.max);
+    p[i * record] = static_cast<unsigned char>(p[i * record] | (b << c.shift));
   }
 }
 
@@ -581,10 +562,7 @@ void check_writable(const point_cloud& cloud, const las_write_options& opt) {
       throw std::invalid_argument("invalid LAS scale " + num(opt.scale[k]) + " (it must be finite and positive)");
     if (!std::isfinite(cloud.origin()[k])) throw std::invalid_argument("the cloud's origin is not finite");
   }
-  for (const auto& f : cloud.fields())
-    if (f.values.size() != n)
-      throw std::invalid_argument("field '" + f.name + "' has " + std::to_string(f.values.size()) + " values for " +
-                                  std::to_string(n) + " points");
+  for (const auto& f : cloud.fields()) check_field_size(f, n);
   if (minor < 4 && n > std::numeric_limits<std::uint32_t>::max())
     throw std::invalid_argument("LAS 1." + std::to_string(minor) + " cannot hold " + std::to_string(n) +
                                 " points (at most 2^32-1; write LAS 1.4)");
@@ -616,7 +594,8 @@ void plan_standard_columns(const point_cloud& cloud, const std::array<const fiel
     else
       f = cloud.find_field_icase(name);  // exact name first
     out_column c;
-    c.kind = s.kind;
+    c.bits = s.kind == slot_kind::bits;
+    if (!c.bits) c.type = k_slot_types[static_cast<int>(s.kind)];
     c.offset = s.offset;
     c.shift = s.shift;
     c.max = s.max;
@@ -654,7 +633,6 @@ void plan_extra_columns(const point_cloud& cloud, las_plan& plan, const std::vec
   for (const field* f : plan.extras) {
     out_column c;
     c.values = &f->values;
-    c.extra = true;
     c.type = f->type();
     c.offset = plan.record;
     plan.record += size_of(f->type());

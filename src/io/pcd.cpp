@@ -54,27 +54,25 @@ struct pcd_header {
   std::size_t body_line = 0;  ///< 1-based line number of the line after DATA
 };
 
-std::optional<scalar_type> pcd_type(char type, std::uint64_t size) noexcept {
-  using st = scalar_type;
-  switch (type) {
-    case 'I':
-      if (size == 1) return st::int8;
-      if (size == 2) return st::int16;
-      if (size == 4) return st::int32;
-      if (size == 8) return st::int64;
-      break;
-    case 'U':
-      if (size == 1) return st::uint8;
-      if (size == 2) return st::uint16;
-      if (size == 4) return st::uint32;
-      if (size == 8) return st::uint64;
-      break;
-    case 'F':
-      if (size == 4) return st::float32;
-      if (size == 8) return st::float64;
-      break;
+/// The TYPE of values of t: F (floating point), I (signed) or U (unsigned).
+char type_char(scalar_type t) noexcept {
+  if (t == scalar_type::float32 || t == scalar_type::float64) return 'F';
+  switch (t) {
+    case scalar_type::int8:
+    case scalar_type::int16:
+    case scalar_type::int32:
+    case scalar_type::int64:
+      return 'I';
     default:
-      break;
+      return 'U';
+  }
+}
+
+/// The type of the values of PCD TYPE `type` and SIZE `size`, if any.
+std::optional<scalar_type> pcd_type(char type, std::uint64_t size) noexcept {
+  for (int i = 0; i <= static_cast<int>(scalar_type::float64); ++i) {
+    const auto t = static_cast<scalar_type>(i);
+    if (type_char(t) == type && size_of(t) == size) return t;
   }
   return std::nullopt;
 }
@@ -272,6 +270,17 @@ parse_status parse_packed_rgb(std::string_view tok, char type, double& out) noex
 
 using columns = std::vector<std::vector<double>>;
 
+/// Decodes the n values of each of the f.count values of field f (at p, then
+/// `stride` bytes apart) into cols[0, f.count), little-endian binary.
+void decode_field(const pcd_field& f, const unsigned char* p, std::size_t stride, std::size_t n,
+                  std::vector<double>* cols) {
+  for (std::size_t c = 0; c < f.count; ++c) {
+    cols[c].resize(n);
+    decode_column(p + c * f.size, stride, n, f.packed_rgb ? scalar_type::uint32 : f.stype, !host_little_endian(),
+                  cols[c].data());
+  }
+}
+
 /// Decodes the body into cols (one per value of each non-padding field, in
 /// order; col_of[f] is the first column of field f).
 void read_binary(std::string_view data, const pcd_header& h, const std::vector<std::size_t>& col_of, columns& cols,
@@ -287,13 +296,7 @@ void read_binary(std::string_view data, const pcd_header& h, const std::vector<s
   std::size_t offset = 0;
   for (std::size_t j = 0; j < h.fields.size(); ++j) {
     const pcd_field& f = h.fields[j];
-    if (!f.padding)
-      for (std::size_t c = 0; c < f.count; ++c) {
-        auto& col = cols[col_of[j] + c];
-        col.resize(n);
-        decode_column(body + offset + c * f.size, point_size, n, f.packed_rgb ? scalar_type::uint32 : f.stype,
-                      !host_little_endian(), col.data());
-      }
+    if (!f.padding) decode_field(f, body + offset, point_size, n, &cols[col_of[j]]);
     offset += f.size * f.count;
   }
 }
@@ -341,13 +344,7 @@ void read_compressed(std::string_view data, const pcd_header& h, const std::vect
   for (std::size_t j = 0; j < h.fields.size(); ++j) {
     const pcd_field& f = h.fields[j];
     if (f.padding && !with_padding) continue;
-    if (!f.padding)
-      for (std::size_t c = 0; c < f.count; ++c) {
-        auto& col = cols[col_of[j] + c];
-        col.resize(n);
-        decode_column(p + offset + c * f.size, f.size * f.count, n, f.packed_rgb ? scalar_type::uint32 : f.stype,
-                      !host_little_endian(), col.data());
-      }
+    if (!f.padding) decode_field(f, p + offset, f.size * f.count, n, &cols[col_of[j]]);
     offset += n * f.size * f.count;
   }
 }
@@ -405,10 +402,7 @@ void read_ascii(std::string_view data, const pcd_header& h, const std::vector<st
           const std::string what = "line " + std::to_string(line_no) + ", field '" +
                                    (f.count > 1 ? f.name + "_" + std::to_string(c) : f.name) + "': '" +
                                    printable(tok[t]) + "' ";
-          const std::string type = std::string(name_of(f.stype));
-          if (s == parse_status::not_a_number) fail(file, what + "is not a number (expected " + type + ")");
-          if (s == parse_status::not_an_integer) fail(file, what + "is not an integer (expected " + type + ")");
-          fail(file, what + "is out of range for " + type);
+          fail_value(file, what, s, f.stype);
         }
         cols[col_of[j] + c][i] = v;
       }
@@ -564,19 +558,6 @@ struct out_column {
   const column* rgb[3] = {nullptr, nullptr, nullptr};
 };
 
-char type_char(scalar_type t) noexcept {
-  if (t == scalar_type::float32 || t == scalar_type::float64) return 'F';
-  switch (t) {
-    case scalar_type::int8:
-    case scalar_type::int16:
-    case scalar_type::int32:
-    case scalar_type::int64:
-      return 'I';
-    default:
-      return 'U';
-  }
-}
-
 std::vector<out_column> plan_columns(const point_cloud& cloud, pcd_format fmt) {
   const std::size_t n = cloud.size();
   const field* rgb[3] = {cloud.find_field("red"), cloud.find_field("green"), cloud.find_field("blue")};
@@ -592,9 +573,7 @@ std::vector<out_column> plan_columns(const point_cloud& cloud, pcd_format fmt) {
     if (pack && (f.name == "rgb" || f.name == "rgba"))
       throw std::invalid_argument("field '" + f.name +
                                   "' clashes with the packed rgb field written for red/green/blue");
-    if (f.values.size() != n)
-      throw std::invalid_argument("field '" + f.name + "' has " + std::to_string(f.values.size()) + " values for " +
-                                  std::to_string(n) + " points");
+    check_field_size(f, n);
   }
   const auto& o = cloud.origin();
   const bool georef = o[0] != 0 || o[1] != 0 || o[2] != 0;
@@ -646,9 +625,7 @@ std::string make_header(const std::vector<out_column>& cols, std::size_t n, pcd_
 /// v[i] = value of column c for point i0 + i, i < m.
 void column_values(const out_column& c, const point_cloud& cloud, std::size_t i0, std::size_t m, double* v) {
   if (c.values) {
-    c.values->visit([&](const auto* src, std::size_t) {
-      for (std::size_t i = 0; i < m; ++i) v[i] = static_cast<double>(src[i0 + i]);
-    });
+    copy_values(*c.values, i0, m, v);
   } else if (c.axis >= 0) {
     const auto k = static_cast<std::size_t>(c.axis);
     const double o = cloud.origin()[k];
@@ -667,9 +644,34 @@ void column_values(const out_column& c, const point_cloud& cloud, std::size_t i0
   }
 }
 
-/// Encodes m values little-endian at p, p + stride, ...
-void encode_column(const double* v, std::size_t m, scalar_type t, unsigned char* p, std::size_t stride) {
-  encode_values(t, !host_little_endian(), p, stride, m, [v](std::size_t i) { return v[i]; });
+/// The binary_compressed body: the sizes, then the LZF-compressed values,
+/// field by field (each column of all points, then the next).
+void write_compressed(std::ostream& out, const point_cloud& cloud, const std::vector<out_column>& cols,
+                      std::size_t record) {
+  const std::size_t n = cloud.size();
+  constexpr std::size_t chunk = 4096;
+  std::vector<double> vals(chunk);
+  std::string block(n * record, '\0');  // field-major
+  auto* base = reinterpret_cast<unsigned char*>(block.data());
+  std::size_t offset = 0;
+  for (const auto& c : cols) {
+    for (std::size_t i0 = 0; i0 < n; i0 += chunk) {
+      const std::size_t m = std::min(chunk, n - i0);
+      column_values(c, cloud, i0, m, vals.data());
+      const double* v = vals.data();
+      encode_values(c.enc, !host_little_endian(), base + offset + i0 * c.size, c.size, m,
+                    [v](std::size_t i) { return v[i]; });
+    }
+    offset += n * c.size;
+  }
+  const std::string packed = lzf_compress(block);
+  if (packed.size() > std::numeric_limits<std::uint32_t>::max())
+    throw io_error("the compressed cloud is too large for PCD binary_compressed");
+  unsigned char sizes[8];
+  store_le<std::uint32_t>(sizes, static_cast<std::uint32_t>(packed.size()));
+  store_le<std::uint32_t>(sizes + 4, static_cast<std::uint32_t>(block.size()));
+  out.write(reinterpret_cast<const char*>(sizes), 8);
+  out.write(packed.data(), static_cast<std::streamsize>(packed.size()));
 }
 
 void write_pcd_unchecked(std::ostream& out, const point_cloud& cloud, pcd_format fmt) {
@@ -681,58 +683,15 @@ void write_pcd_unchecked(std::ostream& out, const point_cloud& cloud, pcd_format
     throw io_error("the cloud is too large for PCD binary_compressed (4 GiB or more of data)");
   const std::string header = make_header(cols, n, fmt);
   out.write(header.data(), static_cast<std::streamsize>(header.size()));
-
-  constexpr std::size_t chunk = 4096;
-  std::vector<double> vals(chunk);
-  std::string buf;
-  if (fmt == pcd_format::binary_compressed) {
-    std::string block(n * record, '\0');  // field-major
-    auto* base = reinterpret_cast<unsigned char*>(block.data());
-    std::size_t offset = 0;
-    for (const auto& c : cols) {
-      for (std::size_t i0 = 0; i0 < n; i0 += chunk) {
-        const std::size_t m = std::min(chunk, n - i0);
-        column_values(c, cloud, i0, m, vals.data());
-        encode_column(vals.data(), m, c.enc, base + offset + i0 * c.size, c.size);
-      }
-      offset += n * c.size;
-    }
-    const std::string packed = lzf_compress(block);
-    if (packed.size() > std::numeric_limits<std::uint32_t>::max())
-      throw io_error("the compressed cloud is too large for PCD binary_compressed");
-    unsigned char sizes[8];
-    store_le<std::uint32_t>(sizes, static_cast<std::uint32_t>(packed.size()));
-    store_le<std::uint32_t>(sizes + 4, static_cast<std::uint32_t>(block.size()));
-    out.write(reinterpret_cast<const char*>(sizes), 8);
-    out.write(packed.data(), static_cast<std::streamsize>(packed.size()));
-    return;
-  }
-  vals.resize(chunk * cols.size());
-  for (std::size_t i0 = 0; i0 < n; i0 += chunk) {
-    const std::size_t m = std::min(chunk, n - i0);
-    for (std::size_t c = 0; c < cols.size(); ++c) column_values(cols[c], cloud, i0, m, vals.data() + c * chunk);
-    if (fmt == pcd_format::ascii) {
-      buf.resize(m * cols.size() * 32);
-      char* p = buf.data();
-      char* const end = p + buf.size();
-      for (std::size_t i = 0; i < m; ++i) {
-        for (std::size_t c = 0; c < cols.size(); ++c) {
-          p = format_value(p, end, vals[c * chunk + i], cols[c].enc);
-          *p++ = c + 1 == cols.size() ? '\n' : ' ';
-        }
-      }
-      out.write(buf.data(), p - buf.data());
-    } else {
-      buf.resize(m * record);
-      auto* base = reinterpret_cast<unsigned char*>(buf.data());
-      std::size_t offset = 0;
-      for (std::size_t c = 0; c < cols.size(); ++c) {
-        encode_column(vals.data() + c * chunk, m, cols[c].enc, base + offset, record);
-        offset += cols[c].size;
-      }
-      out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
-    }
-  }
+  if (fmt == pcd_format::binary_compressed) return write_compressed(out, cloud, cols, record);
+  std::vector<scalar_type> types;
+  for (const auto& c : cols) types.push_back(c.enc);
+  point_format pf;
+  pf.text = fmt == pcd_format::ascii;
+  pf.swap = !host_little_endian();
+  write_points(out, n, types, pf, [&](std::size_t c, std::size_t i0, std::size_t m, double* v) {
+    column_values(cols[c], cloud, i0, m, v);
+  });
 }
 
 }  // namespace

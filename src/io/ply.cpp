@@ -61,6 +61,13 @@ struct element_desc {
   std::vector<property_desc> props;
 };
 
+/// Fails: the file ends after `read` of the `count` records of element e.
+[[noreturn]] void fail_truncated(const std::string& file, std::uint64_t read, std::uint64_t count,
+                                 const element_desc& e) {
+  fail(file, "truncated: the file ends after " + std::to_string(read) + " of " + std::to_string(count) + " " +
+                 plural(e.name));
+}
+
 struct ply_header {
   ply_format format = ply_format::ascii;
   std::vector<element_desc> elements;
@@ -217,9 +224,7 @@ std::size_t read_binary_element(std::string_view data, std::size_t pos, const el
       fail(file, "implausible element count: '" + e.name + "' declares " + std::to_string(e.count) +
                      " records of at least " + std::to_string(min_record) + " bytes, but only " +
                      std::to_string(remaining) + " bytes follow (corrupt header?)");
-    if (fixed)
-      fail(file, "truncated: the file ends after " + std::to_string(available) + " of " + std::to_string(e.count) +
-                     " " + plural(e.name));
+    if (fixed) fail_truncated(file, available, e.count, e);
   }
   const auto n = static_cast<std::size_t>(e.count);  // <= 2 * available + 16: allocation is bounded
   if (cols)
@@ -240,10 +245,7 @@ std::size_t read_binary_element(std::string_view data, std::size_t pos, const el
   }
 
   const unsigned char* end = begin + data.size();
-  const auto truncated = [&](std::size_t i) {
-    fail(file,
-         "truncated: the file ends after " + std::to_string(i) + " of " + std::to_string(n) + " " + plural(e.name));
-  };
+  const auto truncated = [&](std::size_t i) { fail_truncated(file, i, n, e); };
   for (std::size_t i = 0; i < n; ++i) {
     for (std::size_t j = 0; j < e.props.size(); ++j) {
       const property_desc& prop = e.props[j];
@@ -289,10 +291,7 @@ std::size_t read_ascii_element(std::string_view data, std::size_t pos, const ele
 
   word_reader<> tk(data.substr(pos));
   std::string_view tok;
-  const auto truncated = [&](std::size_t i) {
-    fail(file,
-         "truncated: the file ends after " + std::to_string(i) + " of " + std::to_string(n) + " " + plural(e.name));
-  };
+  const auto truncated = [&](std::size_t i) { fail_truncated(file, i, n, e); };
   const auto where = [&](std::size_t i, const property_desc& prop) {
     return e.name + " " + std::to_string(i) + ", property '" + prop.name + "': '" + std::string(tok) + "' ";
   };
@@ -309,16 +308,8 @@ std::size_t read_ascii_element(std::string_view data, std::size_t pos, const ele
           if (!tk.next(tok)) truncated(i);
       } else if (cols) {
         double v = 0;
-        switch (parse_ascii_value(tok, prop.type, v)) {
-          case parse_status::ok:
-            break;
-          case parse_status::not_a_number:
-            fail(file, where(i, prop) + "is not a number (expected " + std::string(name_of(prop.type)) + ")");
-          case parse_status::not_an_integer:
-            fail(file, where(i, prop) + "is not an integer (expected " + std::string(name_of(prop.type)) + ")");
-          case parse_status::out_of_range:
-            fail(file, where(i, prop) + "is out of range for " + std::string(name_of(prop.type)));
-        }
+        const parse_status s = parse_ascii_value(tok, prop.type, v);
+        if (s != parse_status::ok) fail_value(file, where(i, prop), s, prop.type);
         (*cols)[j][i] = v;
       }
     }
@@ -399,9 +390,7 @@ void check_writable(const point_cloud& cloud) {
       throw std::invalid_argument("field name '" + f.name + "' cannot be written to PLY (empty or has whitespace)");
     if (f.name == "x" || f.name == "y" || f.name == "z")
       throw std::invalid_argument("field '" + f.name + "' clashes with the PLY coordinate property");
-    if (f.values.size() != n)
-      throw std::invalid_argument("field '" + f.name + "' has " + std::to_string(f.values.size()) + " values for " +
-                                  std::to_string(n) + " points");
+    check_field_size(f, n);
   }
 }
 
@@ -427,51 +416,21 @@ std::string make_header(const point_cloud& cloud, ply_format fmt, scalar_type po
 
 /// The vertices, in chunks of points.
 void write_vertices(std::ostream& out, const point_cloud& cloud, ply_format fmt, const std::vector<out_column>& cols) {
-  const std::size_t n = cloud.size();
   const auto& origin = cloud.origin();
-  std::size_t record = 0;
-  for (const auto& c : cols) record += size_of(c.type);
-  const bool swap = fmt != ply_format::ascii && (fmt == ply_format::binary_little_endian) != host_little_endian();
   const float* xyz = cloud.positions().data();
-  constexpr std::size_t chunk = 4096;
-  std::vector<double> vals(chunk * cols.size());  // column-major chunk of values
-  std::string buf;
-  for (std::size_t i0 = 0; i0 < n; i0 += chunk) {
-    const std::size_t m = std::min(chunk, n - i0);
-    for (std::size_t c = 0; c < cols.size(); ++c) {
-      double* v = vals.data() + c * chunk;
-      if (cols[c].values) {
-        cols[c].values->visit([&](const auto* src, std::size_t) {
-          for (std::size_t i = 0; i < m; ++i) v[i] = static_cast<double>(src[i0 + i]);
-        });
-      } else {
-        const auto k = static_cast<std::size_t>(cols[c].axis);
-        for (std::size_t i = 0; i < m; ++i) v[i] = origin[k] + static_cast<double>(xyz[3 * (i0 + i) + k]);
-      }
-    }
-    if (fmt == ply_format::ascii) {
-      buf.resize(m * cols.size() * 32);
-      char* p = buf.data();
-      char* end = p + buf.size();
-      for (std::size_t i = 0; i < m; ++i) {
-        for (std::size_t c = 0; c < cols.size(); ++c) {
-          p = format_value(p, end, vals[c * chunk + i], cols[c].type);
-          *p++ = c + 1 == cols.size() ? '\n' : ' ';
-        }
-      }
-      out.write(buf.data(), p - buf.data());
+  std::vector<scalar_type> types;
+  for (const auto& c : cols) types.push_back(c.type);
+  point_format pf;
+  pf.text = fmt == ply_format::ascii;
+  pf.swap = !pf.text && (fmt == ply_format::binary_little_endian) != host_little_endian();
+  write_points(out, cloud.size(), types, pf, [&](std::size_t c, std::size_t i0, std::size_t m, double* v) {
+    if (cols[c].values) {
+      copy_values(*cols[c].values, i0, m, v);
     } else {
-      buf.resize(m * record);
-      auto* base = reinterpret_cast<unsigned char*>(buf.data());
-      std::size_t offset = 0;
-      for (std::size_t c = 0; c < cols.size(); ++c) {
-        const double* v = vals.data() + c * chunk;
-        encode_values(cols[c].type, swap, base + offset, record, m, [v](std::size_t i) { return v[i]; });
-        offset += size_of(cols[c].type);
-      }
-      out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+      const auto k = static_cast<std::size_t>(cols[c].axis);
+      for (std::size_t i = 0; i < m; ++i) v[i] = origin[k] + static_cast<double>(xyz[3 * (i0 + i) + k]);
     }
-  }
+  });
 }
 
 void write_ply_unchecked(std::ostream& out, const point_cloud& cloud, ply_format fmt) {

@@ -11,10 +11,12 @@
 #include <cstring>
 #include <limits>
 #include <ostream>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <system_error>
 #include <type_traits>
+#include <vector>
 
 #include "ced/cloud.hpp"
 #include "ced/io/output_file.hpp"
@@ -141,6 +143,67 @@ inline char* format_value(char* p, char* end, double v, scalar_type t) noexcept 
   return r.ptr;
 }
 
+/// v[i] = the value of `values` for point i0 + i, for i < m.
+inline void copy_values(const column& values, std::size_t i0, std::size_t m, double* v) {
+  values.visit([&](const auto* src, std::size_t) {
+    for (std::size_t i = 0; i < m; ++i) v[i] = static_cast<double>(src[i0 + i]);
+  });
+}
+
+/// How write_points() writes a point: a line of text, its values separated by
+/// `separator`, or a binary record, its values one after the other (their
+/// bytes reversed when `swap`).
+struct point_format {
+  bool text = false;
+  char separator = ' ';
+  bool swap = false;
+};
+
+/// Writes n points whose value c has type types[c], in chunks:
+/// fill(c, i0, m, v) sets v[i] to value c of point i0 + i, for i < m.
+template <class Fill>
+void write_points(std::ostream& out, std::size_t n, const std::vector<scalar_type>& types, point_format fmt,
+                  Fill&& fill) {
+  const std::size_t nc = types.size();
+  std::size_t record = 0;
+  for (scalar_type t : types) record += size_of(t);
+  constexpr std::size_t chunk = 4096;
+  std::vector<double> vals(chunk * nc);  // column-major: value c of point i0 + i at vals[c * chunk + i]
+  std::string buf;
+  for (std::size_t i0 = 0; i0 < n; i0 += chunk) {
+    const std::size_t m = std::min(chunk, n - i0);
+    for (std::size_t c = 0; c < nc; ++c) fill(c, i0, m, vals.data() + c * chunk);
+    if (fmt.text) {
+      buf.resize(m * nc * 32);
+      char* p = buf.data();
+      char* const end = p + buf.size();
+      for (std::size_t i = 0; i < m; ++i)
+        for (std::size_t c = 0; c < nc; ++c) {
+          p = format_value(p, end, vals[c * chunk + i], types[c]);
+          *p++ = c + 1 == nc ? '\n' : fmt.separator;
+        }
+      out.write(buf.data(), p - buf.data());
+    } else {
+      buf.resize(m * record);
+      auto* base = reinterpret_cast<unsigned char*>(buf.data());
+      std::size_t offset = 0;
+      for (std::size_t c = 0; c < nc; ++c) {
+        const double* v = vals.data() + c * chunk;
+        encode_values(types[c], fmt.swap, base + offset, record, m, [v](std::size_t i) { return v[i]; });
+        offset += size_of(types[c]);
+      }
+      out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+    }
+  }
+}
+
+/// Throws std::invalid_argument unless field f has a value for each of n points.
+inline void check_field_size(const field& f, std::size_t n) {
+  if (f.values.size() != n)
+    throw std::invalid_argument("field '" + f.name + "' has " + std::to_string(f.values.size()) + " values for " +
+                                std::to_string(n) + " points");
+}
+
 /// A cloud of the n points (x[i], y[i], z[i]), absolute coordinates: its
 /// origin from choose_origin(), its positions relative to that; no fields.
 inline point_cloud cloud_at(const double* x, const double* y, const double* z, std::size_t n) {
@@ -207,6 +270,15 @@ inline parse_status parse_ascii_value(std::string_view tok, scalar_type t, doubl
   if (s != parse_status::ok) return s;
   if (!std::isfinite(out) || out != std::floor(out)) return parse_status::not_an_integer;
   return out < range[0] || out > range[1] ? parse_status::out_of_range : parse_status::ok;
+}
+
+/// Fails for a value that parse_ascii_value() refused with status `s`:
+/// `what` (which names the value), then why, for type t.
+[[noreturn]] inline void fail_value(const std::string& file, const std::string& what, parse_status s, scalar_type t) {
+  const std::string type(name_of(t));
+  if (s == parse_status::not_a_number) fail(file, what + "is not a number (expected " + type + ")");
+  if (s == parse_status::not_an_integer) fail(file, what + "is not an integer (expected " + type + ")");
+  fail(file, what + "is out of range for " + type);
 }
 
 }  // namespace ced::io::detail
