@@ -9,6 +9,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 #include "ced/modality.hpp"
 #include "core/parallel.hpp"
@@ -60,45 +61,31 @@ value_range resolve_range(const field& f, const range_policy& policy) {
 
 namespace {
 /// The index of the first value of v[0, n) that is NaN, infinite or beyond
-/// the float range (a channel is computed in float), or n. Tested in chunks
-/// without an early exit, on the bits, which the compiler vectorises; the
-/// failing chunk is then searched.
-std::size_t first_unfit(const double* v, std::size_t n) noexcept {
-  const double flt_max = std::numeric_limits<float>::max();
-  std::uint64_t limit;
-  std::memcpy(&limit, &flt_max, sizeof limit);
+/// the float range (a channel is computed in float), or n; T is float or
+/// double. Tested in chunks without an early exit, on the bits, which the
+/// compiler vectorises; the failing chunk is then searched.
+template <class T>
+std::size_t first_unfit(const T* v, std::size_t n) noexcept {
+  static_assert(std::is_floating_point_v<T>);
+  using bits_type = std::conditional_t<sizeof(T) == 8, std::uint64_t, std::uint32_t>;
+  constexpr int sign = 8 * sizeof(T) - 1;
+  const T max = std::numeric_limits<float>::max();
+  bits_type limit;
+  std::memcpy(&limit, &max, sizeof limit);
   constexpr std::size_t chunk = 4096;
   for (std::size_t b = 0; b < n; b += chunk) {
     const std::size_t e = std::min(n, b + chunk);
-    std::uint64_t bad = 0;
+    bits_type bad = 0;
     for (std::size_t i = b; i < e; ++i) {
-      std::uint64_t bits;
+      bits_type bits;
       std::memcpy(&bits, v + i, sizeof bits);
       // |v| > FLT_MAX (NaN and infinities included) makes the difference
       // negative: its sign bit is set.
-      bad |= (limit - (bits & 0x7fffffffffffffffULL)) >> 63;
+      bad |= (limit - (bits & ~(bits_type(1) << sign))) >> sign;
     }
     if (bad == 0) continue;
     for (std::size_t i = b; i < e; ++i)
-      if (!(std::fabs(v[i]) <= flt_max)) return i;
-  }
-  return n;
-}
-
-/// The same for a float column: NaN or infinite.
-std::size_t first_unfit(const float* v, std::size_t n) noexcept {
-  constexpr std::size_t chunk = 4096;
-  for (std::size_t b = 0; b < n; b += chunk) {
-    const std::size_t e = std::min(n, b + chunk);
-    std::uint32_t bad = 0;
-    for (std::size_t i = b; i < e; ++i) {
-      std::uint32_t bits;
-      std::memcpy(&bits, v + i, sizeof bits);
-      bad |= ((bits & 0x7f800000u) + (1u << 23)) & (1u << 31);  // exponent all ones
-    }
-    if (bad == 0) continue;
-    for (std::size_t i = b; i < e; ++i)
-      if (!std::isfinite(v[i])) return i;
+      if (!(std::fabs(v[i]) <= max)) return i;
   }
   return n;
 }

@@ -2,11 +2,12 @@
 #include "ced/cloud.hpp"
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <limits>
 #include <ostream>
 #include <type_traits>
+
+#include "core/text.hpp"
 
 namespace ced {
 
@@ -83,19 +84,10 @@ std::array<double, 2> natural_range(scalar_type t) noexcept {
   return {0.0, 1.0};
 }
 
-namespace {
-bool iequal(std::string_view a, std::string_view b) {
-  if (a.size() != b.size()) return false;
-  for (std::size_t i = 0; i < a.size(); ++i)
-    if (std::tolower(static_cast<unsigned char>(a[i])) != std::tolower(static_cast<unsigned char>(b[i]))) return false;
-  return true;
-}
-}  // namespace
-
 bool field_selection::wants(std::string_view name) const noexcept {
   if (all) return true;
   for (const auto& n : names)
-    if (iequal(n, name)) return true;
+    if (detail::iequal(n, name)) return true;
   return false;
 }
 
@@ -115,7 +107,7 @@ const field* point_cloud::find_field(std::string_view name) const noexcept {
 const field* point_cloud::find_field_icase(std::string_view name) const noexcept {
   if (const field* f = find_field(name)) return f;
   for (const auto& f : m_fields)
-    if (iequal(f.name, name)) return &f;
+    if (detail::iequal(f.name, name)) return &f;
   return nullptr;
 }
 

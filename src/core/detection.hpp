@@ -3,7 +3,6 @@
 // saliency.cpp).
 #pragma once
 
-#include <chrono>
 #include <utility>
 #include <vector>
 
@@ -13,14 +12,9 @@
 #include "core/neighbor_block.hpp"
 #include "core/neighbor_index.hpp"
 #include "core/nms.hpp"
+#include "core/timing.hpp"
 
 namespace ced::detail {
-
-using clock_type = std::chrono::steady_clock;
-/// Milliseconds since `t`.
-inline double ms_since(clock_type::time_point t) {
-  return std::chrono::duration<double, std::milli>(clock_type::now() - t).count();
-}
 
 struct detection_context::impl {
   const point_cloud& cloud;

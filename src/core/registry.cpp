@@ -15,15 +15,12 @@
 #include "ced/modalities/rgb.hpp"
 #include "ced/modalities/xyz.hpp"
 #include "ced/modality.hpp"
+#include "core/text.hpp"
 
 namespace ced {
 
 double parse_number(std::string_view text, const std::string& what) {
-  std::string s(text);
-  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.pop_back();
-  std::size_t b = 0;
-  while (b < s.size() && std::isspace(static_cast<unsigned char>(s[b]))) ++b;
-  s = s.substr(b);
+  const std::string s(detail::trim(text));
   if (s.empty()) throw std::invalid_argument(what + ": expected a number, got nothing");
   char* end = nullptr;
   const double v = std::strtod(s.c_str(), &end);
@@ -40,12 +37,7 @@ norm_type parse_norm(const std::string& text) {
 }
 
 namespace {
-std::string trim(std::string_view s) {
-  std::size_t b = 0, e = s.size();
-  while (b < e && std::isspace(static_cast<unsigned char>(s[b]))) ++b;
-  while (e > b && std::isspace(static_cast<unsigned char>(s[e - 1]))) --e;
-  return std::string(s.substr(b, e - b));
-}
+std::string trimmed(std::string_view s) { return std::string(detail::trim(s)); }
 bool valid_identifier(const std::string& s) {
   if (s.empty()) return false;
   for (char c : s)
@@ -56,7 +48,7 @@ bool valid_identifier(const std::string& s) {
 
 modality_spec modality_spec::parse(std::string_view text) {
   modality_spec s;
-  s.m_text = trim(text);
+  s.m_text = trimmed(text);
   const std::string& t = s.m_text;
   auto fail = [&](const std::string& why) {
     throw std::invalid_argument("bad modality spec '" + t + "': " + why +
@@ -66,7 +58,7 @@ modality_spec modality_spec::parse(std::string_view text) {
   if (t.empty()) fail("it is empty");
   std::size_t pos = 0;
   while (pos < t.size() && t[pos] != '(' && t[pos] != ':' && t[pos] != ',') ++pos;
-  s.m_name = trim(t.substr(0, pos));
+  s.m_name = trimmed(t.substr(0, pos));
   if (!valid_identifier(s.m_name)) fail("'" + s.m_name + "' is not a modality name");
   if (pos < t.size() && t[pos] == '(') {
     const std::size_t close = t.find(')', pos);
@@ -75,7 +67,7 @@ modality_spec modality_spec::parse(std::string_view text) {
     std::size_t b = 0;
     for (;;) {
       const std::size_t c = inner.find(',', b);
-      std::string arg = trim(inner.substr(b, c == std::string::npos ? std::string::npos : c - b));
+      std::string arg = trimmed(inner.substr(b, c == std::string::npos ? std::string::npos : c - b));
       if (!valid_identifier(arg)) fail("'" + arg + "' is not a field name");
       s.m_args.push_back(arg);
       if (c == std::string::npos) break;
@@ -85,7 +77,7 @@ modality_spec modality_spec::parse(std::string_view text) {
   }
   if (pos < t.size() && t[pos] == ':') {
     const std::size_t c = t.find(',', pos + 1);
-    const std::string thr = trim(t.substr(pos + 1, c == std::string::npos ? std::string::npos : c - pos - 1));
+    const std::string thr = trimmed(t.substr(pos + 1, c == std::string::npos ? std::string::npos : c - pos - 1));
     const double v = parse_number(thr, "threshold of modality '" + t + "'");
     if (v < 0) fail("the threshold must not be negative");
     s.m_threshold = v;
@@ -94,13 +86,13 @@ modality_spec modality_spec::parse(std::string_view text) {
   while (pos < t.size()) {
     if (t[pos] != ',') fail("unexpected '" + t.substr(pos) + "'");
     const std::size_t c = t.find(',', pos + 1);
-    const std::string kv = trim(t.substr(pos + 1, c == std::string::npos ? std::string::npos : c - pos - 1));
+    const std::string kv = trimmed(t.substr(pos + 1, c == std::string::npos ? std::string::npos : c - pos - 1));
     const std::size_t eq = kv.find('=');
     if (eq == std::string::npos) fail("option '" + kv + "' is not key=value");
-    const std::string key = trim(kv.substr(0, eq));
+    const std::string key = trimmed(kv.substr(0, eq));
     if (!valid_identifier(key)) fail("bad option name '" + key + "'");
     if (s.m_options.count(key)) fail("option '" + key + "' given twice");
-    s.m_options[key] = trim(kv.substr(eq + 1));
+    s.m_options[key] = trimmed(kv.substr(eq + 1));
     pos = c == std::string::npos ? t.size() : c;
   }
   return s;

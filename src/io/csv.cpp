@@ -24,15 +24,8 @@ using namespace detail;  // scalar_io.hpp
 
 namespace {
 
-[[noreturn]] void fail(const std::string& file, const std::string& msg) { throw io_error(file + ": " + msg); }
-
-bool is_blank(char c) noexcept { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
-
-std::string_view trim(std::string_view s) noexcept {
-  while (!s.empty() && is_blank(s.front())) s.remove_prefix(1);
-  while (!s.empty() && is_blank(s.back())) s.remove_suffix(1);
-  return s;
-}
+// The text is read line by line: no value or name holds a '\n', and blanks
+// (is_space) separate values.
 
 std::string_view unquote(std::string_view s) noexcept {
   if (s.size() >= 2 && s.front() == '"' && s.back() == '"') s = trim(s.substr(1, s.size() - 2));
@@ -43,33 +36,13 @@ bool is_comment(std::string_view trimmed) noexcept {
   return !trimmed.empty() && (trimmed[0] == '#' || trimmed.substr(0, 2) == "//");
 }
 
-/// At most 40 characters of `s`, non-printable bytes replaced by '?', for messages.
-std::string printable(std::string_view s) {
-  std::string r;
-  for (char c : s.substr(0, 40)) r += (c >= 32 && c < 127) ? c : '?';
-  if (s.size() > 40) r += "...";
-  return r;
-}
-
-std::string lower(std::string_view s) {
-  std::string r(s);
-  for (char& c : r)
-    if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
-  return r;
-}
-
 /// Splits `line` at `delim` (' ' = runs of blanks), trimming and unquoting
 /// each value. Appends to `out`.
 void split(std::string_view line, char delim, std::vector<std::string_view>& out) {
   out.clear();
   if (delim == ' ') {
-    std::size_t i = 0;
-    while (i < line.size()) {
-      while (i < line.size() && is_blank(line[i])) ++i;
-      const std::size_t b = i;
-      while (i < line.size() && !is_blank(line[i])) ++i;
-      if (i > b) out.push_back(unquote(line.substr(b, i - b)));
-    }
+    word_reader<> words(line);
+    for (std::string_view w; words.next(w);) out.push_back(unquote(w));
     return;
   }
   std::size_t b = 0;
@@ -114,18 +87,15 @@ bool parse_number(std::string_view tok, double& out, bool& is_int) noexcept {
   return rd.ec == std::errc();
 }
 
+bool is_separator(char c) noexcept { return is_space(c) || c == ',' || c == ';'; }
+
 bool is_numeric_line(std::string_view line) {
-  std::size_t i = 0, tokens = 0;
-  while (i < line.size()) {
-    while (i < line.size() && (is_blank(line[i]) || line[i] == ',' || line[i] == ';')) ++i;
-    const std::size_t b = i;
-    while (i < line.size() && !(is_blank(line[i]) || line[i] == ',' || line[i] == ';')) ++i;
-    if (i > b) {
-      double v;
-      bool is_int;
-      if (!parse_number(unquote(line.substr(b, i - b)), v, is_int)) return false;
-      ++tokens;
-    }
+  std::size_t tokens = 0;
+  word_reader<is_separator> words(line);
+  for (std::string_view w; words.next(w); ++tokens) {
+    double v;
+    bool is_int;
+    if (!parse_number(unquote(w), v, is_int)) return false;
   }
   return tokens > 0;
 }
@@ -147,6 +117,17 @@ struct line_reader {
   }
 };
 
+/// A column name as the cloud calls it: x, y, z in lower case, r, g, b (any
+/// case) as red, green, blue; any other as given.
+std::string normal_name(std::string_view name) {
+  const std::string l = to_lower(name);
+  if (l == "x" || l == "y" || l == "z") return l;
+  if (l == "r") return "red";
+  if (l == "g") return "green";
+  if (l == "b") return "blue";
+  return std::string(name);
+}
+
 /// The header's column names: strips a `//` or `#` prefix and normalises x/y/z
 /// (any case) and r/g/b (any case: red/green/blue).
 /// `delim` (0 = auto) is used when the line contains it, else detected.
@@ -162,19 +143,7 @@ std::vector<std::string> header_names(std::string_view line, char delim) {
   std::vector<std::string_view> tok;
   split(line, delim, tok);
   std::vector<std::string> names;
-  for (auto t : tok) {
-    const std::string l = lower(t);
-    if (l == "x" || l == "y" || l == "z")
-      names.push_back(l);
-    else if (l == "r")
-      names.emplace_back("red");
-    else if (l == "g")
-      names.emplace_back("green");
-    else if (l == "b")
-      names.emplace_back("blue");
-    else
-      names.emplace_back(t);
-  }
+  for (auto t : tok) names.push_back(normal_name(t));
   return names;
 }
 
@@ -197,69 +166,70 @@ struct column_state {
   double hi = -std::numeric_limits<double>::infinity();
 };
 
-point_cloud parse_csv(std::string_view text, const std::string& file, const csv_options& opt) {
-  if (text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);
-  if (opt.delimiter != 0 && opt.delimiter != ',' && opt.delimiter != ';' && opt.delimiter != '\t' &&
-      opt.delimiter != ' ')
-    throw std::invalid_argument("unsupported CSV delimiter '" + std::string(1, opt.delimiter) +
-                                "' (use ',', ';', tab or space)");
-  const char delim_opt = opt.delimiter == '\t' ? ' ' : opt.delimiter;  // tab: runs of blanks
-
-  // --- preamble: comments, the header, and the first data line.
-  line_reader lines{text};
-  std::string_view line, header;
+/// What comes before the data: comments, the header line, and where the data starts.
+struct preamble {
+  std::string_view header;  ///< the header line, or empty
   std::size_t header_line = 0;
-  std::vector<std::pair<std::size_t, std::string_view>> comments;
-  bool have_data = false, any_line = false, skipped = false;
-  line_reader data_start = lines;
+  std::vector<std::pair<std::size_t, std::string_view>> comments;  ///< (line number, line)
+  bool have_data = false;                                          ///< a data line follows
+  line_reader data_start;                                          ///< just before the first data line
+};
+
+/// Reads the comments, the header (when the options allow one) and stops
+/// before the first data line. Fails when the file has neither data nor a
+/// header (a commented header naming x, y and z counts: an empty cloud).
+preamble read_preamble(std::string_view text, const csv_options& opt, char delim_opt, const std::string& file) {
+  preamble pre;
+  line_reader lines{text};
+  pre.data_start = lines;
+  std::string_view line;
+  bool any_line = false, skipped = false;
   while (true) {
     const line_reader before = lines;
     if (!lines.next(line)) break;
     if (line.empty()) continue;
     if (is_comment(line)) {
-      comments.emplace_back(lines.line_no, line);
+      pre.comments.emplace_back(lines.line_no, line);
       continue;
     }
     any_line = true;
     if (opt.skip_header && !skipped) {
       skipped = true;
-      header_line = lines.line_no;
+      pre.header_line = lines.line_no;
       continue;
     }
-    if (opt.columns.empty() && !opt.skip_header && header.empty() && !is_numeric_line(line)) {
-      header = line;
-      header_line = lines.line_no;
+    if (opt.columns.empty() && !opt.skip_header && pre.header.empty() && !is_numeric_line(line)) {
+      pre.header = line;
+      pre.header_line = lines.line_no;
       continue;
     }
-    data_start = before;
-    have_data = true;
+    pre.data_start = before;
+    pre.have_data = true;
     break;
   }
   if (!any_line) {
     // Only comments: a CloudCompare-style header with no points is still an (empty) cloud.
     bool named = false;
-    for (const auto& c : comments) named = named || names_xyz(header_names(c.second, delim_opt));
+    for (const auto& c : pre.comments) named = named || names_xyz(header_names(c.second, delim_opt));
     if (!named) fail(file, "the file is empty (no header and no data)");
   }
+  return pre;
+}
 
+/// The column names the file or the options give: the columns option, the
+/// header line, or the last commented header before the data that names x, y
+/// and z. `source` receives where they came from, for messages.
+std::vector<std::string> given_names(const preamble& pre, const csv_options& opt, char delim_opt, std::string& source) {
   std::vector<std::string> names;
-  std::string source;  // where the names came from, for messages
   if (!opt.columns.empty()) {
-    for (const auto& c : opt.columns) {
-      const std::string l = lower(c);
-      names.push_back(l == "x" || l == "y" || l == "z" ? l
-                      : l == "r"                       ? "red"
-                      : l == "g"                       ? "green"
-                      : l == "b"                       ? "blue"
-                                                       : c);
-    }
+    for (const auto& c : opt.columns) names.push_back(normal_name(c));
     source = "the columns option";
-  } else if (!header.empty()) {
-    names = header_names(header, delim_opt);
-    source = "the header (line " + std::to_string(header_line) + ")";
+  } else if (!pre.header.empty()) {
+    names = header_names(pre.header, delim_opt);
+    source = "the header (line " + std::to_string(pre.header_line) + ")";
   } else if (!opt.skip_header) {
-    const std::size_t first_data = have_data ? data_start.line_no + 1 : std::numeric_limits<std::size_t>::max();
-    for (auto it = comments.rbegin(); it != comments.rend(); ++it) {
+    const std::size_t first_data = pre.have_data ? pre.data_start.line_no + 1 : std::numeric_limits<std::size_t>::max();
+    for (auto it = pre.comments.rbegin(); it != pre.comments.rend(); ++it) {
       if (it->first > first_data) continue;
       auto n = header_names(it->second, delim_opt);
       if (names_xyz(n)) {
@@ -269,94 +239,88 @@ point_cloud parse_csv(std::string_view text, const std::string& file, const csv_
       }
     }
   }
+  return names;
+}
 
-  // A .pts file starts with its point count: a line holding one integer.
-  if (have_data && names.empty()) {
-    line_reader peek = data_start;
-    peek.next(line);
-    if (!line.empty() && std::all_of(line.begin(), line.end(), [](char c) { return c >= '0' && c <= '9'; })) {
-      data_start = peek;
-      have_data = false;
-      while (!have_data) {
-        const line_reader before = peek;
-        if (!peek.next(line)) break;
-        if (line.empty() || is_comment(line)) continue;
-        data_start = before;
-        have_data = true;
-      }
-      if (!have_data) return point_cloud{};  // "0" and nothing else
-    }
+/// A .pts file starts with its point count, a line holding one integer:
+/// moves the data start past it (and past the comments and blank lines that
+/// follow; have_data false when nothing does).
+void skip_point_count(preamble& pre) {
+  line_reader peek = pre.data_start;
+  std::string_view line;
+  peek.next(line);
+  if (line.empty() || !std::all_of(line.begin(), line.end(), [](char c) { return c >= '0' && c <= '9'; })) return;
+  pre.data_start = peek;
+  pre.have_data = false;
+  while (!pre.have_data) {
+    const line_reader before = peek;
+    if (!peek.next(line)) break;
+    if (line.empty() || is_comment(line)) continue;
+    pre.data_start = before;
+    pre.have_data = true;
   }
+}
 
-  // Data delimiter: from the first data line.
-  char delim = delim_opt;
-  std::vector<std::string_view> tok;
-  if (have_data) {
-    line_reader peek = data_start;
-    peek.next(line);
-    if (!delim) delim = detect_delimiter(line);
-    if (names.empty()) {
-      split(line, delim, tok);
-      switch (tok.size()) {
-        case 3:
-          names = {"x", "y", "z"};
-          break;
-        case 4:
-          names = {"x", "y", "z", "intensity"};
-          break;
-        case 6:
-          names = {"x", "y", "z", "red", "green", "blue"};
-          break;
-        case 7:
-          names = {"x", "y", "z", "intensity", "red", "green", "blue"};
-          break;
-        default:
-          fail(file, "line " + std::to_string(peek.line_no) + ": " + std::to_string(tok.size()) +
-                         " values and no header: name the columns (--columns x,y,z,...)");
-      }
-      source = "the default columns for " + std::to_string(tok.size()) + " values";
-    }
+/// The names of a file without a header, from its number of columns.
+std::vector<std::string> default_names(std::size_t values, std::size_t line_no, const std::string& file) {
+  switch (values) {
+    case 3:
+      return {"x", "y", "z"};
+    case 4:
+      return {"x", "y", "z", "intensity"};
+    case 6:
+      return {"x", "y", "z", "red", "green", "blue"};
+    case 7:
+      return {"x", "y", "z", "intensity", "red", "green", "blue"};
+    default:
+      fail(file, "line " + std::to_string(line_no) + ": " + std::to_string(values) +
+                     " values and no header: name the columns (--columns x,y,z,...)");
   }
-  if (names.empty()) return point_cloud{};  // skip_header and nothing else
+}
 
+/// Checks the names (not too many, none empty, none twice); returns the
+/// columns of x, y and z.
+std::array<std::size_t, 3> check_names(const std::vector<std::string>& names, const std::string& source,
+                                       const std::string& file) {
   // Each column becomes a cloud field, found by linear search: bound the
   // count so that a long header line cannot cost quadratic time.
   constexpr std::size_t max_columns = 4096;
   if (names.size() > max_columns)
     fail(file, source + " names " + std::to_string(names.size()) + " columns (at most " + std::to_string(max_columns) +
                    " are supported)");
-  {
-    std::set<std::string> seen;
-    for (const auto& n : names) {
-      if (n.empty()) fail(file, source + " has an empty column name");
-      if (!seen.insert(n).second) fail(file, source + " names column '" + n + "' twice");
-    }
+  std::set<std::string> seen;
+  for (const auto& n : names) {
+    if (n.empty()) fail(file, source + " has an empty column name");
+    if (!seen.insert(n).second) fail(file, source + " names column '" + n + "' twice");
   }
-  std::size_t axis[3] = {};
-  for (int k = 0; k < 3; ++k) {
+  std::array<std::size_t, 3> axis{};
+  for (std::size_t k = 0; k < 3; ++k) {
     const std::string a(1, static_cast<char>('x' + k));
     const auto it = std::find(names.begin(), names.end(), a);
     if (it == names.end()) fail(file, source + " has no '" + a + "' column (columns: " + join(names) + ")");
     axis[k] = static_cast<std::size_t>(it - names.begin());
   }
+  return axis;
+}
 
-  // --- data
+/// The values of the data lines from `lines` on, column by column.
+std::vector<column_state> read_rows(line_reader lines, char delim, const std::vector<std::string>& names,
+                                    const csv_options& opt, const std::string& file) {
   const std::size_t ncols = names.size();
   std::vector<column_state> cols(ncols);
-  if (have_data) {
-    // At most one point per line, and a line with ncols values takes at least
-    // 2 * ncols bytes (a digit and a separator each): so the reservation stays
-    // within a few times the file size, however many columns the header names.
-    const std::size_t remaining = text.size() - data_start.pos;
-    const std::size_t lines_left = static_cast<std::size_t>(std::count(
-                                       text.begin() + static_cast<std::ptrdiff_t>(data_start.pos), text.end(), '\n')) +
-                                   1;
-    const std::size_t estimate = std::min(lines_left, remaining / (2 * ncols) + 1);
-    for (auto& c : cols) c.values.reserve(estimate);
-  }
-  lines = data_start;
+  // At most one point per line, and a line with ncols values takes at least
+  // 2 * ncols bytes (a digit and a separator each): so the reservation stays
+  // within a few times the file size, however many columns the header names.
+  const std::string_view text = lines.text;
+  const std::size_t remaining = text.size() - lines.pos;
+  const std::size_t lines_left =
+      static_cast<std::size_t>(std::count(text.begin() + static_cast<std::ptrdiff_t>(lines.pos), text.end(), '\n')) + 1;
+  const std::size_t estimate = std::min(lines_left, remaining / (2 * ncols) + 1);
+  for (auto& c : cols) c.values.reserve(estimate);
+  std::string_view line;
+  std::vector<std::string_view> tok;
   bool first = true;
-  while (have_data && lines.next(line)) {
+  while (lines.next(line)) {
     if (line.empty() || is_comment(line)) continue;
     split(line, delim, tok);
     if (tok.size() != ncols)
@@ -379,18 +343,17 @@ point_cloud parse_csv(std::string_view text, const std::string& file, const csv_
     }
     first = false;
   }
+  return cols;
+}
 
-  // --- the cloud
+/// The cloud of the columns: x, y, z as positions, the others as fields of
+/// the narrowest type that holds them (uint8 colours, int32, else float64).
+point_cloud make_cloud(std::vector<column_state>& cols, const std::vector<std::string>& names,
+                       const std::array<std::size_t, 3>& axis) {
   const std::size_t n = cols[0].values.size();
-  const double* xyz[3] = {cols[axis[0]].values.data(), cols[axis[1]].values.data(), cols[axis[2]].values.data()};
-  const std::array<double, 3> origin = choose_origin(xyz[0], xyz[1], xyz[2], n);
-  point_cloud cloud;
-  cloud.set_origin(origin);
-  cloud.resize(n);
-  float* out = cloud.positions().data();
-  for (std::size_t k = 0; k < 3; ++k)
-    for (std::size_t i = 0; i < n; ++i) out[3 * i + k] = static_cast<float>(xyz[k][i] - origin[k]);
-  for (std::size_t j = 0; j < ncols; ++j) {
+  point_cloud cloud =
+      cloud_at(cols[axis[0]].values.data(), cols[axis[1]].values.data(), cols[axis[2]].values.data(), n);
+  for (std::size_t j = 0; j < cols.size(); ++j) {
     if (j == axis[0] || j == axis[1] || j == axis[2]) continue;
     column_state& c = cols[j];
     const bool colour = names[j] == "red" || names[j] == "green" || names[j] == "blue";
@@ -405,56 +368,84 @@ point_cloud parse_csv(std::string_view text, const std::string& file, const csv_
   return cloud;
 }
 
+point_cloud parse_csv(std::string_view text, const std::string& file, const csv_options& opt) {
+  if (text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);
+  if (opt.delimiter != 0 && opt.delimiter != ',' && opt.delimiter != ';' && opt.delimiter != '\t' &&
+      opt.delimiter != ' ')
+    throw std::invalid_argument("unsupported CSV delimiter '" + std::string(1, opt.delimiter) +
+                                "' (use ',', ';', tab or space)");
+  const char delim_opt = opt.delimiter == '\t' ? ' ' : opt.delimiter;  // tab: runs of blanks
+
+  preamble pre = read_preamble(text, opt, delim_opt, file);
+  std::string source;  // where the names came from, for messages
+  std::vector<std::string> names = given_names(pre, opt, delim_opt, source);
+  if (pre.have_data && names.empty()) {
+    skip_point_count(pre);
+    if (!pre.have_data) return point_cloud{};  // "0" and nothing else
+  }
+
+  // Data delimiter: from the first data line; so are the names when no header gives them.
+  char delim = delim_opt;
+  if (pre.have_data) {
+    line_reader peek = pre.data_start;
+    std::string_view line;
+    peek.next(line);
+    if (!delim) delim = detect_delimiter(line);
+    if (names.empty()) {
+      std::vector<std::string_view> tok;
+      split(line, delim, tok);
+      names = default_names(tok.size(), peek.line_no, file);
+      source = "the default columns for " + std::to_string(tok.size()) + " values";
+    }
+  }
+  if (names.empty()) return point_cloud{};  // skip_header and nothing else
+
+  const std::array<std::size_t, 3> axis = check_names(names, source, file);
+  std::vector<column_state> cols;
+  if (pre.have_data)
+    cols = read_rows(pre.data_start, delim, names, opt, file);
+  else
+    cols.resize(names.size());
+  return make_cloud(cols, names, axis);
+}
+
 // ------------------------------------------------------------------ writer
 
 void write_csv_unchecked(std::ostream& out, const point_cloud& cloud) {
   const std::size_t n = cloud.size();
   for (const auto& f : cloud.fields()) {
     if (f.name.empty() || std::any_of(f.name.begin(), f.name.end(), [](char c) {
-          return is_blank(c) || c == '\n' || c == ',' || c == ';' || c == '"' || c == '#' || c < 32 || c == 127;
+          return is_space(c) || c == ',' || c == ';' || c == '"' || c == '#' || c < 32 || c == 127;
         }))
       throw std::invalid_argument("field name '" + f.name +
                                   "' cannot be written to CSV (empty, or has whitespace, a delimiter, '\"' or '#')");
-    const std::string l = lower(f.name);
+    const std::string l = to_lower(f.name);
     if (l == "x" || l == "y" || l == "z" || f.name.substr(0, 2) == "//")
       throw std::invalid_argument("field '" + f.name + "' clashes with the CSV coordinate columns");
-    if (f.values.size() != n)
-      throw std::invalid_argument("field '" + f.name + "' has " + std::to_string(f.values.size()) + " values for " +
-                                  std::to_string(n) + " points");
+    check_field_size(f, n);
   }
   std::string header = "x,y,z";
   for (const auto& f : cloud.fields()) header += "," + f.name;
   header += "\n";
   out.write(header.data(), static_cast<std::streamsize>(header.size()));
 
+  // Positions as float (their own shortest text), or as double offset by a
+  // non-zero origin; fields as their type.
   const auto& origin = cloud.origin();
   const bool georef = origin[0] != 0 || origin[1] != 0 || origin[2] != 0;
-  const std::size_t ncols = 3 + cloud.fields().size();
-  std::string buf;
-  constexpr std::size_t chunk = 4096;
+  std::vector<scalar_type> types(3, georef ? scalar_type::float64 : scalar_type::float32);
+  for (const auto& f : cloud.fields()) types.push_back(f.type());
   const float* xyz = cloud.positions().data();
-  for (std::size_t i0 = 0; i0 < n; i0 += chunk) {
-    const std::size_t m = std::min(chunk, n - i0);
-    buf.resize(m * ncols * 32);
-    char* p = buf.data();
-    char* const end = p + buf.size();
-    for (std::size_t i = i0; i < i0 + m; ++i) {
-      for (std::size_t k = 0; k < 3; ++k) {
-        const float v = xyz[3 * i + k];
-        p = georef ? std::to_chars(p, end, origin[k] + static_cast<double>(v)).ptr : std::to_chars(p, end, v).ptr;
-        *p++ = ',';
-      }
-      for (const auto& f : cloud.fields()) {
-        visit_type(f.type(), [&](auto tag) {
-          using T = decltype(tag);
-          p = std::to_chars(p, end, convert<T>(f.values[i])).ptr;
-        });
-        *p++ = ',';
-      }
-      p[-1] = '\n';
+  point_format pf;
+  pf.text = true;
+  pf.separator = ',';
+  write_points(out, n, types, pf, [&](std::size_t c, std::size_t i0, std::size_t m, double* v) {
+    if (c >= 3) return copy_values(cloud.fields()[c - 3].values, i0, m, v);
+    for (std::size_t i = 0; i < m; ++i) {
+      const double p = xyz[3 * (i0 + i) + c];
+      v[i] = georef ? origin[c] + p : p;  // without an origin, -0 stays -0
     }
-    out.write(buf.data(), p - buf.data());
-  }
+  });
 }
 
 }  // namespace

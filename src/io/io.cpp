@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: MIT
 #include "ced/io/io.hpp"
 
-#include <algorithm>
-#include <cctype>
 #include <stdexcept>
+
+#include "core/text.hpp"
 
 namespace ced::io {
 
@@ -35,8 +35,8 @@ std::string format_name(file_format f) {
 file_format format_of(const std::string& path) {
   const auto slash = path.find_last_of("/\\");
   const auto dot = path.find_last_of('.');
-  std::string ext = dot == std::string::npos || (slash != std::string::npos && dot < slash) ? "" : path.substr(dot + 1);
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  const std::string ext = ced::detail::to_lower(
+      dot == std::string::npos || (slash != std::string::npos && dot < slash) ? "" : path.substr(dot + 1));
   if (ext == "laz")
     throw io_error(path + ": LAZ (compressed LAS) is not supported; decompress it first, e.g. `laszip -i " + path +
                    " -o out.las` or `pdal translate " + path + " out.las`");

@@ -22,40 +22,11 @@
 
 namespace ced::io {
 
+using namespace detail;  // scalar_io.hpp
+
 namespace {
 
 // ---------------------------------------------------------------- utilities
-
-using detail::convert;
-
-[[noreturn]] void fail(const std::string& file, const std::string& msg) { throw io_error(file + ": " + msg); }
-
-template <class T>
-using uint_of_size =
-    std::conditional_t<sizeof(T) == 1, std::uint8_t,
-                       std::conditional_t<sizeof(T) == 2, std::uint16_t,
-                                          std::conditional_t<sizeof(T) == 4, std::uint32_t, std::uint64_t>>>;
-
-/// Little-endian load, whatever the host byte order (compiles to a plain load
-/// on little-endian hosts).
-template <class T>
-T load_le(const unsigned char* p) noexcept {
-  using U = uint_of_size<T>;
-  U u = 0;
-  for (std::size_t i = 0; i < sizeof(T); ++i) u = static_cast<U>(u | static_cast<U>(static_cast<U>(p[i]) << (8 * i)));
-  T v;
-  std::memcpy(&v, &u, sizeof(T));
-  return v;
-}
-
-/// Little-endian store, whatever the host byte order.
-template <class T>
-void store_le(unsigned char* p, T v) noexcept {
-  using U = uint_of_size<T>;
-  U u;
-  std::memcpy(&u, &v, sizeof(T));
-  for (std::size_t i = 0; i < sizeof(T); ++i) p[i] = static_cast<unsigned char>(u >> (8 * i));
-}
 
 /// A fixed-size char field: up to the first NUL, without surrounding spaces.
 std::string fixed_string(const unsigned char* p, std::size_t n) {
@@ -164,13 +135,6 @@ column decode_typed(const unsigned char* p, std::size_t stride, std::size_t n) {
   return c;
 }
 
-template <class T>
-std::vector<double> decode_column(const unsigned char* p, std::size_t stride, std::size_t n) {
-  std::vector<double> v(n);
-  for (std::size_t i = 0; i < n; ++i) v[i] = static_cast<double>(load_le<T>(p + i * stride));
-  return v;
-}
-
 column decode_bits(const unsigned char* p, std::size_t stride, std::size_t n, int shift, unsigned mask) {
   column c(scalar_type::uint8, n);
   std::uint8_t* v = c.data<std::uint8_t>();
@@ -205,85 +169,106 @@ struct flag_spec {
   unsigned mask;
 };
 
-point_cloud parse_las(std::string_view bytes, const std::string& file, las_read_info* info,
-                      const field_selection& selection) {
-  const auto* d = reinterpret_cast<const unsigned char*>(bytes.data());
-  const std::size_t size = bytes.size();
+/// The fields of the public header that the reader uses, checked.
+struct las_header {
+  int major = 1, minor = 0;
+  std::size_t header_size = 0;
+  std::size_t point_offset = 0;
+  std::uint32_t n_vlrs = 0;
+  int format = 0;
+  const format_layout* layout = nullptr;
+  std::size_t record_length = 0;  ///< the stride of the point records
+  std::uint64_t count = 0;        ///< point records, all within the file
+  std::array<double, 3> scale{}, offset{};
+};
+
+/// The header's scale factors and offsets: finite, the scales non-zero.
+void read_scale_and_offset(const unsigned char* d, las_header& h, const std::string& file) {
+  for (std::size_t k = 0; k < 3; ++k) {
+    const std::string axis(1, static_cast<char>('X' + k));
+    h.scale[k] = load_le<double>(d + 131 + 8 * k);
+    h.offset[k] = load_le<double>(d + 155 + 8 * k);
+    if (!std::isfinite(h.scale[k]) || h.scale[k] == 0)
+      fail(file, "invalid " + axis + " scale factor " + num(h.scale[k]) + " (it must be finite and non-zero)");
+    if (!std::isfinite(h.offset[k])) fail(file, "invalid " + axis + " offset " + num(h.offset[k]) + " (not finite)");
+  }
+}
+
+/// The public header of the `size` bytes at d: its signature, version, sizes,
+/// point format and count are checked against the file.
+las_header read_header(const unsigned char* d, std::size_t size, const std::string& file) {
   if (size < 4 || std::memcmp(d, "LASF", 4) != 0)
     fail(file, "not a LAS file (it does not start with the 'LASF' signature)");
   if (size < 227)
     fail(file, "truncated header: the file has " + std::to_string(size) + " bytes, a LAS header needs at least 227");
-  const int major = d[24], minor = d[25];
-  if (major != 1 || minor > 4)
-    fail(file, "unsupported LAS version " + std::to_string(major) + "." + std::to_string(minor) +
+  las_header h;
+  h.major = d[24];
+  h.minor = d[25];
+  if (h.major != 1 || h.minor > 4)
+    fail(file, "unsupported LAS version " + std::to_string(h.major) + "." + std::to_string(h.minor) +
                    " (this reader supports 1.0 to 1.4)");
-  const std::string version = std::to_string(major) + "." + std::to_string(minor);
-  const std::size_t min_header = header_size_for(minor);
+  const std::string version = std::to_string(h.major) + "." + std::to_string(h.minor);
+  const std::size_t min_header = header_size_for(h.minor);
   if (size < min_header)
     fail(file, "truncated header: the file has " + std::to_string(size) + " bytes, a LAS " + version +
                    " header needs " + std::to_string(min_header));
-  const std::size_t header_size = load_le<std::uint16_t>(d + 94);
-  if (header_size < min_header)
-    fail(file, "header size " + std::to_string(header_size) + " is smaller than the " + std::to_string(min_header) +
+  h.header_size = load_le<std::uint16_t>(d + 94);
+  if (h.header_size < min_header)
+    fail(file, "header size " + std::to_string(h.header_size) + " is smaller than the " + std::to_string(min_header) +
                    " bytes of a LAS " + version + " header");
-  const std::size_t point_offset = load_le<std::uint32_t>(d + 96);
-  if (point_offset < header_size)
-    fail(file, "offset to point data (" + std::to_string(point_offset) + ") is smaller than the header size (" +
-                   std::to_string(header_size) + ")");
-  if (point_offset > size)
-    fail(file, "truncated: the point data should start at byte " + std::to_string(point_offset) +
+  h.point_offset = load_le<std::uint32_t>(d + 96);
+  if (h.point_offset < h.header_size)
+    fail(file, "offset to point data (" + std::to_string(h.point_offset) + ") is smaller than the header size (" +
+                   std::to_string(h.header_size) + ")");
+  if (h.point_offset > size)
+    fail(file, "truncated: the point data should start at byte " + std::to_string(h.point_offset) +
                    ", but the file has " + std::to_string(size) + " bytes");
-  const std::uint32_t n_vlrs = load_le<std::uint32_t>(d + 100);
+  h.n_vlrs = load_le<std::uint32_t>(d + 100);
   const int format_byte = d[104];
   if (format_byte & 0xC0)
     fail(file,
          "the point data is LAZ-compressed (point format byte " + std::to_string(format_byte) +
              "); decompress it first, e.g. with 'laszip -i in.laz -o out.las' or 'pdal translate in.laz out.las'");
-  const int format = format_byte;
-  if (format > k_max_format)
-    fail(file, "unsupported point data record format " + std::to_string(format) + " (LAS defines 0 to 10)");
-  const format_layout& layout = k_formats[format];
-  const std::size_t record_length = load_le<std::uint16_t>(d + 105);
-  if (record_length < layout.min_size)
-    fail(file, "point record length " + std::to_string(record_length) + " is too small for point format " +
-                   std::to_string(format) + " (it needs at least " + std::to_string(layout.min_size) + " bytes)");
-  std::uint64_t count = load_le<std::uint32_t>(d + 107);
-  if (minor >= 4) {
+  h.format = format_byte;
+  if (h.format > k_max_format)
+    fail(file, "unsupported point data record format " + std::to_string(h.format) + " (LAS defines 0 to 10)");
+  h.layout = &k_formats[h.format];
+  h.record_length = load_le<std::uint16_t>(d + 105);
+  if (h.record_length < h.layout->min_size)
+    fail(file, "point record length " + std::to_string(h.record_length) + " is too small for point format " +
+                   std::to_string(h.format) + " (it needs at least " + std::to_string(h.layout->min_size) + " bytes)");
+  h.count = load_le<std::uint32_t>(d + 107);
+  if (h.minor >= 4) {
     const auto count64 = load_le<std::uint64_t>(d + 247);
-    if (count64 != 0 || count == 0) count = count64;
+    if (count64 != 0 || h.count == 0) h.count = count64;
   }
+  read_scale_and_offset(d, h, file);
+  const std::uint64_t room = (size - h.point_offset) / h.record_length;
+  if (h.count > room)
+    fail(file, "truncated: " + std::to_string(h.count) + " points declared, room for " + std::to_string(room) + " (" +
+                   std::to_string(h.record_length) + "-byte records from byte " + std::to_string(h.point_offset) +
+                   " in " + std::to_string(size) + " bytes)");
+  return h;
+}
 
-  std::array<double, 3> scale{}, offset{};
-  for (std::size_t k = 0; k < 3; ++k) {
-    const std::string axis(1, static_cast<char>('X' + k));
-    scale[k] = load_le<double>(d + 131 + 8 * k);
-    offset[k] = load_le<double>(d + 155 + 8 * k);
-    if (!std::isfinite(scale[k]) || scale[k] == 0)
-      fail(file, "invalid " + axis + " scale factor " + num(scale[k]) + " (it must be finite and non-zero)");
-    if (!std::isfinite(offset[k])) fail(file, "invalid " + axis + " offset " + num(offset[k]) + " (not finite)");
-  }
-
-  const std::uint64_t room = (size - point_offset) / record_length;
-  if (count > room)
-    fail(file, "truncated: " + std::to_string(count) + " points declared, room for " + std::to_string(room) + " (" +
-                   std::to_string(record_length) + "-byte records from byte " + std::to_string(point_offset) + " in " +
-                   std::to_string(size) + " bytes)");
-
-  // Variable length records: between the header and the point data.
+/// The extra-bytes descriptors of the variable length records (between the
+/// header and the point data), placed after the standard fields and checked
+/// to fit in a point record; none without an extra-bytes VLR.
+std::vector<extra_desc> read_vlrs(const unsigned char* d, const las_header& h, const std::string& file) {
   std::vector<extra_desc> extras;
   bool have_extras = false;
-  std::size_t pos = header_size;
-  for (std::uint32_t i = 0; i < n_vlrs; ++i) {
-    if (point_offset - pos < k_vlr_header_size)
-      fail(file, "VLR " + std::to_string(i) + " of " + std::to_string(n_vlrs) + " (at byte " + std::to_string(pos) +
-                     ") does not fit before the point data at byte " + std::to_string(point_offset));
+  std::size_t pos = h.header_size;
+  for (std::uint32_t i = 0; i < h.n_vlrs; ++i) {
+    if (h.point_offset - pos < k_vlr_header_size)
+      fail(file, "VLR " + std::to_string(i) + " of " + std::to_string(h.n_vlrs) + " (at byte " + std::to_string(pos) +
+                     ") does not fit before the point data at byte " + std::to_string(h.point_offset));
     const std::string user_id = fixed_string(d + pos + 2, 16);
     const int record_id = load_le<std::uint16_t>(d + pos + 18);
     const std::size_t len = load_le<std::uint16_t>(d + pos + 20);
-    if (point_offset - pos - k_vlr_header_size < len)
+    if (h.point_offset - pos - k_vlr_header_size < len)
       fail(file, "VLR " + std::to_string(i) + " ('" + user_id + "' record " + std::to_string(record_id) + ", " +
                      std::to_string(len) + " bytes) runs past the start of the point data at byte " +
-                     std::to_string(point_offset));
+                     std::to_string(h.point_offset));
     if (user_id == "LASF_Spec" && record_id == 4 && !have_extras) {
       extras = parse_extra_bytes(d + pos + k_vlr_header_size, len, file);
       have_extras = true;
@@ -292,30 +277,34 @@ point_cloud parse_las(std::string_view bytes, const std::string& file, las_read_
   }
   std::size_t extra_total = 0;
   for (auto& e : extras) {
-    e.offset = layout.min_size + extra_total;
+    e.offset = h.layout->min_size + extra_total;
     extra_total += e.size;
   }
-  if (layout.min_size + extra_total > record_length)
+  if (h.layout->min_size + extra_total > h.record_length)
     fail(file, "the extra bytes (" + std::to_string(extra_total) + " bytes in " + std::to_string(extras.size()) +
-                   " descriptors) do not fit in the " + std::to_string(record_length) +
-                   "-byte point record (point format " + std::to_string(format) + " uses " +
-                   std::to_string(layout.min_size) + " bytes)");
+                   " descriptors) do not fit in the " + std::to_string(h.record_length) +
+                   "-byte point record (point format " + std::to_string(h.format) + " uses " +
+                   std::to_string(h.layout->min_size) + " bytes)");
+  return extras;
+}
 
-  if (info) {
-    info->version_major = major;
-    info->version_minor = minor;
-    info->point_format = format;
-    info->points = count;
-    info->scale = scale;
-    info->offset = offset;
-    info->system_identifier = fixed_string(d + 26, 32);
-    info->generating_software = fixed_string(d + 58, 32);
-  }
+void fill_info(las_read_info& info, const las_header& h, const unsigned char* d) {
+  info.version_major = h.major;
+  info.version_minor = h.minor;
+  info.point_format = h.format;
+  info.points = h.count;
+  info.scale = h.scale;
+  info.offset = h.offset;
+  info.system_identifier = fixed_string(d + 26, 32);
+  info.generating_software = fixed_string(d + 58, 32);
+}
 
-  // Positions: bounding box of the raw integers, then relative to the origin.
-  const auto n = static_cast<std::size_t>(count);  // <= room: the allocation is bounded by the file size
-  const unsigned char* base = d + point_offset;
-  const std::size_t stride = record_length;
+/// A cloud of the positions of the n point records (`stride` bytes apart from
+/// base): the origin from the bounding box of the raw integers, the positions
+/// relative to it.
+point_cloud decode_positions(const unsigned char* base, std::size_t stride, std::size_t n, const las_header& h) {
+  const auto& scale = h.scale;
+  const auto& offset = h.offset;
   std::int32_t lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
   if (n > 0)
     for (std::size_t k = 0; k < 3; ++k) lo[k] = hi[k] = load_le<std::int32_t>(base + 4 * k);
@@ -339,20 +328,45 @@ point_cloud parse_las(std::string_view bytes, const std::string& file, las_read_
   point_cloud cloud;
   cloud.set_origin(origin);
   cloud.resize(n);
-  {
-    float* out = cloud.positions().data();
-    const double shift[3] = {offset[0] - origin[0], offset[1] - origin[1], offset[2] - origin[2]};
-    for (std::size_t i = 0; i < n; ++i) {
-      const unsigned char* p = base + i * stride;
-      for (std::size_t k = 0; k < 3; ++k)
-        out[3 * i + k] = static_cast<float>(load_le<std::int32_t>(p + 4 * k) * scale[k] + shift[k]);
-    }
+  float* out = cloud.positions().data();
+  const double shift[3] = {offset[0] - origin[0], offset[1] - origin[1], offset[2] - origin[2]};
+  for (std::size_t i = 0; i < n; ++i) {
+    const unsigned char* p = base + i * stride;
+    for (std::size_t k = 0; k < 3; ++k)
+      out[3 * i + k] = static_cast<float>(load_le<std::int32_t>(p + 4 * k) * scale[k] + shift[k]);
   }
+  return cloud;
+}
 
-  // Standard fields.
-  using st = scalar_type;
-  const auto at = [&](std::size_t off) { return base + off; };
-  // Flags: added only when some point sets them.
+/// Adds fields of the n point records (`stride` bytes apart from base) to a
+/// cloud: only the selected ones are decoded.
+struct field_decoder {
+  point_cloud& cloud;
+  const field_selection& selection;
+  const unsigned char* base;
+  std::size_t stride;
+  std::size_t n;
+  std::vector<std::string> taken;  ///< every field's name so far, selected or not
+
+  /// The field `name`, decode() when selected.
+  template <class Decode>
+  void add(const char* name, const Decode& decode) {
+    taken.push_back(name);
+    if (selection.wants(name)) cloud.add_field(name, decode());
+  }
+  /// A field of type T at byte `off` of each record.
+  template <class T>
+  void typed(const char* name, std::size_t off) {
+    add(name, [&] { return decode_typed<T>(base + off, stride, n); });
+  }
+  /// A field of the bits (byte >> shift) & mask of byte `off` of each record.
+  void bits(const char* name, std::size_t off, int shift, unsigned mask) {
+    add(name, [&] { return decode_bits(base + off, stride, n, shift, mask); });
+  }
+};
+
+/// The flags of bytes 14 and 15: added only when some point sets them.
+void decode_flags(field_decoder& dec, bool extended) {
   static constexpr flag_spec k_legacy_flags[] = {{"synthetic", 15, 5, 1},
                                                  {"key_point", 15, 6, 1},
                                                  {"withheld", 15, 7, 1},
@@ -362,76 +376,91 @@ point_cloud parse_las(std::string_view bytes, const std::string& file, las_read_
                                                    {"withheld", 15, 2, 1},           {"overlap", 15, 3, 1},
                                                    {"scanner_channel", 15, 4, 3},    {"scan_direction_flag", 15, 6, 1},
                                                    {"edge_of_flight_line", 15, 7, 1}};
-  // Only the selected fields are decoded.
-  std::vector<std::string> taken;  // every standard field's name, selected or not
-  const auto add = [&](const char* name, const auto& decode) {
-    taken.push_back(name);
-    if (selection.wants(name)) cloud.add_field(name, decode());
-  };
-  const auto typed = [&](auto tag, std::size_t off) {
-    return [&, off] { return decode_typed<decltype(tag)>(at(off), stride, n); };
-  };
-  const auto bits = [&](std::size_t off, int shift, unsigned mask) {
-    return [&, off, shift, mask] { return decode_bits(at(off), stride, n, shift, mask); };
-  };
-  add("intensity", typed(std::uint16_t{}, 12));
-  if (layout.extended) {
-    add("return_number", bits(14, 0, 0x0F));
-    add("number_of_returns", bits(14, 4, 0x0F));
-    add("classification", typed(std::uint8_t{}, 16));
-    add("scan_angle", typed(std::int16_t{}, 18));
-    add("user_data", typed(std::uint8_t{}, 17));
-    add("point_source_id", typed(std::uint16_t{}, 20));
-  } else {
-    add("return_number", bits(14, 0, 0x07));
-    add("number_of_returns", bits(14, 3, 0x07));
-    add("classification", bits(15, 0, 0x1F));
-    add("scan_angle", typed(std::int8_t{}, 16));
-    add("user_data", typed(std::uint8_t{}, 17));
-    add("point_source_id", typed(std::uint16_t{}, 18));
-  }
-  if (layout.gps >= 0) add("gps_time", typed(double{}, static_cast<std::size_t>(layout.gps)));
-  if (layout.rgb >= 0) {
-    const char* names[3] = {"red", "green", "blue"};
-    for (std::size_t c = 0; c < 3; ++c)
-      add(names[c], typed(std::uint16_t{}, static_cast<std::size_t>(layout.rgb) + 2 * c));
-  }
-  if (layout.nir >= 0) add("nir", typed(std::uint16_t{}, static_cast<std::size_t>(layout.nir)));
-  const unsigned bits_set[2] = {or_of_bytes(at(14), stride, n), or_of_bytes(at(15), stride, n)};
+  const unsigned bits_set[2] = {or_of_bytes(dec.base + 14, dec.stride, dec.n),
+                                or_of_bytes(dec.base + 15, dec.stride, dec.n)};
   const auto add_flags = [&](const auto& table) {
     for (const flag_spec& fl : table)
-      if ((bits_set[fl.offset - 14] >> fl.shift) & fl.mask) add(fl.name, bits(fl.offset, fl.shift, fl.mask));
+      if ((bits_set[fl.offset - 14] >> fl.shift) & fl.mask) dec.bits(fl.name, fl.offset, fl.shift, fl.mask);
   };
-  if (layout.extended)
+  if (extended)
     add_flags(k_extended_flags);
   else
     add_flags(k_legacy_flags);
+}
 
-  // Extra bytes.
+/// The standard fields of the point format, then its flags.
+void decode_standard_fields(field_decoder& dec, const format_layout& layout) {
+  dec.typed<std::uint16_t>("intensity", 12);
+  if (layout.extended) {
+    dec.bits("return_number", 14, 0, 0x0F);
+    dec.bits("number_of_returns", 14, 4, 0x0F);
+    dec.typed<std::uint8_t>("classification", 16);
+    dec.typed<std::int16_t>("scan_angle", 18);
+    dec.typed<std::uint8_t>("user_data", 17);
+    dec.typed<std::uint16_t>("point_source_id", 20);
+  } else {
+    dec.bits("return_number", 14, 0, 0x07);
+    dec.bits("number_of_returns", 14, 3, 0x07);
+    dec.bits("classification", 15, 0, 0x1F);
+    dec.typed<std::int8_t>("scan_angle", 16);
+    dec.typed<std::uint8_t>("user_data", 17);
+    dec.typed<std::uint16_t>("point_source_id", 18);
+  }
+  if (layout.gps >= 0) dec.typed<double>("gps_time", static_cast<std::size_t>(layout.gps));
+  if (layout.rgb >= 0) {
+    const char* names[3] = {"red", "green", "blue"};
+    for (std::size_t c = 0; c < 3; ++c)
+      dec.typed<std::uint16_t>(names[c], static_cast<std::size_t>(layout.rgb) + 2 * c);
+  }
+  if (layout.nir >= 0) dec.typed<std::uint16_t>("nir", static_cast<std::size_t>(layout.nir));
+  decode_flags(dec, layout.extended);
+}
+
+/// The extra-bytes fields, scaled and offset as their descriptors say. Their
+/// names (made unique) do not depend on the selection.
+void decode_extra_fields(field_decoder& dec, const std::vector<extra_desc>& extras) {
   for (std::size_t j = 0; j < extras.size(); ++j) {
     const extra_desc& e = extras[j];
     for (int k = 0; k < e.count; ++k) {
       const std::size_t off = e.offset + size_of(e.type) * static_cast<std::size_t>(k);
       std::string name =
           e.count == 1 ? e.name : (e.name.empty() ? "extra_" + std::to_string(j) : e.name) + "_" + std::to_string(k);
-      name = unique_name(taken, std::move(name), j);
-      if (!selection.wants(name)) continue;
-      std::vector<double> v;
-      visit_type(e.type, [&](auto tag) { v = decode_column<decltype(tag)>(at(off), stride, n); });
+      name = unique_name(dec.taken, std::move(name), j);
+      if (!dec.selection.wants(name)) continue;
+      std::vector<double> v(dec.n);
+      decode_column(dec.base + off, dec.stride, dec.n, e.type, !host_little_endian(), v.data());
       const bool scaled = (e.options & 8) != 0, offsetted = (e.options & 16) != 0;
       if (scaled)
         for (double& x : v) x *= e.scale[k];
       if (offsetted)
         for (double& x : v) x += e.offset_value[k];
-      cloud.add_field(std::move(name), scaled || offsetted ? st::float64 : e.type, std::move(v));
+      dec.cloud.add_field(std::move(name), scaled || offsetted ? scalar_type::float64 : e.type, std::move(v));
     }
   }
+}
+
+point_cloud parse_las(std::string_view bytes, const std::string& file, las_read_info* info,
+                      const field_selection& selection) {
+  const auto* d = reinterpret_cast<const unsigned char*>(bytes.data());
+  const las_header h = read_header(d, bytes.size(), file);
+  const std::vector<extra_desc> extras = read_vlrs(d, h, file);
+  if (info) fill_info(*info, h, d);
+  const auto n = static_cast<std::size_t>(h.count);  // <= room: the allocation is bounded by the file size
+  const unsigned char* base = d + h.point_offset;
+  point_cloud cloud = decode_positions(base, h.record_length, n, h);
+  field_decoder dec{cloud, selection, base, h.record_length, n, {}};
+  decode_standard_fields(dec, *h.layout);
+  decode_extra_fields(dec, extras);
   return cloud;
 }
 
 // ------------------------------------------------------------------ writer
 
 enum class slot_kind { u8, i8, u16, i16, f64, bits };
+
+/// The type of the slots of each kind but bits.
+constexpr scalar_type k_slot_types[] = {scalar_type::uint8, scalar_type::int8, scalar_type::uint16, scalar_type::int16,
+                                        scalar_type::float64};
 
 /// One standard LAS field in a point record.
 struct slot_spec {
@@ -489,11 +518,10 @@ std::vector<slot_spec> standard_slots(const format_layout& layout) {
 struct out_column {
   const column* values = nullptr;  ///< nullptr: `constant` for every point
   double constant = 0;
-  double factor = 1;  ///< applied before conversion (scan angle units)
-  slot_kind kind = slot_kind::u8;
-  bool extra = false;  ///< extra-bytes field of type `type`
-  scalar_type type = scalar_type::uint8;
+  double factor = 1;                      ///< applied before conversion (scan angle units)
+  scalar_type type = scalar_type::uint8;  ///< unless `bits`
   std::size_t offset = 0;
+  bool bits = false;  ///< bits of a byte: `shift`, `max`, `flag` as in slot_spec
   int shift = 0;
   unsigned max = 0;
   bool flag = false;
@@ -502,40 +530,15 @@ struct out_column {
 void encode_column(const out_column& c, std::size_t i0, std::size_t m, unsigned char* buf, std::size_t record) {
   const auto value = [&](std::size_t i) { return (c.values ? (*c.values)[i0 + i] : c.constant) * c.factor; };
   unsigned char* p = buf + c.offset;
-  if (c.extra) {
-    visit_type(c.type, [&](auto tag) {
-      using T = decltype(tag);
-      for (std::size_t i = 0; i < m; ++i) store_le<T>(p + i * record, convert<T>(value(i)));
-    });
-    return;
-  }
-  switch (c.kind) {
-    case slot_kind::u8:
-      for (std::size_t i = 0; i < m; ++i) store_le<std::uint8_t>(p + i * record, convert<std::uint8_t>(value(i)));
-      return;
-    case slot_kind::i8:
-      for (std::size_t i = 0; i < m; ++i) store_le<std::int8_t>(p + i * record, convert<std::int8_t>(value(i)));
-      return;
-    case slot_kind::u16:
-      for (std::size_t i = 0; i < m; ++i) store_le<std::uint16_t>(p + i * record, convert<std::uint16_t>(value(i)));
-      return;
-    case slot_kind::i16:
-      for (std::size_t i = 0; i < m; ++i) store_le<std::int16_t>(p + i * record, convert<std::int16_t>(value(i)));
-      return;
-    case slot_kind::f64:
-      for (std::size_t i = 0; i < m; ++i) store_le<double>(p + i * record, value(i));
-      return;
-    case slot_kind::bits:
-      for (std::size_t i = 0; i < m; ++i) {
-        const double v = value(i);
-        unsigned b = 0;
-        if (c.flag)
-          b = v != 0 && !std::isnan(v) ? 1u : 0u;
-        else
-          b = std::min<unsigned>(convert<std::uint8_t>(v), c.max);
-        p[i * record] = static_cast<unsigned char>(p[i * record] | (b << c.shift));
-      }
-      return;
+  if (!c.bits) return encode_values(c.type, !host_little_endian(), p, record, m, value);
+  for (std::size_t i = 0; i < m; ++i) {
+    const double v = value(i);
+    unsigned b = 0;
+    if (c.flag)
+      b = v != 0 && !std::isnan(v) ? 1u : 0u;
+    else
+      b = std::min<unsigned>(convert<std::uint8_t>(v), c.max);
+    p[i * record] = static_cast<unsigned char>(p[i * record] | (b << c.shift));
   }
 }
 
@@ -548,13 +551,8 @@ void put_string(std::string& s, std::size_t offset, std::size_t width, const std
   std::memcpy(&s[offset], text.data(), std::min(width, text.size()));
 }
 
-bool iequal(std::string_view a, std::string_view b) noexcept {
-  return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](char x, char y) {
-           return std::tolower(static_cast<unsigned char>(x)) == std::tolower(static_cast<unsigned char>(y));
-         });
-}
-
-void write_las_unchecked(std::ostream& out, const point_cloud& cloud, const las_write_options& opt) {
+/// Throws std::invalid_argument when `cloud` cannot be written as LAS with `opt`.
+void check_writable(const point_cloud& cloud, const las_write_options& opt) {
   const std::size_t n = cloud.size();
   const int minor = opt.version_minor;
   if (minor < 2 || minor > 4)
@@ -564,31 +562,28 @@ void write_las_unchecked(std::ostream& out, const point_cloud& cloud, const las_
       throw std::invalid_argument("invalid LAS scale " + num(opt.scale[k]) + " (it must be finite and positive)");
     if (!std::isfinite(cloud.origin()[k])) throw std::invalid_argument("the cloud's origin is not finite");
   }
-  for (const auto& f : cloud.fields())
-    if (f.values.size() != n)
-      throw std::invalid_argument("field '" + f.name + "' has " + std::to_string(f.values.size()) + " values for " +
-                                  std::to_string(n) + " points");
+  for (const auto& f : cloud.fields()) check_field_size(f, n);
   if (minor < 4 && n > std::numeric_limits<std::uint32_t>::max())
     throw std::invalid_argument("LAS 1." + std::to_string(minor) + " cannot hold " + std::to_string(n) +
                                 " points (at most 2^32-1; write LAS 1.4)");
+}
 
-  // Point format.
-  const auto rgb = find_rgb_fields(cloud);
-  const bool has_rgb = rgb[0] != nullptr;
-  const field* nir = cloud.find_field("nir");
-  if (!nir) nir = cloud.find_field_icase("nir");
-  const bool has_gps = cloud.find_field("gps_time") != nullptr;
+/// What is written: the point format, the columns of a record and its length.
+struct las_plan {
   int format = 0;
-  if (minor >= 4)
-    format = has_rgb ? (nir ? 8 : 7) : 6;
-  else
-    format = has_rgb ? (has_gps ? 3 : 2) : (has_gps ? 1 : 0);
-  const format_layout& layout = k_formats[format];
+  const format_layout* layout = nullptr;
+  std::vector<out_column> cols;          ///< standard slots, then extra bytes
+  std::vector<const field*> extras;      ///< the fields written as extra bytes
+  std::size_t record = 0;                ///< bytes per point record
+  const field* return_number = nullptr;  ///< the field written as return_number, if any
+};
 
-  // Columns: standard slots, then extra bytes.
-  std::vector<out_column> cols;
-  std::vector<const field*> used;
-  const field* return_number = nullptr;
+/// The columns of the standard slots that the cloud has a field for (and
+/// return_number, number_of_returns = 1 when it has none); `used` receives
+/// those fields.
+void plan_standard_columns(const point_cloud& cloud, const std::array<const field*, 3>& rgb, const field* nir,
+                           las_plan& plan, std::vector<const field*>& used) {
+  const format_layout& layout = *plan.layout;
   for (const slot_spec& s : standard_slots(layout)) {
     const std::string_view name = s.name;
     const field* f = nullptr;
@@ -599,7 +594,8 @@ void write_las_unchecked(std::ostream& out, const point_cloud& cloud, const las_
     else
       f = cloud.find_field_icase(name);  // exact name first
     out_column c;
-    c.kind = s.kind;
+    c.bits = s.kind == slot_kind::bits;
+    if (!c.bits) c.type = k_slot_types[static_cast<int>(s.kind)];
     c.offset = s.offset;
     c.shift = s.shift;
     c.max = s.max;
@@ -612,15 +608,18 @@ void write_las_unchecked(std::ostream& out, const point_cloud& cloud, const las_
         if (layout.extended && degrees) c.factor = 1 / 0.006;
         if (!layout.extended && !degrees) c.factor = 0.006;
       }
-      if (name == "return_number") return_number = f;
+      if (name == "return_number") plan.return_number = f;
     } else if (name == "return_number" || name == "number_of_returns") {
       c.constant = 1;
     } else {
       continue;
     }
-    cols.push_back(c);
+    plan.cols.push_back(c);
   }
-  std::vector<const field*> extras;
+}
+
+/// The columns of the other fields, as extra bytes after the standard fields.
+void plan_extra_columns(const point_cloud& cloud, las_plan& plan, const std::vector<const field*>& used) {
   for (const auto& f : cloud.fields()) {
     if (std::find(used.begin(), used.end(), &f) != used.end()) continue;
     if (f.name.empty() || f.name.size() > 32)
@@ -628,27 +627,46 @@ void write_las_unchecked(std::ostream& out, const point_cloud& cloud, const las_
                                   "' cannot be written as LAS extra bytes (the name must have 1 to 32 characters)");
     if (iequal(f.name, "x") || iequal(f.name, "y") || iequal(f.name, "z"))
       throw std::invalid_argument("field '" + f.name + "' clashes with the LAS coordinates");
-    extras.push_back(&f);
+    plan.extras.push_back(&f);
   }
-  std::size_t record = layout.min_size;
-  for (const field* f : extras) {
+  plan.record = plan.layout->min_size;
+  for (const field* f : plan.extras) {
     out_column c;
     c.values = &f->values;
-    c.extra = true;
     c.type = f->type();
-    c.offset = record;
-    record += size_of(f->type());
-    cols.push_back(c);
+    c.offset = plan.record;
+    plan.record += size_of(f->type());
+    plan.cols.push_back(c);
   }
-  if (record > std::numeric_limits<std::uint16_t>::max() ||
-      extras.size() * k_extra_bytes_descriptor_size > std::numeric_limits<std::uint16_t>::max())
-    throw std::invalid_argument("too many fields for LAS extra bytes (" + std::to_string(extras.size()) + ")");
+  if (plan.record > std::numeric_limits<std::uint16_t>::max() ||
+      plan.extras.size() * k_extra_bytes_descriptor_size > std::numeric_limits<std::uint16_t>::max())
+    throw std::invalid_argument("too many fields for LAS extra bytes (" + std::to_string(plan.extras.size()) + ")");
+}
 
-  // Coordinates: integers relative to the origin (= the LAS offset).
-  const auto& origin = cloud.origin();
+/// The point format for the cloud's fields (colour, nir, gps_time) and its columns.
+las_plan plan_records(const point_cloud& cloud, int minor) {
+  const auto rgb = find_rgb_fields(cloud);
+  const bool has_rgb = rgb[0] != nullptr;
+  const field* nir = cloud.find_field("nir");
+  if (!nir) nir = cloud.find_field_icase("nir");
+  const bool has_gps = cloud.find_field("gps_time") != nullptr;
+  las_plan plan;
+  if (minor >= 4)
+    plan.format = has_rgb ? (nir ? 8 : 7) : 6;
+  else
+    plan.format = has_rgb ? (has_gps ? 3 : 2) : (has_gps ? 1 : 0);
+  plan.layout = &k_formats[plan.format];
+  std::vector<const field*> used;
+  plan_standard_columns(cloud, rgb, nir, plan, used);
+  plan_extra_columns(cloud, plan, used);
+  return plan;
+}
+
+/// The bounding box of the positions as LAS integers (relative to the
+/// origin); std::invalid_argument when one is not finite or does not fit.
+void quantized_bounds(const point_cloud& cloud, const las_write_options& opt, double qmin[3], double qmax[3]) {
   const float* xyz = cloud.positions().data();
-  double qmin[3] = {0, 0, 0}, qmax[3] = {0, 0, 0};
-  for (std::size_t i = 0; i < n; ++i)
+  for (std::size_t i = 0; i < cloud.size(); ++i)
     for (std::size_t k = 0; k < 3; ++k) {
       const float p = xyz[3 * i + k];
       if (!std::isfinite(p))
@@ -661,22 +679,49 @@ void write_las_unchecked(std::ostream& out, const point_cloud& cloud, const las_
       qmin[k] = i == 0 ? q : std::min(qmin[k], q);
       qmax[k] = i == 0 ? q : std::max(qmax[k], q);
     }
+}
 
-  // Points by return.
-  std::uint64_t by_return[15] = {};
-  const unsigned max_return = layout.extended ? 15 : 7;
+/// The number of points by return number (1 to 15).
+std::array<std::uint64_t, 15> points_by_return(const las_plan& plan, std::size_t n) {
+  std::array<std::uint64_t, 15> by_return{};
+  const unsigned max_return = plan.layout->extended ? 15 : 7;
   for (std::size_t i = 0; i < n; ++i) {
     const unsigned r =
-        return_number ? std::min<unsigned>(convert<std::uint8_t>(return_number->values[i]), max_return) : 1;
+        plan.return_number ? std::min<unsigned>(convert<std::uint8_t>(plan.return_number->values[i]), max_return) : 1;
     if (r >= 1 && r <= 15) ++by_return[r - 1];
   }
+  return by_return;
+}
 
-  // Public header.
+/// Writes the extra-bytes VLR describing `extras` at h[v...].
+void put_extra_bytes_vlr(std::string& h, std::size_t v, const std::vector<const field*>& extras) {
+  put_string(h, v + 2, 16, "LASF_Spec");
+  put<std::uint16_t>(h, v + 18, 4);
+  put<std::uint16_t>(h, v + 20, static_cast<std::uint16_t>(extras.size() * k_extra_bytes_descriptor_size));
+  put_string(h, v + 22, 32, "extra bytes");
+  v += k_vlr_header_size;
+  for (const field* f : extras) {
+    put<std::uint8_t>(h, v + 2, static_cast<std::uint8_t>(extra_type_code(f->type())));
+    put_string(h, v + 4, 32, f->name);
+    put_string(h, v + 160, 32, "ced field (" + std::string(name_of(f->type())) + ")");
+    v += k_extra_bytes_descriptor_size;
+  }
+}
+
+/// The public header, then the extra-bytes VLR when there are extra bytes.
+std::string make_header(const point_cloud& cloud, const las_write_options& opt, const las_plan& plan) {
+  const std::size_t n = cloud.size();
+  const int minor = opt.version_minor;
+  double qmin[3] = {0, 0, 0}, qmax[3] = {0, 0, 0};
+  quantized_bounds(cloud, opt, qmin, qmax);
+  const std::array<std::uint64_t, 15> by_return = points_by_return(plan, n);
+  const auto& origin = cloud.origin();
   const std::size_t header_size = header_size_for(minor);
-  const std::size_t vlr_size = extras.empty() ? 0 : k_vlr_header_size + extras.size() * k_extra_bytes_descriptor_size;
+  const std::size_t vlr_size =
+      plan.extras.empty() ? 0 : k_vlr_header_size + plan.extras.size() * k_extra_bytes_descriptor_size;
   std::string h(header_size + vlr_size, '\0');
   put_string(h, 0, 4, "LASF");
-  put<std::uint16_t>(h, 6, layout.extended ? 0x10 : 0);  // formats 6-10: the WKT bit must be set
+  put<std::uint16_t>(h, 6, plan.layout->extended ? 0x10 : 0);  // formats 6-10: the WKT bit must be set
   put<std::uint8_t>(h, 24, 1);
   put<std::uint8_t>(h, 25, static_cast<std::uint8_t>(minor));
   put_string(h, 26, 32, "OTHER");
@@ -692,10 +737,10 @@ void write_las_unchecked(std::ostream& out, const point_cloud& cloud, const las_
   put<std::uint16_t>(h, 92, static_cast<std::uint16_t>(utc.tm_year + 1900));
   put<std::uint16_t>(h, 94, static_cast<std::uint16_t>(header_size));
   put<std::uint32_t>(h, 96, static_cast<std::uint32_t>(header_size + vlr_size));
-  put<std::uint32_t>(h, 100, extras.empty() ? 0u : 1u);
-  put<std::uint8_t>(h, 104, static_cast<std::uint8_t>(format));
-  put<std::uint16_t>(h, 105, static_cast<std::uint16_t>(record));
-  const bool legacy_counts = !layout.extended && n <= std::numeric_limits<std::uint32_t>::max();
+  put<std::uint32_t>(h, 100, plan.extras.empty() ? 0u : 1u);
+  put<std::uint8_t>(h, 104, static_cast<std::uint8_t>(plan.format));
+  put<std::uint16_t>(h, 105, static_cast<std::uint16_t>(plan.record));
+  const bool legacy_counts = !plan.layout->extended && n <= std::numeric_limits<std::uint32_t>::max();
   if (legacy_counts) {
     put<std::uint32_t>(h, 107, static_cast<std::uint32_t>(n));
     for (std::size_t r = 0; r < 5; ++r) put<std::uint32_t>(h, 111 + 4 * r, static_cast<std::uint32_t>(by_return[r]));
@@ -710,25 +755,15 @@ void write_las_unchecked(std::ostream& out, const point_cloud& cloud, const las_
     put<std::uint64_t>(h, 247, n);
     for (std::size_t r = 0; r < 15; ++r) put<std::uint64_t>(h, 255 + 8 * r, by_return[r]);
   }
+  if (!plan.extras.empty()) put_extra_bytes_vlr(h, header_size, plan.extras);
+  return h;
+}
 
-  // Extra-bytes VLR.
-  if (!extras.empty()) {
-    std::size_t v = header_size;
-    put_string(h, v + 2, 16, "LASF_Spec");
-    put<std::uint16_t>(h, v + 18, 4);
-    put<std::uint16_t>(h, v + 20, static_cast<std::uint16_t>(extras.size() * k_extra_bytes_descriptor_size));
-    put_string(h, v + 22, 32, "extra bytes");
-    v += k_vlr_header_size;
-    for (const field* f : extras) {
-      put<std::uint8_t>(h, v + 2, static_cast<std::uint8_t>(extra_type_code(f->type())));
-      put_string(h, v + 4, 32, f->name);
-      put_string(h, v + 160, 32, "ced field (" + std::string(name_of(f->type())) + ")");
-      v += k_extra_bytes_descriptor_size;
-    }
-  }
-  out.write(h.data(), static_cast<std::streamsize>(h.size()));
-
-  // Point records, in chunks.
+/// The point records, in chunks.
+void write_records(std::ostream& out, const point_cloud& cloud, const las_write_options& opt, const las_plan& plan) {
+  const std::size_t n = cloud.size();
+  const std::size_t record = plan.record;
+  const float* xyz = cloud.positions().data();
   constexpr std::size_t chunk = 8192;
   std::vector<unsigned char> buf(std::min(chunk, n) * record);
   for (std::size_t i0 = 0; i0 < n; i0 += chunk) {
@@ -739,9 +774,17 @@ void write_las_unchecked(std::ostream& out, const point_cloud& cloud, const las_
         const double q = std::round(static_cast<double>(xyz[3 * (i0 + i) + k]) / opt.scale[k]);
         store_le<std::int32_t>(buf.data() + i * record + 4 * k, static_cast<std::int32_t>(q));
       }
-    for (const auto& c : cols) encode_column(c, i0, m, buf.data(), record);
+    for (const auto& c : plan.cols) encode_column(c, i0, m, buf.data(), record);
     out.write(reinterpret_cast<const char*>(buf.data()), static_cast<std::streamsize>(m * record));
   }
+}
+
+void write_las_unchecked(std::ostream& out, const point_cloud& cloud, const las_write_options& opt) {
+  check_writable(cloud, opt);
+  const las_plan plan = plan_records(cloud, opt.version_minor);
+  const std::string header = make_header(cloud, opt, plan);
+  out.write(header.data(), static_cast<std::streamsize>(header.size()));
+  write_records(out, cloud, opt, plan);
 }
 
 }  // namespace

@@ -28,38 +28,6 @@ namespace {
 
 // ---------------------------------------------------------------- utilities
 
-[[noreturn]] void fail(const std::string& file, const std::string& msg) { throw io_error(file + ": " + msg); }
-
-/// out[i] = value at p + i * stride, for i < n.
-void decode_column(const unsigned char* p, std::size_t stride, std::size_t n, scalar_type t, double* out) {
-  visit_type(t, [&](auto tag) {
-    using T = decltype(tag);
-    for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<double>(load_le<T>(p + i * stride));
-  });
-}
-
-bool is_space(char c) noexcept { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\v' || c == '\f'; }
-
-std::vector<std::string_view> split_words(std::string_view line) {
-  std::vector<std::string_view> words;
-  std::size_t i = 0;
-  while (i < line.size()) {
-    while (i < line.size() && is_space(line[i])) ++i;
-    const std::size_t b = i;
-    while (i < line.size() && !is_space(line[i])) ++i;
-    if (i > b) words.push_back(line.substr(b, i - b));
-  }
-  return words;
-}
-
-/// At most 40 characters of `s`, non-printable bytes replaced by '?', for messages.
-std::string printable(std::string_view s) {
-  std::string r;
-  for (char c : s.substr(0, 40)) r += (c >= 32 && c < 127) ? c : '?';
-  if (s.size() > 40) r += "...";
-  return r;
-}
-
 bool parse_u64(std::string_view s, std::uint64_t& v) noexcept {
   const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
   return r.ec == std::errc() && r.ptr == s.data() + s.size();
@@ -86,27 +54,25 @@ struct pcd_header {
   std::size_t body_line = 0;  ///< 1-based line number of the line after DATA
 };
 
-std::optional<scalar_type> pcd_type(char type, std::uint64_t size) noexcept {
-  using st = scalar_type;
-  switch (type) {
-    case 'I':
-      if (size == 1) return st::int8;
-      if (size == 2) return st::int16;
-      if (size == 4) return st::int32;
-      if (size == 8) return st::int64;
-      break;
-    case 'U':
-      if (size == 1) return st::uint8;
-      if (size == 2) return st::uint16;
-      if (size == 4) return st::uint32;
-      if (size == 8) return st::uint64;
-      break;
-    case 'F':
-      if (size == 4) return st::float32;
-      if (size == 8) return st::float64;
-      break;
+/// The TYPE of values of t: F (floating point), I (signed) or U (unsigned).
+char type_char(scalar_type t) noexcept {
+  if (t == scalar_type::float32 || t == scalar_type::float64) return 'F';
+  switch (t) {
+    case scalar_type::int8:
+    case scalar_type::int16:
+    case scalar_type::int32:
+    case scalar_type::int64:
+      return 'I';
     default:
-      break;
+      return 'U';
+  }
+}
+
+/// The type of the values of PCD TYPE `type` and SIZE `size`, if any.
+std::optional<scalar_type> pcd_type(char type, std::uint64_t size) noexcept {
+  for (int i = 0; i <= static_cast<int>(scalar_type::float64); ++i) {
+    const auto t = static_cast<scalar_type>(i);
+    if (type_char(t) == type && size_of(t) == size) return t;
   }
   return std::nullopt;
 }
@@ -119,11 +85,72 @@ bool has_data_line(std::string_view data) noexcept {
 // tiny header (COUNT 60000) from costing quadratic time.
 constexpr std::size_t max_values_per_point = 4096;
 
-pcd_header parse_header(std::string_view data, const std::string& file) {
+/// The header's lines as given, before they are checked together.
+struct header_lines {
   std::vector<std::string_view> names, sizes, types, counts;
   bool have_fields = false, have_size = false, have_type = false, have_count = false;
   bool have_width = false, have_height = false, have_points = false;
-  pcd_header h;
+};
+
+/// Reads the header line `w` (its words; `line` as given, number `line_no`)
+/// into `l` and `h`. True when it is the DATA line, which ends the header.
+bool read_header_line(const std::vector<std::string_view>& w, std::string_view line, std::size_t line_no,
+                      std::string_view data, const std::string& file, header_lines& l, pcd_header& h) {
+  const std::string_view kw = w[0];
+  const auto where = [&] { return "header line " + std::to_string(line_no) + ": "; };
+  const auto list = [&](bool& have, std::vector<std::string_view>& out) {
+    if (have) fail(file, where() + std::string(kw) + " is given twice");
+    if (w.size() < 2) fail(file, where() + std::string(kw) + " lists no values");
+    have = true;
+    out.assign(w.begin() + 1, w.end());
+  };
+  const auto number = [&](bool& have, std::uint64_t& out) {
+    if (have) fail(file, where() + std::string(kw) + " is given twice");
+    if (w.size() != 2 || !parse_u64(w[1], out))
+      fail(file, where() + "invalid " + std::string(kw) + " line '" + printable(line) +
+                     "' (expected one non-negative integer)");
+    have = true;
+  };
+  if (kw == "VERSION") {
+    if (w.size() != 2) fail(file, where() + "malformed VERSION line '" + printable(line) + "'");
+  } else if (kw == "FIELDS" || kw == "COLUMNS") {
+    list(l.have_fields, l.names);
+  } else if (kw == "SIZE") {
+    list(l.have_size, l.sizes);
+  } else if (kw == "TYPE") {
+    list(l.have_type, l.types);
+  } else if (kw == "COUNT") {
+    list(l.have_count, l.counts);
+  } else if (kw == "WIDTH") {
+    number(l.have_width, h.width);
+  } else if (kw == "HEIGHT") {
+    number(l.have_height, h.height);
+  } else if (kw == "POINTS") {
+    number(l.have_points, h.points);
+  } else if (kw == "VIEWPOINT") {
+    if (w.size() != 8) fail(file, where() + "VIEWPOINT needs 7 values (tx ty tz qw qx qy qz)");
+  } else if (kw == "DATA") {
+    if (w.size() != 2) fail(file, where() + "malformed DATA line '" + printable(line) + "'");
+    if (w[1] == "ascii")
+      h.format = pcd_format::ascii;
+    else if (w[1] == "binary")
+      h.format = pcd_format::binary;
+    else if (w[1] == "binary_compressed")
+      h.format = pcd_format::binary_compressed;
+    else
+      fail(file,
+           where() + "unknown DATA format '" + printable(w[1]) + "' (expected ascii, binary or binary_compressed)");
+    h.data_name = std::string(w[1]);
+    return true;
+  } else {
+    if (!has_data_line(data)) fail(file, "the PCD header has no DATA line");
+    fail(file, where() + "unknown header keyword '" + printable(kw) + "'");
+  }
+  return false;
+}
+
+/// Reads the header lines, up to DATA, into `l` and `h` (and the body's offset and first line).
+void read_header_lines(std::string_view data, const std::string& file, header_lines& l, pcd_header& h) {
   std::size_t pos = 0, line_no = 0;
   bool first = true;
   for (bool done = false; !done;) {
@@ -134,88 +161,43 @@ pcd_header parse_header(std::string_view data, const std::string& file) {
     ++line_no;
     const auto w = split_words(line);
     if (w.empty() || w[0][0] == '#') continue;
-    const std::string_view kw = w[0];
-    const auto where = [&] { return "header line " + std::to_string(line_no) + ": "; };
-    if (first && kw != "VERSION" && kw != "FIELDS" && kw != "COLUMNS")
+    if (first && w[0] != "VERSION" && w[0] != "FIELDS" && w[0] != "COLUMNS")
       fail(file, "not a PCD file (expected a VERSION or FIELDS line, found '" + printable(line) + "')");
     first = false;
-    const auto list = [&](bool& have, std::vector<std::string_view>& out) {
-      if (have) fail(file, where() + std::string(kw) + " is given twice");
-      if (w.size() < 2) fail(file, where() + std::string(kw) + " lists no values");
-      have = true;
-      out.assign(w.begin() + 1, w.end());
-    };
-    const auto number = [&](bool& have, std::uint64_t& out) {
-      if (have) fail(file, where() + std::string(kw) + " is given twice");
-      if (w.size() != 2 || !parse_u64(w[1], out))
-        fail(file, where() + "invalid " + std::string(kw) + " line '" + printable(line) +
-                       "' (expected one non-negative integer)");
-      have = true;
-    };
-    if (kw == "VERSION") {
-      if (w.size() != 2) fail(file, where() + "malformed VERSION line '" + printable(line) + "'");
-    } else if (kw == "FIELDS" || kw == "COLUMNS") {
-      list(have_fields, names);
-    } else if (kw == "SIZE") {
-      list(have_size, sizes);
-    } else if (kw == "TYPE") {
-      list(have_type, types);
-    } else if (kw == "COUNT") {
-      list(have_count, counts);
-    } else if (kw == "WIDTH") {
-      number(have_width, h.width);
-    } else if (kw == "HEIGHT") {
-      number(have_height, h.height);
-    } else if (kw == "POINTS") {
-      number(have_points, h.points);
-    } else if (kw == "VIEWPOINT") {
-      if (w.size() != 8) fail(file, where() + "VIEWPOINT needs 7 values (tx ty tz qw qx qy qz)");
-    } else if (kw == "DATA") {
-      if (w.size() != 2) fail(file, where() + "malformed DATA line '" + printable(line) + "'");
-      if (w[1] == "ascii")
-        h.format = pcd_format::ascii;
-      else if (w[1] == "binary")
-        h.format = pcd_format::binary;
-      else if (w[1] == "binary_compressed")
-        h.format = pcd_format::binary_compressed;
-      else
-        fail(file,
-             where() + "unknown DATA format '" + printable(w[1]) + "' (expected ascii, binary or binary_compressed)");
-      h.data_name = std::string(w[1]);
-      done = true;
-    } else {
-      if (!has_data_line(data)) fail(file, "the PCD header has no DATA line");
-      fail(file, where() + "unknown header keyword '" + printable(kw) + "'");
-    }
+    done = read_header_line(w, line, line_no, data, file, l, h);
   }
   h.body_offset = pos;
   h.body_line = line_no + 1;
+}
 
-  if (!have_fields) fail(file, "the PCD header has no FIELDS line");
-  const std::size_t nf = names.size();
+/// The fields of FIELDS, with their SIZE, TYPE and COUNT (each list, when
+/// given, as long as FIELDS).
+void make_fields(const header_lines& l, const std::string& file, pcd_header& h) {
+  if (!l.have_fields) fail(file, "the PCD header has no FIELDS line");
+  const std::size_t nf = l.names.size();
   const auto check_length = [&](bool have, const std::vector<std::string_view>& v, const char* kw) {
     if (have && v.size() != nf)
       fail(file, std::string(kw) + " lists " + std::to_string(v.size()) + " values but FIELDS names " +
                      std::to_string(nf) + " fields");
   };
-  check_length(have_size, sizes, "SIZE");
-  check_length(have_type, types, "TYPE");
-  check_length(have_count, counts, "COUNT");
+  check_length(l.have_size, l.sizes, "SIZE");
+  check_length(l.have_type, l.types, "TYPE");
+  check_length(l.have_count, l.counts, "COUNT");
 
   std::uint64_t values = 0;
   for (std::size_t i = 0; i < nf; ++i) {
     pcd_field f;
-    f.name = std::string(names[i]);
+    f.name = std::string(l.names[i]);
     f.padding = f.name == "_";
     std::uint64_t size = 4, count = 1;
-    if (have_size && (!parse_u64(sizes[i], size) || size == 0))
-      fail(file, "invalid SIZE '" + printable(sizes[i]) + "' for field '" + f.name + "'");
-    if (have_type) {
-      if (types[i].size() != 1) fail(file, "invalid TYPE '" + printable(types[i]) + "' for field '" + f.name + "'");
-      f.type = types[i][0];
+    if (l.have_size && (!parse_u64(l.sizes[i], size) || size == 0))
+      fail(file, "invalid SIZE '" + printable(l.sizes[i]) + "' for field '" + f.name + "'");
+    if (l.have_type) {
+      if (l.types[i].size() != 1) fail(file, "invalid TYPE '" + printable(l.types[i]) + "' for field '" + f.name + "'");
+      f.type = l.types[i][0];
     }
-    if (have_count && (!parse_u64(counts[i], count) || count == 0))
-      fail(file, "invalid COUNT '" + printable(counts[i]) + "' for field '" + f.name + "'");
+    if (l.have_count && (!parse_u64(l.counts[i], count) || count == 0))
+      fail(file, "invalid COUNT '" + printable(l.counts[i]) + "' for field '" + f.name + "'");
     if (count > max_values_per_point || (values += count) > max_values_per_point)
       fail(file, "too many values per point (more than " + std::to_string(max_values_per_point) + ")");
     const auto t = pcd_type(f.type, size);
@@ -233,21 +215,33 @@ pcd_header parse_header(std::string_view data, const std::string& file) {
         if (other.name == f.name) fail(file, "field '" + f.name + "' is declared twice in FIELDS");
     h.fields.push_back(std::move(f));
   }
+}
 
-  if (!have_width && !have_points) fail(file, "the PCD header has neither WIDTH nor POINTS");
-  if (!have_width) {
-    if (have_height && h.height != 1) fail(file, "the PCD header gives HEIGHT but no WIDTH");
+/// WIDTH, HEIGHT and POINTS: either may stand for the other, and when both
+/// are given they must agree.
+void resolve_point_count(const header_lines& l, const std::string& file, pcd_header& h) {
+  if (!l.have_width && !l.have_points) fail(file, "the PCD header has neither WIDTH nor POINTS");
+  if (!l.have_width) {
+    if (l.have_height && h.height != 1) fail(file, "the PCD header gives HEIGHT but no WIDTH");
     h.width = h.points;
     h.height = 1;
   }
   if (h.height != 0 && h.width > std::numeric_limits<std::uint64_t>::max() / h.height)
     fail(file, "WIDTH × HEIGHT (" + std::to_string(h.width) + " × " + std::to_string(h.height) + ") overflows");
   const std::uint64_t wh = h.width * h.height;
-  if (!have_points)
+  if (!l.have_points)
     h.points = wh;
   else if (h.points != wh)
     fail(file, "POINTS (" + std::to_string(h.points) + ") does not equal WIDTH × HEIGHT (" + std::to_string(h.width) +
                    " × " + std::to_string(h.height) + " = " + std::to_string(wh) + ")");
+}
+
+pcd_header parse_header(std::string_view data, const std::string& file) {
+  header_lines l;
+  pcd_header h;
+  read_header_lines(data, file, l, h);
+  make_fields(l, file, h);
+  resolve_point_count(l, file, h);
   return h;
 }
 
@@ -276,6 +270,17 @@ parse_status parse_packed_rgb(std::string_view tok, char type, double& out) noex
 
 using columns = std::vector<std::vector<double>>;
 
+/// Decodes the n values of each of the f.count values of field f (at p, then
+/// `stride` bytes apart) into cols[0, f.count), little-endian binary.
+void decode_field(const pcd_field& f, const unsigned char* p, std::size_t stride, std::size_t n,
+                  std::vector<double>* cols) {
+  for (std::size_t c = 0; c < f.count; ++c) {
+    cols[c].resize(n);
+    decode_column(p + c * f.size, stride, n, f.packed_rgb ? scalar_type::uint32 : f.stype, !host_little_endian(),
+                  cols[c].data());
+  }
+}
+
 /// Decodes the body into cols (one per value of each non-padding field, in
 /// order; col_of[f] is the first column of field f).
 void read_binary(std::string_view data, const pcd_header& h, const std::vector<std::size_t>& col_of, columns& cols,
@@ -291,13 +296,7 @@ void read_binary(std::string_view data, const pcd_header& h, const std::vector<s
   std::size_t offset = 0;
   for (std::size_t j = 0; j < h.fields.size(); ++j) {
     const pcd_field& f = h.fields[j];
-    if (!f.padding)
-      for (std::size_t c = 0; c < f.count; ++c) {
-        auto& col = cols[col_of[j] + c];
-        col.resize(n);
-        decode_column(body + offset + c * f.size, point_size, n, f.packed_rgb ? scalar_type::uint32 : f.stype,
-                      col.data());
-      }
+    if (!f.padding) decode_field(f, body + offset, point_size, n, &cols[col_of[j]]);
     offset += f.size * f.count;
   }
 }
@@ -345,13 +344,7 @@ void read_compressed(std::string_view data, const pcd_header& h, const std::vect
   for (std::size_t j = 0; j < h.fields.size(); ++j) {
     const pcd_field& f = h.fields[j];
     if (f.padding && !with_padding) continue;
-    if (!f.padding)
-      for (std::size_t c = 0; c < f.count; ++c) {
-        auto& col = cols[col_of[j] + c];
-        col.resize(n);
-        decode_column(p + offset + c * f.size, f.size * f.count, n, f.packed_rgb ? scalar_type::uint32 : f.stype,
-                      col.data());
-      }
+    if (!f.padding) decode_field(f, p + offset, f.size * f.count, n, &cols[col_of[j]]);
     offset += n * f.size * f.count;
   }
 }
@@ -383,13 +376,11 @@ void read_ascii(std::string_view data, const pcd_header& h, const std::vector<st
         fail(file, "truncated: the file ends after " + std::to_string(i) + " of " + std::to_string(n) + " points");
       ++line_no;
       tok.clear();
-      while (p < end && *p != '\n') {
-        while (p < end && *p != '\n' && is_space(*p)) ++p;
-        const char* b = p;
-        while (p < end && !is_space(*p)) ++p;
-        if (p > b) tok.emplace_back(b, static_cast<std::size_t>(p - b));
-      }
-      if (p < end) ++p;  // the '\n'
+      const auto* nl = static_cast<const char*>(std::memchr(p, '\n', static_cast<std::size_t>(end - p)));
+      const char* line_end = nl ? nl : end;
+      word_reader<> words(std::string_view(p, static_cast<std::size_t>(line_end - p)));
+      for (std::string_view w; words.next(w);) tok.push_back(w);
+      p = nl ? nl + 1 : end;
       if (!tok.empty()) break;
     }
     const bool with_padding = tok.size() == values_all;
@@ -411,10 +402,7 @@ void read_ascii(std::string_view data, const pcd_header& h, const std::vector<st
           const std::string what = "line " + std::to_string(line_no) + ", field '" +
                                    (f.count > 1 ? f.name + "_" + std::to_string(c) : f.name) + "': '" +
                                    printable(tok[t]) + "' ";
-          const std::string type = std::string(name_of(f.stype));
-          if (s == parse_status::not_a_number) fail(file, what + "is not a number (expected " + type + ")");
-          if (s == parse_status::not_an_integer) fail(file, what + "is not an integer (expected " + type + ")");
-          fail(file, what + "is out of range for " + type);
+          fail_value(file, what, s, f.stype);
         }
         cols[col_of[j] + c][i] = v;
       }
@@ -422,18 +410,25 @@ void read_ascii(std::string_view data, const pcd_header& h, const std::vector<st
   }
 }
 
-point_cloud parse_pcd(std::string_view data, const std::string& file, pcd_read_info* info) {
-  pcd_header h = parse_header(data, file);
-  std::size_t axis[3] = {};
+/// The indices of the x, y and z fields (each of COUNT 1) in h.fields.
+std::array<std::size_t, 3> find_axes(const pcd_header& h, const std::string& file) {
+  std::array<std::size_t, 3> axis{};
   for (int k = 0; k < 3; ++k) {
     const std::string name(1, static_cast<char>('x' + k));
     const auto it = std::find_if(h.fields.begin(), h.fields.end(), [&](const pcd_field& f) { return f.name == name; });
     if (it == h.fields.end()) fail(file, "the PCD file has no '" + name + "' field");
     if (it->count != 1) fail(file, "field '" + name + "' has COUNT " + std::to_string(it->count) + " (expected 1)");
-    axis[k] = static_cast<std::size_t>(it - h.fields.begin());
+    axis[static_cast<std::size_t>(k)] = static_cast<std::size_t>(it - h.fields.begin());
   }
+  return axis;
+}
+
+/// Marks the packed rgb fields and gives each value of each non-padding field
+/// a column: col_of[j] is the first column of field j. `ncols` receives their
+/// number. Fails when two fields would get the same name in the cloud.
+std::vector<std::size_t> assign_columns(pcd_header& h, const std::string& file, std::size_t& ncols) {
   std::vector<std::size_t> col_of(h.fields.size(), 0);
-  std::size_t ncols = 0;
+  ncols = 0;
   std::set<std::string> out_names;
   for (std::size_t j = 0; j < h.fields.size(); ++j) {
     pcd_field& f = h.fields[j];
@@ -452,8 +447,12 @@ point_cloud parse_pcd(std::string_view data, const std::string& file, pcd_read_i
       if (!out_names.insert(name).second)
         fail(file, "two fields would be named '" + name + "' (field '" + f.name + "' clashes with another one)");
   }
+  return col_of;
+}
 
-  columns cols(ncols);
+/// Decodes the body, whatever its DATA format, into `cols` (h.points values each).
+void read_body(std::string_view data, const pcd_header& h, const std::vector<std::size_t>& col_of, columns& cols,
+               const std::string& file) {
   switch (h.format) {
     case pcd_format::ascii:
       read_ascii(data, h, col_of, cols, file);
@@ -466,54 +465,55 @@ point_cloud parse_pcd(std::string_view data, const std::string& file, pcd_read_i
       break;
   }
   for (auto& c : cols) c.resize(static_cast<std::size_t>(h.points));  // binary_compressed with 0 points
+}
 
-  // Drop the points with a non-finite coordinate.
-  std::vector<double>* xyz[3] = {&cols[col_of[axis[0]]], &cols[col_of[axis[1]]], &cols[col_of[axis[2]]]};
-  const auto declared = static_cast<std::size_t>(h.points);
+/// Drops, from every column, the points with a non-finite coordinate in
+/// x, y or z; returns the number of points kept.
+std::size_t drop_nonfinite(columns& cols, const std::vector<double>* const xyz[3], std::size_t declared) {
   std::size_t n = 0;
-  {
-    std::vector<std::uint8_t> keep(declared);
-    for (std::size_t i = 0; i < declared; ++i) {
-      keep[i] = std::isfinite((*xyz[0])[i]) && std::isfinite((*xyz[1])[i]) && std::isfinite((*xyz[2])[i]);
-      n += keep[i];
+  std::vector<std::uint8_t> keep(declared);
+  for (std::size_t i = 0; i < declared; ++i) {
+    keep[i] = std::isfinite((*xyz[0])[i]) && std::isfinite((*xyz[1])[i]) && std::isfinite((*xyz[2])[i]);
+    n += keep[i];
+  }
+  if (n != declared)
+    for (auto& col : cols) {
+      std::size_t o = 0;
+      for (std::size_t i = 0; i < declared; ++i)
+        if (keep[i]) col[o++] = col[i];
+      col.resize(o);
+      col.shrink_to_fit();
     }
-    if (n != declared)
-      for (auto& col : cols) {
-        std::size_t o = 0;
-        for (std::size_t i = 0; i < declared; ++i)
-          if (keep[i]) col[o++] = col[i];
-        col.resize(o);
-        col.shrink_to_fit();
-      }
-  }
+  return n;
+}
 
-  const std::array<double, 3> origin = choose_origin(xyz[0]->data(), xyz[1]->data(), xyz[2]->data(), n);
-  point_cloud cloud;
-  cloud.set_origin(origin);
-  cloud.resize(n);
-  float* out = cloud.positions().data();
-  for (std::size_t k = 0; k < 3; ++k) {
-    const double* v = xyz[k]->data();
-    for (std::size_t i = 0; i < n; ++i) out[3 * i + k] = static_cast<float>(v[i] - origin[k]);
+/// Adds red, green and blue uint8 fields unpacked from the packed rgb values
+/// (0x00RRGGBB), then releases those.
+void add_unpacked_rgb(point_cloud& cloud, std::vector<double>& packed) {
+  const std::size_t n = cloud.size();
+  std::vector<double> rgb[3];
+  for (auto& c : rgb) c.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto bits = static_cast<std::uint32_t>(packed[i]);
+    rgb[0][i] = (bits >> 16) & 0xff;
+    rgb[1][i] = (bits >> 8) & 0xff;
+    rgb[2][i] = bits & 0xff;
   }
+  cloud.add_field("red", scalar_type::uint8, std::move(rgb[0]));
+  cloud.add_field("green", scalar_type::uint8, std::move(rgb[1]));
+  cloud.add_field("blue", scalar_type::uint8, std::move(rgb[2]));
+  std::vector<double>().swap(packed);
+}
 
+/// Adds the fields other than x, y, z and padding: a field of COUNT c > 1 as
+/// fields name_0 ... name_{c-1}.
+void add_fields(point_cloud& cloud, const pcd_header& h, const std::array<std::size_t, 3>& axis,
+                const std::vector<std::size_t>& col_of, columns& cols) {
   for (std::size_t j = 0; j < h.fields.size(); ++j) {
     const pcd_field& f = h.fields[j];
     if (f.padding || j == axis[0] || j == axis[1] || j == axis[2]) continue;
     if (f.packed_rgb) {
-      const std::vector<double>& packed = cols[col_of[j]];
-      std::vector<double> rgb[3];
-      for (auto& c : rgb) c.resize(n);
-      for (std::size_t i = 0; i < n; ++i) {
-        const auto bits = static_cast<std::uint32_t>(packed[i]);
-        rgb[0][i] = (bits >> 16) & 0xff;
-        rgb[1][i] = (bits >> 8) & 0xff;
-        rgb[2][i] = bits & 0xff;
-      }
-      cloud.add_field("red", scalar_type::uint8, std::move(rgb[0]));
-      cloud.add_field("green", scalar_type::uint8, std::move(rgb[1]));
-      cloud.add_field("blue", scalar_type::uint8, std::move(rgb[2]));
-      std::vector<double>().swap(cols[col_of[j]]);
+      add_unpacked_rgb(cloud, cols[col_of[j]]);
     } else if (f.count == 1) {
       cloud.add_field(f.name, f.stype, std::move(cols[col_of[j]]));
     } else {
@@ -521,7 +521,20 @@ point_cloud parse_pcd(std::string_view data, const std::string& file, pcd_read_i
         cloud.add_field(f.name + "_" + std::to_string(c), f.stype, std::move(cols[col_of[j] + c]));
     }
   }
+}
 
+point_cloud parse_pcd(std::string_view data, const std::string& file, pcd_read_info* info) {
+  pcd_header h = parse_header(data, file);
+  const std::array<std::size_t, 3> axis = find_axes(h, file);
+  std::size_t ncols = 0;
+  const std::vector<std::size_t> col_of = assign_columns(h, file, ncols);
+  columns cols(ncols);
+  read_body(data, h, col_of, cols, file);
+  const std::vector<double>* xyz[3] = {&cols[col_of[axis[0]]], &cols[col_of[axis[1]]], &cols[col_of[axis[2]]]};
+  const auto declared = static_cast<std::size_t>(h.points);
+  const std::size_t n = drop_nonfinite(cols, xyz, declared);
+  point_cloud cloud = cloud_at(xyz[0]->data(), xyz[1]->data(), xyz[2]->data(), n);
+  add_fields(cloud, h, axis, col_of, cols);
   if (info) {
     info->width = static_cast<std::size_t>(h.width);
     info->height = static_cast<std::size_t>(h.height);
@@ -545,19 +558,6 @@ struct out_column {
   const column* rgb[3] = {nullptr, nullptr, nullptr};
 };
 
-char type_char(scalar_type t) noexcept {
-  if (t == scalar_type::float32 || t == scalar_type::float64) return 'F';
-  switch (t) {
-    case scalar_type::int8:
-    case scalar_type::int16:
-    case scalar_type::int32:
-    case scalar_type::int64:
-      return 'I';
-    default:
-      return 'U';
-  }
-}
-
 std::vector<out_column> plan_columns(const point_cloud& cloud, pcd_format fmt) {
   const std::size_t n = cloud.size();
   const field* rgb[3] = {cloud.find_field("red"), cloud.find_field("green"), cloud.find_field("blue")};
@@ -573,9 +573,7 @@ std::vector<out_column> plan_columns(const point_cloud& cloud, pcd_format fmt) {
     if (pack && (f.name == "rgb" || f.name == "rgba"))
       throw std::invalid_argument("field '" + f.name +
                                   "' clashes with the packed rgb field written for red/green/blue");
-    if (f.values.size() != n)
-      throw std::invalid_argument("field '" + f.name + "' has " + std::to_string(f.values.size()) + " values for " +
-                                  std::to_string(n) + " points");
+    check_field_size(f, n);
   }
   const auto& o = cloud.origin();
   const bool georef = o[0] != 0 || o[1] != 0 || o[2] != 0;
@@ -627,9 +625,7 @@ std::string make_header(const std::vector<out_column>& cols, std::size_t n, pcd_
 /// v[i] = value of column c for point i0 + i, i < m.
 void column_values(const out_column& c, const point_cloud& cloud, std::size_t i0, std::size_t m, double* v) {
   if (c.values) {
-    c.values->visit([&](const auto* src, std::size_t) {
-      for (std::size_t i = 0; i < m; ++i) v[i] = static_cast<double>(src[i0 + i]);
-    });
+    copy_values(*c.values, i0, m, v);
   } else if (c.axis >= 0) {
     const auto k = static_cast<std::size_t>(c.axis);
     const double o = cloud.origin()[k];
@@ -648,12 +644,34 @@ void column_values(const out_column& c, const point_cloud& cloud, std::size_t i0
   }
 }
 
-/// Encodes m values little-endian at p, p + stride, ...
-void encode_column(const double* v, std::size_t m, scalar_type t, unsigned char* p, std::size_t stride) {
-  visit_type(t, [&](auto tag) {
-    using T = decltype(tag);
-    for (std::size_t i = 0; i < m; ++i) store_le<T>(p + i * stride, convert<T>(v[i]));
-  });
+/// The binary_compressed body: the sizes, then the LZF-compressed values,
+/// field by field (each column of all points, then the next).
+void write_compressed(std::ostream& out, const point_cloud& cloud, const std::vector<out_column>& cols,
+                      std::size_t record) {
+  const std::size_t n = cloud.size();
+  constexpr std::size_t chunk = 4096;
+  std::vector<double> vals(chunk);
+  std::string block(n * record, '\0');  // field-major
+  auto* base = reinterpret_cast<unsigned char*>(block.data());
+  std::size_t offset = 0;
+  for (const auto& c : cols) {
+    for (std::size_t i0 = 0; i0 < n; i0 += chunk) {
+      const std::size_t m = std::min(chunk, n - i0);
+      column_values(c, cloud, i0, m, vals.data());
+      const double* v = vals.data();
+      encode_values(c.enc, !host_little_endian(), base + offset + i0 * c.size, c.size, m,
+                    [v](std::size_t i) { return v[i]; });
+    }
+    offset += n * c.size;
+  }
+  const std::string packed = lzf_compress(block);
+  if (packed.size() > std::numeric_limits<std::uint32_t>::max())
+    throw io_error("the compressed cloud is too large for PCD binary_compressed");
+  unsigned char sizes[8];
+  store_le<std::uint32_t>(sizes, static_cast<std::uint32_t>(packed.size()));
+  store_le<std::uint32_t>(sizes + 4, static_cast<std::uint32_t>(block.size()));
+  out.write(reinterpret_cast<const char*>(sizes), 8);
+  out.write(packed.data(), static_cast<std::streamsize>(packed.size()));
 }
 
 void write_pcd_unchecked(std::ostream& out, const point_cloud& cloud, pcd_format fmt) {
@@ -665,62 +683,15 @@ void write_pcd_unchecked(std::ostream& out, const point_cloud& cloud, pcd_format
     throw io_error("the cloud is too large for PCD binary_compressed (4 GiB or more of data)");
   const std::string header = make_header(cols, n, fmt);
   out.write(header.data(), static_cast<std::streamsize>(header.size()));
-
-  constexpr std::size_t chunk = 4096;
-  std::vector<double> vals(chunk);
-  std::string buf;
-  if (fmt == pcd_format::binary_compressed) {
-    std::string block(n * record, '\0');  // field-major
-    auto* base = reinterpret_cast<unsigned char*>(block.data());
-    std::size_t offset = 0;
-    for (const auto& c : cols) {
-      for (std::size_t i0 = 0; i0 < n; i0 += chunk) {
-        const std::size_t m = std::min(chunk, n - i0);
-        column_values(c, cloud, i0, m, vals.data());
-        encode_column(vals.data(), m, c.enc, base + offset + i0 * c.size, c.size);
-      }
-      offset += n * c.size;
-    }
-    const std::string packed = lzf_compress(block);
-    if (packed.size() > std::numeric_limits<std::uint32_t>::max())
-      throw io_error("the compressed cloud is too large for PCD binary_compressed");
-    unsigned char sizes[8];
-    store_le<std::uint32_t>(sizes, static_cast<std::uint32_t>(packed.size()));
-    store_le<std::uint32_t>(sizes + 4, static_cast<std::uint32_t>(block.size()));
-    out.write(reinterpret_cast<const char*>(sizes), 8);
-    out.write(packed.data(), static_cast<std::streamsize>(packed.size()));
-    return;
-  }
-  vals.resize(chunk * cols.size());
-  for (std::size_t i0 = 0; i0 < n; i0 += chunk) {
-    const std::size_t m = std::min(chunk, n - i0);
-    for (std::size_t c = 0; c < cols.size(); ++c) column_values(cols[c], cloud, i0, m, vals.data() + c * chunk);
-    if (fmt == pcd_format::ascii) {
-      buf.resize(m * cols.size() * 32);
-      char* p = buf.data();
-      char* const end = p + buf.size();
-      for (std::size_t i = 0; i < m; ++i) {
-        for (std::size_t c = 0; c < cols.size(); ++c) {
-          const double v = vals[c * chunk + i];
-          visit_type(cols[c].enc, [&](auto tag) {
-            using T = decltype(tag);
-            p = std::to_chars(p, end, convert<T>(v)).ptr;
-          });
-          *p++ = c + 1 == cols.size() ? '\n' : ' ';
-        }
-      }
-      out.write(buf.data(), p - buf.data());
-    } else {
-      buf.resize(m * record);
-      auto* base = reinterpret_cast<unsigned char*>(buf.data());
-      std::size_t offset = 0;
-      for (std::size_t c = 0; c < cols.size(); ++c) {
-        encode_column(vals.data() + c * chunk, m, cols[c].enc, base + offset, record);
-        offset += cols[c].size;
-      }
-      out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
-    }
-  }
+  if (fmt == pcd_format::binary_compressed) return write_compressed(out, cloud, cols, record);
+  std::vector<scalar_type> types;
+  for (const auto& c : cols) types.push_back(c.enc);
+  point_format pf;
+  pf.text = fmt == pcd_format::ascii;
+  pf.swap = !host_little_endian();
+  write_points(out, n, types, pf, [&](std::size_t c, std::size_t i0, std::size_t m, double* v) {
+    column_values(cols[c], cloud, i0, m, v);
+  });
 }
 
 }  // namespace

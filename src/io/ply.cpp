@@ -27,31 +27,11 @@ namespace {
 
 // ---------------------------------------------------------------- utilities
 
-[[noreturn]] void fail(const std::string& file, const std::string& msg) { throw io_error(file + ": " + msg); }
-
 // Header limits. Duplicate names are checked, and vertex properties become
 // cloud fields, by linear search: bounding the counts keeps a small hostile
 // header from costing quadratic time.
 constexpr std::size_t max_elements = 4096;
 constexpr std::size_t max_properties = 4096;
-
-template <class T, bool Swap>
-T load(const unsigned char* p) noexcept {
-  unsigned char b[sizeof(T)];
-  std::memcpy(b, p, sizeof(T));
-  if constexpr (Swap) std::reverse(b, b + sizeof(T));
-  T v;
-  std::memcpy(&v, b, sizeof(T));
-  return v;
-}
-
-template <class T, bool Swap>
-void store(unsigned char* p, T v) noexcept {
-  unsigned char b[sizeof(T)];
-  std::memcpy(b, &v, sizeof(T));
-  if constexpr (Swap) std::reverse(b, b + sizeof(T));
-  std::memcpy(p, b, sizeof(T));
-}
 
 double read_value(const unsigned char* p, scalar_type t, bool swap) noexcept {
   double v = 0;
@@ -61,19 +41,6 @@ double read_value(const unsigned char* p, scalar_type t, bool swap) noexcept {
   });
   return v;
 }
-
-/// out[i] = value at p + i * stride, for i < n.
-void decode_column(const unsigned char* p, std::size_t stride, std::size_t n, scalar_type t, bool swap, double* out) {
-  visit_type(t, [&](auto tag) {
-    using T = decltype(tag);
-    if (swap)
-      for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<double>(load<T, true>(p + i * stride));
-    else
-      for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<double>(load<T, false>(p + i * stride));
-  });
-}
-
-bool is_space(char c) noexcept { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\v' || c == '\f'; }
 
 std::string plural(const std::string& element) {
   return element == "vertex" ? std::string("vertices") : "'" + element + "' elements";
@@ -94,6 +61,13 @@ struct element_desc {
   std::vector<property_desc> props;
 };
 
+/// Fails: the file ends after `read` of the `count` records of element e.
+[[noreturn]] void fail_truncated(const std::string& file, std::uint64_t read, std::uint64_t count,
+                                 const element_desc& e) {
+  fail(file, "truncated: the file ends after " + std::to_string(read) + " of " + std::to_string(count) + " " +
+                 plural(e.name));
+}
+
 struct ply_header {
   ply_format format = ply_format::ascii;
   std::vector<element_desc> elements;
@@ -113,16 +87,78 @@ std::optional<scalar_type> parse_type(std::string_view s) noexcept {
   return std::nullopt;
 }
 
-std::vector<std::string_view> split_words(std::string_view line) {
+/// One line of the header: its text, words and number (for messages).
+struct header_line {
+  std::string_view text;
   std::vector<std::string_view> words;
-  std::size_t i = 0;
-  while (i < line.size()) {
-    while (i < line.size() && is_space(line[i])) ++i;
-    const std::size_t b = i;
-    while (i < line.size() && !is_space(line[i])) ++i;
-    if (i > b) words.push_back(line.substr(b, i - b));
+  int number = 0;
+  std::string where() const { return "header line " + std::to_string(number) + ": "; }
+};
+
+/// "format ascii|binary_little_endian|binary_big_endian 1.0".
+void read_format_line(const header_line& l, const std::string& file, ply_header& h) {
+  const auto& w = l.words;
+  if (w.size() != 3) fail(file, l.where() + "malformed format line '" + std::string(l.text) + "'");
+  if (w[1] == "ascii")
+    h.format = ply_format::ascii;
+  else if (w[1] == "binary_little_endian")
+    h.format = ply_format::binary_little_endian;
+  else if (w[1] == "binary_big_endian")
+    h.format = ply_format::binary_big_endian;
+  else
+    fail(file, l.where() + "unknown PLY format '" + std::string(w[1]) +
+                   "' (expected ascii, binary_little_endian or binary_big_endian)");
+  if (w[2] != "1.0" && w[2] != "1") fail(file, l.where() + "unsupported PLY version '" + std::string(w[2]) + "'");
+}
+
+/// "element NAME COUNT": a new element, named once.
+void read_element_line(const header_line& l, const std::string& file, ply_header& h) {
+  const auto& w = l.words;
+  if (w.size() != 3) fail(file, l.where() + "malformed element line '" + std::string(l.text) + "'");
+  element_desc e;
+  e.name = std::string(w[1]);
+  const auto r = std::from_chars(w[2].data(), w[2].data() + w[2].size(), e.count);
+  if (r.ec != std::errc() || r.ptr != w[2].data() + w[2].size())
+    fail(file, l.where() + "invalid count '" + std::string(w[2]) + "' for element '" + e.name + "'");
+  if (h.elements.size() >= max_elements)
+    fail(file, l.where() + "too many elements (more than " + std::to_string(max_elements) + ")");
+  for (const auto& other : h.elements)
+    if (other.name == e.name) fail(file, l.where() + "element '" + e.name + "' is declared twice");
+  h.elements.push_back(std::move(e));
+}
+
+/// "property TYPE NAME" or "property list COUNT_TYPE TYPE NAME": a property
+/// of the last element, named once in it.
+void read_property_line(const header_line& l, const std::string& file, ply_header& h) {
+  const auto& w = l.words;
+  if (h.elements.empty()) fail(file, l.where() + "property before any element");
+  property_desc p;
+  const auto type_of = [&](std::string_view s) {
+    const auto t = parse_type(s);
+    if (!t) fail(file, l.where() + "unknown property type '" + std::string(s) + "'");
+    return *t;
+  };
+  if (w.size() == 5 && w[1] == "list") {
+    p.is_list = true;
+    p.count_type = type_of(w[2]);
+    p.type = type_of(w[3]);
+    p.name = std::string(w[4]);
+    if (!is_integer(p.count_type))
+      fail(file, l.where() + "list count type of property '" + p.name + "' must be an integer type");
+  } else if (w.size() == 3 && w[1] != "list") {
+    p.type = type_of(w[1]);
+    p.name = std::string(w[2]);
+  } else {
+    fail(file, l.where() + "malformed property line '" + std::string(l.text) + "'");
   }
-  return words;
+  auto& e = h.elements.back();
+  if (e.props.size() >= max_properties)
+    fail(file, l.where() + "element '" + e.name + "' has too many properties (more than " +
+                   std::to_string(max_properties) + ")");
+  for (const auto& other : e.props)
+    if (other.name == p.name)
+      fail(file, l.where() + "property '" + p.name + "' is declared twice in element '" + e.name + "'");
+  e.props.push_back(std::move(p));
 }
 
 ply_header parse_header(std::string_view data, const std::string& file) {
@@ -137,75 +173,28 @@ ply_header parse_header(std::string_view data, const std::string& file) {
 
   ply_header h;
   bool have_format = false;
-  int line_no = 1;
-  const auto where = [&] { return "header line " + std::to_string(line_no) + ": "; };
+  header_line l;
+  l.number = 1;
   for (;;) {
     if (pos >= data.size()) fail(file, "the PLY header has no end_header line");
     const std::size_t nl = data.find('\n', pos);
-    const std::string_view line = data.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos);
+    l.text = data.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos);
     pos = nl == std::string_view::npos ? data.size() : nl + 1;
-    ++line_no;
-    const auto w = split_words(line);
-    if (w.empty()) continue;
-    const std::string_view kw = w[0];
+    ++l.number;
+    l.words = split_words(l.text);
+    if (l.words.empty()) continue;
+    const std::string_view kw = l.words[0];
     if (kw == "end_header") break;
     if (kw == "comment" || kw == "obj_info") continue;
     if (kw == "format") {
-      if (w.size() != 3) fail(file, where() + "malformed format line '" + std::string(line) + "'");
-      if (w[1] == "ascii")
-        h.format = ply_format::ascii;
-      else if (w[1] == "binary_little_endian")
-        h.format = ply_format::binary_little_endian;
-      else if (w[1] == "binary_big_endian")
-        h.format = ply_format::binary_big_endian;
-      else
-        fail(file, where() + "unknown PLY format '" + std::string(w[1]) +
-                       "' (expected ascii, binary_little_endian or binary_big_endian)");
-      if (w[2] != "1.0" && w[2] != "1") fail(file, where() + "unsupported PLY version '" + std::string(w[2]) + "'");
+      read_format_line(l, file, h);
       have_format = true;
     } else if (kw == "element") {
-      if (w.size() != 3) fail(file, where() + "malformed element line '" + std::string(line) + "'");
-      element_desc e;
-      e.name = std::string(w[1]);
-      const auto r = std::from_chars(w[2].data(), w[2].data() + w[2].size(), e.count);
-      if (r.ec != std::errc() || r.ptr != w[2].data() + w[2].size())
-        fail(file, where() + "invalid count '" + std::string(w[2]) + "' for element '" + e.name + "'");
-      if (h.elements.size() >= max_elements)
-        fail(file, where() + "too many elements (more than " + std::to_string(max_elements) + ")");
-      for (const auto& other : h.elements)
-        if (other.name == e.name) fail(file, where() + "element '" + e.name + "' is declared twice");
-      h.elements.push_back(std::move(e));
+      read_element_line(l, file, h);
     } else if (kw == "property") {
-      if (h.elements.empty()) fail(file, where() + "property before any element");
-      property_desc p;
-      const auto type_of = [&](std::string_view s) {
-        const auto t = parse_type(s);
-        if (!t) fail(file, where() + "unknown property type '" + std::string(s) + "'");
-        return *t;
-      };
-      if (w.size() == 5 && w[1] == "list") {
-        p.is_list = true;
-        p.count_type = type_of(w[2]);
-        p.type = type_of(w[3]);
-        p.name = std::string(w[4]);
-        if (!is_integer(p.count_type))
-          fail(file, where() + "list count type of property '" + p.name + "' must be an integer type");
-      } else if (w.size() == 3 && w[1] != "list") {
-        p.type = type_of(w[1]);
-        p.name = std::string(w[2]);
-      } else {
-        fail(file, where() + "malformed property line '" + std::string(line) + "'");
-      }
-      auto& e = h.elements.back();
-      if (e.props.size() >= max_properties)
-        fail(file, where() + "element '" + e.name + "' has too many properties (more than " +
-                       std::to_string(max_properties) + ")");
-      for (const auto& other : e.props)
-        if (other.name == p.name)
-          fail(file, where() + "property '" + p.name + "' is declared twice in element '" + e.name + "'");
-      e.props.push_back(std::move(p));
+      read_property_line(l, file, h);
     } else {
-      fail(file, where() + "unknown header keyword '" + std::string(kw) + "'");
+      fail(file, l.where() + "unknown header keyword '" + std::string(kw) + "'");
     }
   }
   if (!have_format) fail(file, "the PLY header has no format line");
@@ -235,9 +224,7 @@ std::size_t read_binary_element(std::string_view data, std::size_t pos, const el
       fail(file, "implausible element count: '" + e.name + "' declares " + std::to_string(e.count) +
                      " records of at least " + std::to_string(min_record) + " bytes, but only " +
                      std::to_string(remaining) + " bytes follow (corrupt header?)");
-    if (fixed)
-      fail(file, "truncated: the file ends after " + std::to_string(available) + " of " + std::to_string(e.count) +
-                     " " + plural(e.name));
+    if (fixed) fail_truncated(file, available, e.count, e);
   }
   const auto n = static_cast<std::size_t>(e.count);  // <= 2 * available + 16: allocation is bounded
   if (cols)
@@ -258,10 +245,7 @@ std::size_t read_binary_element(std::string_view data, std::size_t pos, const el
   }
 
   const unsigned char* end = begin + data.size();
-  const auto truncated = [&](std::size_t i) {
-    fail(file,
-         "truncated: the file ends after " + std::to_string(i) + " of " + std::to_string(n) + " " + plural(e.name));
-  };
+  const auto truncated = [&](std::size_t i) { fail_truncated(file, i, n, e); };
   for (std::size_t i = 0; i < n; ++i) {
     for (std::size_t j = 0; j < e.props.size(); ++j) {
       const property_desc& prop = e.props[j];
@@ -289,19 +273,6 @@ std::size_t read_binary_element(std::string_view data, std::size_t pos, const el
 
 // -------------------------------------------------------------- ascii body
 
-struct tokenizer {
-  const char* p;
-  const char* end;
-  bool next(std::string_view& tok) noexcept {
-    while (p < end && is_space(*p)) ++p;
-    if (p == end) return false;
-    const char* b = p;
-    while (p < end && !is_space(*p)) ++p;
-    tok = std::string_view(b, static_cast<std::size_t>(p - b));
-    return true;
-  }
-};
-
 std::size_t read_ascii_element(std::string_view data, std::size_t pos, const element_desc& e, columns* cols,
                                const std::string& file) {
   if (e.count == 0 || e.props.empty()) return pos;
@@ -318,12 +289,9 @@ std::size_t read_ascii_element(std::string_view data, std::size_t pos, const ele
     for (std::size_t j = 0; j < e.props.size(); ++j)
       if (!e.props[j].is_list) (*cols)[j].resize(n);
 
-  tokenizer tk{data.data() + pos, data.data() + data.size()};
+  word_reader<> tk(data.substr(pos));
   std::string_view tok;
-  const auto truncated = [&](std::size_t i) {
-    fail(file,
-         "truncated: the file ends after " + std::to_string(i) + " of " + std::to_string(n) + " " + plural(e.name));
-  };
+  const auto truncated = [&](std::size_t i) { fail_truncated(file, i, n, e); };
   const auto where = [&](std::size_t i, const property_desc& prop) {
     return e.name + " " + std::to_string(i) + ", property '" + prop.name + "': '" + std::string(tok) + "' ";
   };
@@ -340,16 +308,8 @@ std::size_t read_ascii_element(std::string_view data, std::size_t pos, const ele
           if (!tk.next(tok)) truncated(i);
       } else if (cols) {
         double v = 0;
-        switch (parse_ascii_value(tok, prop.type, v)) {
-          case parse_status::ok:
-            break;
-          case parse_status::not_a_number:
-            fail(file, where(i, prop) + "is not a number (expected " + std::string(name_of(prop.type)) + ")");
-          case parse_status::not_an_integer:
-            fail(file, where(i, prop) + "is not an integer (expected " + std::string(name_of(prop.type)) + ")");
-          case parse_status::out_of_range:
-            fail(file, where(i, prop) + "is out of range for " + std::string(name_of(prop.type)));
-        }
+        const parse_status s = parse_ascii_value(tok, prop.type, v);
+        if (s != parse_status::ok) fail_value(file, where(i, prop), s, prop.type);
         (*cols)[j][i] = v;
       }
     }
@@ -386,15 +346,7 @@ point_cloud parse_ply(std::string_view data, const std::string& file) {
   }
 
   const auto n = static_cast<std::size_t>(vertex->count);
-  const double* xyz[3] = {cols[axis[0]].data(), cols[axis[1]].data(), cols[axis[2]].data()};
-  const std::array<double, 3> origin = choose_origin(xyz[0], xyz[1], xyz[2], n);
-
-  point_cloud cloud;
-  cloud.set_origin(origin);
-  cloud.resize(n);
-  float* out = cloud.positions().data();
-  for (std::size_t i = 0; i < n; ++i)
-    for (std::size_t k = 0; k < 3; ++k) out[3 * i + k] = static_cast<float>(xyz[k][i] - origin[k]);
+  point_cloud cloud = cloud_at(cols[axis[0]].data(), cols[axis[1]].data(), cols[axis[2]].data(), n);
   for (std::size_t j = 0; j < vertex->props.size(); ++j) {
     const property_desc& p = vertex->props[j];
     if (p.is_list || j == axis[0] || j == axis[1] || j == axis[2]) continue;
@@ -430,100 +382,68 @@ scalar_type written_type(scalar_type t) noexcept {
   return t == scalar_type::int64 || t == scalar_type::uint64 ? scalar_type::float64 : t;
 }
 
-/// Appends the shortest text that reads back as the same value of type t.
-char* format_value(char* p, char* end, double v, scalar_type t) noexcept {
-  std::to_chars_result r{};
-  visit_type(t, [&](auto tag) {
-    using T = decltype(tag);
-    r = std::to_chars(p, end, convert<T>(v));
-  });
-  return r.ptr;
-}
-
-void write_ply_unchecked(std::ostream& out, const point_cloud& cloud, ply_format fmt) {
+/// Throws std::invalid_argument when a field cannot be written as a vertex property.
+void check_writable(const point_cloud& cloud) {
   const std::size_t n = cloud.size();
   for (const auto& f : cloud.fields()) {
     if (f.name.empty() || std::any_of(f.name.begin(), f.name.end(), [](char c) { return is_space(c); }))
       throw std::invalid_argument("field name '" + f.name + "' cannot be written to PLY (empty or has whitespace)");
     if (f.name == "x" || f.name == "y" || f.name == "z")
       throw std::invalid_argument("field '" + f.name + "' clashes with the PLY coordinate property");
-    if (f.values.size() != n)
-      throw std::invalid_argument("field '" + f.name + "' has " + std::to_string(f.values.size()) + " values for " +
-                                  std::to_string(n) + " points");
+    check_field_size(f, n);
   }
-  const auto& origin = cloud.origin();
-  const bool georef = origin[0] != 0 || origin[1] != 0 || origin[2] != 0;
+}
 
-  struct out_column {
-    scalar_type type;
-    const column* values;  // nullptr for positions
-    int axis;
-  };
-  std::vector<out_column> cols;
-  const scalar_type pos_type = georef ? scalar_type::float64 : scalar_type::float32;
-  for (int k = 0; k < 3; ++k) cols.push_back({pos_type, nullptr, k});
-  for (const auto& f : cloud.fields()) cols.push_back({written_type(f.type()), &f.values, -1});
+/// A vertex property to write: a coordinate or a field.
+struct out_column {
+  scalar_type type;
+  const column* values;  // nullptr for positions
+  int axis;
+};
 
+std::string make_header(const point_cloud& cloud, ply_format fmt, scalar_type pos_type) {
   std::string header = "ply\nformat ";
   header += fmt == ply_format::ascii                  ? "ascii"
             : fmt == ply_format::binary_little_endian ? "binary_little_endian"
                                                       : "binary_big_endian";
-  header += " 1.0\ncomment generated by ced\nelement vertex " + std::to_string(n) + "\n";
+  header += " 1.0\ncomment generated by ced\nelement vertex " + std::to_string(cloud.size()) + "\n";
   for (int k = 0; k < 3; ++k) header += std::string("property ") + ply_type_name(pos_type) + " " + char('x' + k) + "\n";
   for (const auto& f : cloud.fields())
     header += std::string("property ") + ply_type_name(f.type()) + " " + f.name + "\n";
   header += "end_header\n";
-  out.write(header.data(), static_cast<std::streamsize>(header.size()));
+  return header;
+}
 
-  std::size_t record = 0;
-  for (const auto& c : cols) record += size_of(c.type);
-  const bool swap = fmt != ply_format::ascii && (fmt == ply_format::binary_little_endian) != host_little_endian();
+/// The vertices, in chunks of points.
+void write_vertices(std::ostream& out, const point_cloud& cloud, ply_format fmt, const std::vector<out_column>& cols) {
+  const auto& origin = cloud.origin();
   const float* xyz = cloud.positions().data();
-  constexpr std::size_t chunk = 4096;
-  std::vector<double> vals(chunk * cols.size());  // column-major chunk of values
-  std::string buf;
-  for (std::size_t i0 = 0; i0 < n; i0 += chunk) {
-    const std::size_t m = std::min(chunk, n - i0);
-    for (std::size_t c = 0; c < cols.size(); ++c) {
-      double* v = vals.data() + c * chunk;
-      if (cols[c].values) {
-        cols[c].values->visit([&](const auto* src, std::size_t) {
-          for (std::size_t i = 0; i < m; ++i) v[i] = static_cast<double>(src[i0 + i]);
-        });
-      } else {
-        const auto k = static_cast<std::size_t>(cols[c].axis);
-        for (std::size_t i = 0; i < m; ++i) v[i] = origin[k] + static_cast<double>(xyz[3 * (i0 + i) + k]);
-      }
-    }
-    if (fmt == ply_format::ascii) {
-      buf.resize(m * cols.size() * 32);
-      char* p = buf.data();
-      char* end = p + buf.size();
-      for (std::size_t i = 0; i < m; ++i) {
-        for (std::size_t c = 0; c < cols.size(); ++c) {
-          p = format_value(p, end, vals[c * chunk + i], cols[c].type);
-          *p++ = c + 1 == cols.size() ? '\n' : ' ';
-        }
-      }
-      out.write(buf.data(), p - buf.data());
+  std::vector<scalar_type> types;
+  for (const auto& c : cols) types.push_back(c.type);
+  point_format pf;
+  pf.text = fmt == ply_format::ascii;
+  pf.swap = !pf.text && (fmt == ply_format::binary_little_endian) != host_little_endian();
+  write_points(out, cloud.size(), types, pf, [&](std::size_t c, std::size_t i0, std::size_t m, double* v) {
+    if (cols[c].values) {
+      copy_values(*cols[c].values, i0, m, v);
     } else {
-      buf.resize(m * record);
-      auto* base = reinterpret_cast<unsigned char*>(buf.data());
-      std::size_t offset = 0;
-      for (std::size_t c = 0; c < cols.size(); ++c) {
-        const double* v = vals.data() + c * chunk;
-        visit_type(cols[c].type, [&](auto tag) {
-          using T = decltype(tag);
-          if (swap)
-            for (std::size_t i = 0; i < m; ++i) store<T, true>(base + i * record + offset, convert<T>(v[i]));
-          else
-            for (std::size_t i = 0; i < m; ++i) store<T, false>(base + i * record + offset, convert<T>(v[i]));
-        });
-        offset += size_of(cols[c].type);
-      }
-      out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+      const auto k = static_cast<std::size_t>(cols[c].axis);
+      for (std::size_t i = 0; i < m; ++i) v[i] = origin[k] + static_cast<double>(xyz[3 * (i0 + i) + k]);
     }
-  }
+  });
+}
+
+void write_ply_unchecked(std::ostream& out, const point_cloud& cloud, ply_format fmt) {
+  check_writable(cloud);
+  const auto& origin = cloud.origin();
+  const bool georef = origin[0] != 0 || origin[1] != 0 || origin[2] != 0;
+  const scalar_type pos_type = georef ? scalar_type::float64 : scalar_type::float32;
+  std::vector<out_column> cols;
+  for (int k = 0; k < 3; ++k) cols.push_back({pos_type, nullptr, k});
+  for (const auto& f : cloud.fields()) cols.push_back({written_type(f.type()), &f.values, -1});
+  const std::string header = make_header(cloud, fmt, pos_type);
+  out.write(header.data(), static_cast<std::streamsize>(header.size()));
+  write_vertices(out, cloud, fmt, cols);
 }
 
 }  // namespace

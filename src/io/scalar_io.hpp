@@ -3,6 +3,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -10,13 +11,16 @@
 #include <cstring>
 #include <limits>
 #include <ostream>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <system_error>
 #include <type_traits>
+#include <vector>
 
 #include "ced/cloud.hpp"
 #include "ced/io/output_file.hpp"
+#include "core/text.hpp"
 
 namespace ced::io::detail {
 
@@ -42,6 +46,18 @@ void write_to_file(const std::string& path, Write&& write) {
   file.commit();
 }
 
+/// Throws io_error("file: msg").
+[[noreturn]] inline void fail(const std::string& file, const std::string& msg) { throw io_error(file + ": " + msg); }
+
+// The text helpers of core, for the readers.
+using ced::detail::iequal;
+using ced::detail::is_space;
+using ced::detail::printable;
+using ced::detail::split_words;
+using ced::detail::to_lower;
+using ced::detail::trim;
+using ced::detail::word_reader;
+
 inline bool host_little_endian() noexcept {
   const std::uint16_t one = 1;
   unsigned char b = 0;
@@ -49,29 +65,157 @@ inline bool host_little_endian() noexcept {
   return b == 1;
 }
 
-/// Little-endian load/store (PCD binary data is little-endian in practice).
-template <class T>
-T load_le(const unsigned char* p) noexcept {
+/// The sizeof(T) bytes at p as a T, in reverse order when Swap.
+template <class T, bool Swap>
+T load(const unsigned char* p) noexcept {
   unsigned char b[sizeof(T)];
   std::memcpy(b, p, sizeof(T));
-  if (!host_little_endian()) std::reverse(b, b + sizeof(T));
+  if constexpr (Swap) std::reverse(b, b + sizeof(T));
   T v;
   std::memcpy(&v, b, sizeof(T));
   return v;
 }
 
-template <class T>
-void store_le(unsigned char* p, T v) noexcept {
+/// Stores the bytes of `v` at p, in reverse order when Swap.
+template <class T, bool Swap>
+void store(unsigned char* p, T v) noexcept {
   unsigned char b[sizeof(T)];
   std::memcpy(b, &v, sizeof(T));
-  if (!host_little_endian()) std::reverse(b, b + sizeof(T));
+  if constexpr (Swap) std::reverse(b, b + sizeof(T));
   std::memcpy(p, b, sizeof(T));
+}
+
+/// Little-endian load/store, whatever the host byte order (a plain load or
+/// store on little-endian hosts).
+template <class T>
+T load_le(const unsigned char* p) noexcept {
+  return host_little_endian() ? load<T, false>(p) : load<T, true>(p);
+}
+
+template <class T>
+void store_le(unsigned char* p, T v) noexcept {
+  if (host_little_endian())
+    store<T, false>(p, v);
+  else
+    store<T, true>(p, v);
+}
+
+/// out[i] = the value of type t at p + i * stride, for i < n; its bytes
+/// reversed when `swap`.
+inline void decode_column(const unsigned char* p, std::size_t stride, std::size_t n, scalar_type t, bool swap,
+                          double* out) noexcept {
+  visit_type(t, [&](auto tag) {
+    using T = decltype(tag);
+    if (swap)
+      for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<double>(load<T, true>(p + i * stride));
+    else
+      for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<double>(load<T, false>(p + i * stride));
+  });
 }
 
 /// Rounds and clamps to T's range (NaN -> 0) for integers; float: overflow -> inf.
 template <class T>
 T convert(double v) noexcept {
   return convert_value<T>(v);
+}
+
+/// Stores convert<T>(value(i)) at p + i * stride for i < n, T the type that
+/// stores t; its bytes reversed when `swap`.
+template <class Value>
+void encode_values(scalar_type t, bool swap, unsigned char* p, std::size_t stride, std::size_t n, Value&& value) {
+  visit_type(t, [&](auto tag) {
+    using T = decltype(tag);
+    if (swap)
+      for (std::size_t i = 0; i < n; ++i) store<T, true>(p + i * stride, convert<T>(value(i)));
+    else
+      for (std::size_t i = 0; i < n; ++i) store<T, false>(p + i * stride, convert<T>(value(i)));
+  });
+}
+
+/// Writes at p the shortest text that reads back as convert<T>(v), T the type
+/// that stores t; returns the end of the text.
+inline char* format_value(char* p, char* end, double v, scalar_type t) noexcept {
+  std::to_chars_result r{};
+  visit_type(t, [&](auto tag) {
+    using T = decltype(tag);
+    r = std::to_chars(p, end, convert<T>(v));
+  });
+  return r.ptr;
+}
+
+/// v[i] = the value of `values` for point i0 + i, for i < m.
+inline void copy_values(const column& values, std::size_t i0, std::size_t m, double* v) {
+  values.visit([&](const auto* src, std::size_t) {
+    for (std::size_t i = 0; i < m; ++i) v[i] = static_cast<double>(src[i0 + i]);
+  });
+}
+
+/// How write_points() writes a point: a line of text, its values separated by
+/// `separator`, or a binary record, its values one after the other (their
+/// bytes reversed when `swap`).
+struct point_format {
+  bool text = false;
+  char separator = ' ';
+  bool swap = false;
+};
+
+/// Writes n points whose value c has type types[c], in chunks:
+/// fill(c, i0, m, v) sets v[i] to value c of point i0 + i, for i < m.
+template <class Fill>
+void write_points(std::ostream& out, std::size_t n, const std::vector<scalar_type>& types, point_format fmt,
+                  Fill&& fill) {
+  const std::size_t nc = types.size();
+  std::size_t record = 0;
+  for (scalar_type t : types) record += size_of(t);
+  constexpr std::size_t chunk = 4096;
+  std::vector<double> vals(chunk * nc);  // column-major: value c of point i0 + i at vals[c * chunk + i]
+  std::string buf;
+  for (std::size_t i0 = 0; i0 < n; i0 += chunk) {
+    const std::size_t m = std::min(chunk, n - i0);
+    for (std::size_t c = 0; c < nc; ++c) fill(c, i0, m, vals.data() + c * chunk);
+    if (fmt.text) {
+      buf.resize(m * nc * 32);
+      char* p = buf.data();
+      char* const end = p + buf.size();
+      for (std::size_t i = 0; i < m; ++i)
+        for (std::size_t c = 0; c < nc; ++c) {
+          p = format_value(p, end, vals[c * chunk + i], types[c]);
+          *p++ = c + 1 == nc ? '\n' : fmt.separator;
+        }
+      out.write(buf.data(), p - buf.data());
+    } else {
+      buf.resize(m * record);
+      auto* base = reinterpret_cast<unsigned char*>(buf.data());
+      std::size_t offset = 0;
+      for (std::size_t c = 0; c < nc; ++c) {
+        const double* v = vals.data() + c * chunk;
+        encode_values(types[c], fmt.swap, base + offset, record, m, [v](std::size_t i) { return v[i]; });
+        offset += size_of(types[c]);
+      }
+      out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+    }
+  }
+}
+
+/// Throws std::invalid_argument unless field f has a value for each of n points.
+inline void check_field_size(const field& f, std::size_t n) {
+  if (f.values.size() != n)
+    throw std::invalid_argument("field '" + f.name + "' has " + std::to_string(f.values.size()) + " values for " +
+                                std::to_string(n) + " points");
+}
+
+/// A cloud of the n points (x[i], y[i], z[i]), absolute coordinates: its
+/// origin from choose_origin(), its positions relative to that; no fields.
+inline point_cloud cloud_at(const double* x, const double* y, const double* z, std::size_t n) {
+  const double* xyz[3] = {x, y, z};
+  const std::array<double, 3> origin = choose_origin(x, y, z, n);
+  point_cloud cloud;
+  cloud.set_origin(origin);
+  cloud.resize(n);
+  float* out = cloud.positions().data();
+  for (std::size_t k = 0; k < 3; ++k)
+    for (std::size_t i = 0; i < n; ++i) out[3 * i + k] = static_cast<float>(xyz[k][i] - origin[k]);
+  return cloud;
 }
 
 enum class parse_status { ok, not_a_number, not_an_integer, out_of_range };
@@ -126,6 +270,15 @@ inline parse_status parse_ascii_value(std::string_view tok, scalar_type t, doubl
   if (s != parse_status::ok) return s;
   if (!std::isfinite(out) || out != std::floor(out)) return parse_status::not_an_integer;
   return out < range[0] || out > range[1] ? parse_status::out_of_range : parse_status::ok;
+}
+
+/// Fails for a value that parse_ascii_value() refused with status `s`:
+/// `what` (which names the value), then why, for type t.
+[[noreturn]] inline void fail_value(const std::string& file, const std::string& what, parse_status s, scalar_type t) {
+  const std::string type(name_of(t));
+  if (s == parse_status::not_a_number) fail(file, what + "is not a number (expected " + type + ")");
+  if (s == parse_status::not_an_integer) fail(file, what + "is not an integer (expected " + type + ")");
+  fail(file, what + "is out of range for " + type);
 }
 
 }  // namespace ced::io::detail

@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <stdexcept>
 
+#include "core/timing.hpp"
 #include "pcl_bridge.hpp"
 #include "pcl_convert.hpp"
 
@@ -20,10 +21,8 @@ namespace ced::pcl_bridge {
 
 namespace {
 
-using clock_type = std::chrono::steady_clock;
-double ms_since(clock_type::time_point t) {
-  return std::chrono::duration<double, std::milli>(clock_type::now() - t).count();
-}
+using ced::detail::clock_type;
+using ced::detail::ms_since;
 
 using search_tree = pcl::search::KdTree<pcl::PointXYZRGB>;
 
