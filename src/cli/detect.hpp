@@ -61,6 +61,7 @@ struct detect_input {
   ced::io::read_report report;
   ced::point_cloud cloud;
   std::vector<std::uint32_t> original;  // original[i]: index in the input file's (finite) points of point i
+                                        // (only with --indices-original)
   std::size_t n_file = 0, n_finite = 0, n_dropped = 0;
   double load_ms = 0, voxel_ms = 0;
 };

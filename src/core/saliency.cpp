@@ -28,13 +28,15 @@ void detection_context::compute_saliency(const std::vector<channel_source>& sour
   const auto& blocks = m_impl->blocks;
   const auto& params = m_impl->params;
   // Keeping the candidates' neighbourhoods saves the NMS its own queries.
-  // Bounded memory: at most 256 MiB or 20 bytes a point, whichever is more
-  // (all of them up to ~8 M points at 1 cm; about 2/3 on a 10 M-point room,
-  // which keeps a whole ced6d run of a LAS file under 100 bytes a point).
+  // Bounded memory: at most 64 MiB or 16 bytes a point, whichever is more.
+  // A candidate's sweep takes about 85 bytes, about 31 bytes a point in a
+  // room at 1 cm: every block keeps its sweeps up to ~2 M points, about half
+  // of them at 10 M, which keeps a whole ced6d run of a 10 M-point LAS file
+  // under 100 bytes a point.
   // Past the budget, blocks fall back to querying again (which blocks do
   // depends on timing, the result does not).
   const bool keep_hits = params.nms_radius <= params.radius;
-  std::atomic<std::size_t> budget{std::max<std::size_t>(std::size_t(1) << 28, 20 * n)};  // bytes
+  std::atomic<std::size_t> budget{std::max<std::size_t>(std::size_t(64) << 20, 16 * n)};  // bytes
   m_impl->hits.assign(keep_hits ? blocks.block_count() : 0, {});
   std::atomic<std::size_t> blocks_done{0};
   std::mutex progress_mutex;
