@@ -6,25 +6,8 @@ set -u
 CED=$1 NDVI=$2 NO_ENTRY=$3 WRONG_ABI=$4
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
-pass=0
-fail=0
-check() {  # check NAME COMMAND...: the command must succeed
-  local name=$1
-  shift
-  if "$@"; then pass=$((pass + 1)); else fail=$((fail + 1)); echo "FAIL: $name"; fi
-}
-expect_exit() {  # expect_exit CODE PATTERN NAME -- ced ARGS...: exit code and stderr text
-  local code=$1 pattern=$2 name=$3
-  shift 4
-  "$CED" "$@" > "$T/out" 2> "$T/err"
-  local rc=$?
-  if [ "$rc" = "$code" ] && grep -q -- "$pattern" "$T/err"; then
-    pass=$((pass + 1))
-  else
-    fail=$((fail + 1))
-    echo "FAIL: $name: exit $rc (want $code), stderr: $(cat "$T/err")"
-  fi
-}
+# shellcheck source=cli_support.sh
+. "$(dirname "$0")/cli_support.sh"
 
 # A 1 cm grid whose NDVI jumps at x = 0 (columns x,y,z,red,nir).
 awk 'BEGIN { print "x,y,z,red,nir"; for (y = -10; y <= 10; y++) for (x = -10; x <= 10; x++)

@@ -7,25 +7,8 @@ CED=$1
 DATA=$2
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
-pass=0
-fail=0
-check() {  # check NAME COMMAND...: the command must succeed
-  local name=$1
-  shift
-  if "$@"; then pass=$((pass + 1)); else fail=$((fail + 1)); echo "FAIL: $name"; fi
-}
-expect_exit() {  # expect_exit CODE PATTERN NAME -- ced ARGS...: exit code and stderr text
-  local code=$1 pattern=$2 name=$3
-  shift 4
-  "$CED" "$@" > "$T/out" 2> "$T/err"
-  local rc=$?
-  if [ "$rc" = "$code" ] && grep -q -- "$pattern" "$T/err"; then
-    pass=$((pass + 1))
-  else
-    fail=$((fail + 1))
-    echo "FAIL: $name: exit $rc (want $code), stderr: $(cat "$T/err")"
-  fi
-}
+# shellcheck source=cli_support.sh
+. "$(dirname "$0")/cli_support.sh"
 sample=$DATA/apartment_mesh_214.ply
 
 # --- The main job: indices, keypoints file, viewer, picture, summary ---

@@ -4,6 +4,7 @@
 
 #include "../examples/hue_modality.hpp"
 #include "../examples/ndvi_modality.hpp"
+#include "test_support.hpp"
 
 namespace {
 // A 1 cm plane split at x = 0 into two hues (degrees, full saturation).
@@ -60,18 +61,8 @@ TEST(Example, CircularHueSeesThroughTheWrapAround) {
 }
 
 TEST(Example, NdviOnTheFastPathHandComputed) {
-  // A 1 cm grid whose NDVI is 0.2 for x <= 0 (NIR 120, red 80) and 0.6 for
-  // x > 0 (NIR 160, red 40).
-  ced::point_cloud c;
-  std::vector<double> nir, red;
-  for (int y = -10; y <= 10; ++y)
-    for (int x = -10; x <= 10; ++x) {
-      c.push_back(x * 0.01f, y * 0.01f, 0.0f);
-      nir.push_back(x <= 0 ? 120 : 160);
-      red.push_back(x <= 0 ? 80 : 40);
-    }
-  c.add_field("NIR", ced::scalar_type::uint16, nir);  // names match ignoring case
-  c.add_field("Red", ced::scalar_type::uint16, red);
+  // NDVI 0.2 for x <= 0 and 0.6 for x > 0; names match ignoring case.
+  const ced::point_cloud c = ced_test::ndvi_edge(ced::scalar_type::uint16, "NIR", "Red");
   static_assert(ced::sums_neighbors_v<ced::evaluator_t<example::ndvi>>, "the fast path");
   static_assert(!ced::reads_neighbors_v<ced::evaluator_t<example::ndvi>>, "sums only");
   ced::detect_params p;

@@ -8,23 +8,9 @@
 #include "../examples/ndvi_modality.hpp"
 #include "ced/plugin.hpp"
 #include "file_support.hpp"
+#include "test_support.hpp"
 
 namespace {
-/// A 1 cm grid with NIR and red fields; NDVI jumps from 0.2 to 0.6 at x = 0.
-ced::point_cloud field_edge() {
-  ced::point_cloud c;
-  std::vector<double> nir, red;
-  for (int y = -10; y <= 10; ++y)
-    for (int x = -10; x <= 10; ++x) {
-      c.push_back(x * 0.01f, y * 0.01f, 0.0f);
-      nir.push_back(x <= 0 ? 120 : 160);
-      red.push_back(x <= 0 ? 80 : 40);
-    }
-  c.add_field("nir", ced::scalar_type::uint8, nir);
-  c.add_field("red", ced::scalar_type::uint8, red);
-  return c;
-}
-
 std::string help_of(const std::string& name) {
   for (const auto& [n, h] : ced::registered_modalities())
     if (n == name) return h;
@@ -49,7 +35,7 @@ TEST(Plugin, ExampleRegistersNdviThatMatchesTheCompiledModality) {
   // Loading again is a no-op that returns the same.
   EXPECT_EQ(ced::load_plugin(CED_NDVI_PLUGIN).modalities, info.modalities);
 
-  const ced::point_cloud c = field_edge();
+  const ced::point_cloud c = ced_test::ndvi_edge(ced::scalar_type::uint8);
   ced::detect_params p;
   p.radius = p.nms_radius = 0.035;
   p.threads = 1;

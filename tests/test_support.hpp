@@ -12,6 +12,23 @@
 
 namespace ced_test {
 
+/// A 1 cm grid of 21 x 21 points with NIR and red fields of type `type`
+/// whose NDVI is 0.2 for x <= 0 (NIR 120, red 80) and 0.6 for x > 0 (NIR
+/// 160, red 40); point (x, y) is index (y + 10) * 21 + x + 10.
+inline ced::point_cloud ndvi_edge(ced::scalar_type type, const char* nir_name = "nir", const char* red_name = "red") {
+  ced::point_cloud c;
+  std::vector<double> nir, red;
+  for (int y = -10; y <= 10; ++y)
+    for (int x = -10; x <= 10; ++x) {
+      c.push_back(x * 0.01f, y * 0.01f, 0.0f);
+      nir.push_back(x <= 0 ? 120 : 160);
+      red.push_back(x <= 0 ? 80 : 40);
+    }
+  c.add_field(nir_name, type, nir);
+  c.add_field(red_name, type, red);
+  return c;
+}
+
 /// The values of `c` as doubles, with value i replaced by `v` (for fields
 /// whose type cannot hold v: rebuild them as float columns).
 inline std::vector<double> with_value(const ced::column& c, std::size_t i, double v) {

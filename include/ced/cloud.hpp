@@ -33,50 +33,6 @@ bool is_integer(scalar_type t) noexcept;
 /// types, [0,1]: float fields are taken to be already normalised.
 std::array<double, 2> natural_range(scalar_type t) noexcept;
 
-/// The C++ type that stores values of scalar_type `T` (uint8 → std::uint8_t ...).
-template <scalar_type T>
-struct storage_of;
-template <>
-struct storage_of<scalar_type::int8> {
-  using type = std::int8_t;
-};
-template <>
-struct storage_of<scalar_type::uint8> {
-  using type = std::uint8_t;
-};
-template <>
-struct storage_of<scalar_type::int16> {
-  using type = std::int16_t;
-};
-template <>
-struct storage_of<scalar_type::uint16> {
-  using type = std::uint16_t;
-};
-template <>
-struct storage_of<scalar_type::int32> {
-  using type = std::int32_t;
-};
-template <>
-struct storage_of<scalar_type::uint32> {
-  using type = std::uint32_t;
-};
-template <>
-struct storage_of<scalar_type::int64> {
-  using type = std::int64_t;
-};
-template <>
-struct storage_of<scalar_type::uint64> {
-  using type = std::uint64_t;
-};
-template <>
-struct storage_of<scalar_type::float32> {
-  using type = float;
-};
-template <>
-struct storage_of<scalar_type::float64> {
-  using type = double;
-};
-
 /// The scalar_type that stores C++ type `T`.
 template <class T>
 constexpr scalar_type scalar_type_of() noexcept {
