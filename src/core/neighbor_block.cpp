@@ -170,17 +170,9 @@ void neighbor_block::sort_into_cells(const float lo[3], const float hi[3], doubl
   }
 }
 
-void neighbor_block::fill(const neighbor_index& index, const float* xyz, const std::uint32_t* points, std::size_t count,
-                          double r) {
-  m_points = points;
-  m_count = count;
-  m_lists_built = false;
-  if (count == 0) return;
-  float lo[3], hi[3];
-  detail::padded_bounds(xyz, points, count, r, lo, hi);
-  index.box_search(lo, hi, m_raw);
-  sort_into_cells(lo, hi, r);
-
+/// Lays out the gathered points' channels as structure of arrays and the
+/// block points' own values; returns the distance between channels.
+std::size_t neighbor_block::copy_channels_in(const std::uint32_t* points, std::size_t count) {
   // Gathered channels as structure of arrays, 8 floats of zero padding at
   // the end (the kernel reads whole groups of 8).
   const std::size_t g = m_raw.size();
@@ -220,6 +212,13 @@ void neighbor_block::fill(const neighbor_index& index, const float* xyz, const s
     base += dims;
   }
 
+  return stride;
+}
+
+/// Per point of the block: its nine ranges of gathered points and where its
+/// hit bits start.
+void neighbor_block::set_up_rows(const float* xyz, const std::uint32_t* points, std::size_t count, double r) {
+  const std::size_t g = m_raw.size();
   // Per point: the runs of sub-cells it tests, one per row (y, z) within one
   // cell, cut to the x-cells that the ball of radius r (with a margin far
   // above float rounding) reaches. Conservative: every point the float test
@@ -287,6 +286,21 @@ void neighbor_block::fill(const neighbor_index& index, const float* xyz, const s
     }
     bit_offsets[k + 1] = static_cast<std::uint32_t>(bit_offsets[k] + groups);
   }
+}
+
+void neighbor_block::fill(const neighbor_index& index, const float* xyz, const std::uint32_t* points, std::size_t count,
+                          double r) {
+  m_points = points;
+  m_count = count;
+  m_lists_built = false;
+  if (count == 0) return;
+  float lo[3], hi[3];
+  detail::padded_bounds(xyz, points, count, r, lo, hi);
+  index.box_search(lo, hi, m_raw);
+  sort_into_cells(lo, hi, r);
+
+  const std::size_t stride = copy_channels_in(points, count);
+  set_up_rows(xyz, points, count, r);
   grow(m_bits, m_bit_offsets[count]);
   grow(m_counts, count);
   grow(m_sums, m_sum_stride * count);

@@ -74,6 +74,8 @@ class neighbor_block {
     return (*static_cast<const neighbor_block*>(block))[k];
   }
   void sort_into_cells(const float lo[3], const float hi[3], double r);
+  std::size_t copy_channels_in(const std::uint32_t* points, std::size_t count);
+  void set_up_rows(const float* xyz, const std::uint32_t* points, std::size_t count, double r);
   void cell_of(const float* p, std::uint64_t c[3]) const noexcept {
     // Truncation is floor here: the value is clamped to ≥ 0 first.
     for (int a = 0; a < 3; ++a) {
