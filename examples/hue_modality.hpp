@@ -19,7 +19,7 @@ struct hue {
 
   std::string name() const { return "hue"; }
   double threshold(const ced::detect_params&) const { return threshold_value; }
-  std::vector<std::string> fields() const { return {"red", "green", "blue", "r", "g", "b"}; }
+  std::vector<std::string> fields() const { return ced::rgb_field_names(); }
 
   struct evaluator {
     std::vector<float> c, s, sat;  // saturation-weighted cos/sin of hue, saturation

@@ -339,5 +339,8 @@ std::array<double, 3> choose_origin(const double* x, const double* y, const doub
 /// The red, green and blue fields of a cloud: exact names red/green/blue, then
 /// r/g/b, any case. Returns nullptrs when absent.
 std::array<const field*, 3> find_rgb_fields(const point_cloud& cloud) noexcept;
+/// The names find_rgb_fields() looks for, in its order: red, green, blue, r, g, b
+/// (for a modality's fields() or a field_selection that must keep colour).
+const std::vector<std::string>& rgb_field_names();
 
 }  // namespace ced

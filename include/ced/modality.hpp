@@ -254,12 +254,17 @@ using modality_factory = std::function<any_modality(modality_spec&)>;
 /// Registers (or replaces) a modality under `name`. Thread-safe.
 void register_modality(const std::string& name, modality_factory factory, std::string help = {});
 
+/// The factory that builds M from a spec with M::from_spec.
+template <class M>
+modality_factory factory_of() {
+  static_assert(is_modality_v<M>, "M does not model the Modality concept (see ced/modality.hpp)");
+  return [](modality_spec& s) { return any_modality(M::from_spec(s)); };
+}
+
 /// Registers M under M::spec_name, built with M::from_spec.
 template <class M>
 void register_modality(std::string help = {}) {
-  static_assert(is_modality_v<M>, "M does not model the Modality concept (see ced/modality.hpp)");
-  register_modality(
-      M::spec_name, [](modality_spec& s) { return any_modality(M::from_spec(s)); }, std::move(help));
+  register_modality(M::spec_name, factory_of<M>(), std::move(help));
 }
 
 /// Names and one-line help of all registered modalities (built-ins included), sorted.

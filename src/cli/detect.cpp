@@ -97,9 +97,8 @@ ced::render_options render_view(const detect_options& o) {
 /// --viewer write every field; --png and the default preset look for colour.
 ced::field_selection needed_fields(const detect_options& o, const std::vector<ced::any_modality>& modalities) {
   if (!o.output.empty() || !o.viewer.empty()) return {};
-  const std::vector<std::string> colour = {"red", "green", "blue", "r", "g", "b"};
   std::vector<std::string> names;
-  if (modalities.empty() || !o.png.empty()) names = colour;
+  if (modalities.empty() || !o.png.empty()) names = ced::rgb_field_names();
   for (const auto& m : modalities) {
     const auto f = m.fields();
     if (!f) return {};  // a modality that does not say: everything

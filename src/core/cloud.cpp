@@ -142,10 +142,7 @@ std::ostream& operator<<(std::ostream& out, const column& c) {
 }
 
 field& point_cloud::add_field(std::string name, scalar_type type, const std::vector<double>& values) {
-  if (values.size() != size())
-    throw std::invalid_argument("field '" + name + "' has " + std::to_string(values.size()) + " values for " +
-                                std::to_string(size()) + " points");
-  return add_field(std::move(name), column(type, values));
+  return add_field(std::move(name), column(type, values));  // which checks the size
 }
 
 field& point_cloud::add_field(std::string name, column values) {
@@ -162,7 +159,7 @@ field& point_cloud::add_field(std::string name, column values) {
 }
 
 void point_cloud::add_rgb(const std::vector<std::array<std::uint8_t, 3>>& rgb) {
-  const char* names[3] = {"red", "green", "blue"};
+  const auto& names = rgb_field_names();
   for (int c = 0; c < 3; ++c) {
     column v(scalar_type::uint8, rgb.size());
     std::uint8_t* p = v.data<std::uint8_t>();
@@ -195,12 +192,18 @@ std::array<double, 3> choose_origin(const double* x, const double* y, const doub
   return choose_origin(lo, hi);
 }
 
+const std::vector<std::string>& rgb_field_names() {
+  static const std::vector<std::string> names = {"red", "green", "blue", "r", "g", "b"};
+  return names;
+}
+
 std::array<const field*, 3> find_rgb_fields(const point_cloud& cloud) noexcept {
-  std::array<const field*, 3> f{cloud.find_field_icase("red"), cloud.find_field_icase("green"),
-                                cloud.find_field_icase("blue")};
-  if (f[0] && f[1] && f[2]) return f;
-  f = {cloud.find_field_icase("r"), cloud.find_field_icase("g"), cloud.find_field_icase("b")};
-  if (f[0] && f[1] && f[2]) return f;
+  const auto& names = rgb_field_names();
+  for (std::size_t first : {0, 3}) {  // red/green/blue, then r/g/b
+    const std::array<const field*, 3> f{cloud.find_field_icase(names[first]), cloud.find_field_icase(names[first + 1]),
+                                        cloud.find_field_icase(names[first + 2])};
+    if (f[0] && f[1] && f[2]) return f;
+  }
   return {nullptr, nullptr, nullptr};
 }
 

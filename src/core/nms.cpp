@@ -20,6 +20,10 @@ void collect_candidate_hits(const neighbor_block& block, const float* const* col
                             const std::vector<double>& thresholds, chunk_arena& arena, std::atomic<std::size_t>& budget,
                             candidate_hits& ch, std::vector<std::uint32_t>& candidates) {
   constexpr std::size_t nr = 2 * neighbor_block::sweep_ranges;
+  // Ranges index the gathered points: 16 bits hold them in all but blocks of
+  // more than 65,535 gathered points, which are left to the NMS's queries.
+  const std::size_t g = block.gathered_count();
+  if (g > std::numeric_limits<std::uint16_t>::max()) return;
   // Which points are candidates and how many bytes of bits they keep, so
   // that every array is sized exactly, once.
   candidates.clear();
@@ -29,10 +33,8 @@ void collect_candidate_hits(const neighbor_block& block, const float* const* col
       candidates.push_back(static_cast<std::uint32_t>(k));
       bit_bytes += block.sweep(k).bytes;
     }
-  const std::size_t n = candidates.size(), g = block.gathered_count();
-  // Ranges index the gathered points: 16 bits hold them in all but blocks of
-  // more than 65,535 gathered points, which are left to the NMS's queries.
-  if (n == 0 || g > std::numeric_limits<std::uint16_t>::max()) return;
+  const std::size_t n = candidates.size();
+  if (n == 0) return;
   const std::size_t want = 4 * (n + g) + 2 * nr * n + bit_bytes;
   std::size_t have = budget.load();
   while (have >= want && !budget.compare_exchange_weak(have, have - want)) {

@@ -115,7 +115,7 @@ std::vector<std::string> modality_spec::unused_options() const {
 namespace {
 template <class M>
 void add_builtin(std::map<std::string, std::pair<modality_factory, std::string>>& f, const char* help) {
-  f[M::spec_name] = {[](modality_spec& s) { return any_modality(M::from_spec(s)); }, help};
+  f[M::spec_name] = {factory_of<M>(), help};
 }
 
 struct registry {

@@ -20,7 +20,7 @@ struct lab {
   std::string name() const { return "lab"; }
   double threshold(const detect_params&) const { return threshold_value; }
   /// The fields bind() reads.
-  std::vector<std::string> fields() const { return {"red", "green", "blue", "r", "g", "b"}; }
+  std::vector<std::string> fields() const { return rgb_field_names(); }
   centroid_distance<3> bind(const point_cloud& cloud, const detect_params& params) const {
     const auto f = rgb::fields(cloud);
     return centroid_distance<3>(lab_values(f, rgb::scale(f, std::nullopt), params.threads), {0.01, 0.01, 0.01},

@@ -25,7 +25,7 @@ struct rgb {
   std::string name() const { return "rgb"; }
   double threshold(const detect_params&) const { return threshold_value; }
   /// The fields bind() reads.
-  std::vector<std::string> fields() const { return {"red", "green", "blue", "r", "g", "b"}; }
+  std::vector<std::string> fields() const { return rgb_field_names(); }
   centroid_distance<3> bind(const point_cloud& cloud, const detect_params& params) const {
     const auto f = fields(cloud);
     const auto s = scale(f, range);
