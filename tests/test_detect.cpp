@@ -380,3 +380,27 @@ TEST(Detect, RepeatedDetectionsAgreeBitwise) {
   EXPECT_EQ(after.keypoints, first.keypoints);
   EXPECT_EQ(after.saliency, first.saliency);
 }
+
+TEST(Detect, ProgressCanCancelOnAnyThreadCount) {
+  const auto c = ced_test::make_room(20000, 9);
+  ced::detect_params p;
+  const auto expected = ced::detect(c, p, ced::xyz{}, ced::rgb{});
+  struct stop {};
+  for (unsigned threads : {1u, 2u}) {
+    p.threads = threads;
+    int reports = 0;
+    p.progress = [&](double) {
+      if (++reports >= 2) throw stop{};
+    };
+    EXPECT_THROW(ced::detect(c, p, ced::xyz{}, ced::rgb{}), stop) << threads << " threads";
+    EXPECT_GE(reports, 2);
+    // Reports come between chunks on one thread too, and a cancelled
+    // detection leaves nothing behind: the next one is whole.
+    int after = 0;
+    p.progress = [&](double) { ++after; };
+    const auto again = ced::detect(c, p, {ced::any_modality(ced::xyz{}), ced::any_modality(ced::rgb{})});
+    EXPECT_GT(after, 2) << threads << " threads";
+    EXPECT_EQ(again.keypoints, expected.keypoints);
+    EXPECT_EQ(again.saliency, expected.saliency);
+  }
+}

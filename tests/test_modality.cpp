@@ -40,7 +40,57 @@ struct max_height_step {
 };
 static_assert(ced::is_modality_v<max_height_step>);
 
+// The same measure as a block evaluator (c): one call a block, writing every
+// point of it, including those the min_neighbors gate will zero.
+struct max_height_step_blocks {
+  double threshold_value = 0.01;
+  std::string name() const { return "max_height_step_blocks"; }
+  double threshold(const ced::detect_params&) const { return threshold_value; }
+  struct evaluator {
+    const ced::point_cloud* cloud;
+    void evaluate(const ced::block_view& block, float* out) const {
+      for (std::size_t k = 0; k < block.size(); ++k) {
+        const ced::neighborhood nb = block[k];
+        float best = 0;
+        for (std::uint32_t j : nb)
+          best = std::max(best, std::abs(cloud->position(j)[2] - cloud->position(nb.point)[2]));
+        out[k] = best + 1.0f;  // + 1: the gate must zero points with few neighbours
+      }
+    }
+  };
+  evaluator bind(const ced::point_cloud& cloud, const ced::detect_params&) const { return {&cloud}; }
+};
+static_assert(ced::is_modality_v<max_height_step_blocks>);
+static_assert(ced::evaluates_blocks_v<ced::evaluator_t<max_height_step_blocks>>);
+static_assert(!ced::evaluates_blocks_v<ced::evaluator_t<max_height_step>>);
+
 }  // namespace
+
+TEST(Modality, BlockEvaluatorMatchesListEvaluatorOnBothPaths) {
+  auto c = ced_test::make_room(3000, 5);
+  ced::detect_params p;
+  const auto nb = ced_test::brute_neighbors(c, p.radius);
+  std::vector<std::size_t> sizes;
+  for (const auto& n : nb) sizes.push_back(n.size());
+  std::nth_element(sizes.begin(), sizes.begin() + sizes.size() / 10, sizes.end());
+  p.min_neighbors = std::uint32_t(sizes[sizes.size() / 10]);  // about a tenth of the points fall below it
+  const auto list = ced::detect(c, p, ced::xyz{}, max_height_step{1.02});
+  const auto blocks = ced::detect(c, p, ced::xyz{}, max_height_step_blocks{1.02});
+  std::size_t gated = 0;
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    const bool few = nb[i].size() < p.min_neighbors;
+    gated += few;
+    ASSERT_EQ(blocks.saliency[1][i], few ? 0.0f : list.saliency[1][i] + 1.0f) << "point " << i;
+  }
+  EXPECT_GT(gated, 0u);
+  for (unsigned threads : {1u, 2u, 3u}) {
+    p.threads = threads;
+    const auto runtime =
+        ced::detect(c, p, {ced::any_modality(ced::xyz{}), ced::any_modality(max_height_step_blocks{1.02})});
+    EXPECT_EQ(runtime.saliency, blocks.saliency) << threads << " threads";
+    EXPECT_EQ(runtime.keypoints, blocks.keypoints) << threads << " threads";
+  }
+}
 
 TEST(Modality, CustomModalityComposesAtCompileTimeAndRuntime) {
   auto c = ced_test::make_room(3000, 4);

@@ -40,7 +40,13 @@ namespace ced {
 //     mean, a median, a covariance...):
 //       float operator()(const neighborhood&) const;   // one point's saliency
 //     It is given the point and the indices of its neighbours.
-// An evaluator that offers both is run as (a).
+// (c) Whole blocks (BlockEvaluator), for measures that work in batches (a
+//     call into Python, a vectorised library, a GPU):
+//       void evaluate(const block_view&, float* out) const;
+//     writes out[k] for the block's k-th point, k < block.size(); block[k]
+//     is its neighbour list. Points with fewer than min_neighbors
+//     neighbours get 0 whatever it writes.
+// An evaluator that offers several kinds is run as the first of (a), (c), (b).
 //
 // Optionally, M declares the fields bind() reads (names matched ignoring
 // case), so that the CLI reads only those from a file:
@@ -72,6 +78,12 @@ template <class E>
 struct reads_neighbors<E, std::void_t<decltype(float(std::declval<const E&>()(std::declval<const neighborhood&>())))>>
     : std::true_type {};
 
+template <class E, class = void>
+struct evaluates_blocks : std::false_type {};
+template <class E>
+struct evaluates_blocks<E, std::void_t<decltype(std::declval<const E&>().evaluate(
+                               std::declval<const block_view&>(), std::declval<float*>()))>> : std::true_type {};
+
 template <class M, class = void>
 struct declares_fields : std::false_type {};
 template <class M>
@@ -85,7 +97,8 @@ struct is_modality<
     M, std::void_t<decltype(std::string(std::declval<const M&>().name())),
                    decltype(double(std::declval<const M&>().threshold(std::declval<const detect_params&>()))),
                    evaluator_t<M>>>
-    : std::bool_constant<sums_neighbors<evaluator_t<M>>::value || reads_neighbors<evaluator_t<M>>::value> {};
+    : std::bool_constant<sums_neighbors<evaluator_t<M>>::value || reads_neighbors<evaluator_t<M>>::value ||
+                         evaluates_blocks<evaluator_t<M>>::value> {};
 }  // namespace detail
 
 /// True for evaluators (like centroid_distance) whose saliency the detector
@@ -97,6 +110,11 @@ inline constexpr bool sums_neighbors_v = detail::sums_neighbors<E>::value;
 /// list: (b).
 template <class E>
 inline constexpr bool reads_neighbors_v = detail::reads_neighbors<E>::value;
+
+/// True for evaluators that compute the saliencies of a whole block of
+/// points at once: (c).
+template <class E>
+inline constexpr bool evaluates_blocks_v = detail::evaluates_blocks<E>::value;
 
 /// The fields modality `m` reads (matched ignoring case), or nullopt when it
 /// does not say (then it may read any).
@@ -117,6 +135,8 @@ template <class E>
 concept SumsEvaluator = sums_neighbors_v<E>;
 template <class E>
 concept ListEvaluator = reads_neighbors_v<E>;
+template <class E>
+concept BlockEvaluator = evaluates_blocks_v<E>;
 template <class M>
 concept Modality = is_modality_v<M>;
 #endif
@@ -137,16 +157,24 @@ channel_source channels_of(const E& e) {
 template <class Evaluator>
 void evaluate_block(const Evaluator& e, const block_view& block, std::size_t slot, std::uint32_t min_neighbors,
                     float* column) {
-  for (std::size_t k = 0; k < block.size(); ++k) {
-    const std::uint32_t n = block.count(k);
-    float s = 0.0f;
-    if (n >= min_neighbors) {
-      if constexpr (sums_neighbors_v<Evaluator>)
-        s = e.from_sums(block.sums(k, slot), n);
-      else
-        s = static_cast<float>(e(block[k]));
+  if constexpr (!sums_neighbors_v<Evaluator> && evaluates_blocks_v<Evaluator>) {
+    thread_local std::vector<float> out;  // per worker, reused from block to block
+    out.assign(block.size(), 0.0f);
+    e.evaluate(block, out.data());
+    for (std::size_t k = 0; k < block.size(); ++k)
+      column[block.point(k)] = block.count(k) >= min_neighbors ? out[k] : 0.0f;
+  } else {
+    for (std::size_t k = 0; k < block.size(); ++k) {
+      const std::uint32_t n = block.count(k);
+      float s = 0.0f;
+      if (n >= min_neighbors) {
+        if constexpr (sums_neighbors_v<Evaluator>)
+          s = e.from_sums(block.sums(k, slot), n);
+        else
+          s = static_cast<float>(e(block[k]));
+      }
+      column[block.point(k)] = s;
     }
-    column[block.point(k)] = s;
   }
 }
 

@@ -24,7 +24,9 @@ struct detect_params {
   /// of a neighbour's score can change; the thread count changes nothing).
   double block_scale = 6.0;
   /// Optional: called with the fraction of the saliency stage done (0..1),
-  /// from any worker thread, never concurrently; keep it cheap.
+  /// from any worker thread, never concurrently; keep it cheap. It may throw
+  /// to cancel the detection: detect() then stops its workers and rethrows
+  /// the exception (how the Python module answers Ctrl-C).
   std::function<void(double)> progress;
 };
 
