@@ -1,0 +1,261 @@
+// SPDX-License-Identifier: MIT
+// numpy arrays in: positions, channels and structured arrays to a point_cloud.
+#include <pybind11/stl.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "bindings.hpp"
+
+namespace ced_python {
+namespace {
+
+std::string shape_text(const py::array& a) {
+  std::string s = "(";
+  for (py::ssize_t d = 0; d < a.ndim(); ++d) s += (d ? ", " : "") + std::to_string(a.shape(d));
+  return s + (a.ndim() == 1 ? ",)" : ")");
+}
+
+std::string dtype_text(const py::array& a) { return py::str(a.dtype()).cast<std::string>(); }
+
+/// `obj` as a numpy array (no copy when it is one already).
+py::array as_array(py::handle obj, const std::string& argument) {
+  if (py::isinstance<py::array>(obj)) return py::reinterpret_borrow<py::array>(obj);
+  try {
+    return py::module_::import("numpy").attr("asarray")(obj);
+  } catch (py::error_already_set&) {
+    throw py::type_error(argument + ": expected an array, got " + py::str(py::type::of(obj)).cast<std::string>());
+  }
+}
+
+/// The storage type of a numpy dtype, or throws naming `argument`. float16
+/// and big-endian arrays are converted first (`a` then holds the copy).
+ced::scalar_type storage_type(py::array& a, const std::string& argument) {
+  py::dtype dt = a.dtype();
+  if (dt.kind() == 'b') {
+    a = a.attr("astype")("uint8");
+    dt = a.dtype();
+  }
+  if (dt.kind() == 'f' && dt.itemsize() == 2) {
+    a = a.attr("astype")("float32");
+    dt = a.dtype();
+  }
+  if (dt.attr("byteorder").cast<std::string>() == ">") {
+    a = a.attr("astype")(dt.attr("newbyteorder")("="));
+    dt = a.dtype();
+  }
+  const char k = dt.kind();
+  const auto size = dt.itemsize();
+  using ced::scalar_type;
+  if (k == 'f' && size == 4) return scalar_type::float32;
+  if (k == 'f' && size == 8) return scalar_type::float64;
+  if (k == 'u' || k == 'i') {
+    switch (size) {
+      case 1:
+        return k == 'u' ? scalar_type::uint8 : scalar_type::int8;
+      case 2:
+        return k == 'u' ? scalar_type::uint16 : scalar_type::int16;
+      case 4:
+        return k == 'u' ? scalar_type::uint32 : scalar_type::int32;
+      case 8:
+        return k == 'u' ? scalar_type::uint64 : scalar_type::int64;
+      default:
+        break;
+    }
+  }
+  throw py::type_error(argument + ": expected a numeric array (integers, float32 or float64), got dtype " +
+                       dtype_text(a));
+}
+
+/// Column `j` of a 1-D or 2-D array (rows strided by strides(0), columns by
+/// strides(1)), copied into a typed column of its own type.
+ced::column copy_column(const py::array& a, ced::scalar_type type, py::ssize_t j) {
+  const auto n = static_cast<std::size_t>(a.shape(0));
+  ced::column c(type, n);
+  const auto* base = static_cast<const char*>(a.data()) + (a.ndim() == 2 ? j * a.strides(1) : 0);
+  const py::ssize_t stride = a.strides(0);
+  const std::size_t size = ced::size_of(type);
+  unsigned char* out = c.bytes();
+  if (stride == py::ssize_t(size))
+    std::memcpy(out, base, n * size);
+  else
+    for (std::size_t i = 0; i < n; ++i) std::memcpy(out + i * size, base + py::ssize_t(i) * stride, size);
+  return c;
+}
+
+std::string lower(std::string s) {
+  for (char& c : s) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+/// The field names of an (N, k) channel called `name`: "rgb"/"colors" with
+/// k = 3 give red, green, blue; "a,b,c" names each column; else name_0 ...
+std::vector<std::string> column_names(const std::string& name, py::ssize_t k, const std::string& argument) {
+  std::vector<std::string> names;
+  if (name.find(',') != std::string::npos) {
+    std::string cur;
+    for (char c : name + ",") {
+      if (c != ',') {
+        cur += c;
+        continue;
+      }
+      names.push_back(cur);
+      cur.clear();
+    }
+    if (py::ssize_t(names.size()) != k)
+      throw py::value_error(argument + ": the key names " + std::to_string(names.size()) +
+                            " columns but the array has " + std::to_string(k));
+    return names;
+  }
+  const std::string l = lower(name);
+  if (k == 3 && (l == "rgb" || l == "colors" || l == "colours" || l == "color" || l == "colour"))
+    return {"red", "green", "blue"};
+  if (k == 1) return {name};
+  for (py::ssize_t j = 0; j < k; ++j) names.push_back(name + "_" + std::to_string(j));
+  return names;
+}
+
+void add_channel(ced::point_cloud& cloud, const std::string& name, py::handle value, const std::string& argument) {
+  py::array a = as_array(value, argument);
+  if (a.ndim() != 1 && a.ndim() != 2)
+    throw py::value_error(argument + ": expected an (N,) or (N, k) array, got shape " + shape_text(a));
+  if (std::size_t(a.shape(0)) != cloud.size())
+    throw py::value_error(argument + ": " + std::to_string(a.shape(0)) + " values, but there are " +
+                          std::to_string(cloud.size()) + " points");
+  const ced::scalar_type type = storage_type(a, argument);
+  const py::ssize_t k = a.ndim() == 2 ? a.shape(1) : 1;
+  const auto names = column_names(name, k, argument);
+  for (py::ssize_t j = 0; j < k; ++j) {
+    if (names[std::size_t(j)].empty()) throw py::value_error(argument + ": empty field name");
+    cloud.add_field(names[std::size_t(j)], copy_column(a, type, j));
+  }
+}
+
+/// Positions from three coordinate columns (float or double, any strides):
+/// float offsets from the origin the file readers would choose.
+template <class T>
+void set_positions(ced::point_cloud& cloud, const char* x, const char* y, const char* z, py::ssize_t stride,
+                   std::size_t n, const std::string& argument) {
+  const char* axis[3] = {x, y, z};
+  const auto at = [&](int d, std::size_t i) {
+    T v;
+    std::memcpy(&v, axis[d] + py::ssize_t(i) * stride, sizeof v);
+    return v;
+  };
+  for (std::size_t i = 0; i < n; ++i)
+    for (int d = 0; d < 3; ++d)
+      if (!std::isfinite(double(at(d, i))))
+        throw py::value_error(argument + ": point " + std::to_string(i) + " has a " +
+                              (std::isnan(double(at(d, i))) ? "NaN" : "infinite") + " coordinate");
+  std::array<double, 3> origin{0, 0, 0};
+  if constexpr (std::is_same_v<T, double>) {
+    double lo[3], hi[3];
+    for (int d = 0; d < 3; ++d) lo[d] = hi[d] = n ? at(d, 0) : 0.0;
+    for (std::size_t i = 0; i < n; ++i)
+      for (int d = 0; d < 3; ++d) lo[d] = std::min(lo[d], at(d, i)), hi[d] = std::max(hi[d], at(d, i));
+    origin = ced::choose_origin(lo, hi);
+  }
+  cloud.set_origin(origin);
+  cloud.resize(n);
+  float* p = cloud.positions().data();
+  for (std::size_t i = 0; i < n; ++i)
+    for (int d = 0; d < 3; ++d) p[3 * i + d] = static_cast<float>(double(at(d, i)) - origin[std::size_t(d)]);
+}
+
+void positions_from(ced::point_cloud& cloud, const py::array& a, const char* x, const char* y, const char* z,
+                    py::ssize_t stride, const std::string& argument) {
+  const auto n = static_cast<std::size_t>(a.shape(0));
+  if (n >= std::size_t(UINT32_MAX)) throw py::value_error(argument + ": more than 2^32 - 1 points");
+  if (a.dtype().kind() == 'f' && a.dtype().itemsize() == 4)
+    set_positions<float>(cloud, x, y, z, stride, n, argument);
+  else
+    set_positions<double>(cloud, x, y, z, stride, n, argument);
+}
+
+/// An (N, 3) array of float32 or float64, any strides.
+ced::point_cloud cloud_from_points(py::handle points) {
+  py::array a = as_array(points, "points");
+  if (a.ndim() != 2 || a.shape(1) != 3)
+    throw py::value_error("points: expected an (N, 3) array, got shape " + shape_text(a));
+  const char k = a.dtype().kind();
+  const auto size = a.dtype().itemsize();
+  if (k != 'f' || (size != 4 && size != 8))
+    throw py::type_error("points: expected float32 or float64 coordinates, got dtype " + dtype_text(a));
+  if (a.dtype().attr("byteorder").cast<std::string>() == ">") a = a.attr("astype")(a.dtype().attr("newbyteorder")("="));
+  ced::point_cloud cloud;
+  const auto* base = static_cast<const char*>(a.data());
+  positions_from(cloud, a, base, base + a.strides(1), base + 2 * a.strides(1), a.strides(0), "points");
+  return cloud;
+}
+
+/// A structured array: X, Y, Z (any case) are the positions, every other
+/// numeric field a channel.
+ced::point_cloud cloud_from_structured(const py::array& a) {
+  if (a.ndim() != 1) throw py::value_error("points: expected a 1-D structured array, got shape " + shape_text(a));
+  const auto names = a.dtype().attr("names").cast<std::vector<std::string>>();
+  std::string xyz[3];
+  for (const auto& name : names)
+    for (int d = 0; d < 3; ++d)
+      if (lower(name) == std::string(1, "xyz"[d])) xyz[d] = name;
+  for (int d = 0; d < 3; ++d)
+    if (xyz[d].empty())
+      throw py::value_error(std::string("points: the structured array has no ") + "XYZ"[d] +
+                            " field (fields: " + py::str(a.dtype().attr("names")).cast<std::string>() + ")");
+  py::array col[3];
+  for (int d = 0; d < 3; ++d) {
+    col[d] = py::array(a[py::str(xyz[d])]).attr("astype")("float64");  // coordinates: float, int or scaled
+  }
+  ced::point_cloud cloud;
+  const auto* x = static_cast<const char*>(col[0].data());
+  const auto* y = static_cast<const char*>(col[1].data());
+  const auto* z = static_cast<const char*>(col[2].data());
+  positions_from(cloud, col[0], x, y, z, sizeof(double), "points");
+  for (const auto& name : names) {
+    if (name == xyz[0] || name == xyz[1] || name == xyz[2]) continue;
+    add_channel(cloud, name, a[py::str(name)], "points['" + name + "']");
+  }
+  return cloud;
+}
+
+}  // namespace
+
+void add_channels(ced::point_cloud& cloud, py::handle channels, const char* argument) {
+  if (channels.is_none()) return;
+  if (!py::isinstance<py::dict>(channels))
+    throw py::type_error(std::string(argument) + ": expected a dict of name -> array, got " +
+                         py::str(py::type::of(channels)).cast<std::string>());
+  for (auto item : py::reinterpret_borrow<py::dict>(channels)) {
+    if (!py::isinstance<py::str>(item.first))
+      throw py::type_error(std::string(argument) + ": keys must be field names (str)");
+    const auto name = item.first.cast<std::string>();
+    add_channel(cloud, name, item.second, std::string(argument) + "['" + name + "']");
+  }
+}
+
+cloud_ptr to_cloud(py::handle points, py::handle channels) {
+  if (py::isinstance<ced::point_cloud>(points)) {
+    auto c = points.cast<std::shared_ptr<ced::point_cloud>>();
+    if (channels.is_none()) return c;
+    auto copy = std::make_shared<ced::point_cloud>(*c);
+    add_channels(*copy, channels, "channels");
+    return copy;
+  }
+  ced::point_cloud cloud;
+  if (py::isinstance<py::array>(points) && !points.attr("dtype").attr("names").is_none())
+    cloud = cloud_from_structured(py::reinterpret_borrow<py::array>(points));
+  else
+    cloud = cloud_from_points(points);
+  add_channels(cloud, channels, "channels");
+  return std::make_shared<ced::point_cloud>(std::move(cloud));
+}
+
+py::array view(const ced::column& c, py::handle owner) {
+  return c.visit([&](const auto* p, std::size_t n) { return view(p, {py::ssize_t(n)}, owner); });
+}
+
+}  // namespace ced_python

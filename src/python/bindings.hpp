@@ -1,0 +1,47 @@
+// SPDX-License-Identifier: MIT
+// The Python module `ced._ced`: what its source files share.
+#pragma once
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "ced/ced.hpp"
+
+namespace ced_python {
+
+namespace py = pybind11;
+
+/// A cloud shared between Python objects (Cloud, Result's views) and C++.
+using cloud_ptr = std::shared_ptr<ced::point_cloud>;
+
+/// The cloud that `points` and `channels` describe: a ced.Cloud (no copy), an
+/// (N, 3) float32/float64 array of any strides plus a dict of channels, or a
+/// numpy structured array with X, Y, Z fields (PDAL's arrays). Throws
+/// py::type_error / py::value_error naming the argument and what was expected.
+cloud_ptr to_cloud(py::handle points, py::handle channels);
+
+/// Adds the channels of a dict (name -> (N,) or (N, k) numeric arrays) to
+/// `cloud` (whose size is known).
+void add_channels(ced::point_cloud& cloud, py::handle channels, const char* argument);
+
+/// A read-only numpy array viewing `data` (no copy), kept alive by `owner`.
+template <class T>
+py::array view(const T* data, std::vector<py::ssize_t> shape, py::handle owner) {
+  py::array a(py::dtype::of<T>(), std::move(shape), {}, data, owner);
+  a.attr("setflags")(py::arg("write") = false);
+  return a;
+}
+
+/// A typed column as a numpy array viewing it, kept alive by `owner`.
+py::array view(const ced::column& c, py::handle owner);
+
+void bind_cloud(py::module_& m);
+void bind_modalities(py::module_& m);
+void bind_detect(py::module_& m);
+void bind_eval(py::module_& m);
+
+}  // namespace ced_python

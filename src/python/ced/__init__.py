@@ -1,0 +1,199 @@
+# SPDX-License-Identifier: MIT
+"""ced: N-modal CEntroid Distance keypoint detection in point clouds.
+
+The C++ detector (Teng et al., WACV 2023, generalised to any per-point
+channels) over numpy arrays, Open3D clouds and files. docs/PYTHON.md is the
+reference; the common case is one call::
+
+    import ced
+    cloud = ced.read("scan.ply")
+    result = ced.detect(cloud)                   # ced6d if it has colour, else ced3d
+    print(result.keypoints, result.saliency["xyz"])
+"""
+
+from ._ced import (
+    Cloud,
+    FileError,
+    Modality,
+    PluginError,
+    Result,
+    __version__,
+    load_plugin,
+    modalities,
+    preset,
+    python_modality,
+    read,
+    release_cached_memory,
+)
+from ._ced import _detect, write as _write
+from . import _ced
+from . import eval  # noqa: F401  (ced.eval.repeatability)
+
+__all__ = [
+    "Cloud", "FileError", "Modality", "PluginError", "Result", "__version__", "bands", "detect",
+    "estimate_resolution", "eval", "intensity", "lab", "load_plugin", "modalities", "modality", "preset",
+    "python_modality", "read", "release_cached_memory", "render", "rgb", "voxel_downsample", "write",
+    "write_keypoints", "xyz",
+]
+
+
+def _number(value, name):
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise TypeError(f"{name}: expected a number, got {type(value).__name__}")
+    return repr(float(value))
+
+
+def _spec(name, threshold, args=None, **options):
+    text = name
+    if args is not None:
+        if isinstance(args, str):
+            args = [args]
+        for a in args:
+            if not isinstance(a, str) or not a or any(c in a for c in "(),:"):
+                raise ValueError(f"{name}: bad field name {a!r}")
+        text += "(" + ",".join(args) + ")"
+    if threshold is not None:
+        text += ":" + _number(threshold, "threshold")
+    for key, value in options.items():
+        if value is None:
+            continue
+        if key == "range" and not isinstance(value, str):
+            lo, hi = value
+            value = f"{_number(lo, 'range')}..{_number(hi, 'range')}"
+        text += f",{key}={value}"
+    return Modality(text)
+
+
+def modality(spec):
+    """A modality from a spec string, the CLI's grammar: 'xyz:0.2', 'bands(nir,red):0.1,range=0..255'."""
+    return Modality(spec)
+
+
+def xyz(threshold=0.2, norm=None):
+    """Geometry: L2 distance to the neighbours' centroid; threshold is a ratio of the radius."""
+    return _spec("xyz", threshold, norm=norm)
+
+
+def rgb(threshold=0.1, norm=None, range=None):
+    """Colour: L1 distance to the neighbours' mean colour, channels scaled to [0, 1]."""
+    return _spec("rgb", threshold, norm=norm, range=range)
+
+
+def lab(threshold=None, norm=None, range=None):
+    """Colour in CIELAB (perceptual distance)."""
+    return _spec("lab", threshold, norm=norm, range=range)
+
+
+def intensity(threshold=None, field=None, range=None):
+    """A scalar field (default 'intensity'), scaled by its type's range or `range` ('auto', (lo, hi))."""
+    return _spec("intensity", threshold, field, range=range)
+
+
+def bands(fields, threshold=0.1, norm=None, range=None):
+    """Several scalar fields as one channel (multispectral bands): bands(["nir", "red"], 0.1)."""
+    if isinstance(fields, str) or not fields:
+        fields = [fields] if isinstance(fields, str) else fields
+    if not fields:
+        raise ValueError("bands: give at least one field name")
+    return _spec("bands", threshold, list(fields), norm=norm, range=range)
+
+
+def _is_open3d(obj):
+    return type(obj).__module__.startswith("open3d") and hasattr(obj, "points") and hasattr(obj, "has_colors")
+
+
+def _from_open3d(pcd, channels):
+    """An Open3D PointCloud as arrays: positions, colours (uint8 when every value is an exact multiple of 1/255,
+    as for colours read from 8-bit files: then results equal the CLI's), normals."""
+    import numpy as np
+
+    points = np.asarray(pcd.points)
+    extra = {}
+    if pcd.has_colors():
+        colors = np.asarray(pcd.colors)
+        as8 = np.rint(colors * 255.0)
+        if np.array_equal(as8 / 255.0, colors) and as8.min(initial=0) >= 0 and as8.max(initial=0) <= 255:
+            colors = as8.astype(np.uint8)
+        extra["rgb"] = colors
+    if pcd.has_normals():
+        extra["nx,ny,nz"] = np.asarray(pcd.normals)
+    if channels:
+        extra.update(channels)
+    return points, extra
+
+
+def _cloud_args(points, channels):
+    if _is_open3d(points):
+        return _from_open3d(points, channels)
+    return points, channels
+
+
+def _as_cloud(cloud):
+    """A ced.Cloud of anything detect() takes as points (arrays are copied into it)."""
+    if isinstance(cloud, Cloud):
+        return cloud
+    points, channels = _cloud_args(cloud, None)
+    return Cloud(points, channels)
+
+
+def render(path, cloud, keypoints=None, view="iso", width=1280, height=960):
+    """Draws the cloud (colours, or grey by depth) and its keypoints as red discs into a PNG file.
+    view: 'iso', 'top' or 'front'."""
+    _ced.render(path, _as_cloud(cloud), keypoints, view, width, height)
+
+
+def estimate_resolution(cloud):
+    """The median nearest-neighbour distance over up to 20000 evenly spread points."""
+    return _ced.estimate_resolution(_as_cloud(cloud))
+
+
+def voxel_downsample(cloud, size):
+    """Voxel-grid down-sampling as PCL's VoxelGrid (positions and fields averaged): a new ced.Cloud."""
+    return _ced.voxel_downsample(_as_cloud(cloud), size)
+
+
+def detect(points, channels=None, modalities=None, radius=0.05, nms_radius=None, min_neighbors=5, threads=0,
+           radius_factor=5.0):
+    """Detects keypoints.
+
+    points: an (N, 3) float32/float64 array (any strides), a numpy structured array with X, Y, Z fields (PDAL's
+        arrays; every other field becomes a channel), a ced.Cloud, or an open3d.geometry.PointCloud.
+    channels: dict name -> (N,) or (N, k) array of any numeric dtype. An (N, 3) 'rgb' (or 'colors') array gives
+        red, green, blue; a key 'a,b,c' names each column; another (N, k) array 'x' gives x_0 .. x_{k-1}.
+    modalities: spec strings ('xyz:0.2', 'rgb:0.1', 'bands(nir,red):0.1'), ced.Modality objects, or a preset name
+        ('ced6d', 'ced3d'). None: ced6d (xyz:0.2, rgb:0.1) when the cloud has colour, else ced3d, as the CLI.
+    radius: neighbourhood radius, or 'auto' (radius_factor x the estimated resolution).
+    nms_radius: None = radius. threads: 0 = all cores (the result does not depend on it).
+
+    Returns a ced.Result. The GIL is released while detecting; Ctrl-C raises KeyboardInterrupt.
+    """
+    points, channels = _cloud_args(points, channels)
+    if nms_radius is not None:
+        nms_radius = float(nms_radius)
+    for name, value in (("min_neighbors", min_neighbors), ("threads", threads)):
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise TypeError(f"{name}: expected an int, got {type(value).__name__}")
+    return _detect(points, channels, modalities, radius, float(radius_factor), nms_radius, min_neighbors, threads)
+
+
+def write(path, cloud, channels=None, format=None):
+    """Writes a cloud (a ced.Cloud, arrays as for detect, or an Open3D cloud) atomically; the format from the
+    extension (.ply, .pcd, .las, .csv) unless given."""
+    points, channels = _cloud_args(cloud, channels)
+    if channels:
+        points = Cloud(points, channels)
+    _write(path, points, format)
+
+
+def write_keypoints(path, cloud, result, format=None):
+    """Writes the keypoints with all their fields and a saliency_<modality> field each, as `ced detect -o`."""
+    import numpy as np
+
+    points, channels = _cloud_args(cloud, None)
+    full = Cloud(points, channels) if channels or not isinstance(points, Cloud) else points
+    kp = result.keypoints
+    extra = {}
+    for name, values in result.saliency.items():
+        column = "".join(c if c.isalnum() else "_" for c in name).rstrip("_")
+        extra["saliency_" + column] = np.ascontiguousarray(values[kp])
+    _write(path, Cloud(full.select(kp), extra), format)

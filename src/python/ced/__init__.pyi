@@ -1,0 +1,155 @@
+# SPDX-License-Identifier: MIT
+# Type stubs of the package `ced` (docs/PYTHON.md is the reference).
+from typing import Any, Callable, Dict, Iterable, List, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+from . import eval as eval
+
+__version__: str
+
+class FileError(OSError):
+    """A file that cannot be read or written: missing, malformed, truncated, unsupported."""
+
+class PluginError(ImportError):
+    """A plugin that cannot be loaded; the message names the file and says why."""
+
+class Cloud:
+    """A point cloud: positions (float32, relative to `origin`) and named per-point fields in their own dtypes."""
+
+    def __init__(self, points: PointsLike, channels: Optional[Channels] = None) -> None: ...
+    def __len__(self) -> int: ...
+    @property
+    def points(self) -> npt.NDArray[np.float32]:
+        """(N, 3) float32 view of the positions, relative to `origin` (no copy, read-only)."""
+    @property
+    def origin(self) -> Tuple[float, float, float]:
+        """The point that positions are relative to (non-zero for georeferenced data)."""
+    def absolute_points(self) -> npt.NDArray[np.float64]:
+        """(N, 3) float64 copy of the absolute positions: origin + points."""
+    @property
+    def fields(self) -> Dict[str, np.ndarray]:
+        """Dict name -> (N,) array viewing each field in its own dtype (no copy, read-only)."""
+    def select(self, indices: npt.ArrayLike) -> Cloud:
+        """A new cloud of the points `indices` names, fields included."""
+
+class Modality:
+    """A modality: a channel and its saliency measure."""
+
+    def __init__(self, spec: str) -> None:
+        """From a spec string, the CLI's grammar: 'xyz:0.2', 'bands(nir,red):0.1,range=0..255'."""
+    @property
+    def name(self) -> str: ...
+    @property
+    def fields(self) -> Optional[List[str]]:
+        """The fields it reads (None: it does not say; []: positions only)."""
+    def threshold(self, radius: float = 0.05) -> float:
+        """The absolute threshold at `radius` (xyz: ratio x radius)."""
+
+class Result:
+    """What ced.detect found, and why. Arrays are read-only views of the C++ result (no copy)."""
+
+    @property
+    def keypoints(self) -> npt.NDArray[np.uint32]:
+        """Keypoint indices into the input, ascending."""
+    @property
+    def saliency(self) -> Dict[str, npt.NDArray[np.float32]]:
+        """Modality name -> (N,) saliency of every point (0 below min_neighbors)."""
+    @property
+    def candidate(self) -> npt.NDArray[np.bool_]:
+        """(N,): some modality reaches its threshold."""
+    @property
+    def neighbor_count(self) -> npt.NDArray[np.uint32]:
+        """(N,): neighbours within the radius, the point itself included."""
+    @property
+    def thresholds(self) -> Dict[str, float]:
+        """Modality name -> absolute threshold (xyz: ratio x radius)."""
+    @property
+    def names(self) -> List[str]:
+        """The modality names, in order (a repeated name gets '#2', ...)."""
+    @property
+    def times(self) -> Dict[str, float]:
+        """Stage times in milliseconds: index_ms, saliency_ms, nms_ms, total_ms."""
+    @property
+    def radius(self) -> float: ...
+    @property
+    def nms_radius(self) -> float: ...
+    @property
+    def min_neighbors(self) -> int: ...
+    def __len__(self) -> int: ...
+
+PointsLike = Union[npt.ArrayLike, Cloud, Any]  # (N, 3) floats, a structured array, a Cloud, an Open3D cloud
+Channels = Mapping[str, npt.ArrayLike]
+ModalityLike = Union[str, Modality]
+BlockFunction = Callable[[npt.NDArray[np.uint32], npt.NDArray[np.int64], npt.NDArray[np.uint32]], npt.ArrayLike]
+PointFunction = Callable[[int, npt.NDArray[np.uint32]], float]
+
+def detect(
+    points: PointsLike,
+    channels: Optional[Channels] = None,
+    modalities: Union[None, str, Modality, Iterable[ModalityLike]] = None,
+    radius: Union[float, str] = 0.05,
+    nms_radius: Optional[float] = None,
+    min_neighbors: int = 5,
+    threads: int = 0,
+    radius_factor: float = 5.0,
+) -> Result:
+    """Detects keypoints (see docs/PYTHON.md). Releases the GIL; Ctrl-C raises KeyboardInterrupt."""
+
+def read(path: str, fields: Optional[Sequence[str]] = None, format: Optional[str] = None) -> Cloud:
+    """Reads a PLY, PCD, LAS or CSV file (only `fields` when given)."""
+
+def write(path: str, cloud: PointsLike, channels: Optional[Channels] = None, format: Optional[str] = None) -> None:
+    """Writes a cloud atomically; the format from the extension unless given."""
+
+def write_keypoints(path: str, cloud: PointsLike, result: Result, format: Optional[str] = None) -> None:
+    """Writes the keypoints with their fields and saliency_<modality> fields, as `ced detect -o`."""
+
+def render(path: str, cloud: PointsLike, keypoints: Optional[npt.ArrayLike] = None, view: str = "iso",
+           width: int = 1280, height: int = 960) -> None:
+    """Draws the cloud and its keypoints into a PNG file. view: 'iso', 'top' or 'front'."""
+
+def estimate_resolution(cloud: PointsLike) -> float:
+    """The median nearest-neighbour distance over up to 20000 evenly spread points."""
+
+def voxel_downsample(cloud: PointsLike, size: float) -> Cloud:
+    """Voxel-grid down-sampling as PCL's VoxelGrid (positions and fields averaged)."""
+
+def modality(spec: str) -> Modality:
+    """A modality from a spec string."""
+
+def xyz(threshold: float = 0.2, norm: Optional[str] = None) -> Modality:
+    """Geometry: L2 distance to the neighbours' centroid; threshold is a ratio of the radius."""
+
+def rgb(threshold: float = 0.1, norm: Optional[str] = None,
+        range: Union[None, str, Tuple[float, float]] = None) -> Modality:
+    """Colour: L1 distance to the neighbours' mean colour, channels scaled to [0, 1]."""
+
+def lab(threshold: Optional[float] = None, norm: Optional[str] = None,
+        range: Union[None, str, Tuple[float, float]] = None) -> Modality:
+    """Colour in CIELAB."""
+
+def intensity(threshold: Optional[float] = None, field: Optional[str] = None,
+              range: Union[None, str, Tuple[float, float]] = None) -> Modality:
+    """A scalar field (default 'intensity')."""
+
+def bands(fields: Union[str, Sequence[str]], threshold: float = 0.1, norm: Optional[str] = None,
+          range: Union[None, str, Tuple[float, float]] = None) -> Modality:
+    """Several scalar fields as one channel (multispectral bands)."""
+
+def python_modality(name: str, fn: Union[BlockFunction, PointFunction], threshold: float,
+                    per_point: bool = False) -> Modality:
+    """A modality whose saliency a Python function computes (slow; for prototyping)."""
+
+def preset(name: str) -> List[Modality]:
+    """'ced3d' (xyz:0.2) or 'ced6d' (xyz:0.2, rgb:0.1)."""
+
+def modalities() -> List[Tuple[str, str]]:
+    """(name, help) of every registered modality, sorted."""
+
+def load_plugin(path: str) -> List[str]:
+    """Loads a plugin and returns the modalities it added."""
+
+def release_cached_memory() -> None:
+    """Frees the up to 32 MiB that detections keep cached for the next one."""

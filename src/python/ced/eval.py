@@ -1,0 +1,118 @@
+# SPDX-License-Identifier: MIT
+"""Keypoint repeatability, as `ced eval repeatability` (Tombari et al. 2013, the CED paper's protocol)."""
+
+import math
+
+from ._ced import Cloud, estimate_resolution
+from ._ced import _eval as _e
+
+Random = _e.Random
+random_transform = _e.random_transform
+transform = _e.transform
+random_keypoints = _e.random_keypoints
+
+__all__ = ["Random", "measure", "random_keypoints", "random_transform", "repeatability", "transform"]
+
+
+def measure(source, source_keypoints, target, target_keypoints, transform, epsilon):
+    """(|K_P|, |K_Q|, repeated): keypoints of `source` whose image under `transform` (4x4, local frames) has a
+    keypoint of `target` within `epsilon`."""
+    return _e.measure(source, source_keypoints, target, target_keypoints, transform, epsilon)
+
+
+def _split_specs(text):
+    """Modality specs joined by commas, as the CLI's --detector: a piece key=value is an option of the spec
+    before it."""
+    specs, cur, depth = [], "", 0
+
+    def flush():
+        eq, colon = cur.find("="), min([i for i in (cur.find(":"), cur.find("(")) if i >= 0], default=-1)
+        if specs and eq >= 0 and (colon < 0 or eq < colon):
+            specs[-1] += "," + cur
+        elif cur:
+            specs.append(cur)
+
+    for c in text:
+        depth += 1 if c == "(" else -1 if c == ")" else 0
+        if c == "," and depth == 0:
+            flush()
+            cur = ""
+        else:
+            cur += c
+    flush()
+    return specs
+
+
+def _detector(d):
+    """(label, modalities or None for the random baseline)."""
+    from . import Modality, preset
+
+    if not isinstance(d, str):
+        mods = [m if isinstance(m, Modality) else Modality(m) for m in d]
+        if not mods:
+            raise ValueError("detectors: an empty modality list")
+        return "+".join(m.name for m in mods), mods
+    if d == "random":
+        return d, None
+    if d in ("ced6d", "ced3d"):
+        return d, preset(d)
+    if d in ("iss3d", "harris3d", "harris6d", "sift"):
+        raise ValueError(f"detectors: {d!r} is a PCL detector, available in the CLI "
+                         f"(ced eval repeatability --detector {d}) but not from Python")
+    specs = _split_specs(d)
+    if not specs:
+        raise ValueError(f"detectors: {d!r} names no modality")
+    return d, [Modality(s) for s in specs]
+
+
+def repeatability(cloud, detectors=("ced6d", "ced3d", "random"), noise=(0.0, 0.5), trials=5, seed=1,
+                  epsilon=2.0, resolution=None, radius=None, min_neighbors=5, threads=0, max_translation=1.0):
+    """Relative repeatability of each detector on `cloud` against randomly moved, noisy copies of itself: the
+    same draws and numbers as `ced eval repeatability INPUT` with the same options.
+
+    detectors: 'ced6d', 'ced3d', 'random', modality specs joined by commas as in the CLI
+        ('xyz:0.2,rgb:0.1'), or lists of specs / ced.Modality objects.
+    noise: Gaussian noise levels, in multiples of the resolution. epsilon: in multiples of the resolution.
+    Returns a list of dicts (one per detector and trial): detector, noise, trial, source_keypoints,
+    target_keypoints, repeated, relative.
+    """
+    from . import detect
+
+    if not isinstance(cloud, Cloud):
+        cloud = Cloud(cloud)
+    if not (isinstance(trials, int) and 1 <= trials <= 10000):
+        raise ValueError("trials: must be an int in 1..10000")
+    if not (epsilon > 0 and math.isfinite(epsilon)):
+        raise ValueError("epsilon: must be a positive number")
+    kinds = [_detector(d) for d in ([detectors] if isinstance(detectors, str) else detectors)]
+    if not kinds:
+        raise ValueError("detectors: no detector given")
+    res = resolution if resolution else estimate_resolution(cloud)
+    if not res > 0:
+        raise ValueError("cannot estimate the resolution; give resolution=")
+    r = radius if radius else 5 * res
+    eps = epsilon * res
+    rows = []
+    master = Random(seed)
+    for level in noise:
+        if not level >= 0:
+            raise ValueError("noise: levels must be >= 0")
+        for trial in range(trials):
+            rng = Random(master.next())
+            t = random_transform(rng, max_translation)
+            q = transform(cloud, t, level * res, rng)
+            last_count = max(1, len(cloud) // 100)
+            for name, mods in kinds:
+                if mods is None:
+                    a = random_keypoints(len(cloud), last_count, rng)
+                    b = random_keypoints(len(q), last_count, rng)
+                else:
+                    a = detect(cloud, modalities=mods, radius=r, nms_radius=r, min_neighbors=min_neighbors,
+                               threads=threads).keypoints
+                    b = detect(q, modalities=mods, radius=r, nms_radius=r, min_neighbors=min_neighbors,
+                               threads=threads).keypoints
+                    last_count = max(1, len(a))
+                kp, kq, rep = measure(cloud, a, q, b, t, eps)
+                rows.append({"detector": name, "noise": level, "trial": trial, "source_keypoints": kp,
+                             "target_keypoints": kq, "repeated": rep, "relative": rep / kp if kp else 0.0})
+    return rows

@@ -1,0 +1,132 @@
+// SPDX-License-Identifier: MIT
+// ced.Modality: built-in and registered modalities from specs, presets,
+// plugins, and modalities written in Python.
+#include <dlfcn.h>
+#include <pybind11/stl.h>
+
+#include <string>
+#include <vector>
+
+#include "bindings.hpp"
+#include "ced/plugin.hpp"
+
+namespace ced_python {
+namespace {
+
+/// A modality whose saliency a Python callable computes, for prototyping:
+/// per block, fn(points, offsets, neighbors) -> (B,) saliencies, where the
+/// neighbours of points[k] are neighbors[offsets[k]:offsets[k+1]]; or, with
+/// per_point, fn(point, neighbors) -> saliency. Runs under the GIL (one
+/// block at a time), so it is much slower than a C++ modality.
+struct python_modality {
+  std::string label;
+  double threshold_value;
+  py::object fn;  // copied and destroyed only under the GIL (by the binding)
+  bool per_point;
+
+  std::string name() const { return label; }
+  double threshold(const ced::detect_params&) const { return threshold_value; }
+  std::vector<std::string> fields() const { return {}; }
+
+  struct evaluator {
+    PyObject* fn;  // borrowed: the modality outlives the detection
+    bool per_point;
+    void evaluate(const ced::block_view& block, float* out) const;
+  };
+  evaluator bind(const ced::point_cloud&, const ced::detect_params&) const { return {fn.ptr(), per_point}; }
+};
+
+void python_modality::evaluator::evaluate(const ced::block_view& block, float* out) const {
+  py::gil_scoped_acquire gil;
+  const auto callable = py::reinterpret_borrow<py::object>(fn);
+  const std::size_t n = block.size();
+  if (per_point) {
+    for (std::size_t k = 0; k < n; ++k) {
+      const ced::neighborhood nb = block[k];
+      py::array_t<std::uint32_t> neighbors(py::ssize_t(nb.size), nb.indices);
+      out[k] = callable(nb.point, neighbors).cast<float>();
+    }
+    return;
+  }
+  py::array_t<std::uint32_t> points(py::ssize_t{static_cast<py::ssize_t>(n)});
+  py::array_t<std::int64_t> offsets(py::ssize_t(n + 1));
+  std::vector<std::uint32_t> all;
+  auto* o = offsets.mutable_data();
+  o[0] = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const ced::neighborhood nb = block[k];
+    points.mutable_data()[k] = nb.point;
+    all.insert(all.end(), nb.begin(), nb.end());
+    o[k + 1] = std::int64_t(all.size());
+  }
+  py::array_t<std::uint32_t> neighbors(py::ssize_t(all.size()), all.data());
+  const auto result = py::array_t<float, py::array::forcecast>::ensure(callable(points, offsets, neighbors));
+  if (!result || result.ndim() != 1 || std::size_t(result.shape(0)) != n)
+    throw py::value_error("Python modality: the function must return " + std::to_string(n) +
+                          " saliencies (one per point of the block), as an array of shape (" + std::to_string(n) +
+                          ",)");
+  for (std::size_t k = 0; k < n; ++k) out[k] = result.at(py::ssize_t(k));
+}
+
+/// Lets plugins loaded later resolve ced's symbols in this module: Python
+/// loads extension modules with RTLD_LOCAL, so promote this one to global.
+void export_symbols_to_plugins() {
+  Dl_info info{};
+  if (dladdr(reinterpret_cast<void*>(&export_symbols_to_plugins), &info) && info.dli_fname)
+    dlopen(info.dli_fname, RTLD_NOW | RTLD_NOLOAD | RTLD_GLOBAL);
+}
+
+ced::any_modality from_python(py::handle m) {
+  if (py::isinstance<ced::any_modality>(m)) return m.cast<ced::any_modality>();
+  if (py::isinstance<py::str>(m)) return ced::make_modality(m.cast<std::string>());
+  throw py::type_error("modalities: expected spec strings (e.g. 'xyz:0.2') or ced.Modality objects, got " +
+                       py::str(py::type::of(m)).cast<std::string>());
+}
+
+}  // namespace
+
+void bind_modalities(py::module_& m) {
+  py::class_<ced::any_modality>(m, "Modality", "A modality: a channel and its saliency measure.")
+      .def(py::init([](const std::string& spec) { return ced::make_modality(spec); }), py::arg("spec"),
+           "A modality from a spec string, the CLI's grammar: 'xyz:0.2', 'bands(nir,red):0.1,range=0..255'.")
+      .def_property_readonly("name", &ced::any_modality::name)
+      .def_property_readonly("fields", &ced::any_modality::fields,
+                             "The fields it reads (None: it does not say; [] positions only).")
+      .def(
+          "threshold",
+          [](const ced::any_modality& mod, double radius) {
+            ced::detect_params p;
+            p.radius = radius;
+            return mod.threshold(p);
+          },
+          py::arg("radius") = 0.05, "The absolute threshold at `radius` (xyz: ratio x radius).")
+      .def("__repr__", [](const ced::any_modality& mod) { return "<ced.Modality " + mod.name() + ">"; });
+
+  m.def(
+      "python_modality",
+      [](std::string name, py::function fn, double threshold, bool per_point) {
+        if (name.empty()) throw py::value_error("name: must not be empty");
+        if (!std::isfinite(threshold)) throw py::value_error("threshold: must be finite");
+        return ced::any_modality(python_modality{std::move(name), threshold, std::move(fn), per_point});
+      },
+      py::arg("name"), py::arg("fn"), py::arg("threshold"), py::arg("per_point") = false,
+      "A modality whose saliency a Python function computes (slow; for prototyping). By block: "
+      "fn(points, offsets, neighbors) -> saliencies, neighbours of points[k] in "
+      "neighbors[offsets[k]:offsets[k+1]]; with per_point=True: fn(point, neighbors) -> float.");
+  m.def("_to_modality", &from_python);
+  m.def(
+      "preset", [](const std::string& name) { return ced::preset(name); }, py::arg("name"),
+      "The modalities of a preset: 'ced3d' (xyz:0.2) or 'ced6d' (xyz:0.2, rgb:0.1).");
+  m.def("modalities", &ced::registered_modalities, "(name, help) of every registered modality, sorted.");
+  m.def(
+      "load_plugin",
+      [](const std::string& path) {
+        export_symbols_to_plugins();
+        const ced::plugin_info info = ced::load_plugin(path);
+        return info.modalities;
+      },
+      py::arg("path"),
+      "Loads a plugin (a shared library built with ced_add_plugin) and returns the modalities it added.");
+}
+
+}  // namespace ced_python

@@ -1,0 +1,164 @@
+# SPDX-License-Identifier: MIT
+# ced.detect from numpy: the CLI's keypoints, every input layout, the Result.
+import numpy as np
+import pytest
+
+import ced
+from conftest import cli_keypoints, room
+
+
+def channels_of(cloud):
+    return {name: values for name, values in cloud.fields.items()}
+
+
+def test_numpy_gives_the_cli_keypoints_on_the_redwood_sample(cli, sample, sample_path):
+    points = np.array(sample.points)  # a plain numpy copy: no ced object goes in
+    colours = {k: np.array(v) for k, v in channels_of(sample).items()}
+    for preset in ("ced6d", "ced3d"):
+        expected = cli_keypoints(cli, sample_path, "--preset", preset)
+        got = ced.detect(points, colours, modalities=preset)
+        assert len(expected) > 100
+        np.testing.assert_array_equal(got.keypoints, expected, err_msg=preset)
+    # The default is the CLI's: ced6d when the cloud has colour.
+    np.testing.assert_array_equal(ced.detect(points, colours).keypoints, cli_keypoints(cli, sample_path, "--preset", "ced6d"))
+
+
+def test_auto_radius_matches_the_cli(cli, sample, sample_path):
+    expected = cli_keypoints(cli, sample_path, "-m", "xyz:0.2", "-m", "rgb:0.1", "--radius", "auto")
+    got = ced.detect(sample, modalities=["xyz:0.2", "rgb:0.1"], radius="auto")
+    np.testing.assert_array_equal(got.keypoints, expected)
+    assert got.radius == pytest.approx(5 * ced.estimate_resolution(sample))
+
+
+def test_float64_any_strides_and_layouts_give_the_same_result(sample):
+    p32 = np.array(sample.points)
+    rgb = np.c_[sample.fields["red"], sample.fields["green"], sample.fields["blue"]]
+    ref = ced.detect(p32, {"rgb": rgb})
+    wide = np.zeros((len(p32), 7))  # positions as a strided view inside a wider float64 array
+    wide[:, 2:5] = p32
+    variants = {
+        "float64": p32.astype(np.float64),
+        "fortran": np.asfortranarray(p32),
+        "strided float64": wide[:, 2:5],
+        "reversed twice": p32[::-1][::-1],
+    }
+    for name, pts in variants.items():
+        got = ced.detect(pts, {"red": rgb[:, 0], "green": rgb[:, 1], "blue": rgb[:, 2]})
+        np.testing.assert_array_equal(got.keypoints, ref.keypoints, err_msg=name)
+        for m in ref.saliency:
+            np.testing.assert_array_equal(got.saliency[m], ref.saliency[m], err_msg=name)
+    # uint16 colours holding 8-bit values are scaled by 255, as in LAS files: same result.
+    got = ced.detect(p32, {"r,g,b": rgb.astype(np.uint16)})
+    np.testing.assert_array_equal(got.keypoints, ref.keypoints)
+
+
+def test_structured_array_like_pdal():
+    pts, rgb = room()
+    a = np.zeros(len(pts), dtype=[("X", "f8"), ("Y", "f8"), ("Z", "f8"), ("Intensity", "u2"),
+                                  ("Red", "u2"), ("Green", "u2"), ("Blue", "u2")])
+    offset = np.array([500000.0, 4100000.0, 120.0])  # georeferenced, as LAS files are
+    a["X"], a["Y"], a["Z"] = (pts + offset).T
+    a["Red"], a["Green"], a["Blue"] = (rgb.astype(np.uint16) * 257).T
+    a["Intensity"] = (pts[:, 2] * 1000).astype(np.uint16)
+    cloud = ced.Cloud(a)
+    assert cloud.origin[0] > 4e5 and cloud.origin[1] > 4e6 and cloud.origin[2] == 0  # float offsets keep precision
+    np.testing.assert_allclose(cloud.absolute_points(), pts + offset, atol=1e-4)
+    assert set(cloud.fields) == {"Intensity", "Red", "Green", "Blue"}
+    r = ced.detect(a, modalities=["xyz:0.2", "rgb:0.1", "intensity:0.05"], radius=0.1)
+    ref = ced.detect(pts, {"rgb": rgb.astype(np.uint16) * 257, "intensity": a["Intensity"]},
+                     modalities=["xyz:0.2", "rgb:0.1", "intensity:0.05"], radius=0.1)
+    assert len(r.keypoints) > 0
+    assert set(r.saliency) == {"xyz", "rgb", "intensity"}
+    # The same points up to float rounding of the offsets: nearly the same keypoints.
+    assert len(np.intersect1d(r.keypoints, ref.keypoints)) >= 0.9 * len(ref.keypoints)
+
+
+def test_modality_objects_equal_spec_strings(sample):
+    a = ced.detect(sample, modalities=[ced.xyz(0.2), ced.rgb(0.1)])
+    b = ced.detect(sample, modalities=("xyz:0.2", "rgb:0.1"))
+    c = ced.detect(sample, modalities=ced.preset("ced6d"))
+    np.testing.assert_array_equal(a.keypoints, b.keypoints)
+    np.testing.assert_array_equal(a.keypoints, c.keypoints)
+    assert ced.bands(["red", "green"], 0.1, range=(0, 255)).name == "bands(red,green)"
+    assert ced.intensity(0.05, field="red").name.startswith("intensity")
+    assert ced.xyz(0.3).threshold(radius=0.1) == pytest.approx(0.03)
+    names = [n for n, _ in ced.modalities()]
+    assert {"xyz", "rgb", "lab", "intensity", "bands"} <= set(names)
+    r = ced.detect(sample, modalities=[ced.xyz(), ced.lab(), ced.bands(["red", "blue"], 0.1)])
+    assert list(r.saliency) == ["xyz", "lab", "bands(red,blue)"]
+
+
+def test_result_views_and_fields(sample):
+    r = ced.detect(sample, threads=1)
+    n = len(sample)
+    assert r.keypoints.dtype == np.uint32 and np.all(np.diff(r.keypoints.astype(np.int64)) > 0)
+    assert r.keypoints.base is not None  # a view of the C++ result
+    s1, s2 = r.saliency["xyz"], r.saliency["xyz"]
+    assert s1.dtype == np.float32 and s1.shape == (n,)
+    assert np.shares_memory(s1, s2)  # the same C++ vector each time: no copy
+    assert not s1.flags.writeable
+    assert r.candidate.dtype == np.bool_ and r.candidate.shape == (n,)
+    assert r.neighbor_count.dtype == np.uint32 and r.neighbor_count.min() >= 1
+    assert r.thresholds == pytest.approx({"xyz": 0.2 * 0.05, "rgb": 0.1})
+    assert set(r.times) == {"index_ms", "saliency_ms", "nms_ms", "total_ms"}
+    # Candidates are the points some modality reaches its threshold at; keypoints are candidates.
+    reach = (r.saliency["xyz"] >= r.thresholds["xyz"]) | (r.saliency["rgb"] >= r.thresholds["rgb"])
+    np.testing.assert_array_equal(r.candidate, reach)
+    assert r.candidate[r.keypoints].all()
+    assert f"{len(r.keypoints)} keypoints" in repr(r) and "xyz" in repr(r)
+    keypoints = r.keypoints
+    del r  # the arrays keep the result alive
+    assert keypoints.sum() > 0
+
+
+def test_thread_count_does_not_change_the_result(sample):
+    one = ced.detect(sample, threads=1)
+    for threads in (2, 3, 0):
+        other = ced.detect(sample, threads=threads)
+        np.testing.assert_array_equal(one.keypoints, other.keypoints)
+        for m in one.saliency:
+            assert one.saliency[m].tobytes() == other.saliency[m].tobytes()
+
+
+def test_cloud_read_write_select_render(sample, sample_path, tmp_path):
+    c = ced.read(sample_path)
+    assert len(c) == len(sample) and c.points.shape == (len(c), 3) and c.points.dtype == np.float32
+    assert np.shares_memory(c.points, c.points)  # a view, not a copy
+    assert c.fields["red"].dtype == np.uint8
+    only = ced.read(sample_path, fields=["red"])
+    assert list(only.fields) == ["red"]
+    out = tmp_path / "copy.pcd"
+    ced.write(str(out), c)
+    back = ced.read(str(out))
+    np.testing.assert_array_equal(back.points, c.points)
+    np.testing.assert_array_equal(back.fields["green"], c.fields["green"])
+    r = ced.detect(c)
+    kp = tmp_path / "kp.ply"
+    ced.write_keypoints(str(kp), c, r)
+    k = ced.read(str(kp))
+    assert len(k) == len(r.keypoints)
+    np.testing.assert_array_equal(k.points, c.points[r.keypoints])
+    np.testing.assert_array_equal(k.fields["saliency_xyz"], r.saliency["xyz"][r.keypoints])
+    png = tmp_path / "kp.png"
+    ced.render(str(png), c, r.keypoints, view="top", width=320, height=240)
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # Arrays written directly, with channels.
+    pts, rgb = room(500)
+    ced.write(str(tmp_path / "room.ply"), pts.astype(np.float32), {"rgb": rgb})
+    room_back = ced.read(str(tmp_path / "room.ply"))
+    np.testing.assert_array_equal(room_back.fields["blue"], rgb[:, 2])
+
+
+def test_plugin_modality_from_python(sample):
+    import os
+
+    path = os.environ.get("CED_NDVI_PLUGIN")
+    if not path:
+        pytest.skip("CED_NDVI_PLUGIN is not set (ctest sets it when the examples are built)")
+    assert "ndvi" in ced.load_plugin(path)
+    pts, rgb = room(3000)
+    nir = np.where(pts[:, 1] > 0.5, 200, 40).astype(np.uint8)
+    r = ced.detect(pts, {"nir": nir, "red": rgb[:, 0]}, modalities=["xyz:0.2", "ndvi:0.1"], radius=0.1)
+    assert "ndvi" in r.saliency and r.saliency["ndvi"].max() > 0.1
+    with pytest.raises(ced.PluginError, match="nothing.so"):
+        ced.load_plugin("/nonexistent/nothing.so")

@@ -1,0 +1,50 @@
+# SPDX-License-Identifier: MIT
+# The type stubs (.pyi) describe the package as it is: the same names, the same parameters.
+import ast
+import inspect
+import pathlib
+
+import pytest
+
+import ced
+import ced.eval
+
+PACKAGE = pathlib.Path(ced.__file__).resolve().parent
+
+
+def stub_functions(name):
+    tree = ast.parse((PACKAGE / name).read_text())
+    functions, classes = {}, set()
+    for node in tree.body:
+        if isinstance(node, ast.FunctionDef):
+            a = node.args
+            functions[node.name] = [x.arg for x in a.posonlyargs + a.args + a.kwonlyargs]
+        elif isinstance(node, ast.ClassDef):
+            classes.add(node.name)
+    return functions, classes
+
+
+def parameters(fn):
+    try:
+        return list(inspect.signature(fn).parameters)
+    except ValueError:  # a pybind11 function: its first signature line
+        head = fn.__doc__.splitlines()[0]
+        inside = head[head.index("(") + 1:head.rindex(")")]
+        return [p.split(":")[0].strip() for p in inside.split(", ") if p]
+
+
+@pytest.mark.parametrize("module, stub", [(ced, "__init__.pyi"), (ced.eval, "eval.pyi")])
+def test_stubs_match_the_package(module, stub):
+    functions, classes = stub_functions(stub)
+    public = set(module.__all__) - {"eval", "__version__"}
+    assert public == set(functions) | classes
+    for name, params in functions.items():
+        assert parameters(getattr(module, name)) == params, name
+
+
+@pytest.mark.parametrize("module", [ced, ced.eval])
+def test_docstrings_are_present(module):
+    for name in module.__all__:
+        obj = getattr(module, name)
+        if callable(obj):
+            assert obj.__doc__ and obj.__doc__.strip(), name
