@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "ced/cloud.hpp"
@@ -237,4 +238,36 @@ TEST(Cloud, ChooseOriginFromPointsSkipsNonFinite) {
   // point is not the minimum.
   const std::vector<double> gx = {-700005.0, -700010.0, -700000.0}, gy = {1, 2, 3}, gz = {20000, 20002, 20004};
   EXPECT_EQ(ced::choose_origin(gx.data(), gy.data(), gz.data(), 3), (o3{-700005, 0, 20002}));
+}
+
+TEST(Column, ViewReadsWithoutCopyingAndCopiesOnFirstWrite) {
+  std::vector<std::uint16_t> storage = {10, 20, 300, 4000};
+  auto owner = std::make_shared<int>(0);
+  std::weak_ptr<int> alive = owner;
+  {
+    const ced::column v = ced::column::view(ced::scalar_type::uint16, storage.data(), storage.size(), owner);
+    owner.reset();
+    EXPECT_TRUE(v.is_view());
+    EXPECT_EQ(v.data<std::uint16_t>(), storage.data());  // no copy (const access never copies)
+    EXPECT_EQ(v[2], 300.0);
+    storage[2] = 301;  // the view sees the memory it reads
+    EXPECT_EQ(v[2], 301.0);
+    ced::column shared = v;  // copies share the memory and the owner
+    EXPECT_TRUE(shared.is_view());
+    EXPECT_EQ(std::as_const(shared).bytes(), v.bytes());
+    shared.set(0, 11);  // the first write copies
+    EXPECT_FALSE(shared.is_view());
+    EXPECT_EQ(storage[0], 10);
+    EXPECT_EQ(shared[0], 11.0);
+    EXPECT_EQ(shared[3], 4000.0);
+    ced::point_cloud c;
+    c.resize(4);
+    c.add_field("i", v);
+    EXPECT_EQ(std::as_const(c).get_field("i").values.data<std::uint16_t>(), storage.data());
+    c.filter({1, 0, 1, 1});  // filtering writes: the field gets its own values
+    EXPECT_EQ(c.get_field("i").values, (std::vector<double>{10, 301, 4000}));
+    EXPECT_EQ(storage[1], 20);
+    EXPECT_FALSE(alive.expired());  // v still holds the owner
+  }
+  EXPECT_TRUE(alive.expired());  // released with the last view
 }

@@ -9,6 +9,7 @@
 #include <iosfwd>
 #include <iterator>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -127,6 +128,20 @@ class column {
   explicit column(scalar_type type, std::size_t n = 0) : m_type(type) { resize(n); }
   /// `values` converted to `type` (see convert_value()).
   column(scalar_type type, const std::vector<double>& values);
+  /// A column that reads `n` values of `type` at `data` without copying
+  /// them; `owner` keeps that memory alive (copies of the column share it).
+  /// `data` must be aligned for `type`. The first write (set(), resize(),
+  /// a non-const data() or bytes()) copies the values into the column's
+  /// own storage first.
+  static column view(scalar_type type, const void* data, std::size_t n, std::shared_ptr<const void> owner) {
+    column c(type);
+    c.m_view = static_cast<const unsigned char*>(data);
+    c.m_owner = std::move(owner);
+    c.m_size = n;
+    return c;
+  }
+  /// True while the column reads memory it does not own (see view()).
+  bool is_view() const noexcept { return m_view != nullptr; }
 
   scalar_type type() const noexcept { return m_type; }
   std::size_t size() const noexcept { return m_size; }
@@ -137,7 +152,7 @@ class column {
     return visit_type(m_type, [&](auto tag) { return static_cast<double>(data<decltype(tag)>()[i]); });
   }
   /// Sets value i, converted to the column's type (see convert_value()).
-  void set(std::size_t i, double v) noexcept {
+  void set(std::size_t i, double v) {
     visit_type(m_type, [&](auto tag) { data<decltype(tag)>()[i] = convert_value<decltype(tag)>(v); });
   }
 
@@ -146,12 +161,12 @@ class column {
   template <class T>
   const T* data() const {
     check_type(scalar_type_of<T>());
-    return reinterpret_cast<const T*>(m_bytes.data());
+    return reinterpret_cast<const T*>(bytes());
   }
   template <class T>
   T* data() {
     check_type(scalar_type_of<T>());
-    return reinterpret_cast<T*>(m_bytes.data());
+    return reinterpret_cast<T*>(bytes());
   }
   /// Calls `f(const T* values, std::size_t n)` with the column's own type T.
   template <class F>
@@ -163,11 +178,15 @@ class column {
     return visit_type(m_type, [&](auto tag) { return f(data<decltype(tag)>(), m_size); });
   }
   /// The raw bytes: size() × size_of(type()).
-  const unsigned char* bytes() const noexcept { return m_bytes.data(); }
-  unsigned char* bytes() noexcept { return m_bytes.data(); }
+  const unsigned char* bytes() const noexcept { return m_view ? m_view : m_bytes.data(); }
+  unsigned char* bytes() {
+    own();
+    return m_bytes.data();
+  }
 
   /// Resizes; new values are 0.
   void resize(std::size_t n) {
+    own();
     m_bytes.resize(n * size_of(m_type));
     m_size = n;
   }
@@ -226,9 +245,19 @@ class column {
     return true;
   }
 
+  /// A view becomes a column of its own: the values are copied.
+  void own() {
+    if (!m_view) return;
+    m_bytes.assign(m_view, m_view + m_size * size_of(m_type));
+    m_view = nullptr;
+    m_owner.reset();
+  }
+
   scalar_type m_type = scalar_type::float64;
   std::size_t m_size = 0;
-  std::vector<unsigned char> m_bytes;  // operator new's alignment: enough for any type
+  std::vector<unsigned char> m_bytes;     // operator new's alignment: enough for any type
+  const unsigned char* m_view = nullptr;  // see view()
+  std::shared_ptr<const void> m_owner;
 };
 
 /// Prints a column as its values (for test failures).

@@ -72,19 +72,28 @@ ced::scalar_type storage_type(py::array& a, const std::string& argument) {
                        dtype_text(a));
 }
 
+/// Keeps a Python object alive for as long as a C++ owner lives, on any thread.
+std::shared_ptr<const void> keep_alive(py::handle obj) {
+  PyObject* o = obj.inc_ref().ptr();
+  return std::shared_ptr<const void>(o, [](const void* p) {
+    py::gil_scoped_acquire gil;
+    Py_DECREF(static_cast<PyObject*>(const_cast<void*>(p)));
+  });
+}
+
 /// Column `j` of a 1-D or 2-D array (rows strided by strides(0), columns by
-/// strides(1)), copied into a typed column of its own type.
-ced::column copy_column(const py::array& a, ced::scalar_type type, py::ssize_t j) {
+/// strides(1)) as a typed column: a view of the array (no copy) when its
+/// values are contiguous and aligned, else a copy.
+ced::column to_column(const py::array& a, ced::scalar_type type, py::ssize_t j) {
   const auto n = static_cast<std::size_t>(a.shape(0));
-  ced::column c(type, n);
   const auto* base = static_cast<const char*>(a.data()) + (a.ndim() == 2 ? j * a.strides(1) : 0);
   const py::ssize_t stride = a.strides(0);
   const std::size_t size = ced::size_of(type);
+  if ((stride == py::ssize_t(size) || n <= 1) && reinterpret_cast<std::uintptr_t>(base) % size == 0)
+    return ced::column::view(type, base, n, keep_alive(a));
+  ced::column c(type, n);
   unsigned char* out = c.bytes();
-  if (stride == py::ssize_t(size))
-    std::memcpy(out, base, n * size);
-  else
-    for (std::size_t i = 0; i < n; ++i) std::memcpy(out + i * size, base + py::ssize_t(i) * stride, size);
+  for (std::size_t i = 0; i < n; ++i) std::memcpy(out + i * size, base + py::ssize_t(i) * stride, size);
   return c;
 }
 
@@ -132,7 +141,7 @@ void add_channel(ced::point_cloud& cloud, const std::string& name, py::handle va
   const auto names = column_names(name, k, argument);
   for (py::ssize_t j = 0; j < k; ++j) {
     if (names[std::size_t(j)].empty()) throw py::value_error(argument + ": empty field name");
-    cloud.add_field(names[std::size_t(j)], copy_column(a, type, j));
+    cloud.add_field(names[std::size_t(j)], to_column(a, type, j));
   }
 }
 

@@ -162,3 +162,20 @@ def test_plugin_modality_from_python(sample):
     assert "ndvi" in r.saliency and r.saliency["ndvi"].max() > 0.1
     with pytest.raises(ced.PluginError, match="nothing.so"):
         ced.load_plugin("/nonexistent/nothing.so")
+
+
+def test_contiguous_channels_are_viewed_not_copied():
+    pts, rgb = room(1000)
+    red = np.ascontiguousarray(rgb[:, 0])
+    intensity = np.arange(1000, dtype=np.uint16)
+    cloud = ced.Cloud(pts, {"r8": red, "intensity": intensity, "rgb": rgb})
+    assert np.shares_memory(cloud.fields["r8"], red)  # a contiguous (N,) array: no copy
+    assert np.shares_memory(cloud.fields["intensity"], intensity)
+    assert not np.shares_memory(cloud.fields["green"], rgb)  # a column of an (N, 3) array: copied
+    del red, intensity  # the cloud keeps the arrays alive
+    np.testing.assert_array_equal(cloud.fields["intensity"], np.arange(1000))
+    # Non-native byte order, float16 and bool are converted (a copy), values kept.
+    big = np.arange(1000, dtype=">u2")
+    c2 = ced.Cloud(pts, {"big": big, "half": np.ones(1000, np.float16), "flag": np.ones(1000, bool)})
+    np.testing.assert_array_equal(c2.fields["big"], np.arange(1000))
+    assert c2.fields["half"].dtype == np.float32 and c2.fields["flag"].dtype == np.uint8
