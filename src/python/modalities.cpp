@@ -31,9 +31,10 @@ struct python_modality {
   struct evaluator {
     PyObject* fn;  // borrowed: the modality outlives the detection
     bool per_point;
+    const std::string* label;
     void evaluate(const ced::block_view& block, float* out) const;
   };
-  evaluator bind(const ced::point_cloud&, const ced::detect_params&) const { return {fn.ptr(), per_point}; }
+  evaluator bind(const ced::point_cloud&, const ced::detect_params&) const { return {fn.ptr(), per_point, &label}; }
 };
 
 void python_modality::evaluator::evaluate(const ced::block_view& block, float* out) const {
@@ -44,7 +45,13 @@ void python_modality::evaluator::evaluate(const ced::block_view& block, float* o
     for (std::size_t k = 0; k < n; ++k) {
       const ced::neighborhood nb = block[k];
       py::array_t<std::uint32_t> neighbors(py::ssize_t(nb.size), nb.indices);
-      out[k] = callable(nb.point, neighbors).cast<float>();
+      const py::object s = callable(nb.point, neighbors);
+      try {
+        out[k] = s.cast<float>();
+      } catch (const py::cast_error&) {
+        throw py::type_error("Python modality '" + *label + "': fn(point, neighbors) must return a number, got " +
+                             py::str(py::type::of(s)).cast<std::string>());
+      }
     }
     return;
   }
@@ -62,7 +69,7 @@ void python_modality::evaluator::evaluate(const ced::block_view& block, float* o
   py::array_t<std::uint32_t> neighbors(py::ssize_t(all.size()), all.data());
   const auto result = py::array_t<float, py::array::forcecast>::ensure(callable(points, offsets, neighbors));
   if (!result || result.ndim() != 1 || std::size_t(result.shape(0)) != n)
-    throw py::value_error("Python modality: the function must return " + std::to_string(n) +
+    throw py::value_error("Python modality '" + *label + "': the function must return " + std::to_string(n) +
                           " saliencies (one per point of the block), as an array of shape (" + std::to_string(n) +
                           ",)");
   for (std::size_t k = 0; k < n; ++k) out[k] = result.at(py::ssize_t(k));
@@ -74,13 +81,6 @@ void export_symbols_to_plugins() {
   Dl_info info{};
   if (dladdr(reinterpret_cast<void*>(&export_symbols_to_plugins), &info) && info.dli_fname)
     dlopen(info.dli_fname, RTLD_NOW | RTLD_NOLOAD | RTLD_GLOBAL);
-}
-
-ced::any_modality from_python(py::handle m) {
-  if (py::isinstance<ced::any_modality>(m)) return m.cast<ced::any_modality>();
-  if (py::isinstance<py::str>(m)) return ced::make_modality(m.cast<std::string>());
-  throw py::type_error("modalities: expected spec strings (e.g. 'xyz:0.2') or ced.Modality objects, got " +
-                       py::str(py::type::of(m)).cast<std::string>());
 }
 
 }  // namespace
@@ -113,7 +113,6 @@ void bind_modalities(py::module_& m) {
       "A modality whose saliency a Python function computes (slow; for prototyping). By block: "
       "fn(points, offsets, neighbors) -> saliencies, neighbours of points[k] in "
       "neighbors[offsets[k]:offsets[k+1]]; with per_point=True: fn(point, neighbors) -> float.");
-  m.def("_to_modality", &from_python);
   m.def(
       "preset", [](const std::string& name) { return ced::preset(name); }, py::arg("name"),
       "The modalities of a preset: 'ced3d' (xyz:0.2) or 'ced6d' (xyz:0.2, rgb:0.1).");

@@ -130,6 +130,9 @@ def test_bad_python_modality(pts):
         ced.detect(pts, modalities=[ced.python_modality("short", lambda p, o, nb: np.zeros(1), 0.1)], radius=0.1)
     with pytest.raises(ZeroDivisionError):
         ced.detect(pts, modalities=[ced.python_modality("div", lambda p, o, nb: 1 / 0, 0.1)], radius=0.1)
+    with pytest.raises(TypeError, match=r"Python modality 'text': fn\(point, neighbors\) must return a number, got"):
+        ced.detect(pts, modalities=[ced.python_modality("text", lambda p, nb: "high", 0.1, per_point=True)],
+                   radius=0.1)
     with pytest.raises(TypeError):
         ced.python_modality("nofn", 42, 0.1)
     with pytest.raises(ValueError, match="name"):

@@ -179,3 +179,30 @@ def test_contiguous_channels_are_viewed_not_copied():
     c2 = ced.Cloud(pts, {"big": big, "half": np.ones(1000, np.float16), "flag": np.ones(1000, bool)})
     np.testing.assert_array_equal(c2.fields["big"], np.arange(1000))
     assert c2.fields["half"].dtype == np.float32 and c2.fields["flag"].dtype == np.uint8
+
+
+def test_detections_on_several_python_threads_run_together_and_agree(sample):
+    import threading
+
+    expected = ced.detect(sample, threads=1)
+    pts, rgb = room(5000)
+    expected_room = ced.detect(pts, {"rgb": rgb}, radius=0.1, threads=1)
+    results, errors = {}, []
+
+    def work(k):
+        try:
+            if k % 2:
+                results[k] = ced.detect(sample, threads=2).keypoints
+            else:
+                results[k] = ced.detect(pts, {"rgb": rgb}, radius=0.1, threads=1).keypoints
+        except Exception as e:  # noqa: BLE001 - reported below
+            errors.append(e)
+
+    threads = [threading.Thread(target=work, args=(k,)) for k in range(6)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors
+    for k, kp in results.items():
+        np.testing.assert_array_equal(kp, expected.keypoints if k % 2 else expected_room.keypoints)
