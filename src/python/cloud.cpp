@@ -99,6 +99,24 @@ void bind_cloud(py::module_& m) {
           "fields", [](py::object self) { return fields_of(self.cast<const ced::point_cloud&>(), self); },
           "Dict name -> (N,) array viewing each field in its own dtype (no copy).")
       .def("select", &select, py::arg("indices"), "A new cloud of the points `indices` names, fields included.")
+      .def(py::pickle(  // for multiprocessing and Dask: positions, origin and fields, exactly
+          [](const ced::point_cloud& c) {
+            py::dict fields;
+            for (const auto& f : c.fields()) fields[py::str(f.name)] = view(f.values, py::none()).attr("copy")();
+            py::array_t<float> xyz({py::ssize_t(c.size()), py::ssize_t(3)}, c.positions().data());
+            return py::make_tuple(xyz, py::make_tuple(c.origin()[0], c.origin()[1], c.origin()[2]), fields);
+          },
+          [](const py::tuple& state) {
+            if (state.size() != 3) throw py::value_error("Cloud: bad pickle state");
+            const auto xyz = state[0].cast<py::array_t<float, py::array::c_style | py::array::forcecast>>();
+            auto c = std::make_shared<ced::point_cloud>();
+            c->resize(std::size_t(xyz.shape(0)));
+            std::copy_n(xyz.data(), 3 * c->size(), c->positions().data());
+            const auto o = state[1].cast<std::array<double, 3>>();
+            c->set_origin(o);
+            add_channels(*c, state[2], "Cloud state");
+            return c;
+          }))
       .def("__repr__", &repr);
 
   m.def(

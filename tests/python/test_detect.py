@@ -206,3 +206,20 @@ def test_detections_on_several_python_threads_run_together_and_agree(sample):
     assert not errors
     for k, kp in results.items():
         np.testing.assert_array_equal(kp, expected.keypoints if k % 2 else expected_room.keypoints)
+
+
+def test_clouds_pickle_exactly(sample):
+    import pickle
+
+    pts, rgb = room(800)
+    geo = ced.Cloud(pts + [600000.0, 5000000.0, 0.0], {"rgb": rgb, "intensity": np.arange(800, dtype=np.uint16)})
+    for cloud in (sample, geo):
+        back = pickle.loads(pickle.dumps(cloud))
+        assert back.origin == cloud.origin
+        np.testing.assert_array_equal(back.points, cloud.points)
+        assert list(back.fields) == list(cloud.fields)
+        for name, values in cloud.fields.items():
+            assert back.fields[name].dtype == values.dtype
+            np.testing.assert_array_equal(back.fields[name], values)
+    np.testing.assert_array_equal(ced.detect(pickle.loads(pickle.dumps(sample))).keypoints,
+                                  ced.detect(sample).keypoints)
