@@ -235,8 +235,18 @@ ced::point_cloud cloud_from_structured(const py::array& a) {
 
 void add_channels(ced::point_cloud& cloud, py::handle channels, const char* argument) {
   if (channels.is_none()) return;
+  if (py::isinstance<py::array>(channels) && !channels.attr("dtype").attr("names").is_none()) {
+    // A structured array (PDAL's): every field but X, Y, Z is a channel.
+    const auto a = py::reinterpret_borrow<py::array>(channels);
+    for (const auto& name : a.dtype().attr("names").cast<std::vector<std::string>>()) {
+      const std::string l = lower(name);
+      if (l == "x" || l == "y" || l == "z") continue;
+      add_channel(cloud, name, a[py::str(name)], std::string(argument) + "['" + name + "']");
+    }
+    return;
+  }
   if (!py::isinstance<py::dict>(channels))
-    throw py::type_error(std::string(argument) + ": expected a dict of name -> array, got " +
+    throw py::type_error(std::string(argument) + ": expected a dict of name -> array or a structured array, got " +
                          py::str(py::type::of(channels)).cast<std::string>());
   for (auto item : py::reinterpret_borrow<py::dict>(channels)) {
     if (!py::isinstance<py::str>(item.first))

@@ -69,6 +69,12 @@ def test_structured_array_like_pdal():
                      modalities=["xyz:0.2", "rgb:0.1", "intensity:0.05"], radius=0.1)
     assert len(r.keypoints) > 0
     assert set(r.saliency) == {"xyz", "rgb", "intensity"}
+    # Channels may come as a structured array too, beside separate positions (its X, Y, Z are skipped).
+    by_channels = ced.detect(pts + offset, a, modalities=["xyz:0.2", "rgb:0.1", "intensity:0.05"], radius=0.1)
+    np.testing.assert_array_equal(by_channels.keypoints, r.keypoints)
+    assert set(ced.Cloud(pts, a[["Red", "Intensity"]]).fields) == {"Red", "Intensity"}
+    with pytest.raises(ValueError, match=r"channels\['Intensity'\]: 3 values, but there are 4000 points"):
+        ced.detect(pts, a[:3])
     # The same points up to float rounding of the offsets: nearly the same keypoints.
     assert len(np.intersect1d(r.keypoints, ref.keypoints)) >= 0.9 * len(ref.keypoints)
 

@@ -158,7 +158,8 @@ def detect(points, channels=None, modalities=None, radius=0.05, nms_radius=None,
 
     points: an (N, 3) float32/float64 array (any strides), a numpy structured array with X, Y, Z fields (PDAL's
         arrays; every other field becomes a channel), a ced.Cloud, or an open3d.geometry.PointCloud.
-    channels: dict name -> (N,) or (N, k) array of any numeric dtype. An (N, 3) 'rgb' (or 'colors') array gives
+    channels: a structured array (every field but X, Y, Z is a channel), or a dict name -> (N,) or (N, k) array of
+        any numeric dtype. An (N, 3) 'rgb' (or 'colors') array gives
         red, green, blue; a key 'a,b,c' names each column; another (N, k) array 'x' gives x_0 .. x_{k-1}.
     modalities: spec strings ('xyz:0.2', 'rgb:0.1', 'bands(nir,red):0.1'), ced.Modality objects, or a preset name
         ('ced6d', 'ced3d'). None: ced6d (xyz:0.2, rgb:0.1) when the cloud has colour, else ced3d, as the CLI.

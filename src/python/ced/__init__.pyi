@@ -80,7 +80,7 @@ class Result:
     def __len__(self) -> int: ...
 
 PointsLike = Union[npt.ArrayLike, Cloud, Any]  # (N, 3) floats, a structured array, a Cloud, an Open3D cloud
-Channels = Mapping[str, npt.ArrayLike]
+Channels = Union[Mapping[str, npt.ArrayLike], np.ndarray]  # a dict of arrays, or a structured array
 ModalityLike = Union[str, Modality]
 BlockFunction = Callable[[npt.NDArray[np.uint32], npt.NDArray[np.int64], npt.NDArray[np.uint32]], npt.ArrayLike]
 PointFunction = Callable[[int, npt.NDArray[np.uint32]], float]
