@@ -43,3 +43,12 @@ TEST(ModalitySpec, BadSpecsAreClearErrors) {
   expect_error("rgb:0.1,range", "key=value");
   EXPECT_THROW(ced::preset("ced9d"), std::invalid_argument);
 }
+
+TEST(ModalitySpec, SplitJoinedSpecsKeepsOptionsAndFieldLists) {
+  EXPECT_EQ(ced::split_modality_specs("xyz:0.25,rgb:0.12"), (std::vector<std::string>{"xyz:0.25", "rgb:0.12"}));
+  EXPECT_EQ(ced::split_modality_specs("bands(nir,red):0.1,range=0..255,xyz"),
+            (std::vector<std::string>{"bands(nir,red):0.1,range=0..255", "xyz"}));
+  EXPECT_EQ(ced::split_modality_specs("intensity(a=b):0.1"), (std::vector<std::string>{"intensity(a=b):0.1"}));
+  EXPECT_EQ(ced::split_modality_specs(",,xyz,"), (std::vector<std::string>{"xyz"}));
+  EXPECT_TRUE(ced::split_modality_specs("").empty());
+}

@@ -298,6 +298,12 @@ void register_modality(std::string help = {}) {
 /// Names and one-line help of all registered modalities (built-ins included), sorted.
 std::vector<std::pair<std::string, std::string>> registered_modalities();
 
+/// Modality specs joined by commas, as `ced eval --detector` takes them
+/// (`xyz:0.25,rgb:0.12,range=0..255`): split at commas outside parentheses,
+/// where a piece of the form key=value (before any ':' or '(') is an option
+/// of the spec before it.
+std::vector<std::string> split_modality_specs(std::string_view text);
+
 /// Builds a modality from a spec string. Throws std::invalid_argument for an
 /// unknown name (listing the known ones), a bad threshold or unknown options.
 any_modality make_modality(std::string_view spec);

@@ -177,36 +177,6 @@ const char* const no_pcl_message =
     "needs ced's PCL component (ced_pcl), and this ced was built without it: install PCL (Debian: libpcl-dev) and "
     "reconfigure with -DCED_WITH_PCL=ON";
 
-namespace {
-
-/// Modality specs joined by commas, split at top-level commas; a piece of
-/// the form key=value (before any ':' or '(') is an option of the modality
-/// before it.
-std::vector<std::string> split_modality_specs(const std::string& text) {
-  std::vector<std::string> specs;
-  std::string cur;
-  int depth = 0;
-  auto flush = [&] {
-    const auto eq = cur.find('='), colon = cur.find_first_of(":(");
-    if (!specs.empty() && eq != std::string::npos && (colon == std::string::npos || eq < colon))
-      specs.back() += "," + cur;
-    else if (!cur.empty())
-      specs.push_back(cur);
-    cur.clear();
-  };
-  for (char c : text) {
-    depth += c == '(' ? 1 : c == ')' ? -1 : 0;
-    if (c == ',' && depth == 0)
-      flush();
-    else
-      cur += c;
-  }
-  flush();
-  return specs;
-}
-
-}  // namespace
-
 eval_detector parse_detector(const std::string& text) {
   eval_detector d;
   d.name = text;
@@ -226,7 +196,7 @@ eval_detector parse_detector(const std::string& text) {
     d.modalities = ced::preset(text);
     return d;
   }
-  for (const auto& s : split_modality_specs(text)) d.modalities.push_back(ced::make_modality(s));
+  for (const auto& s : ced::split_modality_specs(text)) d.modalities.push_back(ced::make_modality(s));
   if (d.modalities.empty()) throw std::invalid_argument("--detector '" + text + "' names no modality");
   return d;
 }

@@ -46,6 +46,29 @@ bool valid_identifier(const std::string& s) {
 }
 }  // namespace
 
+std::vector<std::string> split_modality_specs(std::string_view text) {
+  std::vector<std::string> specs;
+  std::string cur;
+  int depth = 0;
+  auto flush = [&] {
+    const auto eq = cur.find('='), colon = cur.find_first_of(":(");
+    if (!specs.empty() && eq != std::string::npos && (colon == std::string::npos || eq < colon))
+      specs.back() += "," + cur;
+    else if (!cur.empty())
+      specs.push_back(cur);
+    cur.clear();
+  };
+  for (char c : text) {
+    depth += c == '(' ? 1 : c == ')' ? -1 : 0;
+    if (c == ',' && depth == 0)
+      flush();
+    else
+      cur += c;
+  }
+  flush();
+  return specs;
+}
+
 modality_spec modality_spec::parse(std::string_view text) {
   modality_spec s;
   s.m_text = trimmed(text);

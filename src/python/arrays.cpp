@@ -33,22 +33,19 @@ py::array as_array(py::handle obj, const std::string& argument) {
   }
 }
 
-/// The storage type of a numpy dtype, or throws naming `argument`. float16
-/// and big-endian arrays are converted first (`a` then holds the copy).
+/// `a` in the machine's byte order (a converted copy when it is big-endian).
+py::array native_order(const py::array& a) {
+  if (a.dtype().attr("byteorder").cast<std::string>() != ">") return a;
+  return a.attr("astype")(a.dtype().attr("newbyteorder")("="));
+}
+
+/// The storage type of a numpy dtype, or throws naming `argument`. bool,
+/// float16 and big-endian arrays are converted first (`a` then holds the copy).
 ced::scalar_type storage_type(py::array& a, const std::string& argument) {
-  py::dtype dt = a.dtype();
-  if (dt.kind() == 'b') {
-    a = a.attr("astype")("uint8");
-    dt = a.dtype();
-  }
-  if (dt.kind() == 'f' && dt.itemsize() == 2) {
-    a = a.attr("astype")("float32");
-    dt = a.dtype();
-  }
-  if (dt.attr("byteorder").cast<std::string>() == ">") {
-    a = a.attr("astype")(dt.attr("newbyteorder")("="));
-    dt = a.dtype();
-  }
+  if (a.dtype().kind() == 'b') a = a.attr("astype")("uint8");
+  if (a.dtype().kind() == 'f' && a.dtype().itemsize() == 2) a = a.attr("astype")("float32");
+  a = native_order(a);
+  const py::dtype dt = a.dtype();
   const char k = dt.kind();
   const auto size = dt.itemsize();
   using ced::scalar_type;
@@ -195,7 +192,7 @@ ced::point_cloud cloud_from_points(py::handle points) {
   const auto size = a.dtype().itemsize();
   if (k != 'f' || (size != 4 && size != 8))
     throw py::type_error("points: expected float32 or float64 coordinates, got dtype " + dtype_text(a));
-  if (a.dtype().attr("byteorder").cast<std::string>() == ">") a = a.attr("astype")(a.dtype().attr("newbyteorder")("="));
+  a = native_order(a);
   ced::point_cloud cloud;
   const auto* base = static_cast<const char*>(a.data());
   positions_from(cloud, a, base, base + a.strides(1), base + 2 * a.strides(1), a.strides(0), "points");
@@ -271,6 +268,20 @@ cloud_ptr to_cloud(py::handle points, py::handle channels) {
     cloud = cloud_from_points(points);
   add_channels(cloud, channels, "channels");
   return std::make_shared<ced::point_cloud>(std::move(cloud));
+}
+
+std::vector<std::uint32_t> to_indices(py::handle indices, const std::string& argument, std::size_t n) {
+  const auto idx = py::array_t<std::int64_t, py::array::forcecast>::ensure(indices);
+  if (!idx || idx.ndim() != 1) throw py::type_error(argument + ": expected a 1-D array of integers");
+  std::vector<std::uint32_t> out(std::size_t(idx.shape(0)));
+  for (std::size_t k = 0; k < out.size(); ++k) {
+    const std::int64_t i = idx.at(py::ssize_t(k));
+    if (i < 0 || std::uint64_t(i) >= n)
+      throw py::index_error(argument + ": " + std::to_string(i) + " is out of range for " + std::to_string(n) +
+                            " points");
+    out[k] = std::uint32_t(i);
+  }
+  return out;
 }
 
 py::array view(const ced::column& c, py::handle owner) {

@@ -5,6 +5,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -28,13 +29,24 @@ cloud_ptr to_cloud(py::handle points, py::handle channels);
 /// `cloud` (whose size is known).
 void add_channels(ced::point_cloud& cloud, py::handle channels, const char* argument);
 
-/// A read-only numpy array viewing `data` (no copy), kept alive by `owner`.
-template <class T>
-py::array view(const T* data, std::vector<py::ssize_t> shape, py::handle owner) {
-  py::array a(py::dtype::of<T>(), std::move(shape), {}, data, owner);
+/// A read-only numpy array of `dtype` viewing `data` (no copy), kept alive by `owner`.
+inline py::array view(const py::dtype& dtype, const void* data, std::vector<py::ssize_t> shape, py::handle owner) {
+  py::array a(dtype, std::move(shape), {}, data, owner);
   a.attr("setflags")(py::arg("write") = false);
   return a;
 }
+template <class T>
+py::array view(const T* data, std::vector<py::ssize_t> shape, py::handle owner) {
+  return view(py::dtype::of<T>(), data, std::move(shape), owner);
+}
+template <class T>
+py::array view(const std::vector<T>& v, py::handle owner) {
+  return view(v.data(), {py::ssize_t(v.size())}, owner);
+}
+
+/// A 1-D array of indices as uint32, each below `n`; throws py::type_error /
+/// py::index_error naming `argument`.
+std::vector<std::uint32_t> to_indices(py::handle indices, const std::string& argument, std::size_t n);
 
 /// A typed column as a numpy array viewing it, kept alive by `owner`.
 py::array view(const ced::column& c, py::handle owner);

@@ -31,21 +31,12 @@ std::string repr(const ced::point_cloud& c) {
 
 /// The points `indices` names, in that order (fields follow).
 cloud_ptr select(const ced::point_cloud& c, py::handle indices) {
-  const auto idx = py::array_t<std::int64_t, py::array::forcecast>::ensure(indices);
-  if (!idx || idx.ndim() != 1) throw py::type_error("indices: expected a 1-D array of integers");
+  const std::vector<std::uint32_t> at = to_indices(indices, "indices", c.size());
+  const std::size_t n = at.size();
   auto out = std::make_shared<ced::point_cloud>();
   out->set_origin(c.origin());
-  const auto n = static_cast<std::size_t>(idx.shape(0));
   out->resize(n);
-  std::vector<std::size_t> at(n);
-  for (std::size_t k = 0; k < n; ++k) {
-    const std::int64_t i = idx.at(py::ssize_t(k));
-    if (i < 0 || std::size_t(i) >= c.size())
-      throw py::index_error("indices: " + std::to_string(i) + " is out of range for " + std::to_string(c.size()) +
-                            " points");
-    at[k] = std::size_t(i);
-    std::copy_n(c.position(at[k]), 3, out->positions().data() + 3 * k);
-  }
+  for (std::size_t k = 0; k < n; ++k) std::copy_n(c.position(at[k]), 3, out->positions().data() + 3 * k);
   for (const auto& f : c.fields()) {
     ced::column col(f.type(), n);
     const std::size_t size = ced::size_of(f.type());

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <future>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -19,7 +20,7 @@ namespace {
 /// What a cancelled detection throws from its progress callback.
 struct cancelled {};
 
-/// A detection result and the cloud size it was computed on.
+/// A detection result and the parameters it was computed with.
 struct result {
   ced::detection_result r;
   double radius = 0, nms_radius = 0;
@@ -128,26 +129,29 @@ ced::detect_params make_params(const ced::point_cloud& cloud, py::handle radius,
   return p;
 }
 
+/// A spec string or a ced.Modality; nullopt for anything else.
+std::optional<ced::any_modality> one_modality(py::handle m) {
+  if (py::isinstance<py::str>(m)) return ced::make_modality(m.cast<std::string>());
+  if (py::isinstance<ced::any_modality>(m)) return m.cast<ced::any_modality>();
+  return std::nullopt;
+}
+
 std::vector<ced::any_modality> make_modalities(const ced::point_cloud& cloud, py::handle modalities) {
   if (modalities.is_none()) return ced::preset(cloud.has_rgb() ? "ced6d" : "ced3d");
   if (py::isinstance<py::str>(modalities)) {
     const auto s = modalities.cast<std::string>();
     if (s == "ced3d" || s == "ced6d") return ced::preset(s);
-    return {ced::make_modality(s)};
   }
-  if (py::isinstance<ced::any_modality>(modalities)) return {modalities.cast<ced::any_modality>()};
+  if (auto m = one_modality(modalities)) return {*m};
   std::vector<ced::any_modality> out;
   if (!py::isinstance<py::iterable>(modalities))
     throw py::type_error("modalities: expected a spec string, a ced.Modality or a sequence of them");
-  for (auto m : modalities) {
-    if (py::isinstance<py::str>(m)) {
-      out.push_back(ced::make_modality(m.cast<std::string>()));
-    } else if (py::isinstance<ced::any_modality>(m)) {
-      out.push_back(m.cast<ced::any_modality>());
-    } else {
+  for (auto item : modalities) {
+    auto m = one_modality(item);
+    if (!m)
       throw py::type_error("modalities: expected spec strings (e.g. 'xyz:0.2') or ced.Modality objects, got " +
-                           py::str(py::type::of(m)).cast<std::string>());
-    }
+                           py::str(py::type::of(item)).cast<std::string>());
+    out.push_back(std::move(*m));
   }
   if (out.empty()) throw py::value_error("modalities: the list is empty");
   return out;
@@ -158,11 +162,7 @@ std::vector<ced::any_modality> make_modalities(const ced::point_cloud& cloud, py
 void bind_detect(py::module_& m) {
   py::class_<result, std::shared_ptr<result>>(m, "Result", "What ced.detect found, and why.")
       .def_property_readonly(
-          "keypoints",
-          [](py::object self) {
-            const auto& r = self.cast<const result&>().r;
-            return view(r.keypoints.data(), {py::ssize_t(r.keypoints.size())}, self);
-          },
+          "keypoints", [](py::object self) { return view(self.cast<const result&>().r.keypoints, self); },
           "Keypoint indices into the input, ascending (uint32).")
       .def_property_readonly(
           "saliency",
@@ -170,26 +170,19 @@ void bind_detect(py::module_& m) {
             const auto& r = self.cast<const result&>().r;
             py::dict d;
             const auto k = keys(r.names);
-            for (std::size_t i = 0; i < k.size(); ++i)
-              d[py::str(k[i])] = view(r.saliency[i].data(), {py::ssize_t(r.saliency[i].size())}, self);
+            for (std::size_t i = 0; i < k.size(); ++i) d[py::str(k[i])] = view(r.saliency[i], self);
             return d;
           },
           "Dict modality name -> (N,) float32 saliency of every point (views, no copy).")
       .def_property_readonly(
           "candidate",
           [](py::object self) {
-            const auto& r = self.cast<const result&>().r;
-            py::array a(py::dtype("bool"), {py::ssize_t(r.candidate.size())}, {}, r.candidate.data(), self);
-            a.attr("setflags")(py::arg("write") = false);
-            return a;
+            const auto& c = self.cast<const result&>().r.candidate;  // 0 or 1: valid bools
+            return view(py::dtype("bool"), c.data(), {py::ssize_t(c.size())}, self);
           },
           "(N,) bool: some modality reaches its threshold.")
       .def_property_readonly(
-          "neighbor_count",
-          [](py::object self) {
-            const auto& r = self.cast<const result&>().r;
-            return view(r.neighbor_count.data(), {py::ssize_t(r.neighbor_count.size())}, self);
-          },
+          "neighbor_count", [](py::object self) { return view(self.cast<const result&>().r.neighbor_count, self); },
           "(N,) uint32: neighbours within the radius, the point itself included.")
       .def_property_readonly(
           "thresholds",

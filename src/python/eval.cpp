@@ -39,18 +39,6 @@ rigid_transform from_matrix(py::handle matrix) {
   return t;
 }
 
-std::vector<std::uint32_t> indices(py::handle a, const char* argument) {
-  const auto idx = py::array_t<std::int64_t, py::array::forcecast>::ensure(a);
-  if (!idx || idx.ndim() != 1) throw py::type_error(std::string(argument) + ": expected a 1-D array of indices");
-  std::vector<std::uint32_t> out(std::size_t(idx.shape(0)));
-  for (std::size_t i = 0; i < out.size(); ++i) {
-    const auto v = idx.at(py::ssize_t(i));
-    if (v < 0 || v > std::int64_t(UINT32_MAX)) throw py::index_error(std::string(argument) + ": index out of range");
-    out[i] = std::uint32_t(v);
-  }
-  return out;
-}
-
 }  // namespace
 
 void bind_eval(py::module_& root) {
@@ -84,11 +72,8 @@ void bind_eval(py::module_& root) {
       [](py::handle p, py::handle kp, py::handle q, py::handle kq, py::handle matrix, double epsilon) {
         if (!(epsilon > 0) || !std::isfinite(epsilon)) throw py::value_error("epsilon: must be a positive number");
         const cloud_ptr a = to_cloud(p, py::none()), b = to_cloud(q, py::none());
-        const auto ka = indices(kp, "source_keypoints"), kb = indices(kq, "target_keypoints");
-        for (auto i : ka)
-          if (i >= a->size()) throw py::index_error("source_keypoints: index out of range");
-        for (auto i : kb)
-          if (i >= b->size()) throw py::index_error("target_keypoints: index out of range");
+        const auto ka = to_indices(kp, "source_keypoints", a->size());
+        const auto kb = to_indices(kq, "target_keypoints", b->size());
         const rigid_transform t = from_matrix(matrix);
         const auto r = ced::eval::measure(*a, ka, *b, kb, t, epsilon);
         return py::make_tuple(r.source_keypoints, r.target_keypoints, r.repeated);

@@ -116,6 +116,8 @@ void bind_modalities(py::module_& m) {
   m.def(
       "preset", [](const std::string& name) { return ced::preset(name); }, py::arg("name"),
       "The modalities of a preset: 'ced3d' (xyz:0.2) or 'ced6d' (xyz:0.2, rgb:0.1).");
+  m.def("_split_modality_specs", &ced::split_modality_specs, py::arg("text"),
+        "Modality specs joined by commas, split as `ced eval --detector` splits them.");
   m.def("modalities", &ced::registered_modalities, "(name, help) of every registered modality, sorted.");
   m.def(
       "load_plugin",

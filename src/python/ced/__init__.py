@@ -91,11 +91,10 @@ def intensity(threshold=None, field=None, range=None):
 
 def bands(fields, threshold=0.1, norm=None, range=None):
     """Several scalar fields as one channel (multispectral bands): bands(["nir", "red"], 0.1)."""
-    if isinstance(fields, str) or not fields:
-        fields = [fields] if isinstance(fields, str) else fields
+    fields = [fields] if isinstance(fields, str) else list(fields)
     if not fields:
         raise ValueError("bands: give at least one field name")
-    return _spec("bands", threshold, list(fields), norm=norm, range=range)
+    return _spec("bands", threshold, fields, norm=norm, range=range)
 
 
 def _is_open3d(obj):

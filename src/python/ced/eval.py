@@ -20,32 +20,9 @@ def measure(source, source_keypoints, target, target_keypoints, transform, epsil
     return _e.measure(source, source_keypoints, target, target_keypoints, transform, epsilon)
 
 
-def _split_specs(text):
-    """Modality specs joined by commas, as the CLI's --detector: a piece key=value is an option of the spec
-    before it."""
-    specs, cur, depth = [], "", 0
-
-    def flush():
-        eq, colon = cur.find("="), min([i for i in (cur.find(":"), cur.find("(")) if i >= 0], default=-1)
-        if specs and eq >= 0 and (colon < 0 or eq < colon):
-            specs[-1] += "," + cur
-        elif cur:
-            specs.append(cur)
-
-    for c in text:
-        depth += 1 if c == "(" else -1 if c == ")" else 0
-        if c == "," and depth == 0:
-            flush()
-            cur = ""
-        else:
-            cur += c
-    flush()
-    return specs
-
-
 def _detector(d):
     """(label, modalities or None for the random baseline)."""
-    from . import Modality, preset
+    from . import Modality, _ced, preset
 
     if not isinstance(d, str):
         mods = [m if isinstance(m, Modality) else Modality(m) for m in d]
@@ -59,7 +36,7 @@ def _detector(d):
     if d in ("iss3d", "harris3d", "harris6d", "sift"):
         raise ValueError(f"detectors: {d!r} is a PCL detector, available in the CLI "
                          f"(ced eval repeatability --detector {d}) but not from Python")
-    specs = _split_specs(d)
+    specs = _ced._split_modality_specs(d)
     if not specs:
         raise ValueError(f"detectors: {d!r} names no modality")
     return d, [Modality(s) for s in specs]
