@@ -61,11 +61,10 @@ std::vector<std::uint32_t> oracle_nms(const nms_case& c, double nms_radius) {
 }
 
 /// non_maximum_suppression with no stored neighbourhoods (every block queries
-/// the index), over blocks of side `cell`, the index built in block order.
+/// the block grid), over blocks of side `cell`.
 std::vector<std::uint32_t> run_nms(const nms_case& c, double nms_radius, double radius, double cell, unsigned threads) {
   const ced::block_partition blocks(c.xyz.data(), c.size(), cell, threads);
-  const ced::neighbor_index index(c.xyz.data(), c.size(), 16, threads, blocks.order().data());
-  return non_maximum_suppression(index, blocks, c.xyz.data(), c.score.data(), c.candidate.data(), nms_radius, radius,
+  return non_maximum_suppression(blocks, c.xyz.data(), c.score.data(), c.candidate.data(), nms_radius, radius,
                                  std::vector<candidate_hits>{}, threads);
 }
 

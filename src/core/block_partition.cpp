@@ -22,9 +22,10 @@ using chunk_runner = std::function<void(const std::function<void(std::size_t, st
 /// Sorts the points by grid cell (key K) and index, and cuts the order into
 /// blocks: one cell each, split after max_block points.
 template <class K>
-void sort_into_blocks(const float* xyz, std::size_t n, const float lo[3], const std::uint64_t dims[3], double inv,
+void sort_into_blocks(const float* xyz, std::size_t n, const double base[3], const std::uint64_t dims[3], double inv,
                       std::size_t chunks, const chunk_runner& for_chunks, std::vector<std::uint32_t>& order,
-                      std::vector<std::size_t>& starts) {
+                      std::vector<std::size_t>& starts, std::vector<std::uint64_t>& cell_keys,
+                      std::vector<std::size_t>& cell_starts) {
   // Written in full before they are read: not zeroed first.
   struct keyed_point {
     K first;
@@ -36,8 +37,8 @@ void sort_into_blocks(const float* xyz, std::size_t n, const float lo[3], const 
     K max_key = 0;
     for (std::size_t i = b; i < e; ++i) {
       std::uint64_t cc[3];
-      for (int k = 0; k < 3; ++k) {  // truncation is floor: the value is ≥ 0
-        const double v = (double(xyz[3 * i + std::size_t(k)]) - double(lo[k])) * inv;
+      for (int k = 0; k < 3; ++k) {  // cells at whole multiples of the cell size (see cell_of)
+        const double v = std::floor(double(xyz[3 * i + std::size_t(k)]) * inv) - base[k];
         cc[k] = static_cast<std::uint64_t>(std::min(std::max(v, 0.0), double(dims[k] - 1)));
       }
       const auto key = static_cast<K>((cc[2] * dims[1] + cc[1]) * dims[0] + cc[0]);
@@ -78,12 +79,21 @@ void sort_into_blocks(const float* xyz, std::size_t n, const float lo[3], const 
     for (std::size_t i = b; i < e; ++i) order[i] = keyed[i].second;
   });
   starts.clear();
+  cell_keys.clear();
+  cell_starts.clear();
   // Dense cells are split into blocks of at most max_block points, which
   // bounds a block's memory even when many points coincide.
   constexpr std::size_t max_block = 1024;
-  for (std::size_t i = 0; i < n; ++i)
-    if (i == 0 || keyed[i].first != keyed[i - 1].first || i - starts.back() >= max_block) starts.push_back(i);
+  for (std::size_t i = 0; i < n; ++i) {
+    const bool new_cell = i == 0 || keyed[i].first != keyed[i - 1].first;
+    if (new_cell || i - starts.back() >= max_block) starts.push_back(i);
+    if (new_cell) {
+      cell_keys.push_back(keyed[i].first);
+      cell_starts.push_back(i);
+    }
+  }
   starts.push_back(n);
+  cell_starts.push_back(n);
 }
 }  // namespace
 
@@ -122,25 +132,73 @@ block_partition::block_partition(const float* xyz, std::size_t n, double cell_si
       hi[k] = std::max(hi[k], bd[std::size_t(k) + 3]);
     }
   }
-  // Cells per axis; grow the cell if the grid would not fit a 64-bit key.
+  // Cells per axis, at whole multiples of the cell size (so that a part of
+  // the cloud gets the same cells as the whole); grow the cell if the grid
+  // would not fit a 64-bit key.
   double cell = cell_size;
-  std::uint64_t dims[3];
   for (;;) {
+    m_inv = 1.0 / cell;
     long double total = 1;
     for (int k = 0; k < 3; ++k) {
-      dims[k] = static_cast<std::uint64_t>(std::floor((double(hi[k]) - double(lo[k])) / cell)) + 1;
-      total *= static_cast<long double>(dims[k]);
+      m_base[k] = std::floor(double(lo[k]) * m_inv);
+      m_dims[k] = static_cast<std::uint64_t>(std::floor(double(hi[k]) * m_inv) - m_base[k]) + 1;
+      total *= static_cast<long double>(m_dims[k]);
     }
     if (total < 1e18L) break;
     cell *= 2;
   }
-  const double inv = 1.0 / cell;
   // Keys of 32 bits when the grid allows (half the memory to sort).
-  if (static_cast<long double>(dims[0]) * static_cast<long double>(dims[1]) * static_cast<long double>(dims[2]) <
+  if (static_cast<long double>(m_dims[0]) * static_cast<long double>(m_dims[1]) * static_cast<long double>(m_dims[2]) <
       4294967296.0L)
-    sort_into_blocks<std::uint32_t>(xyz, n, lo, dims, inv, chunks, for_chunks, m_order, m_starts);
+    sort_into_blocks<std::uint32_t>(xyz, n, m_base, m_dims, m_inv, chunks, for_chunks, m_order, m_starts, m_cell_keys,
+                                    m_cell_starts);
   else
-    sort_into_blocks<std::uint64_t>(xyz, n, lo, dims, inv, chunks, for_chunks, m_order, m_starts);
+    sort_into_blocks<std::uint64_t>(xyz, n, m_base, m_dims, m_inv, chunks, for_chunks, m_order, m_starts, m_cell_keys,
+                                    m_cell_starts);
+}
+
+template <class F>
+void block_partition::for_each_in_box(const float* xyz, const float lo[3], const float hi[3], F&& f) const {
+  if (m_cell_keys.empty()) return;
+  std::int64_t c0[3], c1[3];
+  for (int k = 0; k < 3; ++k) {
+    const double last = double(m_dims[k] - 1);
+    const double a = std::max(0.0, std::floor(double(lo[k]) * m_inv) - m_base[k]);
+    const double b = std::min(last, std::floor(double(hi[k]) * m_inv) - m_base[k]);
+    if (!(a <= b)) return;
+    c0[k] = static_cast<std::int64_t>(a);
+    c1[k] = static_cast<std::int64_t>(b);
+  }
+  // Cells in key order, points of a cell in index order: the same order for
+  // any part of the cloud that holds the cells' points.
+  const auto dx = static_cast<std::int64_t>(m_dims[0]), dy = static_cast<std::int64_t>(m_dims[1]);
+  for (std::int64_t z = c0[2]; z <= c1[2]; ++z)
+    for (std::int64_t y = c0[1]; y <= c1[1]; ++y) {
+      const auto row = static_cast<std::uint64_t>((z * dy + y) * dx);
+      const std::uint64_t first = row + std::uint64_t(c0[0]), last = row + std::uint64_t(c1[0]);
+      auto it = std::lower_bound(m_cell_keys.begin(), m_cell_keys.end(), first);
+      for (; it != m_cell_keys.end() && *it <= last; ++it) {
+        const auto c = static_cast<std::size_t>(it - m_cell_keys.begin());
+        for (std::size_t i = m_cell_starts[c]; i < m_cell_starts[c + 1]; ++i) {
+          const std::uint32_t j = m_order[i];
+          const float* p = xyz + 3 * std::size_t(j);
+          if (p[0] >= lo[0] && p[0] <= hi[0] && p[1] >= lo[1] && p[1] <= hi[1] && p[2] >= lo[2] && p[2] <= hi[2])
+            f(j, p);
+        }
+      }
+    }
+}
+
+void block_partition::box_search(const float* xyz, const float lo[3], const float hi[3],
+                                 std::vector<neighbor_index::located_point>& out) const {
+  out.clear();
+  for_each_in_box(xyz, lo, hi, [&](std::uint32_t j, const float* p) { out.push_back({{p[0], p[1], p[2]}, j}); });
+}
+
+void block_partition::box_search(const float* xyz, const float lo[3], const float hi[3],
+                                 std::vector<std::uint32_t>& out) const {
+  out.clear();
+  for_each_in_box(xyz, lo, hi, [&](std::uint32_t j, const float*) { out.push_back(j); });
 }
 
 namespace detail {

@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/neighbor_index.hpp"
+
 namespace ced {
 
 /// The points grouped into spatial blocks (cubic grid cells). Work is done
@@ -23,9 +25,30 @@ class block_partition {
   /// All points, block after block: a spatially coherent permutation.
   const std::vector<std::uint32_t>& order() const noexcept { return m_order; }
 
+  /// The points inside the closed box [lo, hi] (`xyz` the positions the
+  /// partition was made of), cell by cell in key order and by index within a
+  /// cell: an order that depends only on the points in and near the box,
+  /// not on the rest of the cloud (cells lie at whole multiples of the cell
+  /// size), so a part of the cloud that holds them gets the same order.
+  void box_search(const float* xyz, const float lo[3], const float hi[3],
+                  std::vector<neighbor_index::located_point>& out) const;
+  /// The same points, indices only.
+  void box_search(const float* xyz, const float lo[3], const float hi[3], std::vector<std::uint32_t>& out) const;
+  /// The cell size used (the one asked for, unless the grid would not fit
+  /// 64-bit keys: then doubled until it does).
+  double cell_size() const noexcept { return 1.0 / m_inv; }
+
  private:
+  template <class F>
+  void for_each_in_box(const float* xyz, const float lo[3], const float hi[3], F&& f) const;
+
   std::vector<std::uint32_t> m_order;
   std::vector<std::size_t> m_starts;
+  std::vector<std::uint64_t> m_cell_keys;  // the occupied cells, ascending
+  std::vector<std::size_t> m_cell_starts;  // where each starts in m_order (and the end)
+  double m_base[3] = {0, 0, 0};            // the first cell's coordinates, in cells
+  std::uint64_t m_dims[3] = {0, 0, 0};
+  double m_inv = 1;
 };
 
 namespace detail {

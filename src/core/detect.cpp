@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 // Detection, stage by stage: validate.cpp → block_partition.cpp and
-// neighbor_index.cpp (here: the index) → saliency.cpp (neighbourhoods and
+// (here: the grid) → saliency.cpp (neighbourhoods and
 // saliencies) → candidates.cpp → nms.cpp → the result (here).
 #include "ced/detect.hpp"
 
@@ -24,14 +24,12 @@ detection_context::detection_context(const point_cloud& cloud, const detect_para
   const auto t0 = clock_type::now();
   const unsigned threads = resolve_threads(params.threads);
   const float* xyz = cloud.positions().data();
-  // Blocks first: the tree is built over the points in block order, which is
-  // several times faster than over an arbitrary order on large clouds. Its
-  // leaves hold up to 256 points: the tree is only asked for whole blocks'
-  // boxes, and a shallower tree builds faster (its build is most of this
-  // stage) for a few more points tested per query.
+  // The block grid is also the search structure: a block's neighbours are
+  // gathered from its cell and the cells around it, cell by cell and by
+  // index within a cell. That order depends on nothing but those cells, so a
+  // tile of the cloud that holds them gets bitwise the same sums (tiles.cpp).
   block_partition blocks(xyz, cloud.size(), params.radius * params.block_scale, threads);
-  neighbor_index index(xyz, cloud.size(), 256, threads, blocks.order().data());
-  m_impl = std::make_unique<impl>(cloud, params, std::move(index), std::move(blocks));
+  m_impl = std::make_unique<impl>(cloud, params, std::move(blocks));
   m_impl->result.names = std::move(names);
   m_impl->result.thresholds = std::move(thresholds);
   m_impl->result.times.index_ms = ms_since(t0);
@@ -50,7 +48,7 @@ detection_result detection_context::finish() {
   for (const auto& s : r.saliency) columns.push_back(s.data());
   raw_vector<float> product(n);  // written in full below
   candidates_and_scores(columns, r.thresholds, n, threads, r.candidate.data(), product.data());
-  r.keypoints = non_maximum_suppression(m_impl->index, m_impl->blocks, m_impl->cloud.positions().data(), product.data(),
+  r.keypoints = non_maximum_suppression(m_impl->blocks, m_impl->cloud.positions().data(), product.data(),
                                         r.candidate.data(), params.nms_radius, params.radius, m_impl->hits, threads);
   m_impl->hits.clear();
   m_impl->hits.shrink_to_fit();

@@ -10,7 +10,6 @@
 #include "core/arena.hpp"
 #include "core/block_partition.hpp"
 #include "core/neighbor_block.hpp"
-#include "core/neighbor_index.hpp"
 #include "core/nms.hpp"
 #include "core/timing.hpp"
 
@@ -20,13 +19,11 @@ struct detection_context::impl {
   const point_cloud& cloud;
   detect_params params;
   detection_result result;
-  neighbor_index index;
   block_partition blocks;
   std::vector<candidate_hits> hits;
   chunk_arena hit_memory;  // the hits' arrays
 
-  impl(const point_cloud& c, const detect_params& p, neighbor_index&& idx, block_partition&& b)
-      : cloud(c), params(p), index(std::move(idx)), blocks(std::move(b)) {}
+  impl(const point_cloud& c, const detect_params& p, block_partition&& b) : cloud(c), params(p), blocks(std::move(b)) {}
 };
 
 }  // namespace ced::detail

@@ -288,7 +288,7 @@ void neighbor_block::set_up_rows(const float* xyz, const std::uint32_t* points, 
   }
 }
 
-void neighbor_block::fill(const neighbor_index& index, const float* xyz, const std::uint32_t* points, std::size_t count,
+void neighbor_block::fill(const block_partition& grid, const float* xyz, const std::uint32_t* points, std::size_t count,
                           double r) {
   m_points = points;
   m_count = count;
@@ -296,7 +296,12 @@ void neighbor_block::fill(const neighbor_index& index, const float* xyz, const s
   if (count == 0) return;
   float lo[3], hi[3];
   detail::padded_bounds(xyz, points, count, r, lo, hi);
-  index.box_search(lo, hi, m_raw);
+  grid.box_search(xyz, lo, hi, m_raw);
+  run(xyz, points, count, r, lo, hi);
+}
+
+void neighbor_block::run(const float* xyz, const std::uint32_t* points, std::size_t count, double r, const float lo[3],
+                         const float hi[3]) {
   sort_into_cells(lo, hi, r);
 
   const std::size_t stride = copy_channels_in(points, count);

@@ -9,12 +9,13 @@
 #include <vector>
 
 #include "ced/neighborhood.hpp"
+#include "core/block_partition.hpp"
 #include "core/neighbor_index.hpp"
 
 namespace ced {
 
-/// The neighbour pass over one spatial block: one box query to the index for
-/// the whole block, the gathered points sorted into sub-cells (≈ r wide in y
+/// The neighbour pass over one spatial block: one box query to the block grid
+/// for the whole block, the gathered points sorted into sub-cells (≈ r wide in y
 /// and z, r/8 in x), then per point one vectorised sweep over the nine runs
 /// of sub-cells its ball reaches, which counts its neighbours
 /// (|p_j - p_i|² < r², float) and sums (v_j − v_i) over them for every
@@ -28,8 +29,11 @@ class neighbor_block {
   /// The channels summed by fill(); slot s of sums() is sources[s].
   void set_channels(const std::vector<channel_source>& sources);
 
-  /// Runs the pass for points `points[0..count)`.
-  void fill(const neighbor_index& index, const float* xyz, const std::uint32_t* points, std::size_t count, double r);
+  /// Runs the pass for points `points[0..count)`, gathering from the blocks'
+  /// grid (in an order that does not depend on the rest of the cloud: a
+  /// part of the cloud that holds the block's cell and the cells around it
+  /// gives bitwise the same sums).
+  void fill(const block_partition& grid, const float* xyz, const std::uint32_t* points, std::size_t count, double r);
 
   std::size_t size() const noexcept { return m_count; }
   std::uint32_t point(std::size_t k) const noexcept { return m_points[k]; }
@@ -74,6 +78,9 @@ class neighbor_block {
     return (*static_cast<const neighbor_block*>(block))[k];
   }
   void sort_into_cells(const float lo[3], const float hi[3], double r);
+  /// The pass over the gathered points m_raw (fill()).
+  void run(const float* xyz, const std::uint32_t* points, std::size_t count, double r, const float lo[3],
+           const float hi[3]);
   std::size_t copy_channels_in(const std::uint32_t* points, std::size_t count);
   void set_up_rows(const float* xyz, const std::uint32_t* points, std::size_t count, double r);
   void cell_of(const float* p, std::uint64_t c[3]) const noexcept {

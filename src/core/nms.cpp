@@ -127,13 +127,13 @@ void nms_from_hits(const candidate_hits& ch, const float* xyz, const float* scor
 
 }  // namespace
 
-void nms_block_by_query(const neighbor_index& index, const float* xyz, const std::uint32_t* candidates,
+void nms_block_by_query(const block_partition& blocks, const float* xyz, const std::uint32_t* candidates,
                         std::size_t count, const float* score, double radius, std::uint8_t* keep,
                         std::vector<std::uint32_t>& gathered) {
   if (count == 0) return;
   float lo[3], hi[3];
   padded_bounds(xyz, candidates, count, radius, lo, hi);
-  index.box_search(lo, hi, gathered);
+  blocks.box_search(xyz, lo, hi, gathered);
   const float r2 = squared_radius(radius);
   for (std::size_t k = 0; k < count; ++k) {
     const std::uint32_t i = candidates[k];
@@ -149,11 +149,10 @@ void nms_block_by_query(const neighbor_index& index, const float* xyz, const std
   }
 }
 
-std::vector<std::uint32_t> non_maximum_suppression(const neighbor_index& index, const block_partition& blocks,
-                                                   const float* xyz, const float* score, const std::uint8_t* candidate,
-                                                   double nms_radius, double radius,
+std::vector<std::uint32_t> non_maximum_suppression(const block_partition& blocks, const float* xyz, const float* score,
+                                                   const std::uint8_t* candidate, double nms_radius, double radius,
                                                    const std::vector<candidate_hits>& hits, unsigned threads) {
-  std::vector<std::uint8_t> keep(index.size(), 0);
+  std::vector<std::uint8_t> keep(blocks.order().size(), 0);
   parallel_for(blocks.block_count(), threads, 16, [&](std::size_t b0, std::size_t b1) {
     std::vector<std::uint32_t> cand, gathered;
     std::vector<float> local;
@@ -166,7 +165,7 @@ std::vector<std::uint32_t> non_maximum_suppression(const neighbor_index& index, 
       cand.clear();
       for (std::size_t k = 0; k < blocks.block_size(b); ++k)
         if (candidate[pts[k]]) cand.push_back(pts[k]);
-      nms_block_by_query(index, xyz, cand.data(), cand.size(), score, nms_radius, keep.data(), gathered);
+      nms_block_by_query(blocks, xyz, cand.data(), cand.size(), score, nms_radius, keep.data(), gathered);
     }
   });
   return compact_flags(keep);

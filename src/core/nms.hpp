@@ -10,7 +10,6 @@
 #include "core/arena.hpp"
 #include "core/block_partition.hpp"
 #include "core/neighbor_block.hpp"
-#include "core/neighbor_index.hpp"
 
 namespace ced::detail {
 
@@ -40,19 +39,18 @@ void collect_candidate_hits(const neighbor_block& block, const float* const* col
 /// Non-maximum suppression: candidate i is kept when no point j with
 /// |p_j - p_i|² < nms_radius² (float, strict) has score[j] > score[i]. Ties
 /// keep both; non-candidates suppress too. Returns the kept indices,
-/// ascending. `blocks` groups the points spatially (any partition works; it
-/// only affects speed). A block whose candidates' neighbourhoods were kept in
+/// ascending. `blocks` groups the points spatially and is the search
+/// structure of the queries. A block whose candidates' neighbourhoods were kept in
 /// `hits` (which is empty, or has one entry per block) is suppressed from
 /// them, without a query; `radius` is the radius they were found with.
 /// Deterministic for any thread count.
-std::vector<std::uint32_t> non_maximum_suppression(const neighbor_index& index, const block_partition& blocks,
-                                                   const float* xyz, const float* score, const std::uint8_t* candidate,
-                                                   double nms_radius, double radius,
+std::vector<std::uint32_t> non_maximum_suppression(const block_partition& blocks, const float* xyz, const float* score,
+                                                   const std::uint8_t* candidate, double nms_radius, double radius,
                                                    const std::vector<candidate_hits>& hits, unsigned threads);
 
 /// NMS for `candidates[0..count)` of one spatial block, with one box query:
 /// sets keep[i] for each candidate i.
-void nms_block_by_query(const neighbor_index& index, const float* xyz, const std::uint32_t* candidates,
+void nms_block_by_query(const block_partition& blocks, const float* xyz, const std::uint32_t* candidates,
                         std::size_t count, const float* score, double radius, std::uint8_t* keep,
                         std::vector<std::uint32_t>& gathered);
 

@@ -65,7 +65,7 @@ void detection_context::compute_saliency(const std::vector<channel_source>& sour
     neighbor_block& block = w->block;
     std::vector<std::uint32_t>& candidates = w->candidates;
     for (std::size_t b = b0; b < b1; ++b) {
-      block.fill(m_impl->index, xyz, blocks.block_points(b), blocks.block_size(b), params.radius);
+      block.fill(blocks, xyz, blocks.block_points(b), blocks.block_size(b), params.radius);
       for (std::size_t k = 0; k < block.size(); ++k) r.neighbor_count[block.point(k)] = block.count(k);
       f(block.view(), columns.data());
       if (!keep_hits) continue;
