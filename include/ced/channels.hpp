@@ -12,12 +12,6 @@
 
 namespace ced {
 
-/// A value range [lo, hi] that a channel is normalised by: v' = (v - lo) / (hi - lo).
-struct value_range {
-  double lo = 0.0;
-  double hi = 1.0;
-};
-
 /// How a modality normalises a field: its type's natural range (integers:
 /// [0, 255] for uint8 ...; floats: used as they are), a fixed range, or the
 /// data's own min..max ("auto").
@@ -31,6 +25,8 @@ struct range_policy {
 };
 
 /// The range `policy` gives for `f` (a degenerate data range becomes [lo, lo+1]).
+/// The data's range is `f.whole_range` when it is set (a tile of a larger
+/// cloud), else the min..max of `f`'s values.
 value_range resolve_range(const field& f, const range_policy& policy);
 
 /// N×D floats, row-major: the raw values of `fields` (D = fields.size()).

@@ -10,6 +10,7 @@
 #include <iterator>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -264,9 +265,21 @@ class column {
 std::ostream& operator<<(std::ostream& out, const column& c);
 
 /// One named per-point field (a "channel"): intensity, red, nir, ...
+/// A value range [lo, hi] that a channel is normalised by: v' = (v - lo) / (hi - lo).
+struct value_range {
+  double lo = 0.0;
+  double hi = 1.0;
+};
+
 struct field {
   std::string name;
   column values;  ///< one value per point, in the type it had in its file
+  /// Set when the cloud is a part of a larger one (a tile, see ced/tiles.hpp):
+  /// the min and max of this field over the whole cloud. What a modality
+  /// decides from the data (`range=auto`, 8-bit colour kept in 16-bit
+  /// fields) is then decided from it, so that every part decides alike.
+  /// A modality of your own that looks at the data should do the same.
+  std::optional<value_range> whole_range;
 
   field() = default;
   field(std::string n, column v) : name(std::move(n)), values(std::move(v)) {}

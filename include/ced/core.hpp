@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 // ced::core in one include: the cloud, parameters, the modality concept and
-// the built-in modalities, runtime modalities and their registry, detect().
+// the built-in modalities, runtime modalities and their registry, detect(),
+// exact tiles.
 #pragma once
 
 #include "ced/centroid_distance.hpp"
@@ -16,4 +17,5 @@
 #include "ced/neighborhood.hpp"
 #include "ced/params.hpp"
 #include "ced/preprocess.hpp"
+#include "ced/tiles.hpp"
 #include "ced/version.hpp"

@@ -16,7 +16,7 @@ namespace ced {
 
 /// Wall-clock time of each stage, in milliseconds.
 struct stage_times {
-  double index_ms = 0;     ///< kd-tree build and spatial blocks
+  double index_ms = 0;     ///< spatial blocks (the grid that neighbours are gathered from)
   double saliency_ms = 0;  ///< neighbourhoods and all modalities' saliencies
   double nms_ms = 0;       ///< candidates and multi-modal non-maximum suppression
   double total_ms() const noexcept { return index_ms + saliency_ms + nms_ms; }

@@ -43,6 +43,10 @@ value_range resolve_range(const field& f, const range_policy& policy) {
       return {r[0], r[1]};
     }
     case range_policy::kind::data: {
+      if (f.whole_range) {
+        const value_range w = *f.whole_range;
+        return {w.lo, w.hi > w.lo ? w.hi : w.lo + 1.0};
+      }
       if (f.values.empty()) return {0.0, 1.0};
       double lo = f.values[0], hi = f.values[0];
       f.values.visit([&](const auto* p, std::size_t n) {

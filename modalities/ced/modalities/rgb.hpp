@@ -45,7 +45,9 @@ struct rgb {
     bool eight_bit_in_16 = !range;
     for (const field* c : f) {
       if (c->type() != scalar_type::uint16 && c->type() != scalar_type::int16) eight_bit_in_16 = false;
-      if (eight_bit_in_16)
+      if (eight_bit_in_16 && c->whole_range)
+        eight_bit_in_16 = c->whole_range->hi <= 255;
+      else if (eight_bit_in_16)
         eight_bit_in_16 = c->values.visit([](const auto* v, std::size_t n) {
           for (std::size_t i = 0; i < n; ++i)
             if (v[i] > 255) return false;

@@ -1,0 +1,186 @@
+// SPDX-License-Identifier: MIT
+// Exact tiles (see ced/tiles.hpp for why they are exact).
+#include "ced/tiles.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace ced {
+
+namespace {
+std::int64_t cell_index(double x, double lo, double size, std::uint32_t dims) noexcept {
+  const double c = std::floor((x - lo) / size);
+  if (!(c > 0)) return 0;  // also NaN
+  return static_cast<std::int64_t>(std::min(c, double(dims - 1)));
+}
+}  // namespace
+
+std::array<std::uint32_t, 3> tile_grid::coords(std::uint64_t t) const noexcept {
+  return {static_cast<std::uint32_t>(t % dims[0]), static_cast<std::uint32_t>(t / dims[0] % dims[1]),
+          static_cast<std::uint32_t>(t / dims[0] / dims[1])};
+}
+
+std::uint64_t tile_grid::tile_of(const float p[3]) const noexcept {
+  std::uint64_t c[3];
+  for (int k = 0; k < 3; ++k)
+    c[k] = std::uint64_t(cell_index(double(p[k]), lo[std::size_t(k)], size, dims[std::size_t(k)]));
+  return (c[2] * dims[1] + c[1]) * dims[0] + c[0];
+}
+
+void tile_grid::tiles_near(const float p[3], std::vector<std::uint64_t>& out) const {
+  out.clear();
+  std::int64_t c0[3], c1[3];
+  for (std::size_t k = 0; k < 3; ++k) {
+    c0[k] = cell_index(double(p[k]) - halo, lo[k], size, dims[k]);
+    c1[k] = cell_index(double(p[k]) + halo, lo[k], size, dims[k]);
+  }
+  for (std::int64_t z = c0[2]; z <= c1[2]; ++z)
+    for (std::int64_t y = c0[1]; y <= c1[1]; ++y)
+      for (std::int64_t x = c0[0]; x <= c1[0]; ++x)
+        out.push_back((std::uint64_t(z) * dims[1] + std::uint64_t(y)) * dims[0] + std::uint64_t(x));
+}
+
+std::array<double, 6> tile_grid::core_box(std::uint64_t t) const noexcept {
+  const auto c = coords(t);
+  std::array<double, 6> b{};
+  for (std::size_t k = 0; k < 3; ++k) {
+    b[k] = lo[k] + double(c[k]) * size;
+    b[k + 3] = lo[k] + double(c[k] + 1) * size;
+  }
+  return b;
+}
+
+double exact_halo(const detect_params& params, double max_abs_coordinate) {
+  validate(params);
+  // nms_radius: the competitors of a core point; block side: every point of
+  // their blocks (the blocks fix the order of the sums); radius (with the
+  // 1.001 pad of a block's box): what those blocks gather. 1% more, and some
+  // float steps of the largest coordinate, for rounding.
+  const double h = params.nms_radius + params.block_scale * params.radius + 1.001 * params.radius;
+  return 1.01 * h + 16.0 * std::ldexp(std::fabs(max_abs_coordinate), -23);
+}
+
+tile_grid make_tile_grid(const double lo[3], const double hi[3], double size, const detect_params& params) {
+  if (!(size > 0) || !std::isfinite(size))
+    throw std::invalid_argument("tile size must be a positive number, got " + std::to_string(size));
+  tile_grid g;
+  g.size = size;
+  double max_abs = 0;
+  long double total = 1;
+  for (std::size_t k = 0; k < 3; ++k) {
+    if (!std::isfinite(lo[k]) || !std::isfinite(hi[k]) || hi[k] < lo[k])
+      throw std::invalid_argument("tile grid: the bounding box is not finite");
+    g.lo[k] = lo[k];
+    const double n = std::max(1.0, std::ceil((hi[k] - lo[k]) / size));
+    total *= static_cast<long double>(n);
+    if (total > static_cast<long double>(1u << 24))
+      throw std::invalid_argument("tile size " + std::to_string(size) +
+                                  " is too small for the cloud: more than 2^24 tiles (16,777,216)");
+    g.dims[k] = static_cast<std::uint32_t>(n);
+    max_abs = std::max({max_abs, std::fabs(lo[k]), std::fabs(hi[k])});
+  }
+  g.halo = exact_halo(params, max_abs);
+  return g;
+}
+
+std::vector<value_range> field_ranges(const point_cloud& cloud) {
+  std::vector<value_range> out;
+  for (const field& f : cloud.fields()) {
+    value_range r{0.0, 0.0};
+    if (!f.values.empty()) {
+      r.lo = r.hi = f.values[0];
+      f.values.visit([&](const auto* p, std::size_t n) {
+        for (std::size_t i = 0; i < n; ++i) {
+          const double v = static_cast<double>(p[i]);
+          r.lo = std::min(r.lo, v);
+          r.hi = std::max(r.hi, v);
+        }
+      });
+    }
+    out.push_back(r);
+  }
+  return out;
+}
+
+namespace {
+/// The tile of `cloud` made of the points `index` (ascending).
+cloud_tile make_tile(const point_cloud& cloud, std::vector<std::uint32_t> index,
+                     const std::vector<value_range>& whole) {
+  cloud_tile out;
+  out.index = std::move(index);
+  out.cloud.set_origin(cloud.origin());
+  out.cloud.reserve(out.index.size());
+  for (std::uint32_t i : out.index) {
+    const float* p = cloud.position(i);
+    out.cloud.push_back(p[0], p[1], p[2]);
+  }
+  for (std::size_t f = 0; f < cloud.fields().size(); ++f) {
+    const field& src = cloud.fields()[f];
+    const std::size_t w = size_of(src.type());
+    column values(src.type(), out.index.size());
+    for (std::size_t j = 0; j < out.index.size(); ++j)
+      std::copy_n(src.values.bytes() + w * out.index[j], w, values.bytes() + w * j);
+    out.cloud.add_field(src.name, std::move(values)).whole_range = whole[f];
+  }
+  return out;
+}
+}  // namespace
+
+cloud_tile extract_tile(const point_cloud& cloud, const tile_grid& grid, std::uint64_t t,
+                        const std::vector<value_range>& ranges) {
+  if (t >= grid.count()) throw std::invalid_argument("tile " + std::to_string(t) + " is not in the grid");
+  const std::vector<value_range> whole = ranges.empty() ? field_ranges(cloud) : ranges;
+  if (whole.size() != cloud.fields().size()) throw std::invalid_argument("extract_tile: one range per field expected");
+  std::vector<std::uint32_t> index;
+  std::vector<std::uint64_t> near;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    grid.tiles_near(cloud.position(i), near);
+    if (std::find(near.begin(), near.end(), t) != near.end()) index.push_back(static_cast<std::uint32_t>(i));
+  }
+  return make_tile(cloud, std::move(index), whole);
+}
+
+std::vector<std::uint32_t> core_keypoints(const tile_grid& grid, std::uint64_t t, const point_cloud& tile_cloud,
+                                          const detection_result& result) {
+  std::vector<std::uint32_t> out;
+  for (std::uint32_t k : result.keypoints)
+    if (grid.tile_of(tile_cloud.position(k)) == t) out.push_back(k);
+  return out;
+}
+
+std::vector<std::uint32_t> detect_tiled(const point_cloud& cloud, const detect_params& params,
+                                        const std::vector<any_modality>& modalities, double tile_size) {
+  validate(params);
+  if (cloud.empty()) throw std::invalid_argument("detect_tiled: the cloud is empty");
+  double lo[3], hi[3];
+  for (std::size_t k = 0; k < 3; ++k) lo[k] = hi[k] = cloud.position(0)[k];
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    for (std::size_t k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], double(cloud.position(i)[k]));
+      hi[k] = std::max(hi[k], double(cloud.position(i)[k]));
+    }
+  const tile_grid grid = make_tile_grid(lo, hi, tile_size, params);
+  const std::vector<value_range> ranges = field_ranges(cloud);
+  // Each tile's points, and which tiles own a point: only those are detected.
+  std::vector<std::vector<std::uint32_t>> members(grid.count());
+  std::vector<std::uint8_t> owns(grid.count(), 0);
+  std::vector<std::uint64_t> near;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    owns[grid.tile_of(cloud.position(i))] = 1;
+    grid.tiles_near(cloud.position(i), near);
+    for (std::uint64_t t : near) members[t].push_back(static_cast<std::uint32_t>(i));
+  }
+  std::vector<std::uint32_t> out;
+  for (std::uint64_t t = 0; t < grid.count(); ++t) {
+    if (!owns[t]) continue;
+    const cloud_tile tile = make_tile(cloud, std::move(members[t]), ranges);
+    const detection_result r = detect(tile.cloud, params, modalities);
+    for (std::uint32_t k : core_keypoints(grid, t, tile.cloud, r)) out.push_back(tile.index[k]);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+}  // namespace ced
