@@ -71,7 +71,7 @@ expect_exit 2 "unknown modality 'colour'" "unknown modality" -- detect "$sample"
 expect_exit 2 "negative" "negative threshold" -- detect "$sample" -m rgb:-1 --indices "$T/no.txt"
 expect_exit 2 "min-neighbors" "negative min neighbours" -- detect "$sample" -k -3 --indices "$T/no.txt"
 expect_exit 2 "voxel" "negative voxel" -- detect "$sample" --voxel -1 --indices "$T/no.txt"
-expect_exit 2 "required" "no input" -- detect
+expect_exit 2 "give an input file" "no input" -- detect
 check "usage errors wrote nothing" test ! -e "$T/no.txt"
 
 # --- Bad input: exit 1, file named, no output, existing output kept ---

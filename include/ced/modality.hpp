@@ -310,6 +310,10 @@ any_modality make_modality(std::string_view spec);
 
 /// The modalities of a preset: "ced3d" = xyz:0.2; "ced6d" = xyz:0.2 + rgb:0.1.
 std::vector<any_modality> preset(std::string_view name);
+/// The modality specs of a preset (make_modality() of each gives preset(name)).
+std::vector<std::string> preset_specs(std::string_view name);
+/// The presets' names.
+std::vector<std::string> preset_names();
 
 /// Parses a number; throws std::invalid_argument naming `what` on failure.
 double parse_number(std::string_view text, const std::string& what);

@@ -107,6 +107,8 @@ ced::field_selection needed_fields(const detect_options& o, const std::vector<ce
   return ced::field_selection::only(std::move(names));
 }
 
+}  // namespace
+
 /// Parameters first: a usage error must not cost a file read.
 detect_plan make_plan(const detect_options& o) {
   detect_plan plan;
@@ -120,6 +122,8 @@ detect_plan make_plan(const detect_options& o) {
   plan.read_opts.fields = needed_fields(o, plan.modalities);
   return plan;
 }
+
+namespace {
 
 /// Reads the input; drops non-finite points; voxel down-samples with --voxel.
 detect_input read_input(const detect_options& o, const ced::io::read_options& read_opts, progress_bar& progress) {
@@ -162,8 +166,11 @@ void complete_plan(const detect_options& o, const ced::point_cloud& cloud, detec
 
 int run_detect(const detect_options& o) {
   const auto t_start = clock_type::now();
+  if (!o.plan.empty()) return run_detect_plan_tile(o);
+  if (o.input.empty()) throw usage_error("give an input file (or --plan and --tile)");
   detect_plan plan = make_plan(o);
   detect_outputs out(o);
+  if (wants_tiles(o)) return run_detect_tiled(o, plan, out);
   progress_bar progress(!o.quiet);
   const detect_input in = read_input(o, plan.read_opts, progress);
   complete_plan(o, in.cloud, plan);
@@ -186,7 +193,7 @@ int run_detect(const detect_options& o) {
 command add_detect_command(CLI::App& app) {
   auto o = std::make_shared<detect_options>();
   auto* det = app.add_subcommand("detect", "Detect keypoints");
-  det->add_option("input", o->input, "Input cloud: .ply, .pcd, .las, .csv/.xyz/.txt/.pts")->required();
+  det->add_option("input", o->input, "Input cloud: .ply, .pcd, .las, .csv/.xyz/.txt/.pts");
   det->add_option("--format", o->format, "Input format when the extension does not say: ply, pcd, las, csv, auto");
   det->add_option("--columns", o->columns, "CSV column names, e.g. x,y,z,intensity (the file then has no header)");
   det->add_option("--preset", o->preset, "ced3d (xyz:0.2) or ced6d (xyz:0.2 + rgb:0.1), with the paper's radius 0.05")
@@ -216,6 +223,17 @@ command add_detect_command(CLI::App& app) {
   det->add_option("--png-size", o->png_size, "Size for --png, WIDTHxHEIGHT (default 1280x960)");
   det->add_option("--summary", o->summary, "JSON summary: input, parameters used, counts, per-stage times");
   det->add_flag("-q,--quiet", o->quiet, "Print nothing on stderr");
+  det->add_option("--tile-size", o->tile_size,
+                  "Detect tile by tile (edge in metres; memory bounded by a tile and its halo), "
+                  "exactly the whole-cloud keypoints");
+  det->add_option("--memory-limit", o->memory_limit,
+                  "Detect tile by tile, the tile size chosen so that a tile fits, e.g. 4G, 512M");
+  det->add_option("--work-dir", o->work_dir,
+                  "With --tile-size: the tile cache and finished tiles (default: a directory in $TMPDIR); "
+                  "removed when the run succeeds");
+  det->add_flag("--resume", o->resume, "With --tile-size: finish a stopped run, redoing only its unfinished tiles");
+  det->add_option("--plan", o->plan, "A tile plan from `ced plan`: detect one tile of it (--tile), -o the part file");
+  det->add_option("--tile", o->tile, "With --plan: the tile id to detect");
   det->add_option("--config", o->config,
                   "Read options from a file: JSON (.json) or TOML/INI, keys = long option names; flags override it");
   det->footer(
@@ -224,6 +242,8 @@ command add_detect_command(CLI::App& app) {
       "  ced detect raw.pcd --voxel 0.01 --preset ced6d -o keypoints.ply\n"
       "  ced detect tile.las -m xyz:0.2 -m 'intensity:0.05' --radius auto --summary run.json\n"
       "  ced detect field.ply -m xyz:0.2 -m 'bands(NIR,RED,REG):0.1' --radius 0.5 --viewer view.ply\n"
+      "  ced detect big.las --preset ced6d --tile-size 50 -o keypoints.las\n"
+      "  ced detect --plan plan.json --tile 7 -o part_7.cedpart\n"
       "Without any output option the indices go to stdout. Exit codes: 0 ok, 1 bad input data or I/O, 2 usage.");
   return {det, [o] { return run_detect(*o); }};
 }

@@ -31,6 +31,11 @@ struct detect_options {
   std::string indices, indices_original, output, viewer, png, summary;
   std::string view = "iso", png_size = "1280x960";
   bool quiet = false;
+  // Tiles (tiled.cpp): one process with a tile cache, or one tile of a plan.
+  double tile_size = std::nan("");
+  std::string memory_limit, work_dir, plan;
+  bool resume = false;
+  long long tile = -1;
   std::string config;  // --config: expand_config() has already replaced it by the file's options
 };
 
@@ -65,6 +70,23 @@ struct detect_input {
   std::size_t n_file = 0, n_finite = 0, n_dropped = 0;
   double load_ms = 0, voxel_ms = 0;
 };
+
+/// The options' checks and the modalities, before any file is read (detect.cpp).
+detect_plan make_plan(const detect_options& o);
+
+/// The column of a modality's saliency in output clouds: its name with every
+/// character but letters and digits replaced by '_'.
+std::string column_name(const std::string& modality);
+
+/// -o's cloud: `kp` (the keypoints with their fields) plus saliency_<modality>
+/// fields, saliency[m][k] for keypoint k.
+void write_keypoint_cloud(std::ostream& out, ced::point_cloud kp, const std::vector<std::string>& names,
+                          const std::vector<std::vector<float>>& saliency, ced::io::file_format format);
+
+/// `ced detect --tile-size/--memory-limit` and `--plan --tile` (tiled.cpp).
+bool wants_tiles(const detect_options& o);
+int run_detect_tiled(const detect_options& o, detect_plan& plan, detect_outputs& out);
+int run_detect_plan_tile(const detect_options& o);
 
 /// Writes every output file of `out` and commits them.
 void write_outputs(const detect_options& o, const detect_plan& plan, const detect_input& in,

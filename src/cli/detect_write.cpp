@@ -19,7 +19,6 @@
 #include "detect.hpp"
 
 namespace ced_cli {
-namespace {
 
 std::string column_name(const std::string& modality) {
   std::string s;
@@ -27,6 +26,16 @@ std::string column_name(const std::string& modality) {
   while (!s.empty() && s.back() == '_') s.pop_back();
   return s;
 }
+
+void write_keypoint_cloud(std::ostream& out, ced::point_cloud kp, const std::vector<std::string>& names,
+                          const std::vector<std::vector<float>>& saliency, ced::io::file_format format) {
+  for (std::size_t m = 0; m < names.size(); ++m)
+    kp.add_field("saliency_" + column_name(names[m]), ced::scalar_type::float32,
+                 std::vector<double>(saliency[m].begin(), saliency[m].end()));
+  ced::io::write_cloud(out, kp, format);
+}
+
+namespace {
 
 /// Adds one saliency field per modality to `c`: of every point, or of `subset`'s.
 void add_saliency(ced::point_cloud& c, const ced::detection_result& r, const std::vector<std::uint32_t>* subset,
@@ -48,8 +57,10 @@ void write_keypoints(std::ostream& out, const ced::point_cloud& cloud, const ced
   for (std::uint32_t k : r.keypoints) keep[k] = 1;
   ced::point_cloud kp = cloud;
   kp.filter(keep);
-  add_saliency(kp, r, &r.keypoints, "saliency_");
-  ced::io::write_cloud(out, kp, format);
+  std::vector<std::vector<float>> saliency(r.names.size());
+  for (std::size_t m = 0; m < r.names.size(); ++m)
+    for (std::uint32_t k : r.keypoints) saliency[m].push_back(r.saliency[m][k]);
+  write_keypoint_cloud(out, std::move(kp), r.names, saliency, format);
 }
 
 /// --viewer: the whole cloud, keypoints red, with scalar_* fields.

@@ -231,4 +231,12 @@ std::vector<any_modality> preset(std::string_view name) {
   throw std::invalid_argument("unknown preset '" + std::string(name) + "' (known: ced3d, ced6d)");
 }
 
+std::vector<std::string> preset_specs(std::string_view name) {
+  if (name == "ced3d") return {"xyz:0.2"};
+  if (name == "ced6d") return {"xyz:0.2", "rgb:0.1"};
+  throw std::invalid_argument("unknown preset '" + std::string(name) + "' (known: ced3d, ced6d)");
+}
+
+std::vector<std::string> preset_names() { return {"ced3d", "ced6d"}; }
+
 }  // namespace ced

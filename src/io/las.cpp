@@ -17,6 +17,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "ced/io/stream.hpp"
 #include "ced/version.hpp"
 #include "scalar_io.hpp"
 
@@ -299,14 +300,11 @@ void fill_info(las_read_info& info, const las_header& h, const unsigned char* d)
   info.generating_software = fixed_string(d + 58, 32);
 }
 
-/// A cloud of the positions of the n point records (`stride` bytes apart from
-/// base): the origin from the bounding box of the raw integers, the positions
-/// relative to it.
-point_cloud decode_positions(const unsigned char* base, std::size_t stride, std::size_t n, const las_header& h) {
-  const auto& scale = h.scale;
-  const auto& offset = h.offset;
-  std::int32_t lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
-  if (n > 0)
+/// The raw integer bounds of the n point records (`stride` bytes apart from
+/// base), merged into lo/hi (`any`: they already hold some points').
+void raw_bounds(const unsigned char* base, std::size_t stride, std::size_t n, std::int32_t lo[3], std::int32_t hi[3],
+                bool any) noexcept {
+  if (n > 0 && !any)
     for (std::size_t k = 0; k < 3; ++k) lo[k] = hi[k] = load_le<std::int32_t>(base + 4 * k);
   for (std::size_t i = 0; i < n; ++i) {
     const unsigned char* p = base + i * stride;
@@ -316,15 +314,24 @@ point_cloud decode_positions(const unsigned char* base, std::size_t stride, std:
       hi[k] = std::max(hi[k], v);
     }
   }
-  std::array<double, 3> origin{0, 0, 0};
-  if (n > 0) {
-    double a[3], b[3];
-    for (std::size_t k = 0; k < 3; ++k) {
-      a[k] = lo[k] * scale[k] + offset[k];
-      b[k] = hi[k] * scale[k] + offset[k];
-    }
-    origin = choose_origin(a, b);
+}
+
+/// The origin of points whose raw integers span [lo, hi].
+std::array<double, 3> las_origin(const std::int32_t lo[3], const std::int32_t hi[3], const las_header& h) {
+  double a[3], b[3];
+  for (std::size_t k = 0; k < 3; ++k) {
+    a[k] = lo[k] * h.scale[k] + h.offset[k];
+    b[k] = hi[k] * h.scale[k] + h.offset[k];
   }
+  return choose_origin(a, b);
+}
+
+/// A cloud of the positions of the n point records (`stride` bytes apart from
+/// base), relative to `origin`.
+point_cloud decode_positions_at(const unsigned char* base, std::size_t stride, std::size_t n, const las_header& h,
+                                const std::array<double, 3>& origin) {
+  const auto& scale = h.scale;
+  const auto& offset = h.offset;
   point_cloud cloud;
   cloud.set_origin(origin);
   cloud.resize(n);
@@ -338,6 +345,14 @@ point_cloud decode_positions(const unsigned char* base, std::size_t stride, std:
   return cloud;
 }
 
+/// A cloud of the positions of the n point records: the origin from the
+/// bounding box of the raw integers, the positions relative to it.
+point_cloud decode_positions(const unsigned char* base, std::size_t stride, std::size_t n, const las_header& h) {
+  std::int32_t lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+  raw_bounds(base, stride, n, lo, hi, false);
+  return decode_positions_at(base, stride, n, h, n > 0 ? las_origin(lo, hi, h) : std::array<double, 3>{0, 0, 0});
+}
+
 /// Adds fields of the n point records (`stride` bytes apart from base) to a
 /// cloud: only the selected ones are decoded.
 struct field_decoder {
@@ -347,6 +362,9 @@ struct field_decoder {
   std::size_t stride;
   std::size_t n;
   std::vector<std::string> taken;  ///< every field's name so far, selected or not
+  /// When set: the OR of bytes 14 and 15 over the whole file, which decides
+  /// the flag fields (a chunk of a file must have the file's fields).
+  const unsigned* flag_bits = nullptr;
 
   /// The field `name`, decode() when selected.
   template <class Decode>
@@ -376,8 +394,8 @@ void decode_flags(field_decoder& dec, bool extended) {
                                                    {"withheld", 15, 2, 1},           {"overlap", 15, 3, 1},
                                                    {"scanner_channel", 15, 4, 3},    {"scan_direction_flag", 15, 6, 1},
                                                    {"edge_of_flight_line", 15, 7, 1}};
-  const unsigned bits_set[2] = {or_of_bytes(dec.base + 14, dec.stride, dec.n),
-                                or_of_bytes(dec.base + 15, dec.stride, dec.n)};
+  const unsigned bits_set[2] = {dec.flag_bits ? dec.flag_bits[0] : or_of_bytes(dec.base + 14, dec.stride, dec.n),
+                                dec.flag_bits ? dec.flag_bits[1] : or_of_bytes(dec.base + 15, dec.stride, dec.n)};
   const auto add_flags = [&](const auto& table) {
     for (const flag_spec& fl : table)
       if ((bits_set[fl.offset - 14] >> fl.shift) & fl.mask) dec.bits(fl.name, fl.offset, fl.shift, fl.mask);
@@ -805,6 +823,110 @@ void write_las(std::ostream& out, const point_cloud& cloud, const las_write_opti
 
 void write_las(const std::string& path, const point_cloud& cloud, const las_write_options& options) {
   detail::write_to_file(path, [&](std::ostream& o) { write_las_unchecked(o, cloud, options); });
+}
+
+namespace {
+/// read_las(), chunk by chunk: the header and VLRs once, then the records.
+class las_stream final : public point_stream {
+ public:
+  las_stream(const std::string& path, const field_selection& fields) : m_path(path), m_fields(fields) {
+    std::error_code ec;
+    if (std::filesystem::is_directory(path, ec)) fail(path, "is a directory, not a file");
+    m_file.reset(std::fopen(path.c_str(), "rb"));
+    if (!m_file) fail(path, std::string("cannot open: ") + std::strerror(errno));
+    const auto size = std::filesystem::file_size(path, ec);
+    if (ec) fail(path, "cannot read its size: " + ec.message());
+    // The header's own checks need the file's size and its first bytes up
+    // to the point data (or the whole file, when it is shorter than a header).
+    std::string head;
+    read_at(0, static_cast<std::size_t>(std::min<std::uintmax_t>(size, 375)), head);
+    if (head.size() >= 100) {
+      const auto offset = load_le<std::uint32_t>(reinterpret_cast<const unsigned char*>(head.data()) + 96);
+      if (offset > head.size() && offset <= size) read_at(0, offset, head);
+    }
+    const auto* d = reinterpret_cast<const unsigned char*>(head.data());
+    m_header = read_header(d, static_cast<std::size_t>(size), path);
+    m_extras = read_vlrs(d, m_header, path);
+    las_read_info info;
+    fill_info(info, m_header, d);
+    m_details = "LAS " + std::to_string(info.version_major) + "." + std::to_string(info.version_minor) +
+                ", point format " + std::to_string(info.point_format);
+  }
+
+  std::size_t read(std::size_t max, const std::array<double, 3>& origin, point_cloud& out) override {
+    const std::uint64_t left = m_header.count - m_next;
+    const auto n = static_cast<std::size_t>(std::min<std::uint64_t>(left, max));
+    out = point_cloud();
+    if (n == 0) {
+      if (!m_first_pass_done) {
+        m_first_pass_done = true;
+        m_flag_bits[0] = m_or[0];
+        m_flag_bits[1] = m_or[1];
+      }
+      return 0;
+    }
+    const std::size_t stride = m_header.record_length;
+    read_at(m_header.point_offset + m_next * stride, n * stride, m_buffer);
+    const auto* base = reinterpret_cast<const unsigned char*>(m_buffer.data());
+    if (!m_first_pass_done) {
+      raw_bounds(base, stride, n, m_lo, m_hi, m_next > 0);
+      m_or[0] |= or_of_bytes(base + 14, stride, n);
+      m_or[1] |= or_of_bytes(base + 15, stride, n);
+    }
+    out = decode_positions_at(base, stride, n, m_header, origin);
+    field_decoder dec{out, m_fields, base, stride, n, {}, m_first_pass_done ? m_flag_bits : nullptr};
+    decode_standard_fields(dec, *m_header.layout);
+    decode_extra_fields(dec, m_extras);
+    out.keep_fields(m_fields);
+    m_next += n;
+    return n;
+  }
+  void rewind() override { m_next = 0; }
+  std::array<double, 3> origin() const override {
+    if (m_header.count == 0) return {0, 0, 0};
+    return las_origin(m_lo, m_hi, m_header);
+  }
+  void bounds(double lo[3], double hi[3]) const override {
+    for (std::size_t k = 0; k < 3; ++k) {
+      const double a = m_lo[k] * m_header.scale[k] + m_header.offset[k];
+      const double b = m_hi[k] * m_header.scale[k] + m_header.offset[k];
+      lo[k] = std::min(a, b);
+      hi[k] = std::max(a, b);
+    }
+  }
+  std::string details() const override { return m_details; }
+  bool streaming() const noexcept override { return true; }
+  std::uint64_t declared_points() const noexcept override { return m_header.count; }
+
+ private:
+  struct closer {
+    void operator()(std::FILE* f) const noexcept { std::fclose(f); }
+  };
+  /// Reads n bytes at `offset` into `buf` (reused: no new memory once it has grown).
+  void read_at(std::uint64_t offset, std::size_t n, std::string& buf) {
+    if (buf.size() < n) buf.resize(n);
+    if (n == 0) return;
+    if (fseeko(m_file.get(), static_cast<off_t>(offset), SEEK_SET) != 0 ||
+        std::fread(buf.data(), 1, n, m_file.get()) != n)
+      fail(m_path, "cannot read " + std::to_string(n) + " bytes at byte " + std::to_string(offset) +
+                       " (the file is unreadable or was truncated while being read)");
+  }
+
+  std::string m_path;
+  field_selection m_fields;
+  std::unique_ptr<std::FILE, closer> m_file;
+  las_header m_header;
+  std::vector<extra_desc> m_extras;
+  std::string m_details, m_buffer;
+  std::uint64_t m_next = 0;
+  bool m_first_pass_done = false;
+  std::int32_t m_lo[3] = {0, 0, 0}, m_hi[3] = {0, 0, 0};
+  unsigned m_or[2] = {0, 0}, m_flag_bits[2] = {0, 0};
+};
+}  // namespace
+
+std::unique_ptr<point_stream> open_las_stream(const std::string& path, const field_selection& fields) {
+  return std::make_unique<las_stream>(path, fields);
 }
 
 }  // namespace ced::io

@@ -1,0 +1,62 @@
+// SPDX-License-Identifier: MIT
+// Reading a cloud file in chunks of points, for clouds larger than memory
+// (`ced detect --tile-size`, `ced plan`).
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "ced/cloud.hpp"
+#include "ced/io/io.hpp"
+
+namespace ced::io {
+
+/// A cloud file read chunk by chunk, in file order.
+///
+/// The first pass (read() until it returns 0) learns what depends on the
+/// whole file: the origin read_cloud() would choose, the bounding box, and,
+/// for some formats, which fields there are (LAS flags that only some points
+/// set). After rewind(), every chunk has exactly the fields, names, types and
+/// positions (relative to the same origin) that read_cloud() gives for the
+/// whole file, point for point; before it, a chunk's fields may differ from
+/// the next one's.
+///
+/// Non-finite points are kept (read_cloud() keeps them too, but for the NaN
+/// points of organized PCD files, which a stream also keeps: the caller counts
+/// file points and finite points itself).
+///
+/// `streaming()` is false for formats read whole and then served in chunks
+/// (memory is then not bounded by the chunk size): PLY, PCD and CSV until
+/// they have their own streaming readers.
+class point_stream {
+ public:
+  virtual ~point_stream() = default;
+  /// Replaces `out` with up to `max` next points, positions relative to
+  /// `origin`; returns how many (0 at the end).
+  virtual std::size_t read(std::size_t max, const std::array<double, 3>& origin, point_cloud& out) = 0;
+  /// Back to the first point. After a complete pass, the chunks that follow
+  /// have the whole file's fields.
+  virtual void rewind() = 0;
+  /// After a complete pass: the origin read_cloud() chooses for this file.
+  virtual std::array<double, 3> origin() const = 0;
+  /// After a complete pass: the bounding box of the finite points, absolute.
+  virtual void bounds(double lo[3], double hi[3]) const = 0;
+  /// The format's description, as read_report::details ("LAS 1.2, point format 3").
+  virtual std::string details() const = 0;
+  virtual bool streaming() const noexcept = 0;
+  /// Points in the file when its header says (LAS); else 0.
+  virtual std::uint64_t declared_points() const noexcept { return 0; }
+};
+
+/// Opens `path` for reading in chunks (format and fields as in read_options).
+/// Throws io_error naming the file for anything read_cloud() would reject
+/// in its header.
+std::unique_ptr<point_stream> open_point_stream(const std::string& path, const read_options& options = {});
+
+/// LAS only, streaming (read_las()'s semantics, chunk by chunk).
+std::unique_ptr<point_stream> open_las_stream(const std::string& path, const field_selection& fields = {});
+
+}  // namespace ced::io

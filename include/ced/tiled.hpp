@@ -1,0 +1,139 @@
+// SPDX-License-Identifier: MIT
+// Clouds larger than memory: a file cut into exact tiles (ced/tiles.hpp),
+// planned in one pass over it, each tile detected on its own (in this
+// process, another one, another machine), the parts merged into exactly the
+// whole-cloud result. What `ced plan`, `ced detect --tile-size`,
+// `ced detect --plan --tile`, `ced merge`, `ced-mpi` and Python's
+// ced.plan_tiles/detect_tile/merge_parts run.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "ced/cloud.hpp"
+#include "ced/io/io.hpp"
+#include "ced/params.hpp"
+#include "ced/tiles.hpp"
+
+namespace ced {
+
+/// What a tiled run detects, and how it cuts the input.
+struct tiled_request {
+  std::string input;
+  io::read_options read;  ///< format, CSV options, the fields to read (all for keypoint clouds)
+  /// radius, nms_radius, min_neighbors, block_scale; threads are per tile.
+  detect_params params;
+  /// Modality specs ("xyz:0.2", ...); empty: ced6d when the file has colour, else ced3d.
+  std::vector<std::string> modalities;
+  double tile_size = 0;            ///< edge of a tile's core, > 0; or 0 with memory_limit
+  std::uint64_t memory_limit = 0;  ///< bytes a tile may take (sets the tile size); 0 = none
+};
+
+/// One tile of a plan that owns points.
+struct tile_entry {
+  std::uint64_t id = 0;
+  std::uint64_t core_points = 0;  ///< points it owns
+  std::uint64_t points = 0;       ///< points it reads (core and halo)
+};
+
+/// A field of the input, as every tile has it.
+struct plan_field {
+  std::string name;
+  scalar_type type = scalar_type::float32;
+  value_range range;  ///< over the whole file's finite points: each tile's whole_range
+};
+
+/// The plan of a tiled run: the input (and a fingerprint of it), what was
+/// asked, what the whole file decides (origin, fields, their ranges), and the
+/// tiles. Written as JSON; every part of the run carries its digest.
+struct tile_plan {
+  tiled_request request;
+  std::string details;  ///< "LAS 1.2, point format 3"
+  std::uint64_t input_bytes = 0;
+  std::string fingerprint;  ///< of the input's bytes (size and sampled blocks)
+  std::uint64_t file_points = 0, finite_points = 0;
+  std::array<double, 3> origin{0.0, 0.0, 0.0};
+  tile_grid grid;
+  std::vector<plan_field> fields;
+  std::vector<tile_entry> tiles;  ///< ascending id
+  bool streamed = true;           ///< false: the format is read whole (memory not bounded)
+
+  std::string to_json() const;
+  /// Throws io_error naming `name` for anything malformed.
+  static tile_plan from_json(const std::string& text, const std::string& name);
+  /// A short hash of to_json(): parts of one plan carry it.
+  std::string digest() const;
+  /// The tile entry of `id`; throws std::invalid_argument when the plan has none.
+  const tile_entry& tile(std::uint64_t id) const;
+};
+
+/// Progress of a long step: what is being done, and the fraction done.
+using tiled_progress = std::function<void(const std::string& step, double fraction)>;
+
+/// Reads the input once (twice with a memory limit: once more to count points
+/// per area) and plans the tiles. Throws std::invalid_argument for a bad
+/// request (tile size, limit, modalities), io_error for the input.
+tile_plan plan_tiles(const tiled_request& request, const tiled_progress& progress = {});
+
+/// Throws io_error when the input file is no longer the one planned (size or
+/// fingerprint differ).
+void check_plan_input(const tile_plan& plan);
+
+/// The points a tile reads, with their indices: `index` among the file's
+/// finite points, `file_index` among all its points.
+struct tile_points {
+  std::uint64_t tile = 0;
+  point_cloud cloud;  ///< fields with whole_range set
+  std::vector<std::uint64_t> index, file_index;
+};
+
+/// Reads tile `id`'s points from the input (one pass over the file).
+tile_points read_tile(const tile_plan& plan, std::uint64_t id);
+
+/// What one tile contributes: its core keypoints, ascending index.
+struct tile_part {
+  std::uint64_t tile = 0;
+  std::vector<std::uint64_t> index, file_index;
+  point_cloud keypoints;  ///< positions and fields of the keypoints
+  std::vector<std::string> names;
+  std::vector<double> thresholds;
+  std::vector<std::vector<float>> saliency;  ///< [modality][keypoint]
+  std::vector<std::uint64_t> candidates;     ///< per modality, core points at or over the threshold
+  std::uint64_t any_candidates = 0;          ///< core candidates (any modality)
+  double detect_ms = 0;
+};
+
+/// Detects one tile. `threads` as in detect_params.
+tile_part detect_tile(const tile_plan& plan, const tile_points& points, unsigned threads = 0);
+
+/// Writes a part atomically (a temporary file renamed into place).
+void write_part(const std::string& path, const tile_plan& plan, const tile_part& part);
+/// Reads a part; throws io_error when it is malformed or of another plan.
+tile_part read_part(const std::string& path, const tile_plan& plan);
+
+/// Every tile's part merged: tile_part of the whole cloud. Throws io_error
+/// naming the missing tiles when a tile that owns points has no part, and
+/// for a tile given twice.
+tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts);
+
+/// The whole run in one process: plan, an on-disk tile cache in `work_dir`
+/// (one more pass over the input), the tiles one after the other, the
+/// merge. Each finished tile's part is kept in `work_dir` (a manifest):
+/// with `resume`, a run of the same request that was stopped redoes only
+/// the tiles without a part. `work_dir` is removed when the run succeeds.
+/// `tile_done(done, total)` after each tile.
+struct tiled_run_options {
+  std::string work_dir;
+  bool resume = false;
+  unsigned threads = 0;
+  tiled_progress progress;
+  /// Once the plan is known (made or, with resume, read), before the tiles.
+  std::function<void(const tile_plan&)> planned;
+  std::function<void(std::size_t done, std::size_t total, double elapsed_ms)> tile_done;
+};
+tile_part run_tiled(const tiled_request& request, const tiled_run_options& options, tile_plan* plan_out = nullptr);
+
+}  // namespace ced

@@ -1,0 +1,335 @@
+// SPDX-License-Identifier: MIT
+// Clouds larger than memory: `ced detect --tile-size/--memory-limit` (one
+// process, a tile cache), `ced plan`, `ced detect --plan --tile` and
+// `ced merge` (any scheduler runs the tiles). The work is ced/tiled.hpp's.
+#include "ced/tiled.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "ced/ced.hpp"
+#include "ced/io/io.hpp"
+#include "commands.hpp"
+#include "common.hpp"
+#include "detect.hpp"
+
+namespace ced_cli {
+
+namespace {
+
+/// "4G", "512M", "64k", "1.5G" or a number of bytes.
+std::uint64_t parse_size(const std::string& text, const std::string& option) {
+  double v = 0;
+  char unit = 0, extra = 0;
+  const int got = std::sscanf(text.c_str(), "%lf%c%c", &v, &unit, &extra);
+  double scale = 1;
+  if (got == 2 ||
+      (got == 3 && (extra == 'B' || extra == 'b') && text.size() >= 2 && text.find_first_of("Bb") == text.size() - 1)) {
+    switch (unit) {
+      case 'k':
+      case 'K':
+        scale = 1024.0;
+        break;
+      case 'm':
+      case 'M':
+        scale = 1024.0 * 1024;
+        break;
+      case 'g':
+      case 'G':
+        scale = 1024.0 * 1024 * 1024;
+        break;
+      case 't':
+      case 'T':
+        scale = 1024.0 * 1024 * 1024 * 1024;
+        break;
+      default:
+        throw usage_error(option + " must be a size such as 4G, 512M or 1000000 (bytes), got '" + text + "'");
+    }
+  } else if (got != 1) {
+    throw usage_error(option + " must be a size such as 4G, 512M or 1000000 (bytes), got '" + text + "'");
+  }
+  if (!(v > 0) || !std::isfinite(v * scale) || v * scale > 1e18)
+    throw usage_error(option + " must be a positive size, got '" + text + "'");
+  return static_cast<std::uint64_t>(v * scale);
+}
+
+/// The tiled request of `ced detect`'s options (checked by make_plan()).
+ced::tiled_request request_from(const detect_options& o, detect_plan& plan) {
+  if (!o.viewer.empty()) throw usage_error("--viewer writes the whole cloud: not with --tile-size or --memory-limit");
+  if (!o.png.empty()) throw usage_error("--png draws the whole cloud: not with --tile-size or --memory-limit");
+  if (o.voxel > 0) throw usage_error("--voxel is not available with --tile-size or --memory-limit");
+  if (plan.auto_radius)
+    throw usage_error("--radius auto needs the whole cloud: give --radius (or --preset) with --tile-size");
+  ced::tiled_request r;
+  r.input = o.input;
+  r.read = plan.read_opts;
+  r.params = plan.params;
+  r.params.nms_radius = std::isnan(o.nms_radius) ? r.params.radius : o.nms_radius;
+  try {
+    if (!o.preset.empty()) r.modalities = ced::preset_specs(o.preset);
+  } catch (const std::invalid_argument& e) {
+    throw usage_error(e.what());
+  }
+  r.modalities.insert(r.modalities.end(), o.modalities.begin(), o.modalities.end());
+  if (!o.memory_limit.empty()) {
+    if (!std::isnan(o.tile_size)) throw usage_error("give --tile-size or --memory-limit, not both");
+    r.memory_limit = parse_size(o.memory_limit, "--memory-limit");
+  } else if (!(o.tile_size > 0) || !std::isfinite(o.tile_size)) {
+    throw usage_error("--tile-size must be a positive number of metres");
+  } else {
+    r.tile_size = o.tile_size;
+  }
+  return r;
+}
+
+/// A default work directory: in $TMPDIR, named after the input and outputs,
+/// so that `--resume` finds the same one.
+std::string default_work_dir(const detect_options& o) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  std::string key = fs::absolute(o.input, ec).string();
+  for (const auto* p : {&o.indices, &o.indices_original, &o.output, &o.summary})
+    key += "|" + (p->empty() ? std::string() : fs::absolute(*p, ec).string());
+  std::uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : key) h = (h ^ c) * 1099511628211ull;
+  char name[40];
+  std::snprintf(name, sizeof name, "ced-tiles-%016llx", static_cast<unsigned long long>(h));
+  return (fs::temp_directory_path(ec) / name).string();
+}
+
+/// Points read per point owned, and the warning when the halo outweighs the core.
+void report_plan(const ced::tile_plan& p, bool quiet) {
+  std::uint64_t owned = 0, read = 0, largest = 0;
+  for (const auto& t : p.tiles) {
+    owned += t.core_points;
+    read += t.points;
+    largest = std::max(largest, t.points);
+  }
+  const double ratio = owned ? double(read) / double(owned) : 0;
+  if (!p.streamed)
+    std::fprintf(stderr,
+                 "ced: warning: %s is read whole before it is tiled (only LAS is streamed so far): memory is not "
+                 "bounded by the tile size\n",
+                 p.request.input.c_str());
+  if (ratio > 2)
+    std::fprintf(stderr,
+                 "ced: warning: the halo (%.3g) outweighs the tiles' cores (%.3g): every point is read %.1f times on "
+                 "average (%llu points read for %llu), which costs as much more time and cache space\n",
+                 p.grid.halo, p.grid.size, ratio, static_cast<unsigned long long>(read),
+                 static_cast<unsigned long long>(owned));
+  if (!quiet)
+    std::fprintf(stderr,
+                 "ced: %zu tiles of %.4g (halo %.4g) own %llu points; %.2f points read a point, the largest tile reads "
+                 "%llu\n",
+                 p.tiles.size(), p.grid.size, p.grid.halo, static_cast<unsigned long long>(owned), ratio,
+                 static_cast<unsigned long long>(largest));
+}
+
+/// The outputs of a merged run: indices, original indices, keypoints, summary.
+void write_merged(const detect_options& o, const ced::tile_plan& p, const ced::tile_part& m, detect_outputs& out,
+                  ced::io::file_format format, double total_ms) {
+  if (out.indices)
+    for (std::uint64_t k : m.index) out.indices->stream() << k << '\n';
+  if (out.original)
+    for (std::uint64_t k : m.file_index) out.original->stream() << k << '\n';
+  if (out.keypoints) write_keypoint_cloud(out.keypoints->stream(), m.keypoints, m.names, m.saliency, format);
+  if (out.summary) {
+    nlohmann::json j;
+    j["input"] = {{"path", p.request.input},
+                  {"details", p.details},
+                  {"points_in_file", p.file_points},
+                  {"nonfinite_removed", p.file_points - p.finite_points},
+                  {"points_used", p.finite_points}};
+    j["params"] = {{"radius", p.request.params.radius},
+                   {"nms_radius", p.request.params.nms_radius},
+                   {"min_neighbors", p.request.params.min_neighbors}};
+    auto& mods = j["modalities"] = nlohmann::json::array();
+    for (std::size_t k = 0; k < m.names.size(); ++k)
+      mods.push_back({{"name", m.names[k]}, {"threshold", m.thresholds[k]}, {"candidates", m.candidates[k]}});
+    j["counts"] = {{"candidates", m.any_candidates}, {"keypoints", m.index.size()}};
+    std::uint64_t read = 0;
+    for (const auto& t : p.tiles) read += t.points;
+    j["tiles"] = {{"count", p.tiles.size()}, {"size", p.grid.size}, {"halo", p.grid.halo}, {"points_read", read}};
+    j["times_ms"] = {{"detect_tiles", m.detect_ms}, {"total", total_ms}};
+    out.summary->stream() << j.dump(2) << '\n';
+  }
+  for (auto& f : out.files) f->commit();
+  (void)o;
+}
+
+/// Wraps the progress bar for the library's (step, fraction) reports.
+ced::tiled_progress bar_progress(progress_bar& bar) {
+  auto last = std::make_shared<std::string>();
+  auto cb = std::make_shared<std::function<void(double)>>(bar.callback());
+  return [&bar, last, cb](const std::string& step, double f) {
+    if (step != *last) {
+      *last = step;
+      bar.stage(step);
+    }
+    if (*cb) (*cb)(f);
+  };
+}
+
+ced::tile_plan load_plan(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw ced::io::io_error(path + ": cannot open the tile plan");
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ced::tile_plan::from_json(ss.str(), path);
+}
+
+}  // namespace
+
+bool wants_tiles(const detect_options& o) { return !std::isnan(o.tile_size) || !o.memory_limit.empty(); }
+
+int run_detect_tiled(const detect_options& o, detect_plan& plan, detect_outputs& out) {
+  const auto t_start = clock_type::now();
+  const ced::tiled_request request = request_from(o, plan);
+  ced::tiled_run_options ro;
+  ro.work_dir = o.work_dir.empty() ? default_work_dir(o) : o.work_dir;
+  ro.resume = o.resume;
+  ro.threads = plan.params.threads;
+  progress_bar bar(!o.quiet);
+  ro.progress = bar_progress(bar);
+  ro.planned = [&](const ced::tile_plan& p) {
+    bar.done();
+    report_plan(p, o.quiet);
+  };
+  double last_print = -1e9;
+  ro.tile_done = [&](std::size_t done, std::size_t total, double ms) {
+    // About twenty lines a run, and one at least every ten seconds.
+    if (o.quiet || (done < total && done % std::max<std::size_t>(1, total / 20) != 0 && ms - last_print < 10000))
+      return;
+    last_print = ms;
+    bar.done();
+    const double left = done ? ms / double(done) * double(total - done) : 0;
+    std::fprintf(stderr, "ced: tile %zu/%zu done; %.1f s elapsed, about %.0f s left\n", done, total, ms / 1000,
+                 left / 1000);
+  };
+  ced::tile_plan p;
+  const ced::tile_part merged = ced::run_tiled(request, ro, &p);
+  bar.stage("writing");
+  write_merged(o, p, merged, out, plan.out_format, ms_since(t_start));
+  bar.done();
+  if (!o.quiet) {
+    std::string mods;
+    for (std::size_t m = 0; m < merged.names.size(); ++m)
+      mods += (m ? " + " : "") + merged.names[m] + " (t=" + std::to_string(merged.thresholds[m]) + ")";
+    std::fprintf(stderr, "ced: %s: %llu points (%s)\n", o.input.c_str(), static_cast<unsigned long long>(p.file_points),
+                 p.details.c_str());
+    std::fprintf(stderr, "ced: modalities %s; radius %g, nms radius %g, min neighbours %u, %u thread(s)\n",
+                 mods.c_str(), p.request.params.radius, p.request.params.nms_radius, p.request.params.min_neighbors,
+                 ced::resolve_threads(plan.params.threads));
+    std::fprintf(stderr, "ced: %zu keypoints; %zu tiles, detect %.1f ms; total %.1f ms\n", merged.index.size(),
+                 p.tiles.size(), merged.detect_ms, ms_since(t_start));
+  }
+  if (out.files.empty())
+    for (std::uint64_t k : merged.index) std::cout << k << '\n';
+  return exit_ok;
+}
+
+int run_detect_plan_tile(const detect_options& o) {
+  if (o.tile < 0) throw usage_error("--plan needs --tile ID (a tile id of the plan)");
+  if (o.output.empty()) throw usage_error("--plan --tile writes the tile's part: give -o PART");
+  if (!o.indices.empty() || !o.indices_original.empty() || !o.viewer.empty() || !o.png.empty() || !o.summary.empty())
+    throw usage_error("--plan --tile writes only the tile's part (-o); `ced merge` writes the outputs");
+  if (!o.input.empty()) throw usage_error("--plan names the input: give no input file with it");
+  load_plugins(o.plugins);
+  ced::io::atomic_output_file check(o.output);  // a bad output path fails before the work
+  const auto t0 = clock_type::now();
+  const ced::tile_plan plan = load_plan(o.plan);
+  try {
+    plan.tile(static_cast<std::uint64_t>(o.tile));
+  } catch (const std::invalid_argument& e) {
+    throw usage_error(std::string("--tile: ") + e.what());
+  }
+  const ced::tile_points pts = ced::read_tile(plan, static_cast<std::uint64_t>(o.tile));
+  const ced::tile_part part = ced::detect_tile(plan, pts, static_cast<unsigned>(std::max(0, o.threads)));
+  ced::write_part(o.output, plan, part);
+  if (!o.quiet)
+    std::fprintf(stderr, "ced: tile %lld: %zu points read, %zu keypoints; %.1f ms\n", o.tile, pts.cloud.size(),
+                 part.index.size(), ms_since(t0));
+  return exit_ok;
+}
+
+command add_plan_command(CLI::App& app) {
+  auto o = std::make_shared<detect_options>();
+  auto plan_path = std::make_shared<std::string>();
+  auto* cmd = app.add_subcommand("plan", "Plan the tiles of a cloud for `ced detect --plan --tile` and `ced merge`");
+  cmd->add_option("input", o->input, "Input cloud: .las (streamed), .ply, .pcd, .csv")->required();
+  cmd->add_option("--format", o->format, "Input format when the extension does not say: ply, pcd, las, csv, auto");
+  cmd->add_option("--columns", o->columns, "CSV column names, e.g. x,y,z,intensity (the file then has no header)");
+  cmd->add_option("--preset", o->preset, "ced3d or ced6d")->check(CLI::IsMember({"ced3d", "ced6d"}));
+  cmd->add_option("-m,--modality", o->modalities, "Modality spec, repeatable (see `ced detect --help`)");
+  add_plugin_option(cmd, o->plugins);
+  cmd->add_option("-r,--radius", o->radius, "Neighbourhood radius in metres (default 0.05)");
+  cmd->add_option("--nms-radius", o->nms_radius, "Non-maximum-suppression radius (default: the radius)");
+  cmd->add_option("-k,--min-neighbors", o->min_neighbors, "Minimum neighbours, the point included (default 5)");
+  cmd->add_option("--tile-size", o->tile_size, "Edge of a tile's core, in metres");
+  cmd->add_option("--memory-limit", o->memory_limit, "Or: the tile size chosen so that a tile fits, e.g. 4G");
+  cmd->add_option("-o,--output", *plan_path, "The plan (JSON)")->required();
+  cmd->add_flag("-q,--quiet", o->quiet, "Print nothing on stderr");
+  cmd->footer(
+      "Example (Slurm array, or GNU parallel):\n"
+      "  ced plan big.las --preset ced6d --tile-size 50 -o plan.json\n"
+      "  ced detect --plan plan.json --tile ID -o part_ID.cedpart     # for every tile id in plan.json\n"
+      "  ced merge plan.json part_*.cedpart -o keypoints.las --indices kp.txt");
+  return {cmd, [o, plan_path] {
+            if (o->radius.empty()) o->radius = "0.05";
+            detect_plan plan = make_plan(*o);
+            plan.read_opts.fields = {};  // all: merge may write keypoint clouds
+            ced::tiled_request r = request_from(*o, plan);
+            if (!wants_tiles(*o)) throw usage_error("give --tile-size or --memory-limit");
+            ced::io::atomic_output_file out(*plan_path);
+            progress_bar bar(!o->quiet);
+            const ced::tile_plan p = ced::plan_tiles(r, bar_progress(bar));
+            bar.done();
+            out.stream() << p.to_json();
+            out.commit();
+            report_plan(p, o->quiet);
+            return exit_ok;
+          }};
+}
+
+command add_merge_command(CLI::App& app) {
+  auto o = std::make_shared<detect_options>();
+  auto plan_path = std::make_shared<std::string>();
+  auto parts = std::make_shared<std::vector<std::string>>();
+  auto* cmd = app.add_subcommand("merge", "Merge the tiles' parts of a plan into the whole cloud's outputs");
+  cmd->add_option("plan", *plan_path, "The plan (from `ced plan`)")->required();
+  cmd->add_option("parts", *parts, "The parts (from `ced detect --plan --tile`), one per tile")->required();
+  cmd->add_option("--indices", o->indices, "Keypoint indices into the input's finite points (0-based, ascending)");
+  cmd->add_option("--indices-original", o->indices_original, "Keypoint indices into the input file's points");
+  cmd->add_option("-o,--output", o->output, "Keypoints with all fields + saliency_<modality>: .ply, .pcd, .las, .csv");
+  cmd->add_option("--summary", o->summary, "JSON summary");
+  add_plugin_option(cmd, o->plugins);
+  cmd->add_flag("-q,--quiet", o->quiet, "Print nothing on stderr");
+  return {cmd, [o, plan_path, parts] {
+            const auto t0 = clock_type::now();
+            load_plugins(o->plugins);
+            const ced::io::file_format format =
+                o->output.empty() ? ced::io::file_format::automatic : ced::io::format_of(o->output);
+            detect_outputs out(*o);
+            const ced::tile_plan p = load_plan(*plan_path);
+            std::vector<ced::tile_part> read;
+            for (const auto& path : *parts) read.push_back(ced::read_part(path, p));
+            const ced::tile_part m = ced::merge_parts(p, std::move(read));
+            o->input = p.request.input;
+            write_merged(*o, p, m, out, format, ms_since(t0));
+            if (!o->quiet)
+              std::fprintf(stderr, "ced: merged %zu parts: %zu keypoints\n", parts->size(), m.index.size());
+            if (out.files.empty())
+              for (std::uint64_t k : m.index) std::cout << k << '\n';
+            return exit_ok;
+          }};
+}
+
+}  // namespace ced_cli

@@ -1,0 +1,879 @@
+// SPDX-License-Identifier: MIT
+// Tiled runs (ced/tiled.hpp): plan, tile cache, tiles, parts, merge.
+#include "ced/tiled.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <stdexcept>
+#include <unordered_map>
+#include <utility>
+
+#include "ced/detect.hpp"
+#include "ced/io/output_file.hpp"
+#include "ced/io/stream.hpp"
+#include "ced/modality.hpp"
+
+namespace ced {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr std::size_t chunk_points = std::size_t(1) << 20;
+constexpr int plan_version = 1;
+constexpr char part_magic[8] = {'C', 'E', 'D', 'P', 'A', 'R', 'T', '1'};
+
+[[noreturn]] void fail(const std::string& what, const std::string& msg) { throw io::io_error(what + ": " + msg); }
+
+std::uint64_t fnv1a(const char* p, std::size_t n, std::uint64_t h = 1469598103934665603ull) {
+  for (std::size_t i = 0; i < n; ++i) {
+    h ^= static_cast<unsigned char>(p[i]);
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+std::string hex(std::uint64_t v) {
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(v));
+  return buf;
+}
+
+/// The file's size, and a hash of it: its size, its first and last 64 KiB and
+/// 64 blocks of 4 KiB spread evenly (a different file, or one changed in
+/// place, almost surely differs; reading it whole would cost a pass).
+std::string fingerprint_of(const std::string& path, std::uint64_t& bytes) {
+  std::error_code ec;
+  bytes = fs::file_size(path, ec);
+  if (ec) fail(path, "cannot read its size: " + ec.message());
+  std::ifstream in(path, std::ios::binary);
+  if (!in) fail(path, "cannot open");
+  std::uint64_t h = fnv1a(reinterpret_cast<const char*>(&bytes), sizeof bytes);
+  std::string buf;
+  auto block = [&](std::uint64_t at, std::uint64_t n) {
+    n = std::min<std::uint64_t>(n, bytes - std::min(at, bytes));
+    buf.resize(static_cast<std::size_t>(n));
+    in.seekg(static_cast<std::streamoff>(at));
+    in.read(buf.data(), static_cast<std::streamsize>(n));
+    if (!in) fail(path, "cannot read it");
+    h = fnv1a(buf.data(), buf.size(), h);
+  };
+  block(0, 65536);
+  for (std::uint64_t k = 1; k <= 64; ++k) block(bytes / 65 * k, 4096);
+  block(bytes > 65536 ? bytes - 65536 : 0, 65536);
+  return hex(h);
+}
+
+bool finite3(const float* p) noexcept { return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]); }
+
+/// True when p lies in tile t's core grown by the halo (the test of tiles_near()).
+bool near_tile(const tile_grid& g, const std::array<std::uint32_t, 3>& c, const float* p) noexcept {
+  for (std::size_t k = 0; k < 3; ++k) {
+    auto cell = [&](double x) {
+      const double v = std::floor((x - g.lo[k]) / g.size);
+      return !(v > 0) ? 0.0 : std::min(v, double(g.dims[k] - 1));
+    };
+    if (cell(double(p[k]) - g.halo) > c[k] || cell(double(p[k]) + g.halo) < c[k]) return false;
+  }
+  return true;
+}
+
+std::vector<any_modality> modalities_of(const std::vector<std::string>& specs) {
+  std::vector<any_modality> out;
+  for (const auto& s : specs) out.push_back(make_modality(s));
+  return out;
+}
+
+scalar_type type_named(const std::string& name, const std::string& where) {
+  for (int t = 0; t <= int(scalar_type::float64); ++t)
+    if (name_of(scalar_type(t)) == name) return scalar_type(t);
+  fail(where, "unknown field type '" + name + "'");
+}
+
+nlohmann::json request_json(const tiled_request& r) {
+  nlohmann::json j;
+  j["input"] = r.input;
+  j["format"] = io::format_name(r.read.format);
+  j["csv_columns"] = r.read.csv.columns;
+  j["fields"] = r.read.fields.all ? nlohmann::json("all") : nlohmann::json(r.read.fields.names);
+  j["radius"] = r.params.radius;
+  j["nms_radius"] = r.params.nms_radius;
+  j["min_neighbors"] = r.params.min_neighbors;
+  j["block_scale"] = r.params.block_scale;
+  j["modalities"] = r.modalities;
+  j["tile_size"] = r.tile_size;
+  j["memory_limit"] = r.memory_limit;
+  return j;
+}
+
+tiled_request request_from_json(const nlohmann::json& j) {
+  tiled_request r;
+  r.input = j.at("input").get<std::string>();
+  r.read.format = io::parse_format(j.at("format").get<std::string>());
+  r.read.csv.columns = j.at("csv_columns").get<std::vector<std::string>>();
+  if (j.at("fields").is_string())
+    r.read.fields = {};
+  else
+    r.read.fields = field_selection::only(j.at("fields").get<std::vector<std::string>>());
+  r.params.radius = j.at("radius").get<double>();
+  r.params.nms_radius = j.at("nms_radius").get<double>();
+  r.params.min_neighbors = j.at("min_neighbors").get<std::uint32_t>();
+  r.params.block_scale = j.at("block_scale").get<double>();
+  r.modalities = j.at("modalities").get<std::vector<std::string>>();
+  r.tile_size = j.at("tile_size").get<double>();
+  r.memory_limit = j.at("memory_limit").get<std::uint64_t>();
+  return r;
+}
+
+/// Bytes of one point in a tile cache or part: index, file index, position, fields.
+std::size_t record_size(const tile_plan& p) {
+  std::size_t s = 8 + 8 + 12;
+  for (const auto& f : p.fields) s += size_of(f.type);
+  return s;
+}
+
+/// An empty cloud with the plan's origin and fields (whole ranges set), room for n points.
+point_cloud empty_cloud(const tile_plan& p, std::size_t n) {
+  point_cloud c;
+  c.set_origin(p.origin);
+  c.resize(n);
+  for (const auto& f : p.fields) c.add_field(f.name, column(f.type, n)).whole_range = f.range;
+  return c;
+}
+
+/// Appends point i of `c` as a record to `out`.
+void append_record(std::string& out, std::uint64_t index, std::uint64_t file_index, const point_cloud& c,
+                   std::size_t i) {
+  out.append(reinterpret_cast<const char*>(&index), 8);
+  out.append(reinterpret_cast<const char*>(&file_index), 8);
+  out.append(reinterpret_cast<const char*>(c.position(i)), 12);
+  for (const auto& f : c.fields()) {
+    const std::size_t w = size_of(f.type());
+    out.append(reinterpret_cast<const char*>(f.values.bytes()) + w * i, w);
+  }
+}
+
+/// Decodes n records at `p` into points [at, at + n) of `c` and the index arrays.
+void decode_records(const char* p, std::size_t n, point_cloud& c, std::size_t at, std::uint64_t* index,
+                    std::uint64_t* file_index) {
+  for (std::size_t i = 0; i < n; ++i) {
+    std::memcpy(index + i, p, 8);
+    std::memcpy(file_index + i, p + 8, 8);
+    std::memcpy(c.positions().data() + 3 * (at + i), p + 16, 12);
+    p += 28;
+    for (auto& f : c.fields()) {
+      const std::size_t w = size_of(f.type());
+      std::memcpy(f.values.bytes() + w * (at + i), p, w);
+      p += w;
+    }
+  }
+}
+
+/// Reads a whole file (a tile cache or a part).
+std::string slurp(const std::string& path) {
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
+  if (!f) fail(path, std::string("cannot open: ") + std::strerror(errno));
+  std::error_code ec;
+  const auto size = fs::file_size(path, ec);
+  if (ec) fail(path, "cannot read its size: " + ec.message());
+  std::string out(static_cast<std::size_t>(size), '\0');
+  if (std::fread(out.data(), 1, out.size(), f.get()) != out.size()) fail(path, "cannot read it");
+  return out;
+}
+
+/// What the first pass learns.
+struct scan_result {
+  std::uint64_t file_points = 0, finite_points = 0;
+  std::map<std::string, std::pair<value_range, bool>> ranges;  // seen in every chunk?
+  std::size_t chunks = 0;
+};
+
+void scan_chunk(const point_cloud& c, scan_result& s) {
+  s.file_points += c.size();
+  std::vector<std::uint8_t> fin(c.size());
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    fin[i] = finite3(c.position(i));
+    s.finite_points += fin[i];
+  }
+  std::map<std::string, bool> here;
+  for (const field& f : c.fields()) {
+    here[f.name] = true;
+    value_range r{0, 0};
+    bool any = false;
+    f.values.visit([&](const auto* v, std::size_t n) {
+      for (std::size_t i = 0; i < n; ++i) {
+        if (!fin[i]) continue;
+        const double x = static_cast<double>(v[i]);
+        r.lo = any ? std::min(r.lo, x) : x;
+        r.hi = any ? std::max(r.hi, x) : x;
+        any = true;
+      }
+    });
+    auto it = s.ranges.find(f.name);
+    if (it == s.ranges.end()) {
+      // A field first seen after some chunks (a LAS flag): it was 0 there.
+      if (s.chunks > 0) r = any ? value_range{std::min(r.lo, 0.0), std::max(r.hi, 0.0)} : value_range{0, 0};
+      s.ranges[f.name] = {r, any || s.chunks > 0};
+    } else if (any) {
+      auto& [w, seen] = it->second;
+      w = seen ? value_range{std::min(w.lo, r.lo), std::max(w.hi, r.hi)} : r;
+      seen = true;
+    }
+  }
+  for (auto& [name, v] : s.ranges)
+    if (!here.count(name)) {  // absent from this chunk: 0 there
+      v.first = v.second ? value_range{std::min(v.first.lo, 0.0), std::max(v.first.hi, 0.0)} : value_range{0, 0};
+      v.second = true;
+    }
+  ++s.chunks;
+}
+
+/// Estimated bytes a tile of n points takes while it is detected: its cache
+/// records, its cloud, the detection (about 90 bytes a point for ced6d on
+/// dense clouds: docs/BENCHMARKS.md), and its keypoints.
+double tile_bytes_per_point(const tile_plan& p) {
+  return 2.0 * double(record_size(p)) + 100.0 + 8.0 * double(p.fields.size());
+}
+constexpr double fixed_overhead = 200.0 * (1 << 20);  // chunks, cache buffers, the program
+
+/// The largest tile size whose densest tile fits in `limit` bytes, from a
+/// histogram of the points (one more pass).
+double size_for_memory(io::point_stream& s, const tile_plan& p, const double lo[3], const double hi[3],
+                       const tiled_progress& progress) {
+  const double limit = double(p.request.memory_limit);
+  const double per_point = tile_bytes_per_point(p);
+  if (limit <= fixed_overhead + per_point * 1000)
+    throw std::invalid_argument("--memory-limit " + std::to_string(p.request.memory_limit) +
+                                " bytes is too small: a run needs about " +
+                                std::to_string(std::uint64_t(fixed_overhead / (1 << 20))) + " MiB besides its tiles");
+  const double max_points = (limit - fixed_overhead) / per_point;
+  const double halo = exact_halo(p.request.params, 0);
+  // Cells of the histogram: a quarter of the halo or more, at most 2^22.
+  double cell = halo / 4;
+  std::uint64_t dims[3];
+  for (;;) {
+    long double total = 1;
+    for (int k = 0; k < 3; ++k) {
+      dims[k] = std::uint64_t(std::floor((hi[k] - lo[k]) / cell)) + 1;
+      total *= dims[k];
+    }
+    if (total <= (1 << 22)) break;
+    cell *= 1.25;
+  }
+  std::vector<std::uint64_t> hist(dims[0] * dims[1] * dims[2], 0);
+  s.rewind();
+  point_cloud c;
+  std::uint64_t done = 0;
+  while (s.read(chunk_points, p.origin, c) > 0) {
+    for (std::size_t i = 0; i < c.size(); ++i) {
+      const float* q = c.position(i);
+      if (!finite3(q)) continue;
+      std::uint64_t a[3];
+      for (int k = 0; k < 3; ++k) {
+        const double v = std::floor((double(q[k]) - lo[k]) / cell);
+        a[k] = std::uint64_t(std::min(std::max(v, 0.0), double(dims[k] - 1)));
+      }
+      ++hist[(a[2] * dims[1] + a[1]) * dims[0] + a[0]];
+    }
+    done += c.size();
+    if (progress)
+      progress("counting points per area", double(done) / double(std::max<std::uint64_t>(1, p.file_points)));
+  }
+  // Summed-volume table for box counts.
+  const std::uint64_t X = dims[0] + 1, Y = dims[1] + 1, Z = dims[2] + 1;
+  std::vector<std::uint64_t> sum(X * Y * Z, 0);
+  auto at = [&](std::uint64_t x, std::uint64_t y, std::uint64_t z) -> std::uint64_t& {
+    return sum[(z * Y + y) * X + x];
+  };
+  for (std::uint64_t z = 1; z < Z; ++z)
+    for (std::uint64_t y = 1; y < Y; ++y)
+      for (std::uint64_t x = 1; x < X; ++x)
+        at(x, y, z) = hist[((z - 1) * dims[1] + (y - 1)) * dims[0] + (x - 1)] + at(x - 1, y, z) + at(x, y - 1, z) +
+                      at(x, y, z - 1) - at(x - 1, y - 1, z) - at(x - 1, y, z - 1) - at(x, y - 1, z - 1) +
+                      at(x - 1, y - 1, z - 1);
+  auto box = [&](const std::uint64_t a[3], const std::uint64_t b[3]) {  // cells [a, b)
+    return at(b[0], b[1], b[2]) - at(a[0], b[1], b[2]) - at(b[0], a[1], b[2]) - at(b[0], b[1], a[2]) +
+           at(a[0], a[1], b[2]) + at(a[0], b[1], a[2]) + at(b[0], a[1], a[2]) - at(a[0], a[1], a[2]);
+  };
+  // The most points a tile of size `size` reads (cells the box grown by the halo meets).
+  auto densest = [&](double size) {
+    std::uint64_t n[3];
+    for (int k = 0; k < 3; ++k) n[k] = std::uint64_t(std::max(1.0, std::ceil((hi[k] - lo[k]) / size)));
+    std::uint64_t worst = 0;
+    for (std::uint64_t tz = 0; tz < n[2]; ++tz)
+      for (std::uint64_t ty = 0; ty < n[1]; ++ty)
+        for (std::uint64_t tx = 0; tx < n[0]; ++tx) {
+          const std::uint64_t t[3] = {tx, ty, tz};
+          std::uint64_t a[3], b[3];
+          for (int k = 0; k < 3; ++k) {
+            const double x0 = double(t[k]) * size - halo, x1 = double(t[k] + 1) * size + halo;
+            a[k] = std::uint64_t(std::min(std::max(std::floor(x0 / cell), 0.0), double(dims[k])));
+            b[k] = std::uint64_t(std::min(std::max(std::floor(x1 / cell) + 1, 0.0), double(dims[k])));
+            if (t[k] + 1 == n[k]) b[k] = dims[k];
+          }
+          worst = std::max(worst, box(a, b));
+        }
+    return double(worst);
+  };
+  double extent = 0;
+  for (int k = 0; k < 3; ++k) extent = std::max(extent, hi[k] - lo[k]);
+  double size = std::max(extent, cell) * 1.0001;
+  if (densest(size) <= max_points) return size;
+  // Halve until it fits, then search between the last two sizes.
+  double big = size;
+  while (size > cell) {
+    size /= 2;
+    if (densest(size) <= max_points) break;
+    big = size;
+  }
+  if (densest(size) > max_points)
+    throw std::invalid_argument(
+        "--memory-limit " + std::to_string(p.request.memory_limit) +
+        " bytes is too small for this cloud: its densest area needs about " +
+        std::to_string(std::uint64_t((densest(size) * per_point + fixed_overhead) / (1 << 20))) +
+        " MiB even with the smallest tiles");
+  for (int i = 0; i < 12; ++i) {
+    const double mid = 0.5 * (size + big);
+    if (densest(mid) <= max_points)
+      size = mid;
+    else
+      big = mid;
+  }
+  return size;
+}
+
+/// Plans without the tiles' counts (run_tiled counts them while it fills
+/// its cache; plan_tiles in a pass of its own). Leaves `s` rewound.
+tile_plan plan_grid(const tiled_request& request, io::point_stream& s, const tiled_progress& progress) {
+  tile_plan p;
+  p.request = request;
+  validate(request.params);
+  if (request.memory_limit == 0 && (!(request.tile_size > 0) || !std::isfinite(request.tile_size)))
+    throw std::invalid_argument("tile size must be a positive number of metres, got " +
+                                std::to_string(request.tile_size));
+  if (request.memory_limit > 0 && request.tile_size > 0)
+    throw std::invalid_argument("give a tile size or a memory limit, not both");
+  modalities_of(request.modalities);  // bad specs fail before the file is read
+  p.fingerprint = fingerprint_of(request.input, p.input_bytes);
+  p.details = s.details();
+  p.streamed = s.streaming();
+  // Pass 1: counts, field ranges, the origin and bounds.
+  scan_result scan;
+  point_cloud c;
+  while (s.read(chunk_points, {0, 0, 0}, c) > 0) {
+    scan_chunk(c, scan);
+    if (progress)
+      progress("reading (pass 1: bounds and ranges)",
+               s.declared_points() ? double(scan.file_points) / double(s.declared_points()) : 0.0);
+  }
+  p.file_points = scan.file_points;
+  p.finite_points = scan.finite_points;
+  if (p.finite_points == 0) fail(request.input, "the cloud has no (finite) points");
+  if (p.finite_points > std::numeric_limits<std::uint32_t>::max())
+    fail(request.input,
+         "more than 2^32-1 finite points: a tile plan indexes points with 32 bits in each tile, "
+         "but the whole file's indices must fit the outputs' too (split the file)");
+  p.origin = s.origin();
+  double lo[3], hi[3];
+  s.bounds(lo, hi);
+  // The file's own fields, as every chunk has them from now on.
+  s.rewind();
+  point_cloud probe;
+  s.read(1, p.origin, probe);
+  s.rewind();
+  for (const field& f : probe.fields()) {
+    const auto it = scan.ranges.find(f.name);
+    p.fields.push_back({f.name, f.type(), it != scan.ranges.end() ? it->second.first : value_range{0, 0}});
+  }
+  if (p.request.modalities.empty()) p.request.modalities = preset_specs(probe.has_rgb() ? "ced6d" : "ced3d");
+  {  // the modalities find their fields (an error now, not in every tile)
+    point_cloud one = empty_cloud(p, 1);
+    for (const auto& m : modalities_of(p.request.modalities)) m.bind(one, p.request.params);
+  }
+  double plo[3], phi[3];
+  for (int k = 0; k < 3; ++k) {
+    plo[k] = lo[k] - p.origin[std::size_t(k)];
+    phi[k] = hi[k] - p.origin[std::size_t(k)];
+  }
+  const double size = request.memory_limit > 0 ? size_for_memory(s, p, plo, phi, progress) : request.tile_size;
+  s.rewind();
+  p.grid = make_tile_grid(plo, phi, size, request.params);
+  return p;
+}
+
+/// Counts per tile, from the points of one chunk.
+struct tile_counter {
+  bool dense;
+  std::vector<std::uint64_t> core_v, all_v;
+  std::unordered_map<std::uint64_t, std::pair<std::uint64_t, std::uint64_t>> sparse;
+  explicit tile_counter(std::uint64_t tiles) : dense(tiles <= (1u << 20)) {
+    if (dense) {
+      core_v.assign(tiles, 0);
+      all_v.assign(tiles, 0);
+    }
+  }
+  void core(std::uint64_t t) { dense ? ++core_v[t] : ++sparse[t].first; }
+  void near(std::uint64_t t) { dense ? ++all_v[t] : ++sparse[t].second; }
+  std::vector<tile_entry> entries() const {
+    std::vector<tile_entry> out;
+    if (dense) {
+      for (std::uint64_t t = 0; t < core_v.size(); ++t)
+        if (core_v[t]) out.push_back({t, core_v[t], all_v[t]});
+    } else {
+      for (const auto& [t, v] : sparse)
+        if (v.first) out.push_back({t, v.first, v.second});
+      std::sort(out.begin(), out.end(), [](const tile_entry& a, const tile_entry& b) { return a.id < b.id; });
+    }
+    return out;
+  }
+};
+
+/// Buffers of tile-cache records, written out to one file a tile when they
+/// hold more than `budget` bytes.
+class cache_writer {
+ public:
+  cache_writer(std::string dir, std::size_t budget) : m_dir(std::move(dir)), m_budget(budget) {}
+  std::string& buffer(std::uint64_t t) { return m_buffers[t]; }
+  void maybe_flush(std::size_t bytes_added) {
+    m_held += bytes_added;
+    if (m_held > m_budget) flush();
+  }
+  void flush() {
+    for (auto& [t, b] : m_buffers) {
+      if (b.empty()) continue;
+      const std::string path = file(t);
+      std::FILE* f = std::fopen(path.c_str(), "ab");
+      if (!f) fail(path, std::string("cannot write the tile cache: ") + std::strerror(errno));
+      const bool ok = std::fwrite(b.data(), 1, b.size(), f) == b.size();
+      if (std::fclose(f) != 0 || !ok) fail(path, "cannot write the tile cache (disk full?)");
+      b.clear();
+      if (b.capacity() > (std::size_t(4) << 20)) b.shrink_to_fit();  // keep small buffers: no regrowth
+    }
+    m_held = 0;
+  }
+  std::string file(std::uint64_t t) const { return m_dir + "/t" + std::to_string(t) + ".bin"; }
+
+ private:
+  std::string m_dir;
+  std::size_t m_budget, m_held = 0;
+  std::map<std::uint64_t, std::string> m_buffers;
+};
+
+tile_points points_from_records(const tile_plan& p, std::uint64_t id, const std::string& bytes,
+                                const std::string& name) {
+  const std::size_t rs = record_size(p);
+  if (bytes.size() % rs != 0) fail(name, "truncated tile cache (" + std::to_string(bytes.size()) + " bytes)");
+  const std::size_t n = bytes.size() / rs;
+  tile_points t;
+  t.tile = id;
+  t.cloud = empty_cloud(p, n);
+  t.index.resize(n);
+  t.file_index.resize(n);
+  decode_records(bytes.data(), n, t.cloud, 0, t.index.data(), t.file_index.data());
+  return t;
+}
+
+}  // namespace
+
+// ------------------------------------------------------------------ plan
+
+std::string tile_plan::to_json() const {
+  nlohmann::json j;
+  j["ced_tile_plan"] = plan_version;
+  j["request"] = request_json(request);
+  j["input"] = {{"details", details},    {"bytes", input_bytes},           {"fingerprint", fingerprint},
+                {"points", file_points}, {"finite_points", finite_points}, {"streamed", streamed}};
+  j["origin"] = origin;
+  j["grid"] = {{"lo", grid.lo}, {"size", grid.size}, {"dims", grid.dims}, {"halo", grid.halo}};
+  auto& fl = j["fields"] = nlohmann::json::array();
+  for (const auto& f : fields)
+    fl.push_back({{"name", f.name}, {"type", std::string(name_of(f.type))}, {"lo", f.range.lo}, {"hi", f.range.hi}});
+  auto& tl = j["tiles"] = nlohmann::json::array();
+  for (const auto& t : tiles) tl.push_back({t.id, t.core_points, t.points});
+  return j.dump(1) + "\n";
+}
+
+tile_plan tile_plan::from_json(const std::string& text, const std::string& name) {
+  tile_plan p;
+  try {
+    const auto j = nlohmann::json::parse(text);
+    if (!j.is_object() || !j.contains("ced_tile_plan")) fail(name, "not a ced tile plan (no 'ced_tile_plan' key)");
+    if (j.at("ced_tile_plan").get<int>() != plan_version)
+      fail(name, "tile plan version " + j.at("ced_tile_plan").dump() + ", this ced reads version " +
+                     std::to_string(plan_version));
+    p.request = request_from_json(j.at("request"));
+    const auto& in = j.at("input");
+    p.details = in.at("details").get<std::string>();
+    p.input_bytes = in.at("bytes").get<std::uint64_t>();
+    p.fingerprint = in.at("fingerprint").get<std::string>();
+    p.file_points = in.at("points").get<std::uint64_t>();
+    p.finite_points = in.at("finite_points").get<std::uint64_t>();
+    p.streamed = in.at("streamed").get<bool>();
+    p.origin = j.at("origin").get<std::array<double, 3>>();
+    const auto& g = j.at("grid");
+    p.grid.lo = g.at("lo").get<std::array<double, 3>>();
+    p.grid.size = g.at("size").get<double>();
+    p.grid.dims = g.at("dims").get<std::array<std::uint32_t, 3>>();
+    p.grid.halo = g.at("halo").get<double>();
+    if (!(p.grid.size > 0) || !std::isfinite(p.grid.size) || !(p.grid.halo >= 0) ||
+        p.grid.dims[0] * std::uint64_t(p.grid.dims[1]) * p.grid.dims[2] == 0 ||
+        p.grid.count() > (std::uint64_t(1) << 24))
+      fail(name, "the tile grid is invalid");
+    for (const auto& f : j.at("fields"))
+      p.fields.push_back({f.at("name").get<std::string>(),
+                          type_named(f.at("type").get<std::string>(), name),
+                          {f.at("lo").get<double>(), f.at("hi").get<double>()}});
+    for (const auto& t : j.at("tiles")) {
+      const tile_entry e{t.at(0).get<std::uint64_t>(), t.at(1).get<std::uint64_t>(), t.at(2).get<std::uint64_t>()};
+      if (e.id >= p.grid.count() || (!p.tiles.empty() && e.id <= p.tiles.back().id))
+        fail(name, "tile " + std::to_string(e.id) + " is out of the grid or out of order");
+      p.tiles.push_back(e);
+    }
+    validate(p.request.params);
+  } catch (const nlohmann::json::exception& e) {
+    fail(name, std::string("malformed tile plan: ") + e.what());
+  } catch (const std::invalid_argument& e) {
+    fail(name, std::string("invalid tile plan: ") + e.what());
+  }
+  return p;
+}
+
+std::string tile_plan::digest() const {
+  const std::string j = to_json();
+  return hex(fnv1a(j.data(), j.size()));
+}
+
+const tile_entry& tile_plan::tile(std::uint64_t id) const {
+  const auto it =
+      std::lower_bound(tiles.begin(), tiles.end(), id, [](const tile_entry& e, std::uint64_t v) { return e.id < v; });
+  if (it == tiles.end() || it->id != id)
+    throw std::invalid_argument("tile " + std::to_string(id) +
+                                " owns no points in this plan (its tiles: " + std::to_string(tiles.size()) + ", ids " +
+                                (tiles.empty()
+                                     ? std::string("none")
+                                     : std::to_string(tiles.front().id) + ".." + std::to_string(tiles.back().id)) +
+                                ")");
+  return *it;
+}
+
+tile_plan plan_tiles(const tiled_request& request, const tiled_progress& progress) {
+  auto s = io::open_point_stream(request.input, request.read);
+  tile_plan p = plan_grid(request, *s, progress);
+  // Pass 2: points per tile.
+  tile_counter counts(p.grid.count());
+  point_cloud c;
+  std::vector<std::uint64_t> near;
+  std::uint64_t done = 0;
+  while (s->read(chunk_points, p.origin, c) > 0) {
+    for (std::size_t i = 0; i < c.size(); ++i) {
+      if (!finite3(c.position(i))) continue;
+      counts.core(p.grid.tile_of(c.position(i)));
+      p.grid.tiles_near(c.position(i), near);
+      for (std::uint64_t t : near) counts.near(t);
+    }
+    done += c.size();
+    if (progress) progress("reading (pass 2: points per tile)", double(done) / double(p.file_points));
+  }
+  p.tiles = counts.entries();
+  return p;
+}
+
+void check_plan_input(const tile_plan& plan) {
+  std::uint64_t bytes = 0;
+  const std::string fp = fingerprint_of(plan.request.input, bytes);
+  if (bytes != plan.input_bytes || fp != plan.fingerprint)
+    fail(plan.request.input, "this is not the file the plan was made for (" + std::to_string(bytes) + " bytes, " +
+                                 "fingerprint " + fp + "; the plan says " + std::to_string(plan.input_bytes) +
+                                 " bytes, fingerprint " + plan.fingerprint + "): make a new plan");
+}
+
+tile_points read_tile(const tile_plan& plan, std::uint64_t id) {
+  plan.tile(id);  // throws for a tile that owns no points
+  check_plan_input(plan);
+  auto s = io::open_point_stream(plan.request.input, plan.request.read);
+  // A pass to learn the whole file's fields (LAS flags), then the tile's points.
+  point_cloud c;
+  while (s->read(chunk_points, {0, 0, 0}, c) > 0) {
+  }
+  s->rewind();
+  const auto coords = plan.grid.coords(id);
+  std::string records;
+  std::uint64_t file_index = 0, index = 0;
+  while (s->read(chunk_points, plan.origin, c) > 0) {
+    if (c.fields().size() != plan.fields.size())
+      fail(plan.request.input, "its fields differ from the plan's: make a new plan");
+    for (std::size_t i = 0; i < c.size(); ++i, ++file_index) {
+      if (!finite3(c.position(i))) continue;
+      if (near_tile(plan.grid, coords, c.position(i))) append_record(records, index, file_index, c, i);
+      ++index;
+    }
+  }
+  return points_from_records(plan, id, records, plan.request.input);
+}
+
+// ------------------------------------------------------------------ tiles
+
+tile_part detect_tile(const tile_plan& plan, const tile_points& points, unsigned threads) {
+  const auto t0 = std::chrono::steady_clock::now();
+  tile_part part;
+  part.tile = points.tile;
+  const auto modalities = modalities_of(plan.request.modalities);
+  detect_params params = plan.request.params;
+  params.threads = threads;
+  const std::size_t m = modalities.size();
+  for (const auto& mod : modalities) {
+    part.names.push_back(mod.name());
+    part.thresholds.push_back(mod.threshold(params));
+  }
+  part.saliency.assign(m, {});
+  part.candidates.assign(m, 0);
+  part.keypoints = empty_cloud(plan, 0);
+  if (points.cloud.empty()) return part;
+  const detection_result r = detect(points.cloud, params, modalities);
+  std::vector<std::uint32_t> kept;
+  for (std::size_t i = 0; i < points.cloud.size(); ++i) {
+    if (plan.grid.tile_of(points.cloud.position(i)) != points.tile) continue;
+    for (std::size_t k = 0; k < m; ++k) part.candidates[k] += r.saliency[k][i] >= r.thresholds[k];
+    part.any_candidates += r.candidate[i] != 0;
+  }
+  for (std::uint32_t k : core_keypoints(plan.grid, points.tile, points.cloud, r)) kept.push_back(k);
+  part.keypoints = empty_cloud(plan, kept.size());
+  for (std::size_t j = 0; j < kept.size(); ++j) {
+    const std::uint32_t i = kept[j];
+    part.index.push_back(points.index[i]);
+    part.file_index.push_back(points.file_index[i]);
+    std::copy_n(points.cloud.position(i), 3, part.keypoints.positions().data() + 3 * j);
+    for (std::size_t f = 0; f < plan.fields.size(); ++f) {
+      const std::size_t w = size_of(plan.fields[f].type);
+      std::memcpy(part.keypoints.fields()[f].values.bytes() + w * j, points.cloud.fields()[f].values.bytes() + w * i,
+                  w);
+    }
+    for (std::size_t k = 0; k < m; ++k) part.saliency[k].push_back(r.saliency[k][i]);
+  }
+  part.detect_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return part;
+}
+
+void write_part(const std::string& path, const tile_plan& plan, const tile_part& part) {
+  std::string out(part_magic, 8);
+  const std::string digest = plan.digest();
+  out += digest;
+  auto put = [&](const auto& v) { out.append(reinterpret_cast<const char*>(&v), sizeof v); };
+  put(part.tile);
+  put(std::uint64_t(part.index.size()));
+  put(std::uint32_t(part.saliency.size()));
+  put(std::uint32_t(plan.fields.size()));
+  for (std::uint64_t c : part.candidates) put(c);
+  put(part.any_candidates);
+  put(part.detect_ms);
+  for (std::size_t j = 0; j < part.index.size(); ++j) {
+    append_record(out, part.index[j], part.file_index[j], part.keypoints, j);
+    for (const auto& s : part.saliency) put(s[j]);
+  }
+  io::atomic_output_file f(path);
+  f.stream().write(out.data(), static_cast<std::streamsize>(out.size()));
+  f.commit();
+}
+
+tile_part read_part(const std::string& path, const tile_plan& plan) {
+  const std::string b = slurp(path);
+  const std::string digest = plan.digest();
+  std::size_t at = 0;
+  auto need = [&](std::size_t n) {
+    if (b.size() - at < n) fail(path, "truncated tile part (" + std::to_string(b.size()) + " bytes)");
+  };
+  auto get = [&](auto& v) {
+    need(sizeof v);
+    std::memcpy(&v, b.data() + at, sizeof v);
+    at += sizeof v;
+  };
+  need(8 + digest.size());
+  if (std::memcmp(b.data(), part_magic, 8) != 0) fail(path, "not a ced tile part");
+  if (b.compare(8, digest.size(), digest) != 0)
+    fail(path,
+         "this part belongs to another plan (plan digest " + b.substr(8, digest.size()) + ", expected " + digest + ")");
+  at = 8 + digest.size();
+  tile_part p;
+  std::uint64_t k = 0;
+  std::uint32_t m = 0, nf = 0;
+  get(p.tile);
+  get(k);
+  get(m);
+  get(nf);
+  const auto modalities = modalities_of(plan.request.modalities);
+  if (m != modalities.size() || nf != plan.fields.size()) fail(path, "its modalities or fields differ from the plan's");
+  for (const auto& mod : modalities) {
+    p.names.push_back(mod.name());
+    p.thresholds.push_back(mod.threshold(plan.request.params));
+  }
+  p.candidates.resize(m);
+  for (auto& c : p.candidates) get(c);
+  get(p.any_candidates);
+  get(p.detect_ms);
+  const std::size_t rs = record_size(plan) + 4 * std::size_t(m);
+  if (k > (b.size() - std::min(at, b.size())) / rs || (b.size() - at) != k * rs)
+    fail(path, "truncated or oversized tile part: " + std::to_string(k) + " keypoints declared");
+  p.keypoints = empty_cloud(plan, static_cast<std::size_t>(k));
+  p.index.resize(k);
+  p.file_index.resize(k);
+  p.saliency.assign(m, std::vector<float>(k));
+  for (std::size_t j = 0; j < k; ++j) {
+    decode_records(b.data() + at, 1, p.keypoints, j, p.index.data() + j, p.file_index.data() + j);
+    at += record_size(plan);
+    for (std::size_t s = 0; s < m; ++s) get(p.saliency[s][j]);
+  }
+  return p;
+}
+
+tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts) {
+  std::map<std::uint64_t, std::size_t> by_tile;
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    plan.tile(parts[i].tile);  // a tile of the plan
+    if (!by_tile.emplace(parts[i].tile, i).second)
+      throw io::io_error("tile " + std::to_string(parts[i].tile) + " is given twice");
+  }
+  std::vector<std::uint64_t> missing;
+  for (const auto& t : plan.tiles)
+    if (!by_tile.count(t.id)) missing.push_back(t.id);
+  if (!missing.empty()) {
+    std::string list;
+    for (std::size_t i = 0; i < missing.size() && i < 10; ++i) list += (i ? ", " : "") + std::to_string(missing[i]);
+    if (missing.size() > 10) list += ", ...";
+    throw io::io_error(std::to_string(missing.size()) + " of the plan's " + std::to_string(plan.tiles.size()) +
+                       " tiles have no part: " + list);
+  }
+  tile_part out;
+  const auto modalities = modalities_of(plan.request.modalities);
+  for (const auto& mod : modalities) {
+    out.names.push_back(mod.name());
+    out.thresholds.push_back(mod.threshold(plan.request.params));
+  }
+  const std::size_t m = modalities.size();
+  out.candidates.assign(m, 0);
+  // Keypoints of all parts, by index (the parts' are disjoint).
+  std::vector<std::pair<std::uint64_t, std::pair<std::size_t, std::size_t>>> order;
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    for (std::size_t k = 0; k < m; ++k) out.candidates[k] += parts[i].candidates[k];
+    out.any_candidates += parts[i].any_candidates;
+    out.detect_ms += parts[i].detect_ms;
+    for (std::size_t j = 0; j < parts[i].index.size(); ++j) order.push_back({parts[i].index[j], {i, j}});
+  }
+  std::sort(order.begin(), order.end());
+  out.keypoints = empty_cloud(plan, order.size());
+  out.saliency.assign(m, std::vector<float>(order.size()));
+  for (std::size_t q = 0; q < order.size(); ++q) {
+    const auto [i, j] = order[q].second;
+    const tile_part& p = parts[i];
+    out.index.push_back(p.index[j]);
+    out.file_index.push_back(p.file_index[j]);
+    std::copy_n(p.keypoints.position(j), 3, out.keypoints.positions().data() + 3 * q);
+    for (std::size_t f = 0; f < plan.fields.size(); ++f) {
+      const std::size_t w = size_of(plan.fields[f].type);
+      std::memcpy(out.keypoints.fields()[f].values.bytes() + w * q, p.keypoints.fields()[f].values.bytes() + w * j, w);
+    }
+    for (std::size_t k = 0; k < m; ++k) out.saliency[k][q] = p.saliency[k][j];
+  }
+  for (auto& f : out.keypoints.fields()) f.whole_range.reset();
+  return out;
+}
+
+// ------------------------------------------------------------------ one process
+
+tile_part run_tiled(const tiled_request& request, const tiled_run_options& o, tile_plan* plan_out) {
+  if (o.work_dir.empty()) throw std::invalid_argument("run_tiled: no work directory");
+  const fs::path dir(o.work_dir), plan_path = dir / "plan.json", cache = dir / "cache", parts = dir / "parts";
+  std::error_code ec;
+  tile_plan plan;
+  bool have_plan = false;
+  if (fs::exists(plan_path, ec)) {
+    if (!o.resume)
+      fail(o.work_dir, "holds the tiles of an unfinished run: pass --resume to finish it, or remove the directory");
+    plan = tile_plan::from_json(slurp(plan_path.string()), plan_path.string());
+    tiled_request asked = request;
+    if (asked.modalities.empty()) asked.modalities = plan.request.modalities;
+    if (request_json(asked) != request_json(plan.request))
+      fail(o.work_dir, "holds the tiles of another run (" + request_json(plan.request).dump() +
+                           "): remove it or choose another work directory");
+    check_plan_input(plan);
+    have_plan = true;
+  } else if (fs::exists(dir, ec) && !fs::is_empty(dir, ec)) {
+    // A run stopped before its plan was written: its cache is incomplete.
+    if (!o.resume && !fs::exists(cache, ec))
+      fail(o.work_dir, "exists and is not a ced work directory: remove it or choose another");
+    fs::remove_all(cache, ec);
+    fs::remove_all(parts, ec);
+  }
+  if (!have_plan) {
+    fs::create_directories(cache, ec);
+    if (ec) fail(cache.string(), "cannot create the tile cache directory: " + ec.message());
+    auto s = io::open_point_stream(request.input, request.read);
+    plan = plan_grid(request, *s, o.progress);
+    // Pass 2: every point into the cache file of each tile that reads it.
+    tile_counter counts(plan.grid.count());
+    cache_writer writer(cache.string(), std::size_t(64) << 20);
+    point_cloud c;
+    std::vector<std::uint64_t> near;
+    std::uint64_t file_index = 0, index = 0;
+    while (s->read(chunk_points, plan.origin, c) > 0) {
+      std::size_t added = 0;
+      for (std::size_t i = 0; i < c.size(); ++i, ++file_index) {
+        if (!finite3(c.position(i))) continue;
+        counts.core(plan.grid.tile_of(c.position(i)));
+        plan.grid.tiles_near(c.position(i), near);
+        for (std::uint64_t t : near) {
+          counts.near(t);
+          append_record(writer.buffer(t), index, file_index, c, i);
+          added += record_size(plan);
+        }
+        ++index;
+      }
+      writer.maybe_flush(added);
+      if (o.progress) o.progress("reading (pass 2: tile cache)", double(file_index) / double(plan.file_points));
+    }
+    writer.flush();
+    plan.tiles = counts.entries();
+    io::write_text_file_atomic(plan_path.string(), plan.to_json());
+  }
+  fs::create_directories(parts, ec);
+  if (ec) fail(parts.string(), "cannot create the parts directory: " + ec.message());
+  if (plan_out) *plan_out = plan;
+  if (o.planned) o.planned(plan);
+  // The tiles, each kept as a part; a part already there (resume) is read.
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<tile_part> done;
+  const char* kill_after = std::getenv("CED_TEST_KILL_AFTER_TILES");  // the resume test's hook
+  std::size_t detected = 0;
+  for (const auto& t : plan.tiles) {
+    const std::string part_path = (parts / ("t" + std::to_string(t.id) + ".part")).string();
+    if (fs::exists(part_path, ec)) {
+      done.push_back(read_part(part_path, plan));
+    } else {
+      const std::string cache_file = (cache / ("t" + std::to_string(t.id) + ".bin")).string();
+      const tile_points pts = points_from_records(plan, t.id, slurp(cache_file), cache_file);
+      if (pts.cloud.size() != t.points) fail(cache_file, "the tile cache does not hold the tile's points");
+      done.push_back(detect_tile(plan, pts, o.threads));
+      write_part(part_path, plan, done.back());
+      fs::remove(cache_file, ec);
+      ++detected;
+      if (kill_after && detected >= std::size_t(std::atoi(kill_after))) std::raise(SIGKILL);
+    }
+    if (o.tile_done)
+      o.tile_done(done.size(), plan.tiles.size(),
+                  std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  }
+  tile_part merged = merge_parts(plan, std::move(done));
+  fs::remove_all(dir, ec);
+  return merged;
+}
+
+}  // namespace ced
