@@ -3,6 +3,7 @@
 #include "ced/tiled.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -789,8 +790,8 @@ tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts) {
 
 // ------------------------------------------------------------------ one process
 
-tile_part run_tiled(const tiled_request& request, const tiled_run_options& o, tile_plan* plan_out) {
-  if (o.work_dir.empty()) throw std::invalid_argument("run_tiled: no work directory");
+tile_plan prepare_tiled(const tiled_request& request, const tiled_run_options& o) {
+  if (o.work_dir.empty()) throw std::invalid_argument("tiled run: no work directory");
   const fs::path dir(o.work_dir), plan_path = dir / "plan.json", cache = dir / "cache", parts = dir / "parts";
   std::error_code ec;
   tile_plan plan;
@@ -846,33 +847,59 @@ tile_part run_tiled(const tiled_request& request, const tiled_run_options& o, ti
   }
   fs::create_directories(parts, ec);
   if (ec) fail(parts.string(), "cannot create the parts directory: " + ec.message());
-  if (plan_out) *plan_out = plan;
   if (o.planned) o.planned(plan);
-  // The tiles, each kept as a part; a part already there (resume) is read.
+  return plan;
+}
+
+tile_part detect_cached_tile(const tile_plan& plan, const std::string& work_dir, std::uint64_t id, unsigned threads,
+                             bool* was_done) {
+  const tile_entry& t = plan.tile(id);
+  const fs::path dir(work_dir);
+  const std::string part_path = (dir / "parts" / ("t" + std::to_string(id) + ".part")).string();
+  std::error_code ec;
+  if (was_done) *was_done = fs::exists(part_path, ec);
+  if (fs::exists(part_path, ec)) return read_part(part_path, plan);
+  const std::string cache_file = (dir / "cache" / ("t" + std::to_string(id) + ".bin")).string();
+  const tile_points pts = points_from_records(plan, id, slurp(cache_file), cache_file);
+  if (pts.cloud.size() != t.points) fail(cache_file, "the tile cache does not hold the tile's points");
+  tile_part part = detect_tile(plan, pts, threads);
+  write_part(part_path, plan, part);
+  fs::remove(cache_file, ec);
+  // The resume tests' hook: die like a killed process after so many tiles.
+  static std::atomic<long> detected{0};
+  if (const char* kill_after = std::getenv("CED_TEST_KILL_AFTER_TILES"))
+    if (++detected >= std::atol(kill_after)) std::raise(SIGKILL);
+  return part;
+}
+
+tile_part finish_tiled(const tile_plan& plan, const std::string& work_dir) {
+  std::vector<tile_part> parts;
+  for (const auto& t : plan.tiles) {
+    const std::string path = (fs::path(work_dir) / "parts" / ("t" + std::to_string(t.id) + ".part")).string();
+    std::error_code ec;
+    if (fs::exists(path, ec)) parts.push_back(read_part(path, plan));
+  }
+  tile_part merged = merge_parts(plan, std::move(parts));
+  std::error_code ec;
+  fs::remove_all(work_dir, ec);
+  return merged;
+}
+
+tile_part run_tiled(const tiled_request& request, const tiled_run_options& o, tile_plan* plan_out) {
+  const tile_plan plan = prepare_tiled(request, o);
+  if (plan_out) *plan_out = plan;
+  // The tiles, one after the other (threads within each).
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<tile_part> done;
-  const char* kill_after = std::getenv("CED_TEST_KILL_AFTER_TILES");  // the resume test's hook
-  std::size_t detected = 0;
   for (const auto& t : plan.tiles) {
-    const std::string part_path = (parts / ("t" + std::to_string(t.id) + ".part")).string();
-    if (fs::exists(part_path, ec)) {
-      done.push_back(read_part(part_path, plan));
-    } else {
-      const std::string cache_file = (cache / ("t" + std::to_string(t.id) + ".bin")).string();
-      const tile_points pts = points_from_records(plan, t.id, slurp(cache_file), cache_file);
-      if (pts.cloud.size() != t.points) fail(cache_file, "the tile cache does not hold the tile's points");
-      done.push_back(detect_tile(plan, pts, o.threads));
-      write_part(part_path, plan, done.back());
-      fs::remove(cache_file, ec);
-      ++detected;
-      if (kill_after && detected >= std::size_t(std::atoi(kill_after))) std::raise(SIGKILL);
-    }
+    done.push_back(detect_cached_tile(plan, o.work_dir, t.id, o.threads));
     if (o.tile_done)
       o.tile_done(done.size(), plan.tiles.size(),
                   std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   }
   tile_part merged = merge_parts(plan, std::move(done));
-  fs::remove_all(dir, ec);
+  std::error_code ec;
+  fs::remove_all(o.work_dir, ec);
   return merged;
 }
 

@@ -136,4 +136,16 @@ struct tiled_run_options {
 };
 tile_part run_tiled(const tiled_request& request, const tiled_run_options& options, tile_plan* plan_out = nullptr);
 
+/// run_tiled() in three steps, for runs that share the tiles between
+/// processes (ced-mpi; the work directory on storage they all see):
+/// the plan and the tile cache (or, with resume, the plan found there) ...
+tile_plan prepare_tiled(const tiled_request& request, const tiled_run_options& options);
+/// ... the part of one tile, detected from the cache and kept in the work
+/// directory (or read from there when it is already) ...
+tile_part detect_cached_tile(const tile_plan& plan, const std::string& work_dir, std::uint64_t id, unsigned threads = 0,
+                             bool* was_done = nullptr);
+/// ... every tile's part from the work directory merged; the directory is
+/// then removed.
+tile_part finish_tiled(const tile_plan& plan, const std::string& work_dir);
+
 }  // namespace ced

@@ -15,9 +15,11 @@ struct command {
   std::function<int()> run;
 };
 
-command add_detect_command(CLI::App& app);          // detect.cpp
-command add_info_command(CLI::App& app);            // info.cpp
-command add_modalities_command(CLI::App& app);      // modalities.cpp
+struct detect_options;
+/// `run`, when given, runs the parsed options instead of `ced detect` (ced-mpi).
+command add_detect_command(CLI::App& app, std::function<int(const detect_options&)> run = {});  // detect.cpp
+command add_info_command(CLI::App& app);                                                        // info.cpp
+command add_modalities_command(CLI::App& app);                                                  // modalities.cpp
 CLI::App* add_eval_command(CLI::App& app);          // eval.cpp: the `eval` group, for the two below
 command add_repeatability_command(CLI::App& eval);  // eval.cpp
 command add_registration_command(CLI::App& eval);   // registration.cpp

@@ -190,7 +190,7 @@ int run_detect(const detect_options& o) {
 
 }  // namespace
 
-command add_detect_command(CLI::App& app) {
+command add_detect_command(CLI::App& app, std::function<int(const detect_options&)> run) {
   auto o = std::make_shared<detect_options>();
   auto* det = app.add_subcommand("detect", "Detect keypoints");
   det->add_option("input", o->input, "Input cloud: .ply, .pcd, .las, .csv/.xyz/.txt/.pts");
@@ -245,6 +245,7 @@ command add_detect_command(CLI::App& app) {
       "  ced detect big.las --preset ced6d --tile-size 50 -o keypoints.las\n"
       "  ced detect --plan plan.json --tile 7 -o part_7.cedpart\n"
       "Without any output option the indices go to stdout. Exit codes: 0 ok, 1 bad input data or I/O, 2 usage.");
+  if (run) return {det, [o, run] { return run(*o); }};
   return {det, [o] { return run_detect(*o); }};
 }
 

@@ -13,6 +13,7 @@
 #include "ced/ced.hpp"
 #include "ced/io/io.hpp"
 #include "ced/render.hpp"
+#include "ced/tiled.hpp"
 #include "common.hpp"
 
 namespace ced_cli {
@@ -32,8 +33,7 @@ struct detect_options {
   std::string view = "iso", png_size = "1280x960";
   bool quiet = false;
   // Tiles (tiled.cpp): one process with a tile cache, or one tile of a plan.
-  double tile_size = std::nan("");
-  std::string memory_limit, work_dir, plan;
+  std::string tile_size, memory_limit, work_dir, plan;
   bool resume = false;
   long long tile = -1;
   std::string config;  // --config: expand_config() has already replaced it by the file's options
@@ -87,6 +87,16 @@ void write_keypoint_cloud(std::ostream& out, ced::point_cloud kp, const std::vec
 bool wants_tiles(const detect_options& o);
 int run_detect_tiled(const detect_options& o, detect_plan& plan, detect_outputs& out);
 int run_detect_plan_tile(const detect_options& o);
+/// The tiled request of the options; usage errors for what tiles cannot do.
+ced::tiled_request request_from(const detect_options& o, detect_plan& plan);
+/// A default work directory: in $TMPDIR, named after the input and the
+/// outputs, so that --resume finds the same one.
+std::string default_work_dir(const detect_options& o);
+/// Points read per point owned, and a warning when the halo outweighs the core.
+void report_plan(const ced::tile_plan& p, bool quiet);
+/// The outputs of a merged run: indices, original indices, keypoints, summary; committed.
+void write_merged(const detect_options& o, const ced::tile_plan& p, const ced::tile_part& m, detect_outputs& out,
+                  ced::io::file_format format, double total_ms);
 
 /// Writes every output file of `out` and commits them.
 void write_outputs(const detect_options& o, const detect_plan& plan, const detect_input& in,

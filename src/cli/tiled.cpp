@@ -61,6 +61,8 @@ std::uint64_t parse_size(const std::string& text, const std::string& option) {
   return static_cast<std::uint64_t>(v * scale);
 }
 
+}  // namespace
+
 /// The tiled request of `ced detect`'s options (checked by make_plan()).
 ced::tiled_request request_from(const detect_options& o, detect_plan& plan) {
   if (!o.viewer.empty()) throw usage_error("--viewer writes the whole cloud: not with --tile-size or --memory-limit");
@@ -80,18 +82,21 @@ ced::tiled_request request_from(const detect_options& o, detect_plan& plan) {
   }
   r.modalities.insert(r.modalities.end(), o.modalities.begin(), o.modalities.end());
   if (!o.memory_limit.empty()) {
-    if (!std::isnan(o.tile_size)) throw usage_error("give --tile-size or --memory-limit, not both");
+    if (!o.tile_size.empty()) throw usage_error("give --tile-size or --memory-limit, not both");
     r.memory_limit = parse_size(o.memory_limit, "--memory-limit");
-  } else if (!(o.tile_size > 0) || !std::isfinite(o.tile_size)) {
-    throw usage_error("--tile-size must be a positive number of metres");
   } else {
-    r.tile_size = o.tile_size;
+    double v = std::nan("");
+    try {
+      v = ced::parse_number(o.tile_size, "--tile-size");
+    } catch (const std::invalid_argument&) {
+    }
+    if (!(v > 0) || !std::isfinite(v))
+      throw usage_error("--tile-size must be a positive number of metres, got '" + o.tile_size + "'");
+    r.tile_size = v;
   }
   return r;
 }
 
-/// A default work directory: in $TMPDIR, named after the input and outputs,
-/// so that `--resume` finds the same one.
 std::string default_work_dir(const detect_options& o) {
   namespace fs = std::filesystem;
   std::error_code ec;
@@ -105,7 +110,6 @@ std::string default_work_dir(const detect_options& o) {
   return (fs::temp_directory_path(ec) / name).string();
 }
 
-/// Points read per point owned, and the warning when the halo outweighs the core.
 void report_plan(const ced::tile_plan& p, bool quiet) {
   std::uint64_t owned = 0, read = 0, largest = 0;
   for (const auto& t : p.tiles) {
@@ -133,7 +137,6 @@ void report_plan(const ced::tile_plan& p, bool quiet) {
                  static_cast<unsigned long long>(largest));
 }
 
-/// The outputs of a merged run: indices, original indices, keypoints, summary.
 void write_merged(const detect_options& o, const ced::tile_plan& p, const ced::tile_part& m, detect_outputs& out,
                   ced::io::file_format format, double total_ms) {
   if (out.indices)
@@ -165,6 +168,8 @@ void write_merged(const detect_options& o, const ced::tile_plan& p, const ced::t
   (void)o;
 }
 
+namespace {
+
 /// Wraps the progress bar for the library's (step, fraction) reports.
 ced::tiled_progress bar_progress(progress_bar& bar) {
   auto last = std::make_shared<std::string>();
@@ -188,7 +193,7 @@ ced::tile_plan load_plan(const std::string& path) {
 
 }  // namespace
 
-bool wants_tiles(const detect_options& o) { return !std::isnan(o.tile_size) || !o.memory_limit.empty(); }
+bool wants_tiles(const detect_options& o) { return !o.tile_size.empty() || !o.memory_limit.empty(); }
 
 int run_detect_tiled(const detect_options& o, detect_plan& plan, detect_outputs& out) {
   const auto t_start = clock_type::now();

@@ -1,0 +1,195 @@
+// SPDX-License-Identifier: MIT
+// ced-mpi: `mpirun -np N ced-mpi detect big.las [ced detect's options]`, the
+// tiles of a cloud shared between MPI ranks (Boost.MPI over OpenMPI).
+//
+// Rank 0 plans and fills the tile cache in the work directory (on storage
+// every rank sees: --work-dir), then hands out tile ids from a queue, the
+// largest tiles first; the other ranks detect them from the cache and keep
+// each tile's part there. Rank 0 merges the parts and writes the outputs
+// once. With one rank, rank 0 detects the tiles itself. A rank that fails
+// makes the run fail, naming the rank and the tile; the finished tiles' parts
+// stay in the work directory, and --resume redoes only the others.
+#include <sched.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <boost/mpi.hpp>
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "../cli/commands.hpp"
+#include "../cli/common.hpp"
+#include "../cli/detect.hpp"
+#include "ced/ced.hpp"
+#include "ced/tiled.hpp"
+
+namespace mpi = boost::mpi;
+using namespace ced_cli;
+
+namespace {
+
+enum tag : int { tag_ready = 1, tag_tile = 2, tag_done = 3, tag_failed = 4 };
+
+/// Threads a rank uses unless -j says: the cores it may run on (mpirun may
+/// bind it to one), shared with the other ranks of its node when unbound.
+unsigned threads_per_rank(int asked) {
+  if (asked > 0) return static_cast<unsigned>(asked);
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  const unsigned cores =
+      sched_getaffinity(0, sizeof set, &set) == 0 ? unsigned(CPU_COUNT(&set)) : std::thread::hardware_concurrency();
+  const char* local = std::getenv("OMPI_COMM_WORLD_LOCAL_SIZE");
+  const unsigned ranks = local ? static_cast<unsigned>(std::max(1, std::atoi(local))) : 1u;
+  const unsigned all = std::max(1u, std::thread::hardware_concurrency());
+  return std::max(1u, cores < all ? cores : all / ranks);
+}
+
+int run_mpi(const detect_options& o, mpi::communicator& world) {
+  const bool root = world.rank() == 0;
+  const auto t_start = clock_type::now();
+  // Rank 0 checks the options, opens the outputs, plans and fills the cache;
+  // every rank learns whether that worked.
+  int status = exit_ok;
+  std::string message, plan_json, work_dir;
+  detect_plan dplan;
+  std::unique_ptr<detect_outputs> out;
+  if (root) {
+    try {
+      if (!o.plan.empty()) throw usage_error("ced-mpi plans itself: no --plan");
+      if (o.input.empty()) throw usage_error("give an input file");
+      if (!wants_tiles(o)) throw usage_error("ced-mpi needs --tile-size or --memory-limit");
+      dplan = make_plan(o);
+      out = std::make_unique<detect_outputs>(o);
+      const ced::tiled_request request = request_from(o, dplan);
+      ced::tiled_run_options ro;
+      ro.work_dir = work_dir = o.work_dir.empty() ? default_work_dir(o) : o.work_dir;
+      ro.resume = o.resume;
+      ro.planned = [&](const ced::tile_plan& p) { report_plan(p, o.quiet); };
+      plan_json = ced::prepare_tiled(request, ro).to_json();
+    } catch (const usage_error& e) {
+      status = exit_usage;
+      message = e.what();
+    } catch (const std::exception& e) {
+      status = exit_failure;
+      message = e.what();
+    }
+  }
+  mpi::broadcast(world, status, 0);
+  if (status != exit_ok) {
+    if (root) std::cerr << "ced-mpi: error: " << message << "\n";
+    return status;
+  }
+  mpi::broadcast(world, plan_json, 0);
+  mpi::broadcast(world, work_dir, 0);
+  // Every rank reads the plan from the same text: the same digest in every part.
+  const ced::tile_plan plan = ced::tile_plan::from_json(plan_json, work_dir + "/plan.json");
+  const unsigned threads = threads_per_rank(o.threads);
+
+  if (!root) {  // a worker: ask, detect, report, until told to stop
+    for (;;) {
+      world.send(0, tag_ready);
+      long long id = -1;
+      world.recv(0, tag_tile, id);
+      if (id < 0) return exit_ok;
+      try {
+        ced::detect_cached_tile(plan, work_dir, static_cast<std::uint64_t>(id), threads);
+        world.send(0, tag_done, id);
+      } catch (const std::exception& e) {
+        world.send(0, tag_failed, "tile " + std::to_string(id) + ": " + e.what());
+        return exit_failure;  // rank 0 aborts the run
+      }
+    }
+  }
+
+  // Rank 0: the queue, largest tiles first (their cost grows with density).
+  std::vector<ced::tile_entry> queue = plan.tiles;
+  std::stable_sort(queue.begin(), queue.end(),
+                   [](const ced::tile_entry& a, const ced::tile_entry& b) { return a.points > b.points; });
+  std::size_t next = 0, done = 0;
+  const std::size_t total = queue.size();
+  auto report = [&](std::size_t d) {
+    if (o.quiet || (d < total && d % std::max<std::size_t>(1, total / 20) != 0)) return;
+    const double ms = ms_since(t_start);
+    std::fprintf(stderr, "ced-mpi: tile %zu/%zu done; %.1f s elapsed\n", d, total, ms / 1000);
+  };
+  if (world.size() == 1) {
+    for (; next < total; ++next) {
+      ced::detect_cached_tile(plan, work_dir, queue[next].id, threads);
+      report(++done);
+    }
+  } else {
+    int active = world.size() - 1;
+    while (active > 0) {
+      const mpi::status s = world.probe();
+      if (s.tag() == tag_ready) {
+        world.recv(s.source(), tag_ready);
+        const long long id = next < total ? static_cast<long long>(queue[next++].id) : -1;
+        world.send(s.source(), tag_tile, id);
+        if (id < 0) --active;
+      } else if (s.tag() == tag_done) {
+        long long id = 0;
+        world.recv(s.source(), tag_done, id);
+        report(++done);
+      } else {
+        std::string what;
+        world.recv(s.source(), tag_failed, what);
+        std::cerr << "ced-mpi: error: rank " << s.source() << " failed on " << what << "\n"
+                  << "ced-mpi: the finished tiles are kept in " << work_dir
+                  << ": run again with --resume to redo only the others\n";
+        world.abort(exit_failure);
+      }
+    }
+  }
+  const ced::tile_part merged = ced::finish_tiled(plan, work_dir);
+  write_merged(o, plan, merged, *out, dplan.out_format, ms_since(t_start));
+  if (!o.quiet)
+    std::fprintf(stderr, "ced-mpi: %zu keypoints; %zu tiles on %d rank(s), %u thread(s) each; total %.1f ms\n",
+                 merged.index.size(), total, world.size(), threads, ms_since(t_start));
+  if (out->files.empty())
+    for (std::uint64_t k : merged.index) std::cout << k << '\n';
+  return exit_ok;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  mpi::environment env(argc, argv);
+  mpi::communicator world;
+  CLI::App app{"ced-mpi " CED_VERSION_STRING ": `ced detect` tile by tile on MPI ranks"};
+  app.require_subcommand(1);
+  const command detect = add_detect_command(app, [&](const detect_options& o) { return run_mpi(o, world); });
+  detect.app->footer(
+      "Example: mpirun -np 4 ced-mpi detect big.las --preset ced6d --tile-size 50 --work-dir /shared/tmp -o kp.las\n"
+      "--work-dir must be on storage every rank sees. Exit codes: 0 ok, 1 bad input data or I/O, 2 usage.");
+  ced::io::remove_temporaries_on_signals();
+  std::vector<std::string> args(argv + 1, argv + argc);
+  try {
+    args = expand_config(args, *detect.app);
+    std::reverse(args.begin(), args.end());
+    app.parse(args);
+  } catch (const CLI::ParseError& e) {
+    if (world.rank() != 0) return exit_usage;
+    return app.exit(e) == 0 ? exit_ok : exit_usage;
+  } catch (const std::exception& e) {
+    if (world.rank() == 0) std::cerr << "ced-mpi: error: " << e.what() << "\n";
+    return exit_usage;
+  }
+  try {
+    return detect.run();
+  } catch (const usage_error& e) {
+    std::cerr << "ced-mpi: error (rank " << world.rank() << "): " << e.what() << "\n";
+    if (world.size() > 1) world.abort(exit_usage);
+    return exit_usage;
+  } catch (const std::exception& e) {
+    std::cerr << "ced-mpi: error (rank " << world.rank() << "): " << e.what() << "\n";
+    if (world.size() > 1) world.abort(exit_failure);
+    return exit_failure;
+  }
+}

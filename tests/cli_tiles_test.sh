@@ -1,0 +1,156 @@
+#!/usr/bin/env bash
+# End-to-end tests of clouds cut into tiles: `ced detect --tile-size` and
+# `--memory-limit` give the whole-cloud outputs byte for byte, so do
+# `ced plan` + `ced detect --plan --tile` + `ced merge`, a killed run finished
+# with --resume, and `mpirun ced-mpi` on 1, 2 and 3 ranks; bad input is refused.
+#   tests/cli_tiles_test.sh path/to/ced path/to/gen_cloud path/to/tests/data [path/to/ced-mpi]
+set -u
+CED=$1
+GEN=$2
+DATA=$3
+MPI=${4:-}
+T=$(mktemp -d)
+trap 'rm -rf "$T"' EXIT
+# shellcheck source=cli_support.sh
+. "$(dirname "$0")/cli_support.sh"
+export TMPDIR=$T  # default work directories land here too
+
+# Rooms, georeferenced, 16-bit colour holding 8-bit values: a million
+# points for the whole runs' checks and MPI, 200,000 for the many others.
+"$GEN" 1000000 42 "$T/big.las"
+"$GEN" 200000 43 "$T/mid.las"
+check "generated the clouds" test -s "$T/big.las" -a -s "$T/mid.las"
+same_outputs() {  # same_outputs NAME PREFIX [WHOLE]: PREFIX.txt, PREFIX_o.txt, PREFIX.las equal WHOLE's (whole)
+  local w=${3:-whole}
+  check "$1: indices" cmp -s "$T/$w.txt" "$2.txt"
+  check "$1: original indices" cmp -s "$T/${w}_o.txt" "$2_o.txt"
+  check "$1: keypoint cloud" cmp -s "$T/$w.las" "$2.las"
+}
+for c in big mid; do
+  "$CED" detect "$T/$c.las" --preset ced6d --indices "$T/${c}_whole.txt" --indices-original "$T/${c}_whole_o.txt" \
+    -o "$T/${c}_whole.las" -q
+done
+n_whole=$(wc -l < "$T/big_whole.txt")
+check "the whole cloud has keypoints" test "$n_whole" -gt 1000
+
+# --- One process, a tile cache ---
+for size in 3 0.8; do
+  c=big
+  [ $size = 0.8 ] && c=mid
+  "$CED" detect "$T/$c.las" --preset ced6d --tile-size $size --indices "$T/t$size.txt" \
+    --indices-original "$T/t${size}_o.txt" -o "$T/t$size.las" --summary "$T/t$size.json" 2> "$T/err"
+  check "--tile-size $size exit 0" test $? = 0
+  same_outputs "--tile-size $size" "$T/t$size" ${c}_whole
+  check "--tile-size $size reports tiles" grep -q "tiles of $size" "$T/err"
+  check "--tile-size $size shows tiles done" grep -q "tile [0-9]*/[0-9]* done; .* about .* left" "$T/err"
+  check "--tile-size $size summary counts" grep -q "\"keypoints\": $(wc -l < "$T/${c}_whole.txt")" "$T/t$size.json"
+done
+check "no work directory left" test -z "$(ls -d "$T"/ced-tiles-* 2> /dev/null)"
+"$CED" detect "$T/mid.las" --preset ced6d --memory-limit 240M --indices "$T/m.txt" --indices-original "$T/m_o.txt" \
+  -o "$T/m.las" -q
+check "--memory-limit exit 0" test $? = 0
+same_outputs "--memory-limit" "$T/m" mid_whole
+# Another format, and other modalities (PLY is read whole, then tiled).
+sample=$DATA/apartment_mesh_214.ply
+"$CED" detect "$sample" -m xyz:0.2 -m lab:0.1 --radius 0.05 --indices "$T/s.txt" -q
+"$CED" detect "$sample" -m xyz:0.2 -m lab:0.1 --radius 0.05 --indices "$T/st.txt" --tile-size 0.7 -q 2> /dev/null
+check "PLY sample, xyz + lab, tiled" cmp -s "$T/s.txt" "$T/st.txt"
+
+# --- Any scheduler: plan, one tile at a time, merge ---
+"$CED" plan "$T/mid.las" --preset ced6d --tile-size 1 -o "$T/plan.json" -q
+check "plan exit 0" test $? = 0
+ids=$(tr -d ' \n' < "$T/plan.json" | grep -o '"tiles":\[.*\]' | grep -o '\[[0-9]*,' | tr -d '[,')
+check "plan lists tiles" test -n "$ids"
+for id in $ids; do
+  "$CED" detect --plan "$T/plan.json" --tile "$id" -o "$T/part_$id.cedpart" -q || echo "tile $id failed"
+done
+"$CED" merge "$T/plan.json" "$T"/part_*.cedpart --indices "$T/g.txt" --indices-original "$T/g_o.txt" -o "$T/g.las" -q
+check "merge exit 0" test $? = 0
+same_outputs "plan + tiles + merge" "$T/g" mid_whole
+first=$(echo "$ids" | head -1)
+mv "$T/part_$first.cedpart" "$T/missing.cedpart"
+expect_exit 1 "have no part: $first" "merge without a part" -- merge "$T/plan.json" "$T"/part_*.cedpart --indices "$T/x.txt"
+check "no output after a failed merge" test ! -e "$T/x.txt"
+expect_exit 1 "given twice" "merge with a part twice" -- merge "$T/plan.json" "$T"/part_*.cedpart \
+  "$T/missing.cedpart" "$T/missing.cedpart"
+head -c 100 "$T/missing.cedpart" > "$T/trunc.cedpart"
+expect_exit 1 "truncated" "merge with a truncated part" -- merge "$T/plan.json" "$T"/part_*.cedpart "$T/trunc.cedpart"
+expect_exit 2 "owns no points" "a tile the plan does not have" -- detect --plan "$T/plan.json" --tile 999999 -o "$T/p.cedpart"
+expect_exit 2 "needs --tile" "--plan without --tile" -- detect --plan "$T/plan.json" -o "$T/p.cedpart"
+# A plan that does not match its input.
+cp "$T/plan.json" "$T/plan_other.json"
+sed -i "s|$T/mid.las|$T/other.las|" "$T/plan_other.json"
+"$GEN" 20000 1 "$T/other.las"
+expect_exit 1 "not the file the plan was made for" "plan of another file" -- detect --plan "$T/plan_other.json" \
+  --tile "$first" -o "$T/p.cedpart"
+check "no part after a mismatch" test ! -e "$T/p.cedpart"
+printf '{"ced_tile_plan": 1, "request": {}}' > "$T/bad_plan.json"
+expect_exit 1 "malformed tile plan" "malformed plan" -- detect --plan "$T/bad_plan.json" --tile 0 -o "$T/p.cedpart"
+
+# --- A run killed mid-way, then resumed ---
+CED_TEST_KILL_AFTER_TILES=3 "$CED" detect "$T/mid.las" --preset ced6d --tile-size 1 --work-dir "$T/wd" \
+  --indices "$T/r.txt" --indices-original "$T/r_o.txt" -o "$T/r.las" -q 2> /dev/null
+check "the killed run failed" test $? -ne 0
+check "the killed run wrote no output" test ! -e "$T/r.txt" -a ! -e "$T/r.las"
+check "the killed run kept 3 parts" test "$(ls "$T/wd/parts" | wc -l)" = 3
+expect_exit 1 "pass --resume" "a stopped run's directory without --resume" -- detect "$T/mid.las" --preset ced6d \
+  --tile-size 1 --work-dir "$T/wd" --indices "$T/r.txt"
+expect_exit 1 "another run" "--resume with other parameters" -- detect "$T/mid.las" --preset ced3d \
+  --tile-size 1 --work-dir "$T/wd" --indices "$T/r.txt" --resume
+"$CED" detect "$T/mid.las" --preset ced6d --tile-size 1 --work-dir "$T/wd" --indices "$T/r.txt" \
+  --indices-original "$T/r_o.txt" -o "$T/r.las" --resume -q
+check "resume exit 0" test $? = 0
+same_outputs "killed and resumed" "$T/r" mid_whole
+check "work directory removed" test ! -e "$T/wd"
+
+# --- Bad input ---
+for bad in 0 -1 nan inf; do
+  expect_exit 2 "tile-size must be a positive" "--tile-size $bad" -- detect "$T/mid.las" --preset ced6d \
+    --tile-size "$bad" --indices "$T/b.txt"
+done
+expect_exit 2 "must be a size" "--memory-limit junk" -- detect "$T/mid.las" --preset ced6d --memory-limit 4Q
+expect_exit 1 "too small" "--memory-limit too small" -- detect "$T/mid.las" --preset ced6d --memory-limit 10M
+expect_exit 2 "not both" "--tile-size and --memory-limit" -- detect "$T/mid.las" --preset ced6d --tile-size 2 \
+  --memory-limit 1G
+expect_exit 2 "needs the whole cloud" "--radius auto with tiles" -- detect "$T/mid.las" -m xyz:0.2 --radius auto \
+  --tile-size 2
+expect_exit 2 "--viewer writes the whole cloud" "--viewer with tiles" -- detect "$T/mid.las" --preset ced6d \
+  --tile-size 2 --viewer "$T/v.ply"
+"$GEN" 20000 3 "$T/small.las"
+"$CED" detect "$T/small.las" --preset ced6d --indices "$T/sw.txt" -q
+"$CED" detect "$T/small.las" --preset ced6d --tile-size 0.05 --indices "$T/st.txt" 2> "$T/err" > /dev/null
+check "tiny tiles: same keypoints" cmp -s "$T/sw.txt" "$T/st.txt"
+check "tiny tiles: a warning with the cost" grep -q "warning: the halo .* outweighs .* read .* times" "$T/err"
+head -c 5000 "$T/big.las" > "$T/cut.las"
+expect_exit 1 "truncated" "truncated LAS" -- detect "$T/cut.las" --preset ced6d --tile-size 2 --indices "$T/b.txt"
+check "no output for bad input" test ! -e "$T/b.txt"
+
+# --- MPI ---
+if [ -z "$MPI" ]; then
+  echo "SKIP: ced-mpi is not built (needs libboost-mpi-dev and openmpi-bin)"
+elif ! command -v mpirun > /dev/null; then
+  echo "SKIP: mpirun is not installed (openmpi-bin)"
+else
+  run_mpi() { mpirun --allow-run-as-root --oversubscribe -np "$@"; }
+  for np in 1 2 3; do
+    c=mid
+    [ $np = 3 ] && c=big
+    run_mpi $np "$MPI" detect "$T/$c.las" --preset ced6d --tile-size 2 --indices "$T/mpi$np.txt" \
+      --indices-original "$T/mpi${np}_o.txt" -o "$T/mpi$np.las" -q
+    check "ced-mpi -np $np exit 0" test $? = 0
+    same_outputs "ced-mpi -np $np ($c)" "$T/mpi$np" ${c}_whole
+  done
+  CED_TEST_KILL_AFTER_TILES=2 run_mpi 3 "$MPI" detect "$T/mid.las" --preset ced6d --tile-size 1 \
+    --work-dir "$T/wdm" --indices "$T/mk.txt" -q > "$T/mpi_err" 2>&1
+  check "ced-mpi: a killed rank fails the run" test $? -ne 0
+  check "ced-mpi: mpirun names the killed rank" grep -q "signal 9" "$T/mpi_err"
+  check "ced-mpi: no output after the failure" test ! -e "$T/mk.txt"
+  run_mpi 3 "$MPI" detect "$T/mid.las" --preset ced6d --tile-size 1 --work-dir "$T/wdm" --indices "$T/mk.txt" \
+    --resume -q
+  check "ced-mpi: resumed" cmp -s "$T/mid_whole.txt" "$T/mk.txt"
+  run_mpi 2 "$MPI" detect "$T/mid.las" --preset ced6d --indices "$T/x.txt" > "$T/mpi_err" 2>&1
+  check "ced-mpi without a tile size: usage error" grep -q "needs --tile-size or --memory-limit" "$T/mpi_err"
+fi
+
+echo "cli tiles: $pass passed, $fail failed"
+test "$fail" = 0
