@@ -178,6 +178,12 @@ std::unique_ptr<point_stream> open_point_stream(const std::string& path, const r
   if (f == file_format::las) return open_las_stream(path, options.fields);
   read_options o = options;
   o.format = f;
+  std::error_code ec;
+  if (std::filesystem::is_regular_file(path, ec)) {  // else read whole, with read_cloud()'s errors
+    std::unique_ptr<point_stream> s;
+    if (f == file_format::ply) s = detail::open_ply_stream(path, options.fields);
+    if (s) return s;
+  }
   return std::make_unique<whole_file_stream>(path, o);
 }
 
