@@ -182,6 +182,7 @@ std::unique_ptr<point_stream> open_point_stream(const std::string& path, const r
   if (std::filesystem::is_regular_file(path, ec)) {  // else read whole, with read_cloud()'s errors
     std::unique_ptr<point_stream> s;
     if (f == file_format::ply) s = detail::open_ply_stream(path, options.fields);
+    if (f == file_format::pcd) s = detail::open_pcd_stream(path, options.fields);
     if (s) return s;
   }
   return std::make_unique<whole_file_stream>(path, o);
