@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
-// Clouds read in chunks (ced/io/stream.hpp): LAS streams; the other formats
-// are read whole and served in chunks until they have streaming readers.
+// Clouds read in chunks (ced/io/stream.hpp): LAS, PLY binary, PCD binary and
+// CSV stream; PLY ascii, PCD ascii and binary_compressed (and anything that
+// is not a regular file) are read whole and served in chunks.
 #include "ced/io/stream.hpp"
 
 #include <algorithm>
@@ -183,6 +184,7 @@ std::unique_ptr<point_stream> open_point_stream(const std::string& path, const r
     std::unique_ptr<point_stream> s;
     if (f == file_format::ply) s = detail::open_ply_stream(path, options.fields);
     if (f == file_format::pcd) s = detail::open_pcd_stream(path, options.fields);
+    if (f == file_format::csv) s = detail::open_csv_stream(path, options.csv, options.fields);
     if (s) return s;
   }
   return std::make_unique<whole_file_stream>(path, o);
