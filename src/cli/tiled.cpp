@@ -120,8 +120,8 @@ void report_plan(const ced::tile_plan& p, bool quiet) {
   const double ratio = owned ? double(read) / double(owned) : 0;
   if (!p.streamed)
     std::fprintf(stderr,
-                 "ced: warning: %s is read whole before it is tiled (only LAS is streamed so far): memory is not "
-                 "bounded by the tile size\n",
+                 "ced: warning: %s is read whole before it is tiled (PLY ascii, PCD ascii and binary_compressed are "
+                 "not streamed): memory is not bounded by the tile size\n",
                  p.request.input.c_str());
   if (ratio > 2)
     std::fprintf(stderr,
@@ -269,7 +269,10 @@ command add_plan_command(CLI::App& app) {
   auto o = std::make_shared<detect_options>();
   auto plan_path = std::make_shared<std::string>();
   auto* cmd = app.add_subcommand("plan", "Plan the tiles of a cloud for `ced detect --plan --tile` and `ced merge`");
-  cmd->add_option("input", o->input, "Input cloud: .las (streamed), .ply, .pcd, .csv")->required();
+  cmd->add_option("input", o->input,
+                  "Input cloud: .las, .ply, .pcd, .csv (streamed; PLY ascii and PCD ascii or binary_compressed "
+                  "are read whole)")
+      ->required();
   cmd->add_option("--format", o->format, "Input format when the extension does not say: ply, pcd, las, csv, auto");
   cmd->add_option("--columns", o->columns, "CSV column names, e.g. x,y,z,intensity (the file then has no header)");
   cmd->add_option("--preset", o->preset, "ced3d or ced6d")->check(CLI::IsMember({"ced3d", "ced6d"}));

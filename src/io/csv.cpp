@@ -17,6 +17,7 @@
 #include <type_traits>
 
 #include "scalar_io.hpp"
+#include "stream_support.hpp"
 
 namespace ced::io {
 
@@ -159,11 +160,31 @@ std::string join(const std::vector<std::string>& v) {
   return r;
 }
 
-struct column_state {
-  std::vector<double> values;
+/// What decides a column's type: whether its values are all integers, and their range.
+struct column_stats {
   bool all_int = true;
   double lo = std::numeric_limits<double>::infinity();
   double hi = -std::numeric_limits<double>::infinity();
+  void add(double v, bool is_int) noexcept {
+    all_int = all_int && is_int;
+    lo = std::min(lo, v);
+    hi = std::max(hi, v);
+  }
+  /// The narrowest type of the n values of column `name`: uint8 colours,
+  /// int32, else float64.
+  scalar_type type(const std::string& name, std::size_t n) const noexcept {
+    const bool colour = name == "red" || name == "green" || name == "blue";
+    if (all_int && colour && (n == 0 || (lo >= 0 && hi <= 255))) return scalar_type::uint8;
+    if (all_int &&
+        (n == 0 || (lo >= std::numeric_limits<std::int32_t>::min() && hi <= std::numeric_limits<std::int32_t>::max())))
+      return scalar_type::int32;
+    return scalar_type::float64;
+  }
+};
+
+struct column_state {
+  std::vector<double> values;
+  column_stats stats;
 };
 
 /// What comes before the data: comments, the header line, and where the data starts.
@@ -303,6 +324,31 @@ std::array<std::size_t, 3> check_names(const std::vector<std::string>& names, co
   return axis;
 }
 
+/// Splits the data line `line` (number `line_no`; `first` for the first data
+/// line) into its values: value(j, v, is_int) for each column j. `tok` is
+/// scratch space.
+template <class Value>
+void parse_row(std::string_view line, std::size_t line_no, bool first, char delim,
+               const std::vector<std::string>& names, const csv_options& opt, const std::string& file,
+               std::vector<std::string_view>& tok, Value&& value) {
+  const std::size_t ncols = names.size();
+  split(line, delim, tok);
+  if (tok.size() != ncols)
+    fail(file, "line " + std::to_string(line_no) + ": expected " + std::to_string(ncols) + " values (" + join(names) +
+                   "), found " + std::to_string(tok.size()));
+  for (std::size_t j = 0; j < ncols; ++j) {
+    double v = 0;
+    bool is_int = false;
+    if (!parse_number(tok[j], v, is_int)) {
+      std::string msg = "line " + std::to_string(line_no) + ", column " + std::to_string(j + 1) + " ('" + names[j] +
+                        "'): '" + printable(tok[j]) + "' is not a number";
+      if (first && !opt.columns.empty() && !opt.skip_header) msg += " (a header line? set skip_header)";
+      fail(file, msg);
+    }
+    value(j, v, is_int);
+  }
+}
+
 /// The values of the data lines from `lines` on, column by column.
 std::vector<column_state> read_rows(line_reader lines, char delim, const std::vector<std::string>& names,
                                     const csv_options& opt, const std::string& file) {
@@ -322,25 +368,10 @@ std::vector<column_state> read_rows(line_reader lines, char delim, const std::ve
   bool first = true;
   while (lines.next(line)) {
     if (line.empty() || is_comment(line)) continue;
-    split(line, delim, tok);
-    if (tok.size() != ncols)
-      fail(file, "line " + std::to_string(lines.line_no) + ": expected " + std::to_string(ncols) + " values (" +
-                     join(names) + "), found " + std::to_string(tok.size()));
-    for (std::size_t j = 0; j < ncols; ++j) {
-      double v = 0;
-      bool is_int = false;
-      if (!parse_number(tok[j], v, is_int)) {
-        std::string msg = "line " + std::to_string(lines.line_no) + ", column " + std::to_string(j + 1) + " ('" +
-                          names[j] + "'): '" + printable(tok[j]) + "' is not a number";
-        if (first && !opt.columns.empty() && !opt.skip_header) msg += " (a header line? set skip_header)";
-        fail(file, msg);
-      }
-      column_state& c = cols[j];
-      c.values.push_back(v);
-      c.all_int = c.all_int && is_int;
-      c.lo = std::min(c.lo, v);
-      c.hi = std::max(c.hi, v);
-    }
+    parse_row(line, lines.line_no, first, delim, names, opt, file, tok, [&](std::size_t j, double v, bool is_int) {
+      cols[j].values.push_back(v);
+      cols[j].stats.add(v, is_int);
+    });
     first = false;
   }
   return cols;
@@ -355,33 +386,43 @@ point_cloud make_cloud(std::vector<column_state>& cols, const std::vector<std::s
       cloud_at(cols[axis[0]].values.data(), cols[axis[1]].values.data(), cols[axis[2]].values.data(), n);
   for (std::size_t j = 0; j < cols.size(); ++j) {
     if (j == axis[0] || j == axis[1] || j == axis[2]) continue;
-    column_state& c = cols[j];
-    const bool colour = names[j] == "red" || names[j] == "green" || names[j] == "blue";
-    scalar_type t = scalar_type::float64;
-    if (c.all_int && colour && (n == 0 || (c.lo >= 0 && c.hi <= 255)))
-      t = scalar_type::uint8;
-    else if (c.all_int && (n == 0 || (c.lo >= std::numeric_limits<std::int32_t>::min() &&
-                                      c.hi <= std::numeric_limits<std::int32_t>::max())))
-      t = scalar_type::int32;
-    cloud.add_field(names[j], t, std::move(c.values));
+    cloud.add_field(names[j], cols[j].stats.type(names[j], n), std::move(cols[j].values));
   }
   return cloud;
 }
 
-point_cloud parse_csv(std::string_view text, const std::string& file, const csv_options& opt) {
-  if (text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);
+/// What the lines before the data decide: the column names (none: the cloud
+/// is empty), the columns of x, y and z, the data's delimiter and where the
+/// data starts. Reads at most three lines that are neither blank nor
+/// comments (a header or a skipped line, a .pts point count, the first data
+/// line), and the lines before them.
+struct csv_layout {
+  std::vector<std::string> names;
+  std::array<std::size_t, 3> axis{};
+  char delim = 0;
+  bool have_data = false;
+  line_reader data_start;  ///< just before the first data line
+};
+
+/// Checks the delimiter option; returns it as split() takes it.
+char delimiter_option(const csv_options& opt) {
   if (opt.delimiter != 0 && opt.delimiter != ',' && opt.delimiter != ';' && opt.delimiter != '\t' &&
       opt.delimiter != ' ')
     throw std::invalid_argument("unsupported CSV delimiter '" + std::string(1, opt.delimiter) +
                                 "' (use ',', ';', tab or space)");
-  const char delim_opt = opt.delimiter == '\t' ? ' ' : opt.delimiter;  // tab: runs of blanks
+  return opt.delimiter == '\t' ? ' ' : opt.delimiter;  // tab: runs of blanks
+}
 
+/// The layout of `text` (the file without its byte order mark).
+csv_layout read_layout(std::string_view text, const csv_options& opt, const std::string& file) {
+  const char delim_opt = delimiter_option(opt);
+  csv_layout layout;
   preamble pre = read_preamble(text, opt, delim_opt, file);
   std::string source;  // where the names came from, for messages
   std::vector<std::string> names = given_names(pre, opt, delim_opt, source);
   if (pre.have_data && names.empty()) {
     skip_point_count(pre);
-    if (!pre.have_data) return point_cloud{};  // "0" and nothing else
+    if (!pre.have_data) return layout;  // "0" and nothing else
   }
 
   // Data delimiter: from the first data line; so are the names when no header gives them.
@@ -398,15 +439,28 @@ point_cloud parse_csv(std::string_view text, const std::string& file, const csv_
       source = "the default columns for " + std::to_string(tok.size()) + " values";
     }
   }
-  if (names.empty()) return point_cloud{};  // skip_header and nothing else
+  if (names.empty()) return layout;  // skip_header and nothing else
 
-  const std::array<std::size_t, 3> axis = check_names(names, source, file);
+  layout.axis = check_names(names, source, file);
+  layout.names = std::move(names);
+  layout.delim = delim;
+  layout.have_data = pre.have_data;
+  layout.data_start = pre.data_start;
+  return layout;
+}
+
+bool has_bom(std::string_view text) noexcept { return text.substr(0, 3) == "\xEF\xBB\xBF"; }
+
+point_cloud parse_csv(std::string_view text, const std::string& file, const csv_options& opt) {
+  if (has_bom(text)) text.remove_prefix(3);
+  const csv_layout layout = read_layout(text, opt, file);
+  if (layout.names.empty()) return point_cloud{};
   std::vector<column_state> cols;
-  if (pre.have_data)
-    cols = read_rows(pre.data_start, delim, names, opt, file);
+  if (layout.have_data)
+    cols = read_rows(layout.data_start, layout.delim, layout.names, opt, file);
   else
-    cols.resize(names.size());
-  return make_cloud(cols, names, axis);
+    cols.resize(layout.names.size());
+  return make_cloud(cols, layout.names, layout.axis);
 }
 
 // ------------------------------------------------------------------ writer
@@ -466,5 +520,99 @@ void write_csv(std::ostream& out, const point_cloud& cloud) {
 void write_csv(const std::string& path, const point_cloud& cloud) {
   detail::write_to_file(path, [&](std::ostream& o) { write_csv_unchecked(o, cloud); });
 }
+
+namespace {
+/// A CSV file's points, line by line (read_csv()'s semantics). The column
+/// types depend on every value: until a first pass has seen them all, the
+/// fields are float64.
+class csv_stream final : public box_stream {
+ public:
+  csv_stream(std::unique_ptr<input_file> file, const csv_options& options, const field_selection& fields)
+      : m_file(std::move(file)), m_opt(options), m_fields(fields), m_in(*m_file, 0) {
+    std::string text;
+    m_file->read_some(0, 3, text);
+    const std::uint64_t start = has_bom(text) ? 3 : 0;
+    // The lines up to the third that is neither blank nor a comment: all
+    // that read_layout() reads.
+    m_in.seek(start);
+    std::string_view line;
+    for (int content = 0; content < 3 && m_in.next_line(line);) {
+      line = trim(line);
+      if (!line.empty() && !is_comment(line)) ++content;
+    }
+    m_file->read_some(start, static_cast<std::size_t>(m_in.offset() - start), text);
+    m_layout = read_layout(text, m_opt, m_file->path());
+    m_start = start + m_layout.data_start.pos;
+    m_layout.data_start.text = {};  // that was `text`'s
+    m_stats.resize(m_layout.names.size());
+    m_cols.resize(m_layout.names.size());
+    rewind();
+  }
+
+  std::size_t read(std::size_t max, const std::array<double, 3>& origin, point_cloud& out) override {
+    out = point_cloud();
+    if (max == 0) return 0;
+    const std::vector<std::string>& names = m_layout.names;
+    if (names.empty() || !m_layout.have_data) {
+      m_first_pass_done = true;
+      return 0;
+    }
+    for (auto& c : m_cols) c.clear();
+    std::size_t n = 0;
+    std::string_view line;
+    while (n < max && m_in.next_line(line)) {
+      ++m_line_no;
+      line = trim(line);
+      if (line.empty() || is_comment(line)) continue;
+      parse_row(line, m_line_no, m_next + n == 0, m_layout.delim, names, m_opt, m_file->path(), m_tok,
+                [&](std::size_t j, double v, bool is_int) {
+                  m_cols[j].push_back(v);
+                  if (!m_first_pass_done) m_stats[j].add(v, is_int);
+                });
+      ++n;
+    }
+    if (n == 0) {
+      if (!m_first_pass_done) m_points = m_next;
+      m_first_pass_done = true;
+      return 0;
+    }
+    const auto& axis = m_layout.axis;
+    set_positions(out, m_cols[axis[0]].data(), m_cols[axis[1]].data(), m_cols[axis[2]].data(), n, origin);
+    for (std::size_t j = 0; j < names.size(); ++j) {
+      if (j == axis[0] || j == axis[1] || j == axis[2] || !m_fields.wants(names[j])) continue;
+      const scalar_type t = m_first_pass_done ? m_stats[j].type(names[j], m_points) : scalar_type::float64;
+      out.add_field(names[j], t, m_cols[j]);
+    }
+    m_next += n;
+    return n;
+  }
+  void rewind() override {
+    m_in.seek(m_start);
+    m_line_no = m_layout.data_start.line_no;
+    m_next = 0;
+  }
+  std::string details() const override { return "CSV"; }
+
+ private:
+  std::unique_ptr<input_file> m_file;
+  csv_options m_opt;
+  field_selection m_fields;
+  sequential_reader m_in;
+  csv_layout m_layout;
+  std::uint64_t m_start = 0;  // the first data line's offset
+  std::size_t m_line_no = 0;  // of the last line read
+  std::uint64_t m_next = 0, m_points = 0;
+  std::vector<column_stats> m_stats;
+  std::vector<std::vector<double>> m_cols;  // the chunk's values
+  std::vector<std::string_view> m_tok;
+};
+}  // namespace
+
+namespace detail {
+std::unique_ptr<point_stream> open_csv_stream(const std::string& path, const csv_options& options,
+                                              const field_selection& fields) {
+  return std::make_unique<csv_stream>(std::make_unique<input_file>(path), options, fields);
+}
+}  // namespace detail
 
 }  // namespace ced::io

@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "core/text.hpp"
+#include "stream_support.hpp"
 
 namespace ced::io {
 
@@ -66,9 +67,7 @@ point_cloud read_cloud(const std::string& path, const read_options& options, rea
       pcd_read_info info;
       c = read_pcd(path, &info);
       r.nonfinite_removed = info.nonfinite_removed;
-      r.details = "PCD " + info.data_format +
-                  (info.organized ? ", organized " + std::to_string(info.width) + "x" + std::to_string(info.height)
-                                  : std::string());
+      r.details = detail::pcd_details(info);
       break;
     }
     case file_format::las: {

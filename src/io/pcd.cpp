@@ -19,6 +19,7 @@
 #include <type_traits>
 
 #include "scalar_io.hpp"
+#include "stream_support.hpp"
 
 namespace ced::io {
 
@@ -77,9 +78,7 @@ std::optional<scalar_type> pcd_type(char type, std::uint64_t size) noexcept {
   return std::nullopt;
 }
 
-bool has_data_line(std::string_view data) noexcept {
-  return data.substr(0, 4) == "DATA" || data.find("\nDATA") != std::string_view::npos;
-}
+bool has_data_line(const header_source& src) { return src.text.substr(0, 4) == "DATA" || src.contains("\nDATA"); }
 
 // Each value becomes a cloud field, found by linear search: the bound keeps a
 // tiny header (COUNT 60000) from costing quadratic time.
@@ -95,7 +94,7 @@ struct header_lines {
 /// Reads the header line `w` (its words; `line` as given, number `line_no`)
 /// into `l` and `h`. True when it is the DATA line, which ends the header.
 bool read_header_line(const std::vector<std::string_view>& w, std::string_view line, std::size_t line_no,
-                      std::string_view data, const std::string& file, header_lines& l, pcd_header& h) {
+                      const header_source& src, const std::string& file, header_lines& l, pcd_header& h) {
   const std::string_view kw = w[0];
   const auto where = [&] { return "header line " + std::to_string(line_no) + ": "; };
   const auto list = [&](bool& have, std::vector<std::string_view>& out) {
@@ -143,28 +142,26 @@ bool read_header_line(const std::vector<std::string_view>& w, std::string_view l
     h.data_name = std::string(w[1]);
     return true;
   } else {
-    if (!has_data_line(data)) fail(file, "the PCD header has no DATA line");
+    if (!has_data_line(src)) fail(file, "the PCD header has no DATA line");
     fail(file, where() + "unknown header keyword '" + printable(kw) + "'");
   }
   return false;
 }
 
 /// Reads the header lines, up to DATA, into `l` and `h` (and the body's offset and first line).
-void read_header_lines(std::string_view data, const std::string& file, header_lines& l, pcd_header& h) {
+void read_header_lines(const header_source& src, const std::string& file, header_lines& l, pcd_header& h) {
   std::size_t pos = 0, line_no = 0;
   bool first = true;
   for (bool done = false; !done;) {
-    if (pos >= data.size()) fail(file, "the PCD header has no DATA line");
-    const std::size_t nl = data.find('\n', pos);
-    const std::string_view line = data.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos);
-    pos = nl == std::string_view::npos ? data.size() : nl + 1;
+    std::string_view line;
+    if (!src.next_line(pos, line)) fail(file, "the PCD header has no DATA line");
     ++line_no;
     const auto w = split_words(line);
     if (w.empty() || w[0][0] == '#') continue;
     if (first && w[0] != "VERSION" && w[0] != "FIELDS" && w[0] != "COLUMNS")
       fail(file, "not a PCD file (expected a VERSION or FIELDS line, found '" + printable(line) + "')");
     first = false;
-    done = read_header_line(w, line, line_no, data, file, l, h);
+    done = read_header_line(w, line, line_no, src, file, l, h);
   }
   h.body_offset = pos;
   h.body_line = line_no + 1;
@@ -236,10 +233,12 @@ void resolve_point_count(const header_lines& l, const std::string& file, pcd_hea
                    " × " + std::to_string(h.height) + " = " + std::to_string(wh) + ")");
 }
 
-pcd_header parse_header(std::string_view data, const std::string& file) {
+/// Parses the header (from the whole file, or from its first bytes: see
+/// header_source).
+pcd_header parse_header(const header_source& src, const std::string& file) {
   header_lines l;
   pcd_header h;
-  read_header_lines(data, file, l, h);
+  read_header_lines(src, file, l, h);
   make_fields(l, file, h);
   resolve_point_count(l, file, h);
   return h;
@@ -283,22 +282,38 @@ void decode_field(const pcd_field& f, const unsigned char* p, std::size_t stride
 
 /// Decodes the body into cols (one per value of each non-padding field, in
 /// order; col_of[f] is the first column of field f).
-void read_binary(std::string_view data, const pcd_header& h, const std::vector<std::size_t>& col_of, columns& cols,
-                 const std::string& file) {
+/// The size of a point's binary record (padding included).
+std::size_t point_size_of(const pcd_header& h) noexcept {
   std::size_t point_size = 0;
   for (const auto& f : h.fields) point_size += f.size * f.count;
-  const std::size_t remaining = data.size() - h.body_offset;
+  return point_size;
+}
+
+/// Fails when the `remaining` bytes of a binary body cannot hold POINTS points.
+void check_binary_size(const pcd_header& h, std::uint64_t remaining, const std::string& file) {
+  const std::size_t point_size = point_size_of(h);
   if (h.points > remaining / point_size)
     fail(file, "truncated: POINTS declares " + std::to_string(h.points) + " points of " + std::to_string(point_size) +
                    " bytes, but only " + std::to_string(remaining) + " bytes of binary data follow");
-  const auto n = static_cast<std::size_t>(h.points);
-  const auto* body = reinterpret_cast<const unsigned char*>(data.data()) + h.body_offset;
+}
+
+/// Decodes the n binary records at `body` into cols.
+void decode_binary(const unsigned char* body, std::size_t n, const pcd_header& h,
+                   const std::vector<std::size_t>& col_of, columns& cols) {
+  const std::size_t point_size = point_size_of(h);
   std::size_t offset = 0;
   for (std::size_t j = 0; j < h.fields.size(); ++j) {
     const pcd_field& f = h.fields[j];
     if (!f.padding) decode_field(f, body + offset, point_size, n, &cols[col_of[j]]);
     offset += f.size * f.count;
   }
+}
+
+void read_binary(std::string_view data, const pcd_header& h, const std::vector<std::size_t>& col_of, columns& cols,
+                 const std::string& file) {
+  check_binary_size(h, data.size() - h.body_offset, file);
+  const auto n = static_cast<std::size_t>(h.points);
+  decode_binary(reinterpret_cast<const unsigned char*>(data.data()) + h.body_offset, n, h, col_of, cols);
 }
 
 void read_compressed(std::string_view data, const pcd_header& h, const std::vector<std::size_t>& col_of, columns& cols,
@@ -523,8 +538,19 @@ void add_fields(point_cloud& cloud, const pcd_header& h, const std::array<std::s
   }
 }
 
+/// What read_pcd() tells of the file, but the points it removes.
+pcd_read_info info_of(const pcd_header& h) {
+  pcd_read_info info;
+  info.width = static_cast<std::size_t>(h.width);
+  info.height = static_cast<std::size_t>(h.height);
+  info.points_declared = static_cast<std::size_t>(h.points);
+  info.organized = h.height > 1;
+  info.data_format = h.data_name;
+  return info;
+}
+
 point_cloud parse_pcd(std::string_view data, const std::string& file, pcd_read_info* info) {
-  pcd_header h = parse_header(data, file);
+  pcd_header h = parse_header(header_source{data}, file);
   const std::array<std::size_t, 3> axis = find_axes(h, file);
   std::size_t ncols = 0;
   const std::vector<std::size_t> col_of = assign_columns(h, file, ncols);
@@ -536,12 +562,8 @@ point_cloud parse_pcd(std::string_view data, const std::string& file, pcd_read_i
   point_cloud cloud = cloud_at(xyz[0]->data(), xyz[1]->data(), xyz[2]->data(), n);
   add_fields(cloud, h, axis, col_of, cols);
   if (info) {
-    info->width = static_cast<std::size_t>(h.width);
-    info->height = static_cast<std::size_t>(h.height);
-    info->points_declared = declared;
+    *info = info_of(h);
     info->nonfinite_removed = declared - n;
-    info->organized = h.height > 1;
-    info->data_format = h.data_name;
   }
   return cloud;
 }
@@ -814,5 +836,76 @@ void write_pcd(std::ostream& out, const point_cloud& cloud, pcd_format fmt) {
 void write_pcd(const std::string& path, const point_cloud& cloud, pcd_format fmt) {
   detail::write_to_file(path, [&](std::ostream& o) { write_pcd_unchecked(o, cloud, fmt); });
 }
+
+namespace {
+/// The points of a binary PCD file, chunk by chunk (read_pcd()'s semantics,
+/// but every record is kept: non-finite points too).
+class pcd_stream final : public box_stream {
+ public:
+  pcd_stream(std::unique_ptr<input_file> file, pcd_header h, const std::array<std::size_t, 3>& axis,
+             std::vector<std::size_t> col_of, std::size_t ncols, const field_selection& fields)
+      : m_file(std::move(file)),
+        m_h(std::move(h)),
+        m_axis(axis),
+        m_col_of(std::move(col_of)),
+        m_ncols(ncols),
+        m_fields(fields),
+        m_point_size(point_size_of(m_h)) {
+    check_binary_size(m_h, m_file->size() - m_h.body_offset, m_file->path());
+  }
+
+  std::size_t read(std::size_t max, const std::array<double, 3>& origin, point_cloud& out) override {
+    const auto n = static_cast<std::size_t>(std::min<std::uint64_t>(m_h.points - m_next, max));
+    if (n == 0) {
+      out = point_cloud();
+      if (m_next == m_h.points) m_first_pass_done = true;
+      return 0;
+    }
+    m_buffer.resize(n * m_point_size);
+    m_file->read_exact(m_h.body_offset + m_next * m_point_size, m_buffer.size(), m_buffer.data());
+    columns cols(m_ncols);
+    decode_binary(reinterpret_cast<const unsigned char*>(m_buffer.data()), n, m_h, m_col_of, cols);
+    const std::vector<double>* xyz[3] = {&cols[m_col_of[m_axis[0]]], &cols[m_col_of[m_axis[1]]],
+                                         &cols[m_col_of[m_axis[2]]]};
+    set_positions(out, xyz[0]->data(), xyz[1]->data(), xyz[2]->data(), n, origin);
+    add_fields(out, m_h, m_axis, m_col_of, cols);
+    out.keep_fields(m_fields);
+    m_next += n;
+    return n;
+  }
+  void rewind() override { m_next = 0; }
+  std::string details() const override { return pcd_details(info_of(m_h)); }
+  std::uint64_t declared_points() const noexcept override { return m_h.points; }
+
+ private:
+  std::unique_ptr<input_file> m_file;
+  pcd_header m_h;
+  std::array<std::size_t, 3> m_axis;
+  std::vector<std::size_t> m_col_of;
+  std::size_t m_ncols;
+  field_selection m_fields;
+  std::size_t m_point_size;
+  std::uint64_t m_next = 0;
+  std::string m_buffer;
+};
+}  // namespace
+
+namespace detail {
+std::string pcd_details(const pcd_read_info& info) {
+  return "PCD " + info.data_format +
+         (info.organized ? ", organized " + std::to_string(info.width) + "x" + std::to_string(info.height)
+                         : std::string());
+}
+
+std::unique_ptr<point_stream> open_pcd_stream(const std::string& path, const field_selection& fields) {
+  auto file = std::make_unique<input_file>(path);
+  pcd_header h = file->parse_header([&](const header_source& src) { return parse_header(src, path); });
+  const std::array<std::size_t, 3> axis = find_axes(h, path);
+  std::size_t ncols = 0;
+  std::vector<std::size_t> col_of = assign_columns(h, path, ncols);
+  if (h.format != pcd_format::binary) return nullptr;
+  return std::make_unique<pcd_stream>(std::move(file), std::move(h), axis, std::move(col_of), ncols, fields);
+}
+}  // namespace detail
 
 }  // namespace ced::io

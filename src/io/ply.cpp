@@ -18,6 +18,7 @@
 #include <type_traits>
 
 #include "scalar_io.hpp"
+#include "stream_support.hpp"
 
 namespace ced::io {
 
@@ -161,7 +162,11 @@ void read_property_line(const header_line& l, const std::string& file, ply_heade
   e.props.push_back(std::move(p));
 }
 
-ply_header parse_header(std::string_view data, const std::string& file) {
+/// Parses the header (from the whole file, or from its first bytes: see
+/// header_source).
+ply_header parse_header(const header_source& src, const std::string& file) {
+  const std::string_view data = src.text;
+  if (!src.whole && data.size() < 5) throw need_more_header{};
   std::size_t pos = 0;
   if (data.substr(0, 4) == "ply\n")
     pos = 4;
@@ -169,17 +174,14 @@ ply_header parse_header(std::string_view data, const std::string& file) {
     pos = 5;
   else
     fail(file, "not a PLY file (it does not start with the 'ply' magic line)");
-  if (data.find("end_header") == std::string_view::npos) fail(file, "the PLY header has no end_header line");
+  if (!src.contains("end_header")) fail(file, "the PLY header has no end_header line");
 
   ply_header h;
   bool have_format = false;
   header_line l;
   l.number = 1;
   for (;;) {
-    if (pos >= data.size()) fail(file, "the PLY header has no end_header line");
-    const std::size_t nl = data.find('\n', pos);
-    l.text = data.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos);
-    pos = nl == std::string_view::npos ? data.size() : nl + 1;
+    if (!src.next_line(pos, l.text)) fail(file, "the PLY header has no end_header line");
     ++l.number;
     l.words = split_words(l.text);
     if (l.words.empty()) continue;
@@ -202,30 +204,117 @@ ply_header parse_header(std::string_view data, const std::string& file) {
   return h;
 }
 
+/// The vertex element of `h` and the indices of its x, y and z properties.
+const element_desc& find_vertex(const ply_header& h, const std::string& file, std::size_t axis[3]) {
+  const element_desc* vertex = nullptr;
+  for (const auto& e : h.elements)
+    if (e.name == "vertex") vertex = &e;
+  if (!vertex) fail(file, "the PLY file has no 'vertex' element");
+  for (int k = 0; k < 3; ++k) {
+    const std::string name(1, static_cast<char>('x' + k));
+    const auto it = std::find_if(vertex->props.begin(), vertex->props.end(),
+                                 [&](const property_desc& p) { return p.name == name; });
+    if (it == vertex->props.end()) fail(file, "the vertex element has no '" + name + "' property");
+    if (it->is_list) fail(file, "the vertex property '" + name + "' is a list");
+    axis[k] = static_cast<std::size_t>(it - vertex->props.begin());
+  }
+  return *vertex;
+}
+
+bool swapped(ply_format f) noexcept {
+  return f != ply_format::ascii && (f == ply_format::binary_little_endian) != host_little_endian();
+}
+
 // ------------------------------------------------------------- binary body
 
 using columns = std::vector<std::vector<double>>;
+
+/// The size of a record of element e: exact when `fixed` (no list), else
+/// the least one (empty lists).
+struct record_size {
+  std::size_t min = 0;
+  bool fixed = true;
+};
+
+record_size record_size_of(const element_desc& e) noexcept {
+  record_size r;
+  for (const auto& p : e.props) {
+    r.min += size_of(p.is_list ? p.count_type : p.type);
+    r.fixed = r.fixed && !p.is_list;
+  }
+  return r;
+}
+
+/// Fails when the `remaining` bytes cannot hold the e.count records of
+/// element e (r = record_size_of(e), r.min > 0): an implausible count, or a
+/// truncated file when the records have a fixed size.
+void check_count(const element_desc& e, const record_size& r, std::uint64_t remaining, const std::string& file) {
+  const std::uint64_t available = remaining / r.min;  // complete (minimal) records present
+  if (e.count > available) {
+    if (e.count / 2 > available + 8)
+      fail(file, "implausible element count: '" + e.name + "' declares " + std::to_string(e.count) +
+                     " records of at least " + std::to_string(r.min) + " bytes, but only " + std::to_string(remaining) +
+                     " bytes follow (corrupt header?)");
+    if (r.fixed) fail_truncated(file, available, e.count, e);
+  }
+}
+
+/// The binary data after a position, as read_record() reads it: the whole
+/// file in memory.
+struct memory_cursor {
+  const unsigned char* p;
+  const unsigned char* end;
+  std::uint64_t left() const noexcept { return static_cast<std::uint64_t>(end - p); }
+  const unsigned char* take(std::size_t n) noexcept { return (p += n) - n; }
+  void skip(std::uint64_t n) noexcept { p += n; }
+};
+
+/// The same, read from a file in pieces.
+struct file_cursor {
+  sequential_reader& in;
+  std::uint64_t left() const noexcept { return in.left(); }
+  const unsigned char* take(std::size_t n) {
+    in.fill(n);
+    const auto* p = reinterpret_cast<const unsigned char*>(in.data());
+    in.skip(n);  // the bytes stay in memory until the next fill()
+    return p;
+  }
+  void skip(std::uint64_t n) noexcept { in.skip(n); }
+};
+
+/// Reads record i of the n records of element e (which has lists) from `in`:
+/// store(j, value) for each scalar property j, lists skipped. Fails when
+/// the data ends.
+template <class Cursor, class Store>
+void read_record(Cursor& in, const element_desc& e, bool swap, std::size_t i, std::size_t n, const std::string& file,
+                 Store&& store) {
+  for (std::size_t j = 0; j < e.props.size(); ++j) {
+    const property_desc& prop = e.props[j];
+    if (prop.is_list) {
+      const std::size_t cs = size_of(prop.count_type);
+      if (in.left() < cs) fail_truncated(file, i, n, e);
+      const double count = read_value(in.take(cs), prop.count_type, swap);
+      if (count < 0)
+        fail(file, "element '" + e.name + "' " + std::to_string(i) + ", property '" + prop.name +
+                       "': negative list length " + std::to_string(static_cast<long long>(count)));
+      const std::size_t item = size_of(prop.type);
+      if (count > static_cast<double>(static_cast<std::size_t>(in.left()) / item)) fail_truncated(file, i, n, e);
+      in.skip(static_cast<std::size_t>(count) * item);
+    } else {
+      const std::size_t sz = size_of(prop.type);
+      if (in.left() < sz) fail_truncated(file, i, n, e);
+      store(j, read_value(in.take(sz), prop.type, swap));
+    }
+  }
+}
 
 /// Reads (cols != nullptr) or skips element `e` starting at data[pos]; returns
 /// the offset just after it.
 std::size_t read_binary_element(std::string_view data, std::size_t pos, const element_desc& e, bool swap, columns* cols,
                                 const std::string& file) {
-  std::size_t min_record = 0;
-  bool fixed = true;
-  for (const auto& p : e.props) {
-    min_record += size_of(p.is_list ? p.count_type : p.type);
-    fixed = fixed && !p.is_list;
-  }
-  if (e.count == 0 || min_record == 0) return pos;
-  const std::size_t remaining = data.size() - pos;
-  const std::uint64_t available = remaining / min_record;  // complete (minimal) records present
-  if (e.count > available) {
-    if (e.count / 2 > available + 8)
-      fail(file, "implausible element count: '" + e.name + "' declares " + std::to_string(e.count) +
-                     " records of at least " + std::to_string(min_record) + " bytes, but only " +
-                     std::to_string(remaining) + " bytes follow (corrupt header?)");
-    if (fixed) fail_truncated(file, available, e.count, e);
-  }
+  const record_size r = record_size_of(e);
+  if (e.count == 0 || r.min == 0) return pos;
+  check_count(e, r, data.size() - pos, file);
   const auto n = static_cast<std::size_t>(e.count);  // <= 2 * available + 16: allocation is bounded
   if (cols)
     for (std::size_t j = 0; j < e.props.size(); ++j)
@@ -233,42 +322,23 @@ std::size_t read_binary_element(std::string_view data, std::size_t pos, const el
 
   const auto* begin = reinterpret_cast<const unsigned char*>(data.data());
   const unsigned char* p = begin + pos;
-  if (fixed) {
+  if (r.fixed) {
     if (cols) {
       std::size_t offset = 0;
       for (std::size_t j = 0; j < e.props.size(); ++j) {
-        decode_column(p + offset, min_record, n, e.props[j].type, swap, (*cols)[j].data());
+        decode_column(p + offset, r.min, n, e.props[j].type, swap, (*cols)[j].data());
         offset += size_of(e.props[j].type);
       }
     }
-    return pos + n * min_record;
+    return pos + n * r.min;
   }
 
-  const unsigned char* end = begin + data.size();
-  const auto truncated = [&](std::size_t i) { fail_truncated(file, i, n, e); };
-  for (std::size_t i = 0; i < n; ++i) {
-    for (std::size_t j = 0; j < e.props.size(); ++j) {
-      const property_desc& prop = e.props[j];
-      if (prop.is_list) {
-        const std::size_t cs = size_of(prop.count_type);
-        if (static_cast<std::size_t>(end - p) < cs) truncated(i);
-        const double count = read_value(p, prop.count_type, swap);
-        p += cs;
-        if (count < 0)
-          fail(file, "element '" + e.name + "' " + std::to_string(i) + ", property '" + prop.name +
-                         "': negative list length " + std::to_string(static_cast<long long>(count)));
-        const std::size_t item = size_of(prop.type);
-        if (count > static_cast<double>(static_cast<std::size_t>(end - p) / item)) truncated(i);
-        p += static_cast<std::size_t>(count) * item;
-      } else {
-        const std::size_t sz = size_of(prop.type);
-        if (static_cast<std::size_t>(end - p) < sz) truncated(i);
-        if (cols) (*cols)[j][i] = read_value(p, prop.type, swap);
-        p += sz;
-      }
-    }
-  }
-  return static_cast<std::size_t>(p - begin);
+  memory_cursor in{p, begin + data.size()};
+  for (std::size_t i = 0; i < n; ++i)
+    read_record(in, e, swap, i, n, file, [&](std::size_t j, double v) {
+      if (cols) (*cols)[j][i] = v;
+    });
+  return static_cast<std::size_t>(in.p - begin);
 }
 
 // -------------------------------------------------------------- ascii body
@@ -320,24 +390,12 @@ std::size_t read_ascii_element(std::string_view data, std::size_t pos, const ele
 // ------------------------------------------------------------------ reader
 
 point_cloud parse_ply(std::string_view data, const std::string& file) {
-  const ply_header h = parse_header(data, file);
-  const element_desc* vertex = nullptr;
-  for (const auto& e : h.elements)
-    if (e.name == "vertex") vertex = &e;
-  if (!vertex) fail(file, "the PLY file has no 'vertex' element");
+  const ply_header h = parse_header(header_source{data}, file);
   std::size_t axis[3] = {};
-  for (int k = 0; k < 3; ++k) {
-    const std::string name(1, static_cast<char>('x' + k));
-    const auto it = std::find_if(vertex->props.begin(), vertex->props.end(),
-                                 [&](const property_desc& p) { return p.name == name; });
-    if (it == vertex->props.end()) fail(file, "the vertex element has no '" + name + "' property");
-    if (it->is_list) fail(file, "the vertex property '" + name + "' is a list");
-    axis[k] = static_cast<std::size_t>(it - vertex->props.begin());
-  }
+  const element_desc* vertex = &find_vertex(h, file, axis);
 
   columns cols(vertex->props.size());
-  const bool swap =
-      h.format != ply_format::ascii && (h.format == ply_format::binary_little_endian) != host_little_endian();
+  const bool swap = swapped(h.format);
   std::size_t pos = h.body_offset;
   for (const auto& e : h.elements) {
     columns* target = &e == vertex ? &cols : nullptr;
@@ -468,5 +526,115 @@ void write_ply(std::ostream& out, const point_cloud& cloud, ply_format fmt) {
 void write_ply(const std::string& path, const point_cloud& cloud, ply_format fmt) {
   detail::write_to_file(path, [&](std::ostream& o) { write_ply_unchecked(o, cloud, fmt); });
 }
+
+namespace {
+/// The vertices of a binary PLY file, chunk by chunk (read_ply()'s
+/// semantics): the header once, then the records read at their offsets
+/// (fixed-size records) or front to back (records with lists).
+class ply_stream final : public box_stream {
+ public:
+  ply_stream(std::unique_ptr<input_file> file, ply_header h, const std::size_t axis[3], const field_selection& fields)
+      : m_file(std::move(file)), m_h(std::move(h)), m_fields(fields), m_in(*m_file, 0), m_swap(swapped(m_h.format)) {
+    std::copy_n(axis, 3, m_axis);
+    std::uint64_t pos = m_h.body_offset;
+    for (m_vertex = 0; m_h.elements[m_vertex].name != "vertex"; ++m_vertex)
+      pos = skip_element(pos, m_h.elements[m_vertex]);
+    const element_desc& v = m_h.elements[m_vertex];
+    m_record = record_size_of(v);
+    if (v.count != 0) check_count(v, m_record, m_file->size() - pos, m_file->path());
+    m_start = pos;
+    m_in.seek(m_start);
+    m_cols.resize(v.props.size());
+  }
+
+  std::size_t read(std::size_t max, const std::array<double, 3>& origin, point_cloud& out) override {
+    const element_desc& v = m_h.elements[m_vertex];
+    const auto n = static_cast<std::size_t>(std::min<std::uint64_t>(v.count - m_next, max));
+    if (n == 0) {
+      out = point_cloud();
+      if (m_next == v.count && !m_first_pass_done) {
+        check_following_elements();
+        m_first_pass_done = true;
+      }
+      return 0;
+    }
+    for (std::size_t j = 0; j < v.props.size(); ++j)
+      if (!v.props[j].is_list) m_cols[j].resize(n);
+    if (m_record.fixed) {
+      m_buffer.resize(n * m_record.min);
+      m_file->read_exact(m_start + m_next * m_record.min, m_buffer.size(), m_buffer.data());
+      const auto* p = reinterpret_cast<const unsigned char*>(m_buffer.data());
+      std::size_t offset = 0;
+      for (std::size_t j = 0; j < v.props.size(); ++j) {
+        decode_column(p + offset, m_record.min, n, v.props[j].type, m_swap, m_cols[j].data());
+        offset += size_of(v.props[j].type);
+      }
+    } else {
+      file_cursor in{m_in};
+      const auto count = static_cast<std::size_t>(v.count);
+      for (std::size_t i = 0; i < n; ++i)
+        read_record(in, v, m_swap, static_cast<std::size_t>(m_next) + i, count, m_file->path(),
+                    [&](std::size_t j, double value) { m_cols[j][i] = value; });
+    }
+    set_positions(out, m_cols[m_axis[0]].data(), m_cols[m_axis[1]].data(), m_cols[m_axis[2]].data(), n, origin);
+    for (std::size_t j = 0; j < v.props.size(); ++j) {
+      const property_desc& p = v.props[j];
+      if (p.is_list || j == m_axis[0] || j == m_axis[1] || j == m_axis[2] || !m_fields.wants(p.name)) continue;
+      out.add_field(p.name, p.type, m_cols[j]);
+    }
+    m_next += n;
+    return n;
+  }
+  void rewind() override {
+    m_next = 0;
+    m_in.seek(m_start);
+  }
+  std::string details() const override { return "PLY"; }
+  std::uint64_t declared_points() const noexcept override { return m_h.elements[m_vertex].count; }
+
+ private:
+  /// Skips element e at `pos` (checking it as read_ply() does); returns the offset after it.
+  std::uint64_t skip_element(std::uint64_t pos, const element_desc& e) {
+    const record_size r = record_size_of(e);
+    if (e.count == 0 || r.min == 0) return pos;
+    check_count(e, r, m_file->size() - pos, m_file->path());
+    const auto n = static_cast<std::size_t>(e.count);
+    if (r.fixed) return pos + n * r.min;
+    sequential_reader reader(*m_file, pos);
+    file_cursor in{reader};
+    for (std::size_t i = 0; i < n; ++i) read_record(in, e, m_swap, i, n, m_file->path(), [](std::size_t, double) {});
+    return reader.offset();
+  }
+  /// After the vertices: the elements that follow them must be whole too.
+  void check_following_elements() {
+    const element_desc& v = m_h.elements[m_vertex];
+    std::uint64_t pos = m_record.fixed ? m_start + v.count * m_record.min : m_in.offset();
+    for (std::size_t e = m_vertex + 1; e < m_h.elements.size(); ++e) pos = skip_element(pos, m_h.elements[e]);
+  }
+
+  std::unique_ptr<input_file> m_file;
+  ply_header m_h;
+  field_selection m_fields;
+  sequential_reader m_in;  // records with lists: read front to back
+  bool m_swap;
+  std::size_t m_axis[3] = {0, 0, 0};
+  std::size_t m_vertex = 0;  // the vertex element's index
+  record_size m_record;      // of a vertex
+  std::uint64_t m_start = 0, m_next = 0;
+  std::string m_buffer;
+  columns m_cols;  // the chunk's values, by vertex property
+};
+}  // namespace
+
+namespace detail {
+std::unique_ptr<point_stream> open_ply_stream(const std::string& path, const field_selection& fields) {
+  auto file = std::make_unique<input_file>(path);
+  ply_header h = file->parse_header([&](const header_source& src) { return parse_header(src, path); });
+  std::size_t axis[3] = {0, 0, 0};
+  find_vertex(h, path, axis);
+  if (h.format == ply_format::ascii) return nullptr;
+  return std::make_unique<ply_stream>(std::move(file), std::move(h), axis, fields);
+}
+}  // namespace detail
 
 }  // namespace ced::io

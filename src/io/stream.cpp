@@ -1,13 +1,121 @@
 // SPDX-License-Identifier: MIT
-// Clouds read in chunks (ced/io/stream.hpp): LAS streams; the other formats
-// are read whole and served in chunks until they have streaming readers.
+// Clouds read in chunks (ced/io/stream.hpp): LAS, PLY binary, PCD binary and
+// CSV stream; PLY ascii, PCD ascii and binary_compressed (and anything that
+// is not a regular file) are read whole and served in chunks.
 #include "ced/io/stream.hpp"
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <system_error>
 #include <utility>
 
+#include "scalar_io.hpp"
+#include "stream_support.hpp"
+
 namespace ced::io {
+
+namespace detail {
+
+input_file::input_file(const std::string& path) : m_path(path) {
+  m_file.reset(std::fopen(path.c_str(), "rb"));
+  if (!m_file) throw io_error("cannot open '" + path + "': " + std::strerror(errno));
+  std::error_code ec;
+  m_size = std::filesystem::file_size(path, ec);
+  if (ec) fail(path, "cannot read its size: " + ec.message());
+}
+
+void input_file::read_exact(std::uint64_t offset, std::size_t n, char* out) {
+  if (n == 0) return;
+  if (offset > m_size || n > m_size - offset || fseeko(m_file.get(), static_cast<off_t>(offset), SEEK_SET) != 0 ||
+      std::fread(out, 1, n, m_file.get()) != n)
+    fail(m_path, "cannot read " + std::to_string(n) + " bytes at byte " + std::to_string(offset) +
+                     " (the file is unreadable or was truncated while being read)");
+}
+
+void input_file::read_some(std::uint64_t offset, std::size_t n, std::string& buf) {
+  const std::uint64_t left = offset < m_size ? m_size - offset : 0;
+  buf.resize(static_cast<std::size_t>(std::min<std::uint64_t>(n, left)));
+  read_exact(offset, buf.size(), buf.data());
+}
+
+bool input_file::contains(std::string_view s, std::uint64_t from) {
+  constexpr std::size_t block = std::size_t(1) << 20;
+  std::string buf;
+  for (std::uint64_t at = from; at < m_size; at += block) {
+    read_some(at, block + s.size(), buf);  // blocks overlap by s.size() bytes
+    if (buf.find(s) != std::string::npos) return true;
+  }
+  return false;
+}
+
+std::size_t sequential_reader::fill(std::size_t n) {
+  const auto want = static_cast<std::size_t>(std::min<std::uint64_t>(n, left()));
+  if (available() >= want) return want;
+  m_buf.erase(0, m_begin);
+  m_begin = 0;
+  const std::size_t have = m_buf.size();
+  const auto more = static_cast<std::size_t>(
+      std::max<std::uint64_t>(want - have, std::min<std::uint64_t>(std::size_t(1) << 16, left() - have)));
+  m_buf.resize(have + more);
+  m_file->read_exact(m_offset + have, more, m_buf.data() + have);
+  return want;
+}
+
+void sequential_reader::skip(std::uint64_t n) noexcept {
+  if (n <= available()) {
+    m_begin += static_cast<std::size_t>(n);
+  } else {
+    m_buf.clear();
+    m_begin = 0;
+  }
+  m_offset += n;
+}
+
+void sequential_reader::seek(std::uint64_t offset) noexcept {
+  m_buf.clear();
+  m_begin = 0;
+  m_offset = offset;
+}
+
+bool sequential_reader::next_line(std::string_view& line) {
+  if (left() == 0) return false;
+  for (std::size_t scanned = 0;;) {
+    const char* d = data();
+    const std::size_t a = available();
+    if (const void* nl = std::memchr(d + scanned, '\n', a - scanned)) {
+      const auto len = static_cast<std::size_t>(static_cast<const char*>(nl) - d);
+      line = std::string_view(d, len);
+      skip(len + 1);
+      return true;
+    }
+    if (a == left()) {  // the last line, without a '\n'
+      line = std::string_view(d, a);
+      skip(a);
+      return true;
+    }
+    scanned = a;
+    fill(std::max<std::size_t>(2 * a, std::size_t(1) << 16));
+  }
+}
+
+void box_stream::set_positions(point_cloud& out, const double* x, const double* y, const double* z, std::size_t n,
+                               const std::array<double, 3>& origin) {
+  out = point_cloud();
+  out.set_origin(origin);
+  out.resize(n);
+  float* p = out.positions().data();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!m_first_pass_done) m_box.add(x[i], y[i], z[i]);
+    p[3 * i + 0] = static_cast<float>(x[i] - origin[0]);
+    p[3 * i + 1] = static_cast<float>(y[i] - origin[1]);
+    p[3 * i + 2] = static_cast<float>(z[i] - origin[2]);
+  }
+}
+
+}  // namespace detail
 
 namespace {
 class whole_file_stream final : public point_stream {
@@ -71,6 +179,14 @@ std::unique_ptr<point_stream> open_point_stream(const std::string& path, const r
   if (f == file_format::las) return open_las_stream(path, options.fields);
   read_options o = options;
   o.format = f;
+  std::error_code ec;
+  if (std::filesystem::is_regular_file(path, ec)) {  // else read whole, with read_cloud()'s errors
+    std::unique_ptr<point_stream> s;
+    if (f == file_format::ply) s = detail::open_ply_stream(path, options.fields);
+    if (f == file_format::pcd) s = detail::open_pcd_stream(path, options.fields);
+    if (f == file_format::csv) s = detail::open_csv_stream(path, options.csv, options.fields);
+    if (s) return s;
+  }
   return std::make_unique<whole_file_stream>(path, o);
 }
 

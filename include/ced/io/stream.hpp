@@ -19,18 +19,20 @@ namespace ced::io {
 /// The first pass (read() until it returns 0) learns what depends on the
 /// whole file: the origin read_cloud() would choose, the bounding box, and,
 /// for some formats, which fields there are (LAS flags that only some points
-/// set). After rewind(), every chunk has exactly the fields, names, types and
-/// positions (relative to the same origin) that read_cloud() gives for the
-/// whole file, point for point; before it, a chunk's fields may differ from
-/// the next one's.
+/// set) or their types (CSV columns, typed by all their values). After rewind(), every chunk has exactly the fields,
+/// names, types and positions (relative to the same origin) that read_cloud() gives for the whole file, point for
+/// point; before it, a chunk's fields may differ from the next one's.
 ///
-/// Non-finite points are kept (read_cloud() keeps them too, but for the NaN
-/// points of organized PCD files, which a stream also keeps: the caller counts
-/// file points and finite points itself).
+/// Non-finite points are kept (read_cloud() keeps them too, but for the
+/// non-finite points of PCD files, which a stream also keeps: the caller
+/// counts file points and finite points itself).
 ///
-/// `streaming()` is false for formats read whole and then served in chunks
-/// (memory is then not bounded by the chunk size): PLY, PCD and CSV until
-/// they have their own streaming readers.
+/// LAS, binary PLY, binary PCD and CSV stream: memory holds a chunk and small
+/// buffers (and the file's header). `streaming()` is false for the encodings
+/// read whole and then served in chunks (memory is then not bounded by the
+/// chunk size): PLY ascii, PCD ascii and binary_compressed, and anything that
+/// is not a regular file; these drop the non-finite points of PCD files as
+/// read_cloud() does.
 class point_stream {
  public:
   virtual ~point_stream() = default;
@@ -47,7 +49,7 @@ class point_stream {
   /// The format's description, as read_report::details ("LAS 1.2, point format 3").
   virtual std::string details() const = 0;
   virtual bool streaming() const noexcept = 0;
-  /// Points in the file when its header says (LAS); else 0.
+  /// Points in the file when its header says (LAS, streamed PLY and PCD); else 0.
   virtual std::uint64_t declared_points() const noexcept { return 0; }
 };
 
