@@ -12,6 +12,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -134,6 +135,26 @@ tiled_request request_from_json(const nlohmann::json& j) {
   r.tile_size = j.at("tile_size").get<double>();
   r.memory_limit = j.at("memory_limit").get<std::uint64_t>();
   return r;
+}
+
+/// Reads `s` chunk by chunk (positions relative to `origin`) and calls
+/// f(chunk) for each, in order: a thread reads and decodes the next chunk
+/// while f works on this one. An exception of either is rethrown here.
+template <class F>
+void for_each_chunk(io::point_stream& s, const std::array<double, 3>& origin, F&& f) {
+  point_cloud chunks[2];
+  std::size_t got[2] = {0, 0};
+  got[0] = s.read(chunk_points, origin, chunks[0]);
+  for (int k = 0; got[k] > 0; k ^= 1) {
+    auto next = std::async(std::launch::async, [&, k] { got[k ^ 1] = s.read(chunk_points, origin, chunks[k ^ 1]); });
+    try {
+      f(static_cast<const point_cloud&>(chunks[k]));
+    } catch (...) {
+      next.wait();
+      throw;
+    }
+    next.get();
+  }
 }
 
 /// Bytes of one point in a tile cache or part: index, file index, position, fields.
@@ -273,9 +294,8 @@ double size_for_memory(io::point_stream& s, const tile_plan& p, const double lo[
   }
   std::vector<std::uint64_t> hist(dims[0] * dims[1] * dims[2], 0);
   s.rewind();
-  point_cloud c;
   std::uint64_t done = 0;
-  while (s.read(chunk_points, p.origin, c) > 0) {
+  for_each_chunk(s, p.origin, [&](const point_cloud& c) {
     for (std::size_t i = 0; i < c.size(); ++i) {
       const float* q = c.position(i);
       if (!finite3(q)) continue;
@@ -289,7 +309,7 @@ double size_for_memory(io::point_stream& s, const tile_plan& p, const double lo[
     done += c.size();
     if (progress)
       progress("counting points per area", double(done) / double(std::max<std::uint64_t>(1, p.file_points)));
-  }
+  });
   // Summed-volume table for box counts.
   const std::uint64_t X = dims[0] + 1, Y = dims[1] + 1, Z = dims[2] + 1;
   std::vector<std::uint64_t> sum(X * Y * Z, 0);
@@ -370,13 +390,12 @@ tile_plan plan_grid(const tiled_request& request, io::point_stream& s, const til
   p.streamed = s.streaming();
   // Pass 1: counts, field ranges, the origin and bounds.
   scan_result scan;
-  point_cloud c;
-  while (s.read(chunk_points, {0, 0, 0}, c) > 0) {
+  for_each_chunk(s, {0, 0, 0}, [&](const point_cloud& c) {
     scan_chunk(c, scan);
     if (progress)
       progress("reading (pass 1: bounds and ranges)",
                s.declared_points() ? double(scan.file_points) / double(s.declared_points()) : 0.0);
-  }
+  });
   p.file_points = scan.file_points;
   p.finite_points = scan.finite_points;
   if (p.finite_points == 0) fail(request.input, "the cloud has no (finite) points");
@@ -572,10 +591,9 @@ tile_plan plan_tiles(const tiled_request& request, const tiled_progress& progres
   tile_plan p = plan_grid(request, *s, progress);
   // Pass 2: points per tile.
   tile_counter counts(p.grid.count());
-  point_cloud c;
   std::vector<std::uint64_t> near;
   std::uint64_t done = 0;
-  while (s->read(chunk_points, p.origin, c) > 0) {
+  for_each_chunk(*s, p.origin, [&](const point_cloud& c) {
     for (std::size_t i = 0; i < c.size(); ++i) {
       if (!finite3(c.position(i))) continue;
       counts.core(p.grid.tile_of(c.position(i)));
@@ -584,7 +602,7 @@ tile_plan plan_tiles(const tiled_request& request, const tiled_progress& progres
     }
     done += c.size();
     if (progress) progress("reading (pass 2: points per tile)", double(done) / double(p.file_points));
-  }
+  });
   p.tiles = counts.entries();
   return p;
 }
@@ -603,14 +621,12 @@ tile_points read_tile(const tile_plan& plan, std::uint64_t id) {
   check_plan_input(plan);
   auto s = io::open_point_stream(plan.request.input, plan.request.read);
   // A pass to learn the whole file's fields (LAS flags), then the tile's points.
-  point_cloud c;
-  while (s->read(chunk_points, {0, 0, 0}, c) > 0) {
-  }
+  for_each_chunk(*s, {0, 0, 0}, [](const point_cloud&) {});
   s->rewind();
   const auto coords = plan.grid.coords(id);
   std::string records;
   std::uint64_t file_index = 0, index = 0;
-  while (s->read(chunk_points, plan.origin, c) > 0) {
+  for_each_chunk(*s, plan.origin, [&](const point_cloud& c) {
     if (c.fields().size() != plan.fields.size())
       fail(plan.request.input, "its fields differ from the plan's: make a new plan");
     for (std::size_t i = 0; i < c.size(); ++i, ++file_index) {
@@ -618,7 +634,7 @@ tile_points read_tile(const tile_plan& plan, std::uint64_t id) {
       if (near_tile(plan.grid, coords, c.position(i))) append_record(records, index, file_index, c, i);
       ++index;
     }
-  }
+  });
   return points_from_records(plan, id, records, plan.request.input);
 }
 
@@ -822,10 +838,9 @@ tile_plan prepare_tiled(const tiled_request& request, const tiled_run_options& o
     // Pass 2: every point into the cache file of each tile that reads it.
     tile_counter counts(plan.grid.count());
     cache_writer writer(cache.string(), std::size_t(64) << 20);
-    point_cloud c;
     std::vector<std::uint64_t> near;
     std::uint64_t file_index = 0, index = 0;
-    while (s->read(chunk_points, plan.origin, c) > 0) {
+    for_each_chunk(*s, plan.origin, [&](const point_cloud& c) {
       std::size_t added = 0;
       for (std::size_t i = 0; i < c.size(); ++i, ++file_index) {
         if (!finite3(c.position(i))) continue;
@@ -840,7 +855,7 @@ tile_plan prepare_tiled(const tiled_request& request, const tiled_run_options& o
       }
       writer.maybe_flush(added);
       if (o.progress) o.progress("reading (pass 2: tile cache)", double(file_index) / double(plan.file_points));
-    }
+    });
     writer.flush();
     plan.tiles = counts.entries();
     io::write_text_file_atomic(plan_path.string(), plan.to_json());
@@ -851,25 +866,43 @@ tile_plan prepare_tiled(const tiled_request& request, const tiled_run_options& o
   return plan;
 }
 
-tile_part detect_cached_tile(const tile_plan& plan, const std::string& work_dir, std::uint64_t id, unsigned threads,
-                             bool* was_done) {
-  const tile_entry& t = plan.tile(id);
-  const fs::path dir(work_dir);
-  const std::string part_path = (dir / "parts" / ("t" + std::to_string(id) + ".part")).string();
-  std::error_code ec;
-  if (was_done) *was_done = fs::exists(part_path, ec);
-  if (fs::exists(part_path, ec)) return read_part(part_path, plan);
-  const std::string cache_file = (dir / "cache" / ("t" + std::to_string(id) + ".bin")).string();
-  const tile_points pts = points_from_records(plan, id, slurp(cache_file), cache_file);
-  if (pts.cloud.size() != t.points) fail(cache_file, "the tile cache does not hold the tile's points");
+namespace {
+std::string part_file(const std::string& work_dir, std::uint64_t id) {
+  return (fs::path(work_dir) / "parts" / ("t" + std::to_string(id) + ".part")).string();
+}
+std::string cache_file(const std::string& work_dir, std::uint64_t id) {
+  return (fs::path(work_dir) / "cache" / ("t" + std::to_string(id) + ".bin")).string();
+}
+/// Tile id's points from the cache.
+tile_points load_cached(const tile_plan& plan, const std::string& work_dir, std::uint64_t id) {
+  const std::string file = cache_file(work_dir, id);
+  tile_points pts = points_from_records(plan, id, slurp(file), file);
+  if (pts.cloud.size() != plan.tile(id).points) fail(file, "the tile cache does not hold the tile's points");
+  return pts;
+}
+/// Detects a cached tile and keeps its part (the cache file goes).
+tile_part detect_and_keep(const tile_plan& plan, const std::string& work_dir, const tile_points& pts,
+                          unsigned threads) {
   tile_part part = detect_tile(plan, pts, threads);
-  write_part(part_path, plan, part);
-  fs::remove(cache_file, ec);
+  write_part(part_file(work_dir, pts.tile), plan, part);
+  std::error_code ec;
+  fs::remove(cache_file(work_dir, pts.tile), ec);
   // The resume tests' hook: die like a killed process after so many tiles.
   static std::atomic<long> detected{0};
   if (const char* kill_after = std::getenv("CED_TEST_KILL_AFTER_TILES"))
     if (++detected >= std::atol(kill_after)) std::raise(SIGKILL);
   return part;
+}
+}  // namespace
+
+tile_part detect_cached_tile(const tile_plan& plan, const std::string& work_dir, std::uint64_t id, unsigned threads,
+                             bool* was_done) {
+  plan.tile(id);
+  std::error_code ec;
+  const bool done = fs::exists(part_file(work_dir, id), ec);
+  if (was_done) *was_done = done;
+  if (done) return read_part(part_file(work_dir, id), plan);
+  return detect_and_keep(plan, work_dir, load_cached(plan, work_dir, id), threads);
 }
 
 tile_part finish_tiled(const tile_plan& plan, const std::string& work_dir) {
@@ -888,17 +921,32 @@ tile_part finish_tiled(const tile_plan& plan, const std::string& work_dir) {
 tile_part run_tiled(const tiled_request& request, const tiled_run_options& o, tile_plan* plan_out) {
   const tile_plan plan = prepare_tiled(request, o);
   if (plan_out) *plan_out = plan;
-  // The tiles, one after the other (threads within each).
+  // The tiles one after the other, threads within each; the next tile's
+  // cache is read while this one is detected.
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<tile_part> done;
-  for (const auto& t : plan.tiles) {
-    done.push_back(detect_cached_tile(plan, o.work_dir, t.id, o.threads));
+  std::error_code ec;
+  auto needs_work = [&](std::size_t k) { return !fs::exists(part_file(o.work_dir, plan.tiles[k].id), ec); };
+  auto load = [&](std::size_t k) {
+    return std::async(std::launch::async, [&, k] { return load_cached(plan, o.work_dir, plan.tiles[k].id); });
+  };
+  std::future<tile_points> next;
+  for (std::size_t k = 0; k < plan.tiles.size(); ++k) {
+    const std::uint64_t id = plan.tiles[k].id;
+    if (!needs_work(k)) {
+      done.push_back(read_part(part_file(o.work_dir, id), plan));
+    } else {
+      const tile_points pts = next.valid() ? next.get() : load(k).get();
+      std::size_t after = k + 1;
+      while (after < plan.tiles.size() && !needs_work(after)) ++after;
+      if (after < plan.tiles.size()) next = load(after);
+      done.push_back(detect_and_keep(plan, o.work_dir, pts, o.threads));
+    }
     if (o.tile_done)
       o.tile_done(done.size(), plan.tiles.size(),
                   std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   }
   tile_part merged = merge_parts(plan, std::move(done));
-  std::error_code ec;
   fs::remove_all(o.work_dir, ec);
   return merged;
 }

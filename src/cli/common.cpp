@@ -1,10 +1,15 @@
 // SPDX-License-Identifier: MIT
 #include "common.hpp"
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <limits>
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -118,6 +123,13 @@ std::vector<std::string> expand_config(const std::vector<std::string>& args, CLI
   }
   out.insert(out.end(), rest.begin(), rest.end());
   return out;
+}
+
+void keep_freed_memory() noexcept {
+#if defined(__GLIBC__)
+  mallopt(M_MMAP_THRESHOLD, 1 << 30);  // blocks below 1 GiB from the heap
+  mallopt(M_TRIM_THRESHOLD, std::numeric_limits<int>::max());
+#endif
 }
 
 progress_bar::progress_bar(bool enabled) : m_enabled(enabled && isatty(STDERR_FILENO)) {}

@@ -50,6 +50,14 @@ void add_plugin_option(CLI::App* app, std::vector<std::string>& plugins);
 /// ced::plugin_error (exit code 1) naming the file and why.
 void load_plugins(const std::vector<std::string>& plugins);
 
+/// Asks glibc's malloc to keep freed memory for reuse instead of returning it
+/// to the system (large blocks from the heap, no trimming): a run allocates
+/// and frees large arrays stage after stage, chunk after chunk, tile after
+/// tile, and fresh pages cost a fault each (on the VMs measured, a third of
+/// a whole LAS run: docs/SCALE.md). The peak stays what the run holds at
+/// once. A no-op elsewhere than glibc.
+void keep_freed_memory() noexcept;
+
 /// A one-line progress bar on stderr, only when stderr is a terminal.
 class progress_bar {
  public:

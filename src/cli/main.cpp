@@ -16,6 +16,7 @@
 using namespace ced_cli;
 
 int main(int argc, char** argv) {
+  keep_freed_memory();
   CLI::App app{"ced " CED_VERSION_STRING
                ": N-modal CEntroid Distance keypoint detection in point clouds (Teng et al., WACV 2023)"};
   app.require_subcommand(1);

@@ -160,6 +160,7 @@ int run_mpi(const detect_options& o, mpi::communicator& world) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  keep_freed_memory();
   mpi::environment env(argc, argv);
   mpi::communicator world;
   CLI::App app{"ced-mpi " CED_VERSION_STRING ": `ced detect` tile by tile on MPI ranks"};
