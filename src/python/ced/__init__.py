@@ -17,12 +17,18 @@ from ._ced import (
     Modality,
     PluginError,
     Result,
+    TilePart,
+    TilePlan,
     __version__,
+    detect_tile,
     load_plugin,
+    merge_parts,
     modalities,
+    plan_tiles,
     preset,
     python_modality,
     read,
+    read_part,
     release_cached_memory,
 )
 from ._ced import _detect, write as _write
@@ -30,10 +36,10 @@ from . import _ced
 from . import eval  # noqa: F401  (ced.eval.repeatability)
 
 __all__ = [
-    "Cloud", "FileError", "Modality", "PluginError", "Result", "__version__", "bands", "detect",
-    "estimate_resolution", "eval", "intensity", "lab", "load_plugin", "modalities", "modality", "preset",
-    "python_modality", "read", "release_cached_memory", "render", "rgb", "voxel_downsample", "write",
-    "write_keypoints", "xyz",
+    "Cloud", "FileError", "Modality", "PluginError", "Result", "TilePart", "TilePlan", "__version__", "bands",
+    "detect", "detect_tile", "estimate_resolution", "eval", "intensity", "lab", "load_plugin", "merge_parts",
+    "modalities", "modality", "plan_tiles", "preset", "python_modality", "read", "read_part",
+    "release_cached_memory", "render", "rgb", "voxel_downsample", "write", "write_keypoints", "xyz",
 ]
 
 

@@ -153,3 +153,69 @@ def load_plugin(path: str) -> List[str]:
 
 def release_cached_memory() -> None:
     """Frees the up to 32 MiB that detections keep cached for the next one."""
+
+
+class TilePlan:
+    """The tiles of a cloud file (the plan of `ced plan`); pickles as its JSON."""
+
+    @staticmethod
+    def from_json(text: str) -> "TilePlan": ...
+    @staticmethod
+    def load(path: str) -> "TilePlan": ...
+    def to_json(self) -> str: ...
+    def save(self, path: str) -> None: ...
+    @property
+    def input(self) -> str: ...
+    @property
+    def modalities(self) -> List[str]: ...
+    @property
+    def radius(self) -> float: ...
+    @property
+    def tile_size(self) -> float: ...
+    @property
+    def halo(self) -> float: ...
+    @property
+    def points(self) -> int: ...
+    @property
+    def digest(self) -> str: ...
+    @property
+    def tiles(self) -> List[Tuple[int, int, int]]:
+        """(id, points owned, points read) of every tile that owns points."""
+
+
+class TilePart:
+    """The keypoints one tile contributes (or, merged, the whole cloud's)."""
+
+    @property
+    def tile(self) -> int: ...
+    @property
+    def keypoints(self) -> npt.NDArray[np.uint64]:
+        """Indices into the file's finite points, ascending."""
+    @property
+    def file_indices(self) -> npt.NDArray[np.uint64]: ...
+    @property
+    def cloud(self) -> Cloud: ...
+    @property
+    def saliency(self) -> Dict[str, npt.NDArray[np.float32]]: ...
+    @property
+    def thresholds(self) -> Dict[str, float]: ...
+    @property
+    def detect_ms(self) -> float: ...
+    def write(self, plan: TilePlan, path: str) -> None: ...
+
+
+def plan_tiles(input: str, tile_size: Optional[float] = None, memory_limit: Optional[float] = None,
+               modalities: Union[None, str, Sequence[str]] = None, radius: float = 0.05,
+               nms_radius: Optional[float] = None, min_neighbors: int = 5, format: str = "auto") -> TilePlan:
+    """Plans the tiles of a cloud file (two passes over it), as `ced plan`."""
+
+
+def detect_tile(plan: TilePlan, tile: int, part: Optional[str] = None, threads: int = 0) -> TilePart:
+    """Reads and detects one tile of the plan's input; writes its part to `part` when given."""
+
+
+def read_part(plan: TilePlan, path: str) -> TilePart: ...
+
+
+def merge_parts(plan: TilePlan, parts: Iterable[Union[str, TilePart]]) -> TilePart:
+    """Every tile's part merged: exactly the keypoints of a whole-cloud detection."""

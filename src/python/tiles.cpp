@@ -1,0 +1,201 @@
+// SPDX-License-Identifier: MIT
+// Clouds larger than memory from Python: ced.plan_tiles, ced.detect_tile,
+// ced.merge_parts (ced/tiled.hpp), for Dask, multiprocessing or any scheduler.
+#include <pybind11/stl.h>
+
+#include <cmath>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "bindings.hpp"
+#include "ced/io/output_file.hpp"
+#include "ced/tiled.hpp"
+
+namespace ced_python {
+namespace {
+
+using plan_ptr = std::shared_ptr<ced::tile_plan>;
+using part_ptr = std::shared_ptr<ced::tile_part>;
+
+plan_ptr plan_from_json(const std::string& text, const std::string& name) {
+  return std::make_shared<ced::tile_plan>(ced::tile_plan::from_json(text, name));
+}
+
+template <class T>
+py::array_t<T> copy_array(const std::vector<T>& v) {
+  py::array_t<T> a(static_cast<py::ssize_t>(v.size()));
+  std::copy(v.begin(), v.end(), a.mutable_data());
+  return a;
+}
+
+/// Modality specs from a preset name, a spec string or a list of specs.
+std::vector<std::string> specs_of(py::handle modalities) {
+  if (modalities.is_none()) return {};
+  if (py::isinstance<py::str>(modalities)) {
+    const std::string s = modalities.cast<std::string>();
+    for (const auto& p : ced::preset_names())
+      if (s == p) return ced::preset_specs(s);
+    return ced::split_modality_specs(s);
+  }
+  std::vector<std::string> out;
+  for (py::handle h : modalities) {
+    if (!py::isinstance<py::str>(h))
+      throw py::type_error(
+          "modalities: a plan is written as JSON, so its modalities are spec strings ('xyz:0.2') or a preset name, "
+          "got " +
+          std::string(py::str(py::type::of(h).attr("__name__"))));
+    out.push_back(h.cast<std::string>());
+  }
+  return out;
+}
+
+}  // namespace
+
+void bind_tiles(py::module_& m) {
+  py::class_<ced::tile_plan, plan_ptr>(m, "TilePlan",
+                                       "The tiles of a cloud file: what ced.detect_tile runs and ced.merge_parts "
+                                       "merges (the same plan as `ced plan`).")
+      .def_static(
+          "from_json", [](const std::string& text) { return plan_from_json(text, "<json>"); }, py::arg("text"))
+      .def_static(
+          "load",
+          [](const std::string& path) {
+            std::ifstream in(path, std::ios::binary);
+            if (!in) throw ced::io::io_error(path + ": cannot open the tile plan");
+            std::ostringstream ss;
+            ss << in.rdbuf();
+            return plan_from_json(ss.str(), path);
+          },
+          py::arg("path"), "Reads a plan written by `ced plan` or TilePlan.save.")
+      .def("to_json", &ced::tile_plan::to_json)
+      .def(
+          "save",
+          [](const ced::tile_plan& p, const std::string& path) { ced::io::write_text_file_atomic(path, p.to_json()); },
+          py::arg("path"))
+      .def_property_readonly("input", [](const ced::tile_plan& p) { return p.request.input; })
+      .def_property_readonly("modalities", [](const ced::tile_plan& p) { return p.request.modalities; })
+      .def_property_readonly("radius", [](const ced::tile_plan& p) { return p.request.params.radius; })
+      .def_property_readonly("tile_size", [](const ced::tile_plan& p) { return p.grid.size; })
+      .def_property_readonly("halo", [](const ced::tile_plan& p) { return p.grid.halo; })
+      .def_property_readonly("points", [](const ced::tile_plan& p) { return p.file_points; })
+      .def_property_readonly("digest", &ced::tile_plan::digest)
+      .def_property_readonly(
+          "tiles",
+          [](const ced::tile_plan& p) {
+            py::list out;
+            for (const auto& t : p.tiles) out.append(py::make_tuple(t.id, t.core_points, t.points));
+            return out;
+          },
+          "(id, points owned, points read) of every tile that owns points, ascending id.")
+      .def("__repr__",
+           [](const ced::tile_plan& p) {
+             return "<ced.TilePlan " + p.request.input + ": " + std::to_string(p.tiles.size()) + " tiles of " +
+                    std::to_string(p.grid.size) + ", " + std::to_string(p.file_points) + " points>";
+           })
+      .def(py::pickle([](const ced::tile_plan& p) { return p.to_json(); },
+                      [](const std::string& s) { return plan_from_json(s, "<pickle>"); }));
+
+  py::class_<ced::tile_part, part_ptr>(m, "TilePart",
+                                       "The keypoints one tile contributes (or, merged, the whole cloud's).")
+      .def_readonly("tile", &ced::tile_part::tile)
+      .def_property_readonly(
+          "keypoints", [](const ced::tile_part& p) { return copy_array(p.index); },
+          "Indices into the file's finite points, ascending (uint64).")
+      .def_property_readonly(
+          "file_indices", [](const ced::tile_part& p) { return copy_array(p.file_index); },
+          "Indices into all the file's points (uint64).")
+      .def_property_readonly(
+          "cloud", [](const ced::tile_part& p) { return std::make_shared<ced::point_cloud>(p.keypoints); },
+          "The keypoints with their fields, as a ced.Cloud.")
+      .def_property_readonly("saliency",
+                             [](const ced::tile_part& p) {
+                               py::dict d;
+                               for (std::size_t k = 0; k < p.names.size(); ++k)
+                                 d[py::str(p.names[k])] = copy_array(p.saliency[k]);
+                               return d;
+                             })
+      .def_property_readonly("thresholds",
+                             [](const ced::tile_part& p) {
+                               py::dict d;
+                               for (std::size_t k = 0; k < p.names.size(); ++k)
+                                 d[py::str(p.names[k])] = p.thresholds[k];
+                               return d;
+                             })
+      .def_readonly("detect_ms", &ced::tile_part::detect_ms)
+      .def(
+          "write",
+          [](const ced::tile_part& p, const ced::tile_plan& plan, const std::string& path) {
+            ced::write_part(path, plan, p);
+          },
+          py::arg("plan"), py::arg("path"), "Writes the part for ced.merge_parts or `ced merge` (atomically).")
+      .def("__repr__", [](const ced::tile_part& p) {
+        return "<ced.TilePart tile " + std::to_string(p.tile) + ": " + std::to_string(p.index.size()) + " keypoints>";
+      });
+
+  m.def(
+      "plan_tiles",
+      [](const std::string& input, py::object tile_size, py::object memory_limit, py::object modalities, double radius,
+         py::object nms_radius, std::uint32_t min_neighbors, const std::string& format) {
+        ced::tiled_request r;
+        r.input = input;
+        r.read.format = ced::io::parse_format(format);
+        r.params.radius = radius;
+        r.params.nms_radius = nms_radius.is_none() ? radius : nms_radius.cast<double>();
+        r.params.min_neighbors = min_neighbors;
+        r.modalities = specs_of(modalities);
+        if (!tile_size.is_none()) r.tile_size = tile_size.cast<double>();
+        if (!memory_limit.is_none()) {
+          const double v = memory_limit.cast<double>();
+          if (!(v > 0) || !std::isfinite(v)) throw py::value_error("memory_limit: a positive number of bytes");
+          r.memory_limit = static_cast<std::uint64_t>(v);
+        }
+        if (tile_size.is_none() && memory_limit.is_none())
+          throw py::value_error("give tile_size (metres) or memory_limit (bytes)");
+        py::gil_scoped_release release;
+        return std::make_shared<ced::tile_plan>(ced::plan_tiles(r));
+      },
+      py::arg("input"), py::arg("tile_size") = py::none(), py::arg("memory_limit") = py::none(),
+      py::arg("modalities") = py::none(), py::arg("radius") = 0.05, py::arg("nms_radius") = py::none(),
+      py::arg("min_neighbors") = 5, py::arg("format") = "auto",
+      "Plans the tiles of a cloud file (two passes over it), as `ced plan`. modalities: spec strings or a preset "
+      "name (default: ced6d when the file has colour, else ced3d).");
+  m.def(
+      "detect_tile",
+      [](const ced::tile_plan& plan, std::uint64_t tile, py::object part, unsigned threads) {
+        std::shared_ptr<ced::tile_part> out;
+        {
+          py::gil_scoped_release release;
+          const ced::tile_points pts = ced::read_tile(plan, tile);
+          out = std::make_shared<ced::tile_part>(ced::detect_tile(plan, pts, threads));
+        }
+        if (!part.is_none()) ced::write_part(part.cast<std::string>(), plan, *out);
+        return out;
+      },
+      py::arg("plan"), py::arg("tile"), py::arg("part") = py::none(), py::arg("threads") = 0,
+      "Reads tile `tile` of the plan's input (one pass over the file), detects it, writes its part to `part` when "
+      "given, and returns it. Any process that can read the file can run it.");
+  m.def(
+      "read_part", [](const ced::tile_plan& plan, const std::string& path) { return ced::read_part(path, plan); },
+      py::arg("plan"), py::arg("path"));
+  m.def(
+      "merge_parts",
+      [](const ced::tile_plan& plan, py::iterable parts) {
+        std::vector<ced::tile_part> all;
+        for (py::handle h : parts) {
+          if (py::isinstance<py::str>(h) || py::hasattr(h, "__fspath__"))
+            all.push_back(ced::read_part(py::str(h).cast<std::string>(), plan));
+          else
+            all.push_back(h.cast<const ced::tile_part&>());
+        }
+        py::gil_scoped_release release;
+        return std::make_shared<ced::tile_part>(ced::merge_parts(plan, std::move(all)));
+      },
+      py::arg("plan"), py::arg("parts"),
+      "Merges every tile's part (ced.TilePart objects or paths of part files) into the whole cloud's keypoints: "
+      "exactly those of a whole-cloud detection. A missing or repeated tile is a ced.FileError.");
+}
+
+}  // namespace ced_python
