@@ -278,7 +278,10 @@ double size_for_memory(io::point_stream& s, const tile_plan& p, const double lo[
     throw std::invalid_argument("--memory-limit " + std::to_string(p.request.memory_limit) +
                                 " bytes is too small: a run needs about " +
                                 std::to_string(std::uint64_t(fixed_overhead / (1 << 20))) + " MiB besides its tiles");
-  const double max_points = (limit - fixed_overhead) / per_point;
+  // Tiles of more than 8 M points would fit but run slower (a whole 100 M
+  // run takes 1.6 M points a second, tiles of 0.3 M 2.3 M: docs/SCALE.md).
+  const double max_fitting = (limit - fixed_overhead) / per_point;
+  const double max_points = std::min(max_fitting, 8e6);
   const double halo = exact_halo(p.request.params, 0);
   // Cells of the histogram: a quarter of the halo or more, at most 2^22.
   double cell = halo / 4;
@@ -348,28 +351,35 @@ double size_for_memory(io::point_stream& s, const tile_plan& p, const double lo[
   };
   double extent = 0;
   for (int k = 0; k < 3; ++k) extent = std::max(extent, hi[k] - lo[k]);
-  double size = std::max(extent, cell) * 1.0001;
-  if (densest(size) <= max_points) return size;
-  // Halve until it fits, then search between the last two sizes.
-  double big = size;
-  while (size > cell) {
-    size /= 2;
-    if (densest(size) <= max_points) break;
-    big = size;
-  }
-  if (densest(size) > max_points)
+  // The largest size whose densest tile reads at most `most` points, or 0.
+  auto largest = [&](double most) {
+    double size = std::max(extent, cell) * 1.0001;
+    if (densest(size) <= most) return size;
+    // Halve until it fits, then search between the last two sizes.
+    double big = size;
+    while (size > cell) {
+      size /= 2;
+      if (densest(size) <= most) break;
+      big = size;
+    }
+    if (densest(size) > most) return 0.0;
+    for (int i = 0; i < 12; ++i) {
+      const double mid = 0.5 * (size + big);
+      if (densest(mid) <= most)
+        size = mid;
+      else
+        big = mid;
+    }
+    return size;
+  };
+  double size = largest(max_points);
+  if (size == 0) size = largest(max_fitting);
+  if (size == 0)
     throw std::invalid_argument(
         "--memory-limit " + std::to_string(p.request.memory_limit) +
         " bytes is too small for this cloud: its densest area needs about " +
-        std::to_string(std::uint64_t((densest(size) * per_point + fixed_overhead) / (1 << 20))) +
+        std::to_string(std::uint64_t((densest(cell) * per_point + fixed_overhead) / (1 << 20))) +
         " MiB even with the smallest tiles");
-  for (int i = 0; i < 12; ++i) {
-    const double mid = 0.5 * (size + big);
-    if (densest(mid) <= max_points)
-      size = mid;
-    else
-      big = mid;
-  }
   return size;
 }
 
@@ -476,8 +486,10 @@ class cache_writer {
       if (!f) fail(path, std::string("cannot write the tile cache: ") + std::strerror(errno));
       const bool ok = std::fwrite(b.data(), 1, b.size(), f) == b.size();
       if (std::fclose(f) != 0 || !ok) fail(path, "cannot write the tile cache (disk full?)");
-      b.clear();
-      if (b.capacity() > (std::size_t(4) << 20)) b.shrink_to_fit();  // keep small buffers: no regrowth
+      // Released, so that the buffers of many tiles never hold more than the
+      // budget between them (their memory is reused, not faulted in anew:
+      // keep_freed_memory()).
+      std::string().swap(b);
     }
     m_held = 0;
   }
