@@ -80,13 +80,10 @@ bool finite3(const float* p) noexcept { return std::isfinite(p[0]) && std::isfin
 
 /// True when p lies in tile t's core grown by the halo (the test of tiles_near()).
 bool near_tile(const tile_grid& g, const std::array<std::uint32_t, 3>& c, const float* p) noexcept {
-  for (std::size_t k = 0; k < 3; ++k) {
-    auto cell = [&](double x) {
-      const double v = std::floor((x - g.lo[k]) / g.size);
-      return !(v > 0) ? 0.0 : std::min(v, double(g.dims[k] - 1));
-    };
-    if (cell(double(p[k]) - g.halo) > c[k] || cell(double(p[k]) + g.halo) < c[k]) return false;
-  }
+  std::int64_t own[3], c0[3], c1[3];
+  g.locate(p, own, c0, c1);
+  for (std::size_t k = 0; k < 3; ++k)
+    if (c0[k] > std::int64_t(c[k]) || c1[k] < std::int64_t(c[k])) return false;
   return true;
 }
 
@@ -173,16 +170,37 @@ point_cloud empty_cloud(const tile_plan& p, std::size_t n) {
   return c;
 }
 
-/// Appends point i of `c` as a record to `out`.
+/// The fields of a chunk as (bytes, width) pairs, for append_record().
+using field_bytes = std::vector<std::pair<const unsigned char*, std::size_t>>;
+field_bytes bytes_of(const point_cloud& c) {
+  field_bytes out;
+  for (const auto& f : c.fields()) out.push_back({f.values.bytes(), size_of(f.type())});
+  return out;
+}
+
+/// Appends point i of a chunk (positions `xyz`, fields `fields`) as a record
+/// of `size` bytes to `out`.
+void append_record(std::string& out, std::size_t size, std::uint64_t index, std::uint64_t file_index, const float* xyz,
+                   const field_bytes& fields, std::size_t i) {
+  const std::size_t at = out.size();
+  if (out.capacity() < at + size) out.reserve(std::max(2 * out.capacity(), at + size));
+  out.resize(at + size);
+  char* p = out.data() + at;
+  std::memcpy(p, &index, 8);
+  std::memcpy(p + 8, &file_index, 8);
+  std::memcpy(p + 16, xyz + 3 * i, 12);
+  p += 28;
+  for (const auto& [bytes, w] : fields) {
+    std::memcpy(p, bytes + w * i, w);
+    p += w;
+  }
+}
 void append_record(std::string& out, std::uint64_t index, std::uint64_t file_index, const point_cloud& c,
                    std::size_t i) {
-  out.append(reinterpret_cast<const char*>(&index), 8);
-  out.append(reinterpret_cast<const char*>(&file_index), 8);
-  out.append(reinterpret_cast<const char*>(c.position(i)), 12);
-  for (const auto& f : c.fields()) {
-    const std::size_t w = size_of(f.type());
-    out.append(reinterpret_cast<const char*>(f.values.bytes()) + w * i, w);
-  }
+  std::size_t size = 28;
+  const field_bytes fields = bytes_of(c);
+  for (const auto& f : fields) size += f.second;
+  append_record(out, size, index, file_index, c.positions().data(), fields, i);
 }
 
 /// Decodes n records at `p` into points [at, at + n) of `c` and the index arrays.
@@ -278,10 +296,10 @@ double size_for_memory(io::point_stream& s, const tile_plan& p, const double lo[
     throw std::invalid_argument("--memory-limit " + std::to_string(p.request.memory_limit) +
                                 " bytes is too small: a run needs about " +
                                 std::to_string(std::uint64_t(fixed_overhead / (1 << 20))) + " MiB besides its tiles");
-  // Tiles of more than 8 M points would fit but run slower (a whole 100 M
-  // run takes 1.6 M points a second, tiles of 0.3 M 2.3 M: docs/SCALE.md).
+  // Larger tiles would fit but run slower: a whole 100 M-point run takes 1.4
+  // M points a second, tiles of 8 M 1.6 M, tiles of 0.3 M 2.5 M (SCALE.md).
   const double max_fitting = (limit - fixed_overhead) / per_point;
-  const double max_points = std::min(max_fitting, 8e6);
+  const double max_points = std::min(max_fitting, 2e6);
   const double halo = exact_halo(p.request.params, 0);
   // Cells of the histogram: a quarter of the halo or more, at most 2^22.
   double cell = halo / 4;
@@ -372,8 +390,14 @@ double size_for_memory(io::point_stream& s, const tile_plan& p, const double lo[
     }
     return size;
   };
+  // Tiles of at most 2 M points, which run fastest, unless that makes them
+  // narrower than 8 halos (then each point is read too many times): then as
+  // large as fits, up to 8 halos.
   double size = largest(max_points);
-  if (size == 0) size = largest(max_fitting);
+  if (size < 8 * halo) {
+    const double fitting = largest(max_fitting);
+    size = fitting == 0 ? 0 : std::min(fitting, std::max(size, 8 * halo));
+  }
   if (size == 0)
     throw std::invalid_argument(
         "--memory-limit " + std::to_string(p.request.memory_limit) +
@@ -498,7 +522,7 @@ class cache_writer {
  private:
   std::string m_dir;
   std::size_t m_budget, m_held = 0;
-  std::map<std::uint64_t, std::string> m_buffers;
+  std::unordered_map<std::uint64_t, std::string> m_buffers;
 };
 
 tile_points points_from_records(const tile_plan& p, std::uint64_t id, const std::string& bytes,
@@ -850,19 +874,26 @@ tile_plan prepare_tiled(const tiled_request& request, const tiled_run_options& o
     // Pass 2: every point into the cache file of each tile that reads it.
     tile_counter counts(plan.grid.count());
     cache_writer writer(cache.string(), std::size_t(64) << 20);
-    std::vector<std::uint64_t> near;
     std::uint64_t file_index = 0, index = 0;
     for_each_chunk(*s, plan.origin, [&](const point_cloud& c) {
       std::size_t added = 0;
+      const std::size_t rs = record_size(plan);
+      const field_bytes fields = bytes_of(c);
+      const tile_grid& g = plan.grid;
       for (std::size_t i = 0; i < c.size(); ++i, ++file_index) {
-        if (!finite3(c.position(i))) continue;
-        counts.core(plan.grid.tile_of(c.position(i)));
-        plan.grid.tiles_near(c.position(i), near);
-        for (std::uint64_t t : near) {
-          counts.near(t);
-          append_record(writer.buffer(t), index, file_index, c, i);
-          added += record_size(plan);
-        }
+        const float* q = c.position(i);
+        if (!finite3(q)) continue;
+        std::int64_t own[3], c0[3], c1[3];
+        g.locate(q, own, c0, c1);
+        counts.core((std::uint64_t(own[2]) * g.dims[1] + std::uint64_t(own[1])) * g.dims[0] + std::uint64_t(own[0]));
+        for (std::int64_t z = c0[2]; z <= c1[2]; ++z)
+          for (std::int64_t y = c0[1]; y <= c1[1]; ++y)
+            for (std::int64_t x = c0[0]; x <= c1[0]; ++x) {
+              const std::uint64_t t = (std::uint64_t(z) * g.dims[1] + std::uint64_t(y)) * g.dims[0] + std::uint64_t(x);
+              counts.near(t);
+              append_record(writer.buffer(t), rs, index, file_index, c.positions().data(), fields, i);
+              added += rs;
+            }
         ++index;
       }
       writer.maybe_flush(added);
@@ -931,6 +962,11 @@ tile_part finish_tiled(const tile_plan& plan, const std::string& work_dir) {
 }
 
 tile_part run_tiled(const tiled_request& request, const tiled_run_options& o, tile_plan* plan_out) {
+  using clock = std::chrono::steady_clock;
+  auto ms = [](clock::time_point a, clock::time_point b) {
+    return std::chrono::duration<double, std::milli>(b - a).count();
+  };
+  const auto t_plan = clock::now();
   const tile_plan plan = prepare_tiled(request, o);
   if (plan_out) *plan_out = plan;
   // The tiles one after the other, threads within each; the next tile's
@@ -958,8 +994,10 @@ tile_part run_tiled(const tiled_request& request, const tiled_run_options& o, ti
       o.tile_done(done.size(), plan.tiles.size(),
                   std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   }
+  const auto t_merge = std::chrono::steady_clock::now();
   tile_part merged = merge_parts(plan, std::move(done));
   fs::remove_all(o.work_dir, ec);
+  if (o.times) *o.times = {ms(t_plan, t0), ms(t0, t_merge), ms(t_merge, clock::now())};
   return merged;
 }
 

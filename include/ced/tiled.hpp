@@ -119,6 +119,12 @@ tile_part read_part(const std::string& path, const tile_plan& plan);
 /// for a tile given twice.
 tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts);
 
+/// Wall time of a run_tiled(): the plan and cache (passes over the input),
+/// the tiles, the merge, in milliseconds.
+struct tiled_times {
+  double plan_ms = 0, tiles_ms = 0, merge_ms = 0;
+};
+
 /// The whole run in one process: plan, an on-disk tile cache in `work_dir`
 /// (one more pass over the input), the tiles one after the other, the
 /// merge. Each finished tile's part is kept in `work_dir` (a manifest):
@@ -133,6 +139,8 @@ struct tiled_run_options {
   /// Once the plan is known (made or, with resume, read), before the tiles.
   std::function<void(const tile_plan&)> planned;
   std::function<void(std::size_t done, std::size_t total, double elapsed_ms)> tile_done;
+  /// Filled by run_tiled when set.
+  struct tiled_times* times = nullptr;
 };
 tile_part run_tiled(const tiled_request& request, const tiled_run_options& options, tile_plan* plan_out = nullptr);
 

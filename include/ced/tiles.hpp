@@ -43,6 +43,10 @@ struct tile_grid {
   /// The tiles whose core grown by the halo holds p (p's own among them),
   /// ascending; `out` is replaced.
   void tiles_near(const float p[3], std::vector<std::uint64_t>& out) const;
+  /// Per axis: the grid coordinate of p's own tile (`own`) and the range
+  /// [lo, hi] of those whose core grown by the halo holds p. What tile_of()
+  /// and tiles_near() are made of.
+  void locate(const float p[3], std::int64_t own[3], std::int64_t lo_c[3], std::int64_t hi_c[3]) const noexcept;
   /// The core box of tile t, {x0, y0, z0, x1, y1, z1} (half-open).
   std::array<double, 6> core_box(std::uint64_t t) const noexcept;
 };

@@ -220,6 +220,8 @@ int run_detect_tiled(const detect_options& o, detect_plan& plan, detect_outputs&
                  left / 1000);
   };
   ced::tile_plan p;
+  ced::tiled_times times;
+  ro.times = &times;
   const ced::tile_part merged = ced::run_tiled(request, ro, &p);
   bar.stage("writing");
   write_merged(o, p, merged, out, plan.out_format, ms_since(t_start));
@@ -233,8 +235,11 @@ int run_detect_tiled(const detect_options& o, detect_plan& plan, detect_outputs&
     std::fprintf(stderr, "ced: modalities %s; radius %g, nms radius %g, min neighbours %u, %u thread(s)\n",
                  mods.c_str(), p.request.params.radius, p.request.params.nms_radius, p.request.params.min_neighbors,
                  ced::resolve_threads(plan.params.threads));
-    std::fprintf(stderr, "ced: %zu keypoints; %zu tiles, detect %.1f ms; total %.1f ms\n", merged.index.size(),
-                 p.tiles.size(), merged.detect_ms, ms_since(t_start));
+    std::fprintf(stderr,
+                 "ced: %zu keypoints; %zu tiles; plan and tile cache %.1f ms, tiles %.1f ms (detection %.1f), "
+                 "merge %.1f ms; total %.1f ms\n",
+                 merged.index.size(), p.tiles.size(), times.plan_ms, times.tiles_ms, merged.detect_ms, times.merge_ms,
+                 ms_since(t_start));
   }
   if (out.files.empty())
     for (std::uint64_t k : merged.index) std::cout << k << '\n';

@@ -22,6 +22,14 @@ std::array<std::uint32_t, 3> tile_grid::coords(std::uint64_t t) const noexcept {
           static_cast<std::uint32_t>(t / dims[0] / dims[1])};
 }
 
+void tile_grid::locate(const float p[3], std::int64_t own[3], std::int64_t c0[3], std::int64_t c1[3]) const noexcept {
+  for (std::size_t k = 0; k < 3; ++k) {
+    own[k] = cell_index(double(p[k]), lo[k], size, dims[k]);
+    c0[k] = cell_index(double(p[k]) - halo, lo[k], size, dims[k]);
+    c1[k] = cell_index(double(p[k]) + halo, lo[k], size, dims[k]);
+  }
+}
+
 std::uint64_t tile_grid::tile_of(const float p[3]) const noexcept {
   std::uint64_t c[3];
   for (int k = 0; k < 3; ++k)
@@ -31,11 +39,8 @@ std::uint64_t tile_grid::tile_of(const float p[3]) const noexcept {
 
 void tile_grid::tiles_near(const float p[3], std::vector<std::uint64_t>& out) const {
   out.clear();
-  std::int64_t c0[3], c1[3];
-  for (std::size_t k = 0; k < 3; ++k) {
-    c0[k] = cell_index(double(p[k]) - halo, lo[k], size, dims[k]);
-    c1[k] = cell_index(double(p[k]) + halo, lo[k], size, dims[k]);
-  }
+  std::int64_t own[3], c0[3], c1[3];
+  locate(p, own, c0, c1);
   for (std::int64_t z = c0[2]; z <= c1[2]; ++z)
     for (std::int64_t y = c0[1]; y <= c1[1]; ++y)
       for (std::int64_t x = c0[0]; x <= c1[0]; ++x)
