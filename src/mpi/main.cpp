@@ -93,6 +93,15 @@ int run_mpi(const detect_options& o, mpi::communicator& world) {
   const unsigned threads = threads_per_rank(o.threads);
 
   if (!root) {  // a worker: ask, detect, report, until told to stop
+    try {
+      load_plugins(o.plugins);  // rank 0 loaded them in make_plan()
+    } catch (const std::exception& e) {
+      world.send(0, tag_ready);
+      long long id = -1;
+      world.recv(0, tag_tile, id);
+      world.send(0, tag_failed, "loading plugins: " + std::string(e.what()));
+      return exit_failure;
+    }
     for (;;) {
       world.send(0, tag_ready);
       long long id = -1;
