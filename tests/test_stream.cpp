@@ -93,19 +93,22 @@ point_cloud concatenate(const std::vector<point_cloud>& chunks, const std::array
   return all;
 }
 
+/// memcmp() == 0, also for n == 0 with null pointers (empty clouds).
+bool same_bytes(const void* a, const void* b, std::size_t n) { return n == 0 || std::memcmp(a, b, n) == 0; }
+
 /// Expects a and b to be the same bits: origin, positions, fields (names,
 /// types, bytes).
 void expect_bitwise_equal(const point_cloud& a, const point_cloud& b) {
   ced_test::expect_same_cloud(a, b);  // readable failures
   ASSERT_EQ(a.size(), b.size());
-  EXPECT_EQ(std::memcmp(a.positions().data(), b.positions().data(), a.positions().size() * sizeof(float)), 0)
+  EXPECT_TRUE(same_bytes(a.positions().data(), b.positions().data(), a.positions().size() * sizeof(float)))
       << "positions differ in their bits";
   ASSERT_EQ(a.fields().size(), b.fields().size());
   for (std::size_t f = 0; f < a.fields().size(); ++f) {
     const auto& fa = a.fields()[f];
     const auto& fb = b.fields()[f];
     ASSERT_EQ(fa.type(), fb.type());
-    EXPECT_EQ(std::memcmp(fa.values.bytes(), fb.values.bytes(), ced::size_of(fa.type()) * a.size()), 0)
+    EXPECT_TRUE(same_bytes(fa.values.bytes(), fb.values.bytes(), ced::size_of(fa.type()) * a.size()))
         << fa.name << " differs in its bits";
   }
 }
