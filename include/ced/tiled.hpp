@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 // Clouds larger than memory: a file cut into exact tiles (ced/tiles.hpp),
-// planned in one pass over it, each tile detected on its own (in this
+// planned in two passes over it, each tile detected on its own (in this
 // process, another one, another machine), the parts merged into exactly the
 // whole-cloud result. What `ced plan`, `ced detect --tile-size`,
 // `ced detect --plan --tile`, `ced merge`, `ced-mpi` and Python's
@@ -90,7 +90,8 @@ struct tile_points {
   std::vector<std::uint64_t> index, file_index;
 };
 
-/// Reads tile `id`'s points from the input (one pass over the file).
+/// Reads tile `id`'s points from the input (two passes over the file: the
+/// first learns what the whole file decides about its fields, as plan_tiles).
 tile_points read_tile(const tile_plan& plan, std::uint64_t id);
 
 /// What one tile contributes: its core keypoints, ascending index.
