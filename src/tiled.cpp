@@ -93,6 +93,14 @@ std::vector<any_modality> modalities_of(const std::vector<std::string>& specs) {
   return out;
 }
 
+/// A part's modality names and absolute thresholds, from the plan's modalities.
+void name_modalities(const tile_plan& plan, const std::vector<any_modality>& modalities, tile_part& part) {
+  for (const auto& mod : modalities) {
+    part.names.push_back(mod.name());
+    part.thresholds.push_back(mod.threshold(plan.request.params));
+  }
+}
+
 scalar_type type_named(const std::string& name, const std::string& where) {
   for (int t = 0; t <= int(scalar_type::float64); ++t)
     if (name_of(scalar_type(t)) == name) return scalar_type(t);
@@ -604,6 +612,8 @@ tile_plan tile_plan::from_json(const std::string& text, const std::string& name)
   return p;
 }
 
+tile_plan tile_plan::load(const std::string& path) { return from_json(slurp(path), path); }
+
 std::string tile_plan::digest() const {
   const std::string j = to_json();
   return hex(fnv1a(j.data(), j.size()));
@@ -684,10 +694,7 @@ tile_part detect_tile(const tile_plan& plan, const tile_points& points, unsigned
   detect_params params = plan.request.params;
   params.threads = threads;
   const std::size_t m = modalities.size();
-  for (const auto& mod : modalities) {
-    part.names.push_back(mod.name());
-    part.thresholds.push_back(mod.threshold(params));
-  }
+  name_modalities(plan, modalities, part);
   part.saliency.assign(m, {});
   part.candidates.assign(m, 0);
   part.keypoints = empty_cloud(plan, 0);
@@ -765,10 +772,7 @@ tile_part read_part(const std::string& path, const tile_plan& plan) {
   get(nf);
   const auto modalities = modalities_of(plan.request.modalities);
   if (m != modalities.size() || nf != plan.fields.size()) fail(path, "its modalities or fields differ from the plan's");
-  for (const auto& mod : modalities) {
-    p.names.push_back(mod.name());
-    p.thresholds.push_back(mod.threshold(plan.request.params));
-  }
+  name_modalities(plan, modalities, p);
   p.candidates.resize(m);
   for (auto& c : p.candidates) get(c);
   get(p.any_candidates);
@@ -807,10 +811,7 @@ tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts) {
   }
   tile_part out;
   const auto modalities = modalities_of(plan.request.modalities);
-  for (const auto& mod : modalities) {
-    out.names.push_back(mod.name());
-    out.thresholds.push_back(mod.threshold(plan.request.params));
-  }
+  name_modalities(plan, modalities, out);
   const std::size_t m = modalities.size();
   out.candidates.assign(m, 0);
   // Keypoints of all parts, by index (the parts' are disjoint).

@@ -64,6 +64,8 @@ struct tile_plan {
   std::string to_json() const;
   /// Throws io_error naming `name` for anything malformed.
   static tile_plan from_json(const std::string& text, const std::string& name);
+  /// Reads a plan file (from `ced plan` or to_json()); io_error naming it.
+  static tile_plan load(const std::string& path);
   /// A short hash of to_json(): parts of one plan carry it.
   std::string digest() const;
   /// The tile entry of `id`; throws std::invalid_argument when the plan has none.

@@ -183,14 +183,6 @@ ced::tiled_progress bar_progress(progress_bar& bar) {
   };
 }
 
-ced::tile_plan load_plan(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw ced::io::io_error(path + ": cannot open the tile plan");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ced::tile_plan::from_json(ss.str(), path);
-}
-
 }  // namespace
 
 bool wants_tiles(const detect_options& o) { return !o.tile_size.empty() || !o.memory_limit.empty(); }
@@ -255,7 +247,7 @@ int run_detect_plan_tile(const detect_options& o) {
   load_plugins(o.plugins);
   ced::io::atomic_output_file check(o.output);  // a bad output path fails before the work
   const auto t0 = clock_type::now();
-  const ced::tile_plan plan = load_plan(o.plan);
+  const ced::tile_plan plan = ced::tile_plan::load(o.plan);
   try {
     plan.tile(static_cast<std::uint64_t>(o.tile));
   } catch (const std::invalid_argument& e) {
@@ -331,7 +323,7 @@ command add_merge_command(CLI::App& app) {
             const ced::io::file_format format =
                 o->output.empty() ? ced::io::file_format::automatic : ced::io::format_of(o->output);
             detect_outputs out(*o);
-            const ced::tile_plan p = load_plan(*plan_path);
+            const ced::tile_plan p = ced::tile_plan::load(*plan_path);
             std::vector<ced::tile_part> read;
             for (const auto& path : *parts) read.push_back(ced::read_part(path, p));
             const ced::tile_part m = ced::merge_parts(p, std::move(read));

@@ -61,14 +61,7 @@ void bind_tiles(py::module_& m) {
       .def_static(
           "from_json", [](const std::string& text) { return plan_from_json(text, "<json>"); }, py::arg("text"))
       .def_static(
-          "load",
-          [](const std::string& path) {
-            std::ifstream in(path, std::ios::binary);
-            if (!in) throw ced::io::io_error(path + ": cannot open the tile plan");
-            std::ostringstream ss;
-            ss << in.rdbuf();
-            return plan_from_json(ss.str(), path);
-          },
+          "load", [](const std::string& path) { return std::make_shared<ced::tile_plan>(ced::tile_plan::load(path)); },
           py::arg("path"), "Reads a plan written by `ced plan` or TilePlan.save.")
       .def("to_json", &ced::tile_plan::to_json)
       .def(
