@@ -465,7 +465,8 @@ point_cloud parse_csv(std::string_view text, const std::string& file, const csv_
 
 // ------------------------------------------------------------------ writer
 
-void write_csv_unchecked(std::ostream& out, const point_cloud& cloud) {
+/// Throws std::invalid_argument when a field cannot be a CSV column.
+void check_writable(const point_cloud& cloud) {
   const std::size_t n = cloud.size();
   for (const auto& f : cloud.fields()) {
     if (f.name.empty() || std::any_of(f.name.begin(), f.name.end(), [](char c) {
@@ -478,11 +479,18 @@ void write_csv_unchecked(std::ostream& out, const point_cloud& cloud) {
       throw std::invalid_argument("field '" + f.name + "' clashes with the CSV coordinate columns");
     check_field_size(f, n);
   }
+}
+
+void write_header(std::ostream& out, const point_cloud& cloud) {
   std::string header = "x,y,z";
   for (const auto& f : cloud.fields()) header += "," + f.name;
   header += "\n";
   out.write(header.data(), static_cast<std::streamsize>(header.size()));
+}
 
+/// The rows of `cloud`, after the header.
+void write_body(std::ostream& out, const point_cloud& cloud) {
+  const std::size_t n = cloud.size();
   // Positions as float (their own shortest text), or as double offset by a
   // non-zero origin; fields as their type.
   const auto& origin = cloud.origin();
@@ -500,6 +508,12 @@ void write_csv_unchecked(std::ostream& out, const point_cloud& cloud) {
       v[i] = georef ? origin[c] + p : p;  // without an origin, -0 stays -0
     }
   });
+}
+
+void write_csv_unchecked(std::ostream& out, const point_cloud& cloud) {
+  check_writable(cloud);
+  write_header(out, cloud);
+  write_body(out, cloud);
 }
 
 }  // namespace
@@ -609,6 +623,24 @@ class csv_stream final : public box_stream {
 }  // namespace
 
 namespace detail {
+namespace {
+class csv_piece_writer final : public piece_writer {
+ public:
+  csv_piece_writer(std::ostream& out, const point_cloud& layout) {
+    check_writable(layout);
+    write_header(out, layout);
+  }
+  void write(std::ostream& out, const point_cloud& chunk) override {
+    check_writable(chunk);
+    write_body(out, chunk);
+  }
+};
+}  // namespace
+
+std::unique_ptr<piece_writer> csv_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t /*n*/) {
+  return std::make_unique<csv_piece_writer>(out, layout);
+}
+
 std::unique_ptr<point_stream> open_csv_stream(const std::string& path, const csv_options& options,
                                               const field_selection& fields) {
   return std::make_unique<csv_stream>(std::make_unique<input_file>(path), options, fields);

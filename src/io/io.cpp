@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "core/text.hpp"
+#include "scalar_io.hpp"
 #include "stream_support.hpp"
 
 namespace ced::io {
@@ -115,6 +116,60 @@ void write_cloud(const std::string& path, const point_cloud& cloud, file_format 
   atomic_output_file out(path);
   write_cloud(out.stream(), cloud, f);
   out.commit();
+}
+
+cloud_writer::cloud_writer(std::ostream& out, const point_cloud& layout, std::uint64_t points, file_format format)
+    : m_out(out), m_layout(layout), m_points(points) {
+  if (m_layout.size() > 0) m_layout.filter(std::vector<std::uint8_t>(m_layout.size(), 0));
+  m_start = out.tellp();
+  switch (format) {
+    case file_format::ply:
+      m_pieces = detail::ply_pieces(out, m_layout, points);
+      break;
+    case file_format::pcd:
+      m_pieces = detail::pcd_pieces(out, m_layout, points);
+      break;
+    case file_format::las:
+      if (m_start == std::streampos(-1))
+        throw std::invalid_argument("cloud_writer: LAS in pieces needs a seekable output (a file)");
+      m_pieces = detail::las_pieces(out, m_layout, points);
+      break;
+    case file_format::csv:
+      m_pieces = detail::csv_pieces(out, m_layout, points);
+      break;
+    case file_format::automatic:
+      throw std::invalid_argument("cloud_writer: no format given");
+  }
+}
+
+cloud_writer::~cloud_writer() = default;
+
+void cloud_writer::write(const point_cloud& chunk) {
+  const auto& a = chunk.fields();
+  const auto& b = m_layout.fields();
+  bool same = a.size() == b.size() && chunk.origin() == m_layout.origin();
+  for (std::size_t f = 0; same && f < a.size(); ++f) same = a[f].name == b[f].name && a[f].type() == b[f].type();
+  if (!same) throw std::invalid_argument("cloud_writer: a chunk's fields or origin differ from the layout's");
+  if (chunk.size() > m_points - m_written)
+    throw std::invalid_argument("cloud_writer: more points than the " + std::to_string(m_points) + " announced");
+  m_pieces->write(m_out, chunk);
+  m_written += chunk.size();
+  if (!m_out) throw io_error("error writing point data to the output stream");
+}
+
+void cloud_writer::finish() {
+  if (m_written != m_points)
+    throw io_error("cloud_writer: " + std::to_string(m_written) + " points written of the " + std::to_string(m_points) +
+                   " announced");
+  const std::string header = m_pieces->final_header();
+  if (!header.empty()) {
+    const std::streampos end = m_out.tellp();
+    m_out.seekp(m_start);
+    m_out.write(header.data(), static_cast<std::streamsize>(header.size()));
+    m_out.seekp(end);
+  }
+  m_out.flush();
+  if (!m_out) throw io_error("error writing point data to the output stream");
 }
 
 }  // namespace ced::io

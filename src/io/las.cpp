@@ -570,8 +570,7 @@ void put_string(std::string& s, std::size_t offset, std::size_t width, const std
 }
 
 /// Throws std::invalid_argument when `cloud` cannot be written as LAS with `opt`.
-void check_writable(const point_cloud& cloud, const las_write_options& opt) {
-  const std::size_t n = cloud.size();
+void check_writable(const point_cloud& cloud, const las_write_options& opt, std::uint64_t n) {
   const int minor = opt.version_minor;
   if (minor < 2 || minor > 4)
     throw std::invalid_argument("LAS version 1." + std::to_string(minor) + " cannot be written (use 1.2, 1.3 or 1.4)");
@@ -580,7 +579,7 @@ void check_writable(const point_cloud& cloud, const las_write_options& opt) {
       throw std::invalid_argument("invalid LAS scale " + num(opt.scale[k]) + " (it must be finite and positive)");
     if (!std::isfinite(cloud.origin()[k])) throw std::invalid_argument("the cloud's origin is not finite");
   }
-  for (const auto& f : cloud.fields()) check_field_size(f, n);
+  for (const auto& f : cloud.fields()) check_field_size(f, cloud.size());
   if (minor < 4 && n > std::numeric_limits<std::uint32_t>::max())
     throw std::invalid_argument("LAS 1." + std::to_string(minor) + " cannot hold " + std::to_string(n) +
                                 " points (at most 2^32-1; write LAS 1.4)");
@@ -680,35 +679,40 @@ las_plan plan_records(const point_cloud& cloud, int minor) {
   return plan;
 }
 
-/// The bounding box of the positions as LAS integers (relative to the
-/// origin); std::invalid_argument when one is not finite or does not fit.
-void quantized_bounds(const point_cloud& cloud, const las_write_options& opt, double qmin[3], double qmax[3]) {
+/// What a LAS header says of the points: their number, the bounding box of
+/// their positions as LAS integers (relative to the origin), the number of
+/// points by return number (1 to 15).
+struct las_stats {
+  std::uint64_t n = 0;
+  double qmin[3] = {0, 0, 0}, qmax[3] = {0, 0, 0};
+  std::array<std::uint64_t, 15> by_return{};
+};
+
+/// Adds `cloud`'s points to `s`; std::invalid_argument when a position is
+/// not finite or does not fit (points numbered from s.n).
+void add_stats(const point_cloud& cloud, const las_write_options& opt, const las_plan& plan, las_stats& s) {
   const float* xyz = cloud.positions().data();
   for (std::size_t i = 0; i < cloud.size(); ++i)
     for (std::size_t k = 0; k < 3; ++k) {
       const float p = xyz[3 * i + k];
       if (!std::isfinite(p))
-        throw std::invalid_argument("point " + std::to_string(i) + " has a non-finite coordinate; LAS cannot store it");
+        throw std::invalid_argument("point " + std::to_string(s.n + i) +
+                                    " has a non-finite coordinate; LAS cannot store it");
       const double q = std::round(static_cast<double>(p) / opt.scale[k]);
       if (q < std::numeric_limits<std::int32_t>::min() || q > std::numeric_limits<std::int32_t>::max())
-        throw std::invalid_argument("point " + std::to_string(i) + ": coordinate " + num(p) +
+        throw std::invalid_argument("point " + std::to_string(s.n + i) + ": coordinate " + num(p) +
                                     " (relative to the origin) does not fit a 32-bit LAS integer at scale " +
                                     num(opt.scale[k]) + " (choose a coarser scale)");
-      qmin[k] = i == 0 ? q : std::min(qmin[k], q);
-      qmax[k] = i == 0 ? q : std::max(qmax[k], q);
+      s.qmin[k] = s.n + i == 0 ? q : std::min(s.qmin[k], q);
+      s.qmax[k] = s.n + i == 0 ? q : std::max(s.qmax[k], q);
     }
-}
-
-/// The number of points by return number (1 to 15).
-std::array<std::uint64_t, 15> points_by_return(const las_plan& plan, std::size_t n) {
-  std::array<std::uint64_t, 15> by_return{};
   const unsigned max_return = plan.layout->extended ? 15 : 7;
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
     const unsigned r =
         plan.return_number ? std::min<unsigned>(convert<std::uint8_t>(plan.return_number->values[i]), max_return) : 1;
-    if (r >= 1 && r <= 15) ++by_return[r - 1];
+    if (r >= 1 && r <= 15) ++s.by_return[r - 1];
   }
-  return by_return;
+  s.n += cloud.size();
 }
 
 /// Writes the extra-bytes VLR describing `extras` at h[v...].
@@ -727,12 +731,13 @@ void put_extra_bytes_vlr(std::string& h, std::size_t v, const std::vector<const 
 }
 
 /// The public header, then the extra-bytes VLR when there are extra bytes.
-std::string make_header(const point_cloud& cloud, const las_write_options& opt, const las_plan& plan) {
-  const std::size_t n = cloud.size();
+std::string make_header(const point_cloud& cloud, const las_write_options& opt, const las_plan& plan,
+                        const las_stats& s) {
+  const std::uint64_t n = s.n;
   const int minor = opt.version_minor;
-  double qmin[3] = {0, 0, 0}, qmax[3] = {0, 0, 0};
-  quantized_bounds(cloud, opt, qmin, qmax);
-  const std::array<std::uint64_t, 15> by_return = points_by_return(plan, n);
+  const double* qmin = s.qmin;
+  const double* qmax = s.qmax;
+  const std::array<std::uint64_t, 15>& by_return = s.by_return;
   const auto& origin = cloud.origin();
   const std::size_t header_size = header_size_for(minor);
   const std::size_t vlr_size =
@@ -798,9 +803,11 @@ void write_records(std::ostream& out, const point_cloud& cloud, const las_write_
 }
 
 void write_las_unchecked(std::ostream& out, const point_cloud& cloud, const las_write_options& opt) {
-  check_writable(cloud, opt);
+  check_writable(cloud, opt, cloud.size());
   const las_plan plan = plan_records(cloud, opt.version_minor);
-  const std::string header = make_header(cloud, opt, plan);
+  las_stats stats;
+  add_stats(cloud, opt, plan, stats);
+  const std::string header = make_header(cloud, opt, plan, stats);
   out.write(header.data(), static_cast<std::streamsize>(header.size()));
   write_records(out, cloud, opt, plan);
 }
@@ -824,6 +831,39 @@ void write_las(std::ostream& out, const point_cloud& cloud, const las_write_opti
 void write_las(const std::string& path, const point_cloud& cloud, const las_write_options& options) {
   detail::write_to_file(path, [&](std::ostream& o) { write_las_unchecked(o, cloud, options); });
 }
+
+namespace detail {
+namespace {
+/// LAS in pieces: a header of the right size first, rewritten with the
+/// bounds and counts of all the points once they are written.
+class las_piece_writer final : public piece_writer {
+ public:
+  las_piece_writer(std::ostream& out, const point_cloud& layout, std::uint64_t n) : m_layout(layout) {
+    check_writable(m_layout, m_opt, n);
+    const std::string header = make_header(m_layout, m_opt, plan_records(m_layout, m_opt.version_minor), m_stats);
+    out.write(header.data(), static_cast<std::streamsize>(header.size()));
+  }
+  void write(std::ostream& out, const point_cloud& chunk) override {
+    check_writable(chunk, m_opt, m_stats.n + chunk.size());
+    const las_plan plan = plan_records(chunk, m_opt.version_minor);
+    add_stats(chunk, m_opt, plan, m_stats);
+    write_records(out, chunk, m_opt, plan);
+  }
+  std::string final_header() override {
+    return make_header(m_layout, m_opt, plan_records(m_layout, m_opt.version_minor), m_stats);
+  }
+
+ private:
+  point_cloud m_layout;
+  las_write_options m_opt;
+  las_stats m_stats;
+};
+}  // namespace
+
+std::unique_ptr<piece_writer> las_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n) {
+  return std::make_unique<las_piece_writer>(out, layout, n);
+}
+}  // namespace detail
 
 namespace {
 /// read_las(), chunk by chunk: the header and VLRs once, then the records.

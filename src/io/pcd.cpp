@@ -696,6 +696,18 @@ void write_compressed(std::ostream& out, const point_cloud& cloud, const std::ve
   out.write(packed.data(), static_cast<std::streamsize>(packed.size()));
 }
 
+/// The points of `cloud` as ascii or binary data, after the header.
+void write_body(std::ostream& out, const point_cloud& cloud, const std::vector<out_column>& cols, pcd_format fmt) {
+  std::vector<scalar_type> types;
+  for (const auto& c : cols) types.push_back(c.enc);
+  point_format pf;
+  pf.text = fmt == pcd_format::ascii;
+  pf.swap = !host_little_endian();
+  write_points(out, cloud.size(), types, pf, [&](std::size_t c, std::size_t i0, std::size_t m, double* v) {
+    column_values(cols[c], cloud, i0, m, v);
+  });
+}
+
 void write_pcd_unchecked(std::ostream& out, const point_cloud& cloud, pcd_format fmt) {
   const std::vector<out_column> cols = plan_columns(cloud, fmt);
   const std::size_t n = cloud.size();
@@ -706,14 +718,7 @@ void write_pcd_unchecked(std::ostream& out, const point_cloud& cloud, pcd_format
   const std::string header = make_header(cols, n, fmt);
   out.write(header.data(), static_cast<std::streamsize>(header.size()));
   if (fmt == pcd_format::binary_compressed) return write_compressed(out, cloud, cols, record);
-  std::vector<scalar_type> types;
-  for (const auto& c : cols) types.push_back(c.enc);
-  point_format pf;
-  pf.text = fmt == pcd_format::ascii;
-  pf.swap = !host_little_endian();
-  write_points(out, n, types, pf, [&](std::size_t c, std::size_t i0, std::size_t m, double* v) {
-    column_values(cols[c], cloud, i0, m, v);
-  });
+  write_body(out, cloud, cols, fmt);
 }
 
 }  // namespace
@@ -891,6 +896,23 @@ class pcd_stream final : public box_stream {
 }  // namespace
 
 namespace detail {
+namespace {
+class pcd_piece_writer final : public piece_writer {
+ public:
+  pcd_piece_writer(std::ostream& out, const point_cloud& layout, std::uint64_t n) {
+    const std::string header = make_header(plan_columns(layout, pcd_format::binary), n, pcd_format::binary);
+    out.write(header.data(), static_cast<std::streamsize>(header.size()));
+  }
+  void write(std::ostream& out, const point_cloud& chunk) override {
+    write_body(out, chunk, plan_columns(chunk, pcd_format::binary), pcd_format::binary);
+  }
+};
+}  // namespace
+
+std::unique_ptr<piece_writer> pcd_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n) {
+  return std::make_unique<pcd_piece_writer>(out, layout, n);
+}
+
 std::string pcd_details(const pcd_read_info& info) {
   return "PCD " + info.data_format +
          (info.organized ? ", organized " + std::to_string(info.width) + "x" + std::to_string(info.height)

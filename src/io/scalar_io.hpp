@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <memory>
 #include <ostream>
 #include <stdexcept>
 #include <string>
@@ -45,6 +46,23 @@ void write_to_file(const std::string& path, Write&& write) {
   write(file.stream());
   file.commit();
 }
+
+/// A format's writer of a cloud in pieces (io::cloud_writer): made by
+/// <format>_pieces(out, layout, n), which writes the header of n points with
+/// `layout`'s fields and origin; then write() the points, chunk by chunk.
+/// The bytes are those of the format's writer of the whole cloud.
+class piece_writer {
+ public:
+  virtual ~piece_writer() = default;
+  virtual void write(std::ostream& out, const point_cloud& chunk) = 0;
+  /// The header again, when what it says is known only at the end (LAS: the
+  /// bounds and counts by return); empty when the first was final.
+  virtual std::string final_header() { return {}; }
+};
+std::unique_ptr<piece_writer> ply_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n);
+std::unique_ptr<piece_writer> pcd_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n);
+std::unique_ptr<piece_writer> las_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n);
+std::unique_ptr<piece_writer> csv_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n);
 
 /// Throws io_error("file: msg").
 [[noreturn]] inline void fail(const std::string& file, const std::string& msg) { throw io_error(file + ": " + msg); }

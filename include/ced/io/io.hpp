@@ -4,7 +4,9 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <iosfwd>
+#include <memory>
 #include <string>
 
 #include "ced/cloud.hpp"
@@ -51,5 +53,46 @@ void write_cloud(std::ostream& out, const point_cloud& cloud, file_format format
 
 /// Writes atomically to `path`, the format from its extension unless given.
 void write_cloud(const std::string& path, const point_cloud& cloud, file_format format = file_format::automatic);
+
+namespace detail {
+class piece_writer;
+}
+
+/// Writes a cloud too large to hold, chunk by chunk: the header of `points`
+/// points with `layout`'s fields (names, types) and origin, then write() the
+/// points in order, then finish(). The bytes are those write_cloud() writes
+/// of the whole cloud. LAS rewrites its header at finish() (it holds the
+/// bounds), so a LAS stream must be seekable (a file).
+///
+///   io::atomic_output_file f("keypoints.las");
+///   io::cloud_writer w(f.stream(), layout, n, io::file_format::las);
+///   for (...) w.write(chunk);
+///   w.finish();
+///   f.commit();
+class cloud_writer {
+ public:
+  /// Throws std::invalid_argument when `layout` cannot be written in `format`.
+  cloud_writer(std::ostream& out, const point_cloud& layout, std::uint64_t points, file_format format);
+  ~cloud_writer();
+  cloud_writer(const cloud_writer&) = delete;
+  cloud_writer& operator=(const cloud_writer&) = delete;
+
+  /// Writes the chunk's points. Throws std::invalid_argument when its fields
+  /// or origin differ from the layout's or when it has more points than
+  /// announced, io_error when the stream fails.
+  void write(const point_cloud& chunk);
+  /// Checks that every announced point was written and completes the
+  /// header; io_error otherwise.
+  void finish();
+
+  std::uint64_t written() const noexcept { return m_written; }
+
+ private:
+  std::ostream& m_out;
+  point_cloud m_layout;
+  std::uint64_t m_points = 0, m_written = 0;
+  std::streampos m_start;
+  std::unique_ptr<detail::piece_writer> m_pieces;
+};
 
 }  // namespace ced::io
