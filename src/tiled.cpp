@@ -15,6 +15,7 @@
 #include <future>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <queue>
 #include <sstream>
 #include <stdexcept>
 #include <unordered_map>
@@ -745,63 +746,124 @@ void write_part(const std::string& path, const tile_plan& plan, const tile_part&
   f.commit();
 }
 
-tile_part read_part(const std::string& path, const tile_plan& plan) {
-  const std::string b = slurp(path);
-  const std::string digest = plan.digest();
-  std::size_t at = 0;
-  auto need = [&](std::size_t n) {
-    if (b.size() - at < n) fail(path, "truncated tile part (" + std::to_string(b.size()) + " bytes)");
-  };
-  auto get = [&](auto& v) {
-    need(sizeof v);
-    std::memcpy(&v, b.data() + at, sizeof v);
-    at += sizeof v;
-  };
-  need(8 + digest.size());
-  if (std::memcmp(b.data(), part_magic, 8) != 0) fail(path, "not a ced tile part");
-  if (b.compare(8, digest.size(), digest) != 0)
-    fail(path,
-         "this part belongs to another plan (plan digest " + b.substr(8, digest.size()) + ", expected " + digest + ")");
-  at = 8 + digest.size();
-  tile_part p;
-  std::uint64_t k = 0;
-  std::uint32_t m = 0, nf = 0;
-  get(p.tile);
-  get(k);
-  get(m);
-  get(nf);
-  const auto modalities = modalities_of(plan.request.modalities);
-  if (m != modalities.size() || nf != plan.fields.size()) fail(path, "its modalities or fields differ from the plan's");
-  name_modalities(plan, modalities, p);
-  p.candidates.resize(m);
-  for (auto& c : p.candidates) get(c);
-  get(p.any_candidates);
-  get(p.detect_ms);
-  const std::size_t rs = record_size(plan) + 4 * std::size_t(m);
-  if (k > (b.size() - std::min(at, b.size())) / rs || (b.size() - at) != k * rs)
-    fail(path, "truncated or oversized tile part: " + std::to_string(k) + " keypoints declared");
-  p.keypoints = empty_cloud(plan, static_cast<std::size_t>(k));
-  p.index.resize(k);
-  p.file_index.resize(k);
-  p.saliency.assign(m, std::vector<float>(k));
-  for (std::size_t j = 0; j < k; ++j) {
-    decode_records(b.data() + at, 1, p.keypoints, j, p.index.data() + j, p.file_index.data() + j);
-    at += record_size(plan);
-    for (std::size_t s = 0; s < m; ++s) get(p.saliency[s][j]);
+namespace {
+
+/// A part file read a piece at a time: its header at once, then its records
+/// in order through a buffer of `buffer` bytes (the file is opened again for
+/// each refill, so that thousands of parts need no open file each).
+class part_reader {
+ public:
+  part_reader(const std::string& path, const tile_plan& plan) : m_path(path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) fail(path, std::string("cannot open: ") + std::strerror(errno));
+    std::error_code ec;
+    const std::uint64_t size = fs::file_size(path, ec);
+    if (ec) fail(path, "cannot read its size: " + ec.message());
+    const std::string digest = plan.digest();
+    const auto modalities = modalities_of(plan.request.modalities);
+    const std::size_t m = modalities.size();
+    // magic, digest, tile, keypoints, modalities, fields, candidates, any, ms
+    const std::size_t head = 8 + digest.size() + 8 + 8 + 4 + 4 + 8 * m + 8 + 8;
+    std::string b(std::min<std::uint64_t>(size, head), '\0');
+    in.read(b.data(), static_cast<std::streamsize>(b.size()));
+    if (!in) fail(path, "cannot read it");
+    if (b.size() < 8 + digest.size()) fail(path, "truncated tile part (" + std::to_string(size) + " bytes)");
+    if (std::memcmp(b.data(), part_magic, 8) != 0) fail(path, "not a ced tile part");
+    if (b.compare(8, digest.size(), digest) != 0)
+      fail(path, "this part belongs to another plan (plan digest " + b.substr(8, digest.size()) + ", expected " +
+                     digest + ")");
+    if (b.size() < head) fail(path, "truncated tile part (" + std::to_string(size) + " bytes)");
+    std::size_t at = 8 + digest.size();
+    auto get = [&](auto& v) {
+      std::memcpy(&v, b.data() + at, sizeof v);
+      at += sizeof v;
+    };
+    std::uint32_t nm = 0, nf = 0;
+    get(totals.tile);
+    get(m_count);
+    get(nm);
+    get(nf);
+    if (nm != m || nf != plan.fields.size()) fail(path, "its modalities or fields differ from the plan's");
+    name_modalities(plan, modalities, totals);
+    totals.candidates.resize(m);
+    std::memcpy(totals.candidates.data(), b.data() + at, 8 * m);
+    at += 8 * m;
+    get(totals.any_candidates);
+    get(totals.detect_ms);
+    totals.keypoints = empty_cloud(plan, 0);
+    totals.saliency.assign(m, {});
+    m_record = record_size(plan) + 4 * m;
+    m_offset = head;
+    if (m_count > (size - head) / m_record || size - head != m_count * m_record)
+      fail(path, "truncated or oversized tile part: " + std::to_string(m_count) + " keypoints declared");
+    m_left = m_count;
   }
-  return p;
+
+  /// The part without its keypoints: tile, names, thresholds, counts.
+  tile_part totals;
+  std::uint64_t count() const noexcept { return m_count; }
+  std::size_t record_bytes() const noexcept { return m_record; }
+
+  /// The next record (m_record bytes), nullptr after the last; `buffer`
+  /// bytes are read at a time.
+  const char* next(std::size_t buffer) {
+    if (m_at == m_buf.size()) {
+      if (m_left == 0) return nullptr;
+      const std::uint64_t n = std::min<std::uint64_t>(m_left, std::max<std::size_t>(1, buffer / m_record));
+      m_buf.resize(static_cast<std::size_t>(n * m_record));
+      std::ifstream in(m_path, std::ios::binary);
+      in.seekg(static_cast<std::streamoff>(m_offset));
+      in.read(m_buf.data(), static_cast<std::streamsize>(m_buf.size()));
+      if (!in) fail(m_path, "cannot read it (was it changed during the merge?)");
+      m_offset += m_buf.size();
+      m_left -= n;
+      m_at = 0;
+    }
+    const char* r = m_buf.data() + m_at;
+    m_at += m_record;
+    return r;
+  }
+  /// Drops the buffer (after the last record).
+  void release() { std::string().swap(m_buf), m_at = 0; }
+
+ private:
+  std::string m_path;
+  std::uint64_t m_count = 0, m_left = 0, m_offset = 0;
+  std::size_t m_record = 0;
+  std::string m_buf;
+  std::size_t m_at = 0;
+};
+
+/// Appends a record of a part (point, then one saliency a modality) to `p`'s point j.
+void decode_part_record(const char* r, tile_part& p, std::size_t j) {
+  decode_records(r, 1, p.keypoints, j, p.index.data() + j, p.file_index.data() + j);
+  r += 28;
+  for (const auto& f : p.keypoints.fields()) r += size_of(f.type());
+  for (auto& s : p.saliency) {
+    std::memcpy(s.data() + j, r, 4);
+    r += 4;
+  }
 }
 
-tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts) {
-  std::map<std::uint64_t, std::size_t> by_tile;
-  for (std::size_t i = 0; i < parts.size(); ++i) {
-    plan.tile(parts[i].tile);  // a tile of the plan
-    if (!by_tile.emplace(parts[i].tile, i).second)
-      throw io::io_error("tile " + std::to_string(parts[i].tile) + " is given twice");
+/// Sizes p's arrays for n keypoints.
+void resize_part(tile_part& p, const tile_plan& plan, std::size_t n) {
+  p.keypoints = empty_cloud(plan, n);
+  p.index.resize(n);
+  p.file_index.resize(n);
+  for (auto& s : p.saliency) s.resize(n);
+}
+
+/// Throws io_error naming the tiles of the plan that own points and have
+/// no part, and a tile given twice.
+void check_complete(const tile_plan& plan, const std::vector<std::uint64_t>& tiles) {
+  std::map<std::uint64_t, std::size_t> seen;
+  for (std::uint64_t t : tiles) {
+    plan.tile(t);  // a tile of the plan
+    if (++seen[t] > 1) throw io::io_error("tile " + std::to_string(t) + " is given twice");
   }
   std::vector<std::uint64_t> missing;
   for (const auto& t : plan.tiles)
-    if (!by_tile.count(t.id)) missing.push_back(t.id);
+    if (!seen.count(t.id)) missing.push_back(t.id);
   if (!missing.empty()) {
     std::string list;
     for (std::size_t i = 0; i < missing.size() && i < 10; ++i) list += (i ? ", " : "") + std::to_string(missing[i]);
@@ -809,6 +871,84 @@ tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts) {
     throw io::io_error(std::to_string(missing.size()) + " of the plan's " + std::to_string(plan.tiles.size()) +
                        " tiles have no part: " + list);
   }
+}
+
+}  // namespace
+
+tile_part read_part(const std::string& path, const tile_plan& plan) {
+  part_reader r(path, plan);
+  tile_part p = std::move(r.totals);
+  resize_part(p, plan, static_cast<std::size_t>(r.count()));
+  const std::size_t buffer = std::size_t(8) << 20;
+  for (std::size_t j = 0; j < p.index.size(); ++j) decode_part_record(r.next(buffer), p, j);
+  return p;
+}
+
+void merge_part_files(const tile_plan& plan, const std::vector<std::string>& paths, const merge_sink& sink,
+                      std::size_t memory) {
+  std::vector<part_reader> readers;
+  readers.reserve(paths.size());
+  std::vector<std::uint64_t> tiles;
+  for (const auto& path : paths) {
+    readers.emplace_back(path, plan);
+    tiles.push_back(readers.back().totals.tile);
+  }
+  check_complete(plan, tiles);
+  tile_part totals;
+  const auto modalities = modalities_of(plan.request.modalities);
+  name_modalities(plan, modalities, totals);
+  const std::size_t m = modalities.size();
+  totals.candidates.assign(m, 0);
+  totals.saliency.assign(m, {});
+  totals.keypoints = empty_cloud(plan, 0);
+  std::uint64_t count = 0;
+  for (const auto& r : readers) {
+    for (std::size_t k = 0; k < m; ++k) totals.candidates[k] += r.totals.candidates[k];
+    totals.any_candidates += r.totals.any_candidates;
+    totals.detect_ms += r.totals.detect_ms;
+    count += r.count();
+  }
+  for (auto& f : totals.keypoints.fields()) f.whole_range.reset();
+  if (sink.begin) sink.begin(totals, count);
+  // A k-way merge by index (the parts' are ascending and disjoint): half the
+  // memory for the parts' buffers, half for the chunk handed to the sink.
+  const std::size_t record = record_size(plan) + 4 * m;
+  const std::size_t buffer = std::max<std::size_t>(record, memory / 2 / std::max<std::size_t>(1, readers.size()));
+  const std::size_t chunk_cap = std::max<std::size_t>(1, memory / 2 / record);
+  using head = std::pair<std::uint64_t, std::pair<std::size_t, const char*>>;  // index, (part, record)
+  std::priority_queue<head, std::vector<head>, std::greater<>> heap;
+  auto push = [&](std::size_t i) {
+    if (const char* r = readers[i].next(buffer)) {
+      std::uint64_t index = 0;
+      std::memcpy(&index, r, 8);
+      heap.push({index, {i, r}});
+    } else {
+      readers[i].release();
+    }
+  };
+  for (std::size_t i = 0; i < readers.size(); ++i) push(i);
+  tile_part chunk = totals;
+  std::uint64_t emitted = 0;
+  while (emitted < count) {
+    const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(chunk_cap, count - emitted));
+    resize_part(chunk, plan, n);
+    for (auto& f : chunk.keypoints.fields()) f.whole_range.reset();
+    for (std::size_t j = 0; j < n; ++j) {
+      const auto [index, where] = heap.top();
+      heap.pop();
+      (void)index;
+      decode_part_record(where.second, chunk, j);
+      push(where.first);
+    }
+    emitted += n;
+    if (sink.chunk) sink.chunk(chunk);
+  }
+}
+
+tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts) {
+  std::vector<std::uint64_t> tiles;
+  for (const auto& p : parts) tiles.push_back(p.tile);
+  check_complete(plan, tiles);
   tile_part out;
   const auto modalities = modalities_of(plan.request.modalities);
   name_modalities(plan, modalities, out);
@@ -949,14 +1089,47 @@ tile_part detect_cached_tile(const tile_plan& plan, const std::string& work_dir,
   return detect_and_keep(plan, work_dir, load_cached(plan, work_dir, id), threads);
 }
 
-tile_part finish_tiled(const tile_plan& plan, const std::string& work_dir) {
-  std::vector<tile_part> parts;
-  for (const auto& t : plan.tiles) {
-    const std::string path = (fs::path(work_dir) / "parts" / ("t" + std::to_string(t.id) + ".part")).string();
-    std::error_code ec;
-    if (fs::exists(path, ec)) parts.push_back(read_part(path, plan));
-  }
-  tile_part merged = merge_parts(plan, std::move(parts));
+namespace {
+/// The parts of the plan's tiles in the work directory, merged into `sink`,
+/// or into one tile_part that is returned.
+tile_part merge_work_dir(const tile_plan& plan, const std::string& work_dir, const merge_sink* sink) {
+  std::vector<std::string> paths;
+  std::error_code ec;
+  for (const auto& t : plan.tiles)
+    if (fs::exists(part_file(work_dir, t.id), ec)) paths.push_back(part_file(work_dir, t.id));
+  tile_part out;
+  merge_sink collect;
+  collect.begin = [&](const tile_part& totals, std::uint64_t n) {
+    out = totals;
+    if (!sink) resize_part(out, plan, static_cast<std::size_t>(n));
+    if (sink && sink->begin) sink->begin(totals, n);
+  };
+  std::size_t at = 0;
+  collect.chunk = [&](const tile_part& c) {
+    if (sink) {
+      if (sink->chunk) sink->chunk(c);
+      return;
+    }
+    const std::size_t n = c.index.size();
+    std::copy_n(c.index.begin(), n, out.index.begin() + at);
+    std::copy_n(c.file_index.begin(), n, out.file_index.begin() + at);
+    std::copy_n(c.keypoints.positions().begin(), 3 * n, out.keypoints.positions().begin() + 3 * at);
+    for (std::size_t f = 0; f < plan.fields.size(); ++f) {
+      const std::size_t w = size_of(plan.fields[f].type);
+      std::memcpy(out.keypoints.fields()[f].values.bytes() + w * at, c.keypoints.fields()[f].values.bytes(), w * n);
+    }
+    for (std::size_t k = 0; k < c.saliency.size(); ++k)
+      std::copy_n(c.saliency[k].begin(), n, out.saliency[k].begin() + at);
+    at += n;
+  };
+  merge_part_files(plan, paths, collect);
+  for (auto& f : out.keypoints.fields()) f.whole_range.reset();
+  return out;
+}
+}  // namespace
+
+tile_part finish_tiled(const tile_plan& plan, const std::string& work_dir, const merge_sink* sink) {
+  tile_part merged = merge_work_dir(plan, work_dir, sink);
   std::error_code ec;
   fs::remove_all(work_dir, ec);
   return merged;
@@ -973,7 +1146,6 @@ tile_part run_tiled(const tiled_request& request, const tiled_run_options& o, ti
   // The tiles one after the other, threads within each; the next tile's
   // cache is read while this one is detected.
   const auto t0 = std::chrono::steady_clock::now();
-  std::vector<tile_part> done;
   std::error_code ec;
   auto needs_work = [&](std::size_t k) { return !fs::exists(part_file(o.work_dir, plan.tiles[k].id), ec); };
   auto load = [&](std::size_t k) {
@@ -981,22 +1153,19 @@ tile_part run_tiled(const tiled_request& request, const tiled_run_options& o, ti
   };
   std::future<tile_points> next;
   for (std::size_t k = 0; k < plan.tiles.size(); ++k) {
-    const std::uint64_t id = plan.tiles[k].id;
-    if (!needs_work(k)) {
-      done.push_back(read_part(part_file(o.work_dir, id), plan));
-    } else {
+    if (needs_work(k)) {
       const tile_points pts = next.valid() ? next.get() : load(k).get();
       std::size_t after = k + 1;
       while (after < plan.tiles.size() && !needs_work(after)) ++after;
       if (after < plan.tiles.size()) next = load(after);
-      done.push_back(detect_and_keep(plan, o.work_dir, pts, o.threads));
+      detect_and_keep(plan, o.work_dir, pts, o.threads);
     }
     if (o.tile_done)
-      o.tile_done(done.size(), plan.tiles.size(),
+      o.tile_done(k + 1, plan.tiles.size(),
                   std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   }
   const auto t_merge = std::chrono::steady_clock::now();
-  tile_part merged = merge_parts(plan, std::move(done));
+  tile_part merged = merge_work_dir(plan, o.work_dir, o.sink);
   fs::remove_all(o.work_dir, ec);
   if (o.times) *o.times = {ms(t_plan, t0), ms(t0, t_merge), ms(t_merge, clock::now())};
   return merged;

@@ -50,6 +50,12 @@ check "no work directory left" test -z "$(ls -d "$T"/ced-tiles-* 2> /dev/null)"
   -o "$T/m.las" -q
 check "--memory-limit exit 0" test $? = 0
 same_outputs "--memory-limit" "$T/m" mid_whole
+# Keypoint clouds in every format, written as the merge streams.
+for ext in ply pcd csv; do
+  "$CED" detect "$T/mid.las" --preset ced6d -o "$T/mid_whole.$ext" -q
+  "$CED" detect "$T/mid.las" --preset ced6d --tile-size 1.5 -o "$T/mt.$ext" -q
+  check "--tile-size: keypoint cloud as .$ext" cmp -s "$T/mid_whole.$ext" "$T/mt.$ext"
+done
 # Another format, and other modalities (PLY is read whole, then tiled).
 sample=$DATA/apartment_mesh_214.ply
 "$CED" detect "$sample" -m xyz:0.2 -m lab:0.1 --radius 0.05 --indices "$T/s.txt" -q

@@ -6,11 +6,15 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "ced/core.hpp"
+#include "ced/io/io.hpp"
+#include "ced/tiled.hpp"
+#include "file_support.hpp"
 #include "test_support.hpp"
 
 namespace {
@@ -218,5 +222,115 @@ TEST(Tiles, BadTileSizesAreErrors) {
     ced::make_tile_grid(lo, hi, 0.001, p);
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("too small"), std::string::npos) << e.what();
+  }
+}
+
+namespace {
+void expect_same_part(const ced::tile_part& a, const ced::tile_part& b, const std::string& what) {
+  EXPECT_EQ(a.index, b.index) << what;
+  EXPECT_EQ(a.file_index, b.file_index) << what;
+  EXPECT_EQ(a.keypoints.positions(), b.keypoints.positions()) << what;
+  ASSERT_EQ(a.keypoints.fields().size(), b.keypoints.fields().size()) << what;
+  for (std::size_t f = 0; f < a.keypoints.fields().size(); ++f) {
+    const auto& x = a.keypoints.fields()[f];
+    const auto& y = b.keypoints.fields()[f];
+    EXPECT_EQ(x.name, y.name) << what;
+    ASSERT_EQ(x.type(), y.type()) << what;
+    EXPECT_EQ(0, std::memcmp(x.values.bytes(), y.values.bytes(), ced::size_of(x.type()) * a.index.size()))
+        << what << ", field " << x.name;
+  }
+  EXPECT_EQ(a.saliency, b.saliency) << what;
+  EXPECT_EQ(a.names, b.names) << what;
+  EXPECT_EQ(a.candidates, b.candidates) << what;
+  EXPECT_EQ(a.any_candidates, b.any_candidates) << what;
+}
+}  // namespace
+
+TEST(Tiles, StreamedMergeOfPartFilesIsTheMergeInMemory) {
+  ced::point_cloud c = room16(6000, 9);
+  c.set_origin({431000.0, 5091000.0, 120.0});
+  const std::string input = ced_test::temp_file("merge_room.las");
+  ced::io::write_cloud(input, c);
+  ced::tiled_request r;
+  r.input = input;
+  r.tile_size = 0.15;
+  r.params.radius = r.params.nms_radius = 0.02;
+  r.modalities = {"xyz:0.2", "rgb:0.1"};
+  const ced::tile_plan plan = ced::plan_tiles(r);
+  ASSERT_GT(plan.tiles.size(), 4u);
+  std::vector<ced::tile_part> parts;
+  std::vector<std::string> paths;
+  for (const auto& t : plan.tiles) {
+    parts.push_back(ced::detect_tile(plan, ced::read_tile(plan, t.id), 1));
+    paths.push_back(ced_test::temp_file("merge_t" + std::to_string(t.id) + ".part"));
+    ced::write_part(paths.back(), plan, parts.back());
+  }
+  const ced::tile_part merged = ced::merge_parts(plan, parts);
+  ASSERT_GT(merged.index.size(), 20u);
+  // The whole cloud's keypoints, as the file holds them.
+  ced::detect_params p = r.params;
+  const auto whole = ced::detect(ced::io::read_cloud(input), p, specs(r.modalities));
+  EXPECT_EQ(merged.index, std::vector<std::uint64_t>(whole.keypoints.begin(), whole.keypoints.end()));
+  // Streamed with buffers of one record (and chunks of one keypoint), and with the default.
+  for (std::size_t memory : {std::size_t(1), std::size_t(3000), std::size_t(64) << 20}) {
+    ced::tile_part got;
+    std::uint64_t announced = 0;
+    std::size_t chunks = 0;
+    ced::merge_sink sink;
+    sink.begin = [&](const ced::tile_part& totals, std::uint64_t n) {
+      EXPECT_TRUE(totals.index.empty());
+      got = totals;
+      announced = n;
+    };
+    sink.chunk = [&](const ced::tile_part& chunk) {
+      ++chunks;
+      const std::size_t n = chunk.index.size();
+      got.index.insert(got.index.end(), chunk.index.begin(), chunk.index.end());
+      got.file_index.insert(got.file_index.end(), chunk.file_index.begin(), chunk.file_index.end());
+      for (std::size_t k = 0; k < chunk.saliency.size(); ++k)
+        got.saliency[k].insert(got.saliency[k].end(), chunk.saliency[k].begin(), chunk.saliency[k].end());
+      const std::size_t at = got.keypoints.size();
+      got.keypoints.resize(at + n);
+      std::copy_n(chunk.keypoints.positions().begin(), 3 * n, got.keypoints.positions().begin() + 3 * at);
+      for (std::size_t f = 0; f < chunk.keypoints.fields().size(); ++f) {
+        auto& col = got.keypoints.fields()[f].values;
+        const std::size_t w = ced::size_of(col.type());
+        ced::column grown(col.type(), at + n);
+        std::memcpy(grown.bytes(), col.bytes(), w * at);
+        std::memcpy(grown.bytes() + w * at, chunk.keypoints.fields()[f].values.bytes(), w * n);
+        col = std::move(grown);
+      }
+    };
+    ced::merge_part_files(plan, paths, sink, memory);
+    EXPECT_EQ(announced, merged.index.size());
+    if (memory == 1) {
+      EXPECT_EQ(chunks, merged.index.size());
+    }
+    expect_same_part(got, merged, "memory " + std::to_string(memory));
+  }
+  // Missing, repeated and damaged parts.
+  const ced::merge_sink none;
+  auto fewer = paths;
+  fewer.pop_back();
+  try {
+    ced::merge_part_files(plan, fewer, none);
+    ADD_FAILURE() << "a missing part was not an error";
+  } catch (const ced::io::io_error& e) {
+    EXPECT_NE(std::string(e.what()).find("have no part"), std::string::npos) << e.what();
+  }
+  auto twice = paths;
+  twice.push_back(paths.front());
+  EXPECT_THROW(ced::merge_part_files(plan, twice, none), ced::io::io_error);
+  const std::string bytes = ced_test::read_bytes(paths.front());
+  for (std::size_t keep : {std::size_t(5), std::size_t(60), bytes.size() - 3}) {
+    auto damaged = paths;
+    damaged.front() = ced_test::temp_file("merge_damaged.part");
+    ced_test::write_bytes(damaged.front(), bytes.substr(0, keep));
+    try {
+      ced::merge_part_files(plan, damaged, none);
+      ADD_FAILURE() << "a part cut to " << keep << " bytes was not an error";
+    } catch (const ced::io::io_error& e) {
+      EXPECT_NE(std::string(e.what()).find("truncated"), std::string::npos) << e.what();
+    }
   }
 }

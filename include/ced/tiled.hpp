@@ -122,6 +122,22 @@ tile_part read_part(const std::string& path, const tile_plan& plan);
 /// for a tile given twice.
 tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts);
 
+/// A merge handed over a piece at a time, so that no more than a chunk of
+/// the keypoints is held: begin(totals, keypoints) first (totals: the
+/// merged part without keypoints: names, thresholds, candidate counts,
+/// detection time), then chunk(part) with the keypoints in ascending index,
+/// chunk after chunk.
+struct merge_sink {
+  std::function<void(const tile_part& totals, std::uint64_t keypoints)> begin;
+  std::function<void(const tile_part& chunk)> chunk;
+};
+
+/// merge_parts() of part files (write_part), streamed into `sink`: a k-way
+/// merge that holds about `memory` bytes, however many keypoints there are.
+/// The same checks and errors as read_part() and merge_parts().
+void merge_part_files(const tile_plan& plan, const std::vector<std::string>& paths, const merge_sink& sink,
+                      std::size_t memory = std::size_t(64) << 20);
+
 /// Wall time of a run_tiled(): the plan and cache (passes over the input),
 /// the tiles, the merge, in milliseconds.
 struct tiled_times {
@@ -144,6 +160,10 @@ struct tiled_run_options {
   std::function<void(std::size_t done, std::size_t total, double elapsed_ms)> tile_done;
   /// Filled by run_tiled when set.
   struct tiled_times* times = nullptr;
+  /// When set, the merge streams into it (merge_part_files) and run_tiled
+  /// returns the totals only (no keypoints): memory then stays bounded by
+  /// the tiles, not by the number of keypoints.
+  const merge_sink* sink = nullptr;
 };
 tile_part run_tiled(const tiled_request& request, const tiled_run_options& options, tile_plan* plan_out = nullptr);
 
@@ -155,8 +175,9 @@ tile_plan prepare_tiled(const tiled_request& request, const tiled_run_options& o
 /// directory (or read from there when it is already) ...
 tile_part detect_cached_tile(const tile_plan& plan, const std::string& work_dir, std::uint64_t id, unsigned threads = 0,
                              bool* was_done = nullptr);
-/// ... every tile's part from the work directory merged; the directory is
+/// ... every tile's part from the work directory merged (into `sink` when
+/// given: then the totals only are returned, as run_tiled); the directory is
 /// then removed.
-tile_part finish_tiled(const tile_plan& plan, const std::string& work_dir);
+tile_part finish_tiled(const tile_plan& plan, const std::string& work_dir, const merge_sink* sink = nullptr);
 
 }  // namespace ced

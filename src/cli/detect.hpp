@@ -80,6 +80,8 @@ std::string column_name(const std::string& modality);
 
 /// -o's cloud: `kp` (the keypoints with their fields) plus saliency_<modality>
 /// fields, saliency[m][k] for keypoint k.
+ced::point_cloud keypoint_cloud(ced::point_cloud kp, const std::vector<std::string>& names,
+                                const std::vector<std::vector<float>>& saliency);
 void write_keypoint_cloud(std::ostream& out, ced::point_cloud kp, const std::vector<std::string>& names,
                           const std::vector<std::vector<float>>& saliency, ced::io::file_format format);
 
@@ -94,9 +96,23 @@ ced::tiled_request request_from(const detect_options& o, detect_plan& plan);
 std::string default_work_dir(const detect_options& o);
 /// Points read per point owned, and a warning when the halo outweighs the core.
 void report_plan(const ced::tile_plan& p, bool quiet);
-/// The outputs of a merged run: indices, original indices, keypoints, summary; committed.
-void write_merged(const detect_options& o, const ced::tile_plan& p, const ced::tile_part& m, detect_outputs& out,
-                  ced::io::file_format format, double total_ms);
+/// The outputs of a merged run (indices, original indices, keypoints,
+/// summary), written as the merge streams: sink() for the merge, then
+/// finish() writes the summary and commits every file. Without output
+/// files, the indices go to stdout.
+class merged_writer {
+ public:
+  merged_writer(detect_outputs& out, ced::io::file_format format);
+  ced::merge_sink sink();
+  void finish(const ced::tile_plan& p, const ced::tile_part& totals, double total_ms);
+  std::uint64_t keypoints() const noexcept { return m_count; }
+
+ private:
+  detect_outputs& m_out;
+  ced::io::file_format m_format;
+  std::unique_ptr<ced::io::cloud_writer> m_cloud;
+  std::uint64_t m_count = 0;
+};
 
 /// Writes every output file of `out` and commits them.
 void write_outputs(const detect_options& o, const detect_plan& plan, const detect_input& in,

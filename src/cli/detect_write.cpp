@@ -27,12 +27,17 @@ std::string column_name(const std::string& modality) {
   return s;
 }
 
-void write_keypoint_cloud(std::ostream& out, ced::point_cloud kp, const std::vector<std::string>& names,
-                          const std::vector<std::vector<float>>& saliency, ced::io::file_format format) {
+ced::point_cloud keypoint_cloud(ced::point_cloud kp, const std::vector<std::string>& names,
+                                const std::vector<std::vector<float>>& saliency) {
   for (std::size_t m = 0; m < names.size(); ++m)
     kp.add_field("saliency_" + column_name(names[m]), ced::scalar_type::float32,
                  std::vector<double>(saliency[m].begin(), saliency[m].end()));
-  ced::io::write_cloud(out, kp, format);
+  return kp;
+}
+
+void write_keypoint_cloud(std::ostream& out, ced::point_cloud kp, const std::vector<std::string>& names,
+                          const std::vector<std::vector<float>>& saliency, ced::io::file_format format) {
+  ced::io::write_cloud(out, keypoint_cloud(std::move(kp), names, saliency), format);
 }
 
 namespace {

@@ -137,14 +137,34 @@ void report_plan(const ced::tile_plan& p, bool quiet) {
                  static_cast<unsigned long long>(largest));
 }
 
-void write_merged(const detect_options& o, const ced::tile_plan& p, const ced::tile_part& m, detect_outputs& out,
-                  ced::io::file_format format, double total_ms) {
-  if (out.indices)
-    for (std::uint64_t k : m.index) out.indices->stream() << k << '\n';
-  if (out.original)
-    for (std::uint64_t k : m.file_index) out.original->stream() << k << '\n';
-  if (out.keypoints) write_keypoint_cloud(out.keypoints->stream(), m.keypoints, m.names, m.saliency, format);
-  if (out.summary) {
+merged_writer::merged_writer(detect_outputs& out, ced::io::file_format format) : m_out(out), m_format(format) {}
+
+ced::merge_sink merged_writer::sink() {
+  ced::merge_sink s;
+  s.begin = [this](const ced::tile_part& totals, std::uint64_t n) {
+    m_count = n;
+    if (m_out.keypoints)
+      m_cloud = std::make_unique<ced::io::cloud_writer>(
+          m_out.keypoints->stream(), keypoint_cloud(totals.keypoints, totals.names, totals.saliency), n, m_format);
+  };
+  s.chunk = [this](const ced::tile_part& c) {
+    std::string text;
+    auto lines = [&](const std::vector<std::uint64_t>& v, std::ostream& os) {
+      text.clear();
+      for (std::uint64_t k : v) text += std::to_string(k) + '\n';
+      os.write(text.data(), static_cast<std::streamsize>(text.size()));
+    };
+    if (m_out.indices) lines(c.index, m_out.indices->stream());
+    if (m_out.original) lines(c.file_index, m_out.original->stream());
+    if (m_out.files.empty()) lines(c.index, std::cout);
+    if (m_cloud) m_cloud->write(keypoint_cloud(c.keypoints, c.names, c.saliency));
+  };
+  return s;
+}
+
+void merged_writer::finish(const ced::tile_plan& p, const ced::tile_part& m, double total_ms) {
+  if (m_cloud) m_cloud->finish();
+  if (m_out.summary) {
     nlohmann::json j;
     j["input"] = {{"path", p.request.input},
                   {"details", p.details},
@@ -157,15 +177,14 @@ void write_merged(const detect_options& o, const ced::tile_plan& p, const ced::t
     auto& mods = j["modalities"] = nlohmann::json::array();
     for (std::size_t k = 0; k < m.names.size(); ++k)
       mods.push_back({{"name", m.names[k]}, {"threshold", m.thresholds[k]}, {"candidates", m.candidates[k]}});
-    j["counts"] = {{"candidates", m.any_candidates}, {"keypoints", m.index.size()}};
+    j["counts"] = {{"candidates", m.any_candidates}, {"keypoints", m_count}};
     std::uint64_t read = 0;
     for (const auto& t : p.tiles) read += t.points;
     j["tiles"] = {{"count", p.tiles.size()}, {"size", p.grid.size}, {"halo", p.grid.halo}, {"points_read", read}};
     j["times_ms"] = {{"detect_tiles", m.detect_ms}, {"total", total_ms}};
-    out.summary->stream() << j.dump(2) << '\n';
+    m_out.summary->stream() << j.dump(2) << '\n';
   }
-  for (auto& f : out.files) f->commit();
-  (void)o;
+  for (auto& f : m_out.files) f->commit();
 }
 
 namespace {
@@ -214,9 +233,15 @@ int run_detect_tiled(const detect_options& o, detect_plan& plan, detect_outputs&
   ced::tile_plan p;
   ced::tiled_times times;
   ro.times = &times;
+  merged_writer writer(out, plan.out_format);
+  const ced::merge_sink sink = writer.sink();
+  ro.sink = &sink;
+  ro.tile_done = [&, tile_done = ro.tile_done](std::size_t done, std::size_t total, double ms) {
+    tile_done(done, total, ms);
+    if (done == total) bar.stage("merging and writing");
+  };
   const ced::tile_part merged = ced::run_tiled(request, ro, &p);
-  bar.stage("writing");
-  write_merged(o, p, merged, out, plan.out_format, ms_since(t_start));
+  writer.finish(p, merged, ms_since(t_start));
   bar.done();
   if (!o.quiet) {
     std::string mods;
@@ -230,11 +255,9 @@ int run_detect_tiled(const detect_options& o, detect_plan& plan, detect_outputs&
     std::fprintf(stderr,
                  "ced: %zu keypoints; %zu tiles; plan and tile cache %.1f ms, tiles %.1f ms (detection %.1f), "
                  "merge %.1f ms; total %.1f ms\n",
-                 merged.index.size(), p.tiles.size(), times.plan_ms, times.tiles_ms, merged.detect_ms, times.merge_ms,
-                 ms_since(t_start));
+                 static_cast<std::size_t>(writer.keypoints()), p.tiles.size(), times.plan_ms, times.tiles_ms,
+                 merged.detect_ms, times.merge_ms, ms_since(t_start));
   }
-  if (out.files.empty())
-    for (std::uint64_t k : merged.index) std::cout << k << '\n';
   return exit_ok;
 }
 
@@ -324,15 +347,18 @@ command add_merge_command(CLI::App& app) {
                 o->output.empty() ? ced::io::file_format::automatic : ced::io::format_of(o->output);
             detect_outputs out(*o);
             const ced::tile_plan p = ced::tile_plan::load(*plan_path);
-            std::vector<ced::tile_part> read;
-            for (const auto& path : *parts) read.push_back(ced::read_part(path, p));
-            const ced::tile_part m = ced::merge_parts(p, std::move(read));
-            o->input = p.request.input;
-            write_merged(*o, p, m, out, format, ms_since(t0));
+            merged_writer writer(out, format);
+            ced::tile_part totals;
+            ced::merge_sink sink = writer.sink();
+            sink.begin = [&, begin = sink.begin](const ced::tile_part& t, std::uint64_t n) {
+              totals = t;
+              begin(t, n);
+            };
+            ced::merge_part_files(p, *parts, sink);
+            writer.finish(p, totals, ms_since(t0));
             if (!o->quiet)
-              std::fprintf(stderr, "ced: merged %zu parts: %zu keypoints\n", parts->size(), m.index.size());
-            if (out.files.empty())
-              for (std::uint64_t k : m.index) std::cout << k << '\n';
+              std::fprintf(stderr, "ced: merged %zu parts: %llu keypoints\n", parts->size(),
+                           static_cast<unsigned long long>(writer.keypoints()));
             return exit_ok;
           }};
 }

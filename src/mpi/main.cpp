@@ -156,13 +156,13 @@ int run_mpi(const detect_options& o, mpi::communicator& world) {
       }
     }
   }
-  const ced::tile_part merged = ced::finish_tiled(plan, work_dir);
-  write_merged(o, plan, merged, *out, dplan.out_format, ms_since(t_start));
+  merged_writer writer(*out, dplan.out_format);
+  const ced::merge_sink sink = writer.sink();
+  const ced::tile_part totals = ced::finish_tiled(plan, work_dir, &sink);
+  writer.finish(plan, totals, ms_since(t_start));
   if (!o.quiet)
-    std::fprintf(stderr, "ced-mpi: %zu keypoints; %zu tiles on %d rank(s), %u thread(s) each; total %.1f ms\n",
-                 merged.index.size(), total, world.size(), threads, ms_since(t_start));
-  if (out->files.empty())
-    for (std::uint64_t k : merged.index) std::cout << k << '\n';
+    std::fprintf(stderr, "ced-mpi: %llu keypoints; %zu tiles on %d rank(s), %u thread(s) each; total %.1f ms\n",
+                 static_cast<unsigned long long>(writer.keypoints()), total, world.size(), threads, ms_since(t_start));
   return exit_ok;
 }
 
