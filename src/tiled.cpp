@@ -1128,10 +1128,10 @@ tile_part merge_work_dir(const tile_plan& plan, const std::string& work_dir, con
 }
 }  // namespace
 
-tile_part finish_tiled(const tile_plan& plan, const std::string& work_dir, const merge_sink* sink) {
+tile_part finish_tiled(const tile_plan& plan, const std::string& work_dir, const merge_sink* sink, bool keep_work_dir) {
   tile_part merged = merge_work_dir(plan, work_dir, sink);
   std::error_code ec;
-  fs::remove_all(work_dir, ec);
+  if (!keep_work_dir) fs::remove_all(work_dir, ec);
   return merged;
 }
 
@@ -1166,7 +1166,7 @@ tile_part run_tiled(const tiled_request& request, const tiled_run_options& o, ti
   }
   const auto t_merge = std::chrono::steady_clock::now();
   tile_part merged = merge_work_dir(plan, o.work_dir, o.sink);
-  fs::remove_all(o.work_dir, ec);
+  if (!o.keep_work_dir) fs::remove_all(o.work_dir, ec);
   if (o.times) *o.times = {ms(t_plan, t0), ms(t0, t_merge), ms(t_merge, clock::now())};
   return merged;
 }

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <filesystem>
 #include <random>
 #include <string>
 #include <vector>
@@ -333,4 +334,34 @@ TEST(Tiles, StreamedMergeOfPartFilesIsTheMergeInMemory) {
       EXPECT_NE(std::string(e.what()).find("truncated"), std::string::npos) << e.what();
     }
   }
+}
+
+TEST(Tiles, AFailedMergeKeepsThePartsForResume) {
+  ced::point_cloud c = room16(4000, 11);
+  const std::string input = ced_test::temp_file("resume_room.las");
+  ced::io::write_cloud(input, c);
+  ced::tiled_request r;
+  r.input = input;
+  r.tile_size = 0.2;
+  r.params.radius = r.params.nms_radius = 0.02;
+  r.modalities = {"xyz:0.2", "rgb:0.1"};
+  ced::tiled_run_options o;
+  o.work_dir = ced_test::temp_file("resume_work");
+  ced::merge_sink failing;
+  failing.chunk = [](const ced::tile_part&) { throw std::runtime_error("disk full"); };
+  o.sink = &failing;
+  EXPECT_THROW(ced::run_tiled(r, o), std::runtime_error);
+  ASSERT_TRUE(std::filesystem::exists(std::filesystem::path(o.work_dir) / "plan.json"));
+  const auto whole = ced::detect(ced::io::read_cloud(input), r.params, specs(r.modalities)).keypoints;
+  ASSERT_GT(whole.size(), 5u);
+  // Resumed: every part is there and the tile caches are gone (each went
+  // when its part was written), so the merge runs from the parts alone.
+  o.sink = nullptr;
+  o.resume = true;
+  const auto parts = std::distance(std::filesystem::directory_iterator(std::filesystem::path(o.work_dir) / "parts"),
+                                   std::filesystem::directory_iterator{});
+  EXPECT_GT(parts, 1);
+  const ced::tile_part merged = ced::run_tiled(r, o);
+  EXPECT_EQ(merged.index, std::vector<std::uint64_t>(whole.begin(), whole.end()));
+  EXPECT_FALSE(std::filesystem::exists(o.work_dir));
 }

@@ -164,6 +164,10 @@ struct tiled_run_options {
   /// returns the totals only (no keypoints): memory then stays bounded by
   /// the tiles, not by the number of keypoints.
   const merge_sink* sink = nullptr;
+  /// Leave the work directory for the caller to remove once its outputs are
+  /// committed: an output that fails to be written can then be redone with
+  /// resume, from the parts, without detecting a tile again.
+  bool keep_work_dir = false;
 };
 tile_part run_tiled(const tiled_request& request, const tiled_run_options& options, tile_plan* plan_out = nullptr);
 
@@ -177,7 +181,8 @@ tile_part detect_cached_tile(const tile_plan& plan, const std::string& work_dir,
                              bool* was_done = nullptr);
 /// ... every tile's part from the work directory merged (into `sink` when
 /// given: then the totals only are returned, as run_tiled); the directory is
-/// then removed.
-tile_part finish_tiled(const tile_plan& plan, const std::string& work_dir, const merge_sink* sink = nullptr);
+/// then removed, unless `keep_work_dir`.
+tile_part finish_tiled(const tile_plan& plan, const std::string& work_dir, const merge_sink* sink = nullptr,
+                       bool keep_work_dir = false);
 
 }  // namespace ced

@@ -240,8 +240,11 @@ int run_detect_tiled(const detect_options& o, detect_plan& plan, detect_outputs&
     tile_done(done, total, ms);
     if (done == total) bar.stage("merging and writing");
   };
+  ro.keep_work_dir = true;  // until the outputs are committed
   const ced::tile_part merged = ced::run_tiled(request, ro, &p);
   writer.finish(p, merged, ms_since(t_start));
+  std::error_code ec;
+  std::filesystem::remove_all(ro.work_dir, ec);
   bar.done();
   if (!o.quiet) {
     std::string mods;

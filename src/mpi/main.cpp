@@ -158,8 +158,10 @@ int run_mpi(const detect_options& o, mpi::communicator& world) {
   }
   merged_writer writer(*out, dplan.out_format);
   const ced::merge_sink sink = writer.sink();
-  const ced::tile_part totals = ced::finish_tiled(plan, work_dir, &sink);
+  const ced::tile_part totals = ced::finish_tiled(plan, work_dir, &sink, /*keep_work_dir=*/true);
   writer.finish(plan, totals, ms_since(t_start));
+  std::error_code ec;
+  std::filesystem::remove_all(work_dir, ec);  // once the outputs are committed
   if (!o.quiet)
     std::fprintf(stderr, "ced-mpi: %llu keypoints; %zu tiles on %d rank(s), %u thread(s) each; total %.1f ms\n",
                  static_cast<unsigned long long>(writer.keypoints()), total, world.size(), threads, ms_since(t_start));

@@ -13,10 +13,13 @@ SIZES=${*:-10 100 300}
 CED=$BUILD/bin/ced
 MPI=$BUILD/bin/ced-mpi
 GEN="/usr/bin/python3 $(dirname "$0")/make_las.py"
+# Every run writes --indices; with KEYPOINTS=1 (the default) also the keypoint
+# cloud (-o keypoints.las), which makes every run read all the LAS fields.
 OPTS="--preset ced6d --radius 0.3"
+[ "${KEYPOINTS:-1}" = 1 ] && OPTS="$OPTS -o $WORK/keypoints.las"
 mkdir -p "$WORK"
 export TMPDIR=$WORK  # the tile caches
-echo "# $(date -u +%F) $(uname -n), $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs)"
+echo "# $(date -u +%F) $(uname -n), $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs); options: $OPTS"
 echo "| points | run | wall s | peak MB | points/s | keypoints | same as whole |"
 echo "|---|---|---|---|---|---|---|"
 measure() {  # measure LABEL N OUT.txt -- COMMAND...: one row
