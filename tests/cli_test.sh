@@ -124,6 +124,15 @@ check "radius auto recorded" grep -q '"radius_auto": true' "$T/auto.json"
 "$CED" eval repeatability --source "$sample" --target "$sample" -d ced6d --trials 1 -q --csv "$T/pair.csv" > "$T/pair.txt"
 check "pair: identity gives full repeatability" grep -q "^ced6d .* 1.000 " "$T/pair.txt"
 check "pair: csv rows" test "$(wc -l < "$T/pair.csv")" = 2
+# A sweep: one detector a setting, in order (the last list fastest).
+"$CED" eval repeatability "$sample" -d 'xyz:{0.1,0.3},rgb:{0.1,0.5}' --trials 1 --noise 0.5 -q > "$T/sweep.txt"
+check "sweep: four settings in order" test "$(awk 'NR > 1 { printf "%s;", $1 }' "$T/sweep.txt")" = \
+  "xyz:0.1,rgb:0.1;xyz:0.1,rgb:0.5;xyz:0.3,rgb:0.1;xyz:0.3,rgb:0.5;"
+check "sweep: higher thresholds, fewer keypoints" awk 'NR == 2 { a = $3 } NR == 5 { b = $3 } END { exit !(b < a) }' \
+  "$T/sweep.txt"
+expect_exit 2 "unbalanced braces" "sweep: unbalanced" -- eval repeatability "$sample" -d 'xyz:{0.1,0.2'
+expect_exit 2 "empty value" "sweep: empty value" -- eval repeatability "$sample" -d 'xyz:{0.1,}'
+expect_exit 2 "cannot be nested" "sweep: nested" -- eval repeatability "$sample" -d 'xyz:{0.1,{0.2}}'
 printf '# a quarter turn about z\n0 -1 0 1\n1 0 0 2\n0 0 1 3\n0 0 0 1\n' > "$T/T.txt"
 "$CED" eval repeatability --source "$sample" --target "$sample" --transform "$T/T.txt" -d ced6d --trials 1 -q > "$T/pair2.txt"
 check "pair: the transform is applied" grep -q "^ced6d .* 0.0[0-9][0-9] " "$T/pair2.txt"

@@ -9,9 +9,9 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
-#include <limits>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -213,10 +213,36 @@ eval_detector parse_detector(const std::string& text) {
   return d;
 }
 
+std::vector<std::string> expand_sweep(const std::string& text) {
+  const std::size_t open = text.find('{');
+  const std::size_t close = text.find('}');
+  if (open == std::string::npos && close == std::string::npos) return {text};
+  if (open == std::string::npos || close == std::string::npos || close < open)
+    throw std::invalid_argument("'" + text + "': unbalanced braces (a sweep is written {A,B,...})");
+  const std::string list = text.substr(open + 1, close - open - 1);
+  if (list.find('{') != std::string::npos) throw std::invalid_argument("'" + text + "': braces cannot be nested");
+  std::vector<std::string> values;
+  std::size_t at = 0;
+  for (;;) {
+    const std::size_t comma = list.find(',', at);
+    values.push_back(list.substr(at, comma == std::string::npos ? std::string::npos : comma - at));
+    if (values.back().empty()) throw std::invalid_argument("'" + text + "': an empty value in {...}");
+    if (comma == std::string::npos) break;
+    at = comma + 1;
+  }
+  std::vector<std::string> out;
+  const std::string head = text.substr(0, open);
+  for (const auto& v : values)
+    for (const auto& rest : expand_sweep(text.substr(close + 1))) out.push_back(head + v + rest);
+  if (out.size() > 10000) throw std::invalid_argument("'" + text + "': more than 10000 settings");
+  return out;
+}
+
 std::vector<eval_detector> parse_detectors(const std::vector<std::string>& names) {
   std::vector<eval_detector> out;
   try {
-    for (const auto& d : names) out.push_back(parse_detector(d));
+    for (const auto& spec : names)
+      for (const auto& d : expand_sweep(spec)) out.push_back(parse_detector(d));
   } catch (const std::invalid_argument& e) {
     throw usage_error(e.what());
   }

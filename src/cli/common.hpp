@@ -94,6 +94,12 @@ struct eval_detector {
 };
 
 eval_detector parse_detector(const std::string& text);
+/// A sweep: every setting of `text`'s brace lists, in order (the last list
+/// varies fastest): "xyz:{0.1,0.2},rgb:{0.1,0.5}" gives xyz:0.1,rgb:0.1,
+/// xyz:0.1,rgb:0.5, xyz:0.2,rgb:0.1, xyz:0.2,rgb:0.5. Text without braces is
+/// itself. std::invalid_argument for unbalanced or nested braces and empty
+/// values.
+std::vector<std::string> expand_sweep(const std::string& text);
 std::vector<eval_detector> parse_detectors(const std::vector<std::string>& names);
 
 /// What the evaluated detectors share: the detector parameters and the resolution.

@@ -199,9 +199,10 @@ command add_repeatability_command(CLI::App& eval) {
                   "4x4 row-major matrix file mapping P's coordinates into Q's (default: the identity)");
   rep->add_option("--format", o->format, "Input format");
   rep->add_option("--columns", o->columns, "CSV column names");
-  rep->add_option("-d,--detector", o->detectors,
-                  "Repeatable: ced6d, ced3d, random, iss3d, harris3d, harris6d, sift (PCL builds), or modality specs "
-                  "joined by commas (default: ced6d ced3d random)");
+  rep->add_option(
+      "-d,--detector", o->detectors,
+      "Repeatable: ced6d, ced3d, random, iss3d, harris3d, harris6d, sift (PCL builds), or modality specs "
+      "joined by commas (default: ced6d ced3d random); a sweep: 'xyz:{0.1,0.2,0.3},rgb:0.1' is three detectors");
   rep->add_option("--trials", o->trials, "Random transforms per noise level (default 5)");
   rep->add_option("--seed", o->seed, "Seed (default 1): the same seed gives the same numbers");
   auto* noise_opt =
