@@ -25,6 +25,7 @@
 #include "ced/io/output_file.hpp"
 #include "ced/io/stream.hpp"
 #include "ced/modality.hpp"
+#include "ced/scaled.hpp"
 
 namespace ced {
 
@@ -92,6 +93,12 @@ std::vector<any_modality> modalities_of(const std::vector<std::string>& specs) {
   std::vector<any_modality> out;
   for (const auto& s : specs) out.push_back(make_modality(s));
   return out;
+}
+
+/// The parameters a tile's halo follows: the radius of the largest scale
+/// among the modalities (scale=).
+detect_params halo_params(const tiled_request& r) {
+  return scaled_params(r.params, max_scale_factor(modalities_of(r.modalities)));
 }
 
 /// A part's modality names and absolute thresholds, from the plan's modalities.
@@ -309,7 +316,7 @@ double size_for_memory(io::point_stream& s, const tile_plan& p, const double lo[
   // M points a second, tiles of 8 M 1.6 M, tiles of 0.3 M 2.5 M (SCALE.md).
   const double max_fitting = (limit - fixed_overhead) / per_point;
   const double max_points = std::min(max_fitting, 2e6);
-  const double halo = exact_halo(p.request.params, 0);
+  const double halo = exact_halo(halo_params(p.request), 0);
   // Cells of the histogram: a quarter of the halo or more, at most 2^22.
   double cell = halo / 4;
   std::uint64_t dims[3];
@@ -470,7 +477,7 @@ tile_plan plan_grid(const tiled_request& request, io::point_stream& s, const til
   }
   const double size = request.memory_limit > 0 ? size_for_memory(s, p, plo, phi, progress) : request.tile_size;
   s.rewind();
-  p.grid = make_tile_grid(plo, phi, size, request.params);
+  p.grid = make_tile_grid(plo, phi, size, halo_params(request));
   return p;
 }
 

@@ -17,5 +17,6 @@
 #include "ced/neighborhood.hpp"
 #include "ced/params.hpp"
 #include "ced/preprocess.hpp"
+#include "ced/scaled.hpp"
 #include "ced/tiles.hpp"
 #include "ced/version.hpp"

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -67,6 +68,9 @@ class detection_context {
                         const std::function<void(const block_view&, float* const*)>& f);
   /// Candidates, products and NMS; moves the result out.
   detection_result finish();
+  /// Adds the time the modalities took to bind (their channels; a scaled
+  /// modality's own neighbour pass) to the saliency stage.
+  void add_bind_ms(double ms);
 
  private:
   struct impl;
@@ -83,7 +87,9 @@ detection_result detect(const point_cloud& cloud, const detect_params& params, c
   detail::detection_context ctx(cloud, params, {std::string(modalities.name())...},
                                 {double(modalities.threshold(params))...});
   {  // the evaluators (and their channels) end before the NMS: less peak memory
+    const auto t_bind = std::chrono::steady_clock::now();
     const auto evaluators = std::make_tuple(modalities.bind(cloud, params)...);
+    ctx.add_bind_ms(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_bind).count());
     const auto sources =
         std::apply([](const auto&... e) { return std::vector<channel_source>{channels_of(e)...}; }, evaluators);
     ctx.compute_saliency(sources, [&](const block_view& block, float* const* columns) {

@@ -204,10 +204,11 @@ eval_detector parse_detector(const std::string& text) {
     throw std::invalid_argument("--detector " + text + " " + no_pcl_message);
 #endif
   }
-  if (text == "ced6d" || text == "ced3d") {
-    d.modalities = ced::preset(text);
-    return d;
-  }
+  for (const auto& p : ced::preset_names())
+    if (text == p) {
+      d.modalities = ced::preset(text);
+      return d;
+    }
   for (const auto& s : ced::split_modality_specs(text)) d.modalities.push_back(ced::make_modality(s));
   if (d.modalities.empty()) throw std::invalid_argument("--detector '" + text + "' names no modality");
   return d;

@@ -196,8 +196,10 @@ command add_detect_command(CLI::App& app, std::function<int(const detect_options
   det->add_option("input", o->input, "Input cloud: .ply, .pcd, .las, .csv/.xyz/.txt/.pts");
   det->add_option("--format", o->format, "Input format when the extension does not say: ply, pcd, las, csv, auto");
   det->add_option("--columns", o->columns, "CSV column names, e.g. x,y,z,intensity (the file then has no header)");
-  det->add_option("--preset", o->preset, "ced3d (xyz:0.2) or ced6d (xyz:0.2 + rgb:0.1), with the paper's radius 0.05")
-      ->check(CLI::IsMember({"ced3d", "ced6d"}));
+  det->add_option("--preset", o->preset,
+                  "ced3d (xyz:0.2), ced6d (xyz:0.2 + rgb:0.1), robust3d (xyz:0.2,scale=3) or robust6d "
+                  "(xyz:0.2,scale=3 + rgb:0.5); radius 0.05 unless given")
+      ->check(CLI::IsMember(ced::preset_names()));
   det->add_option(
       "-m,--modality", o->modalities,
       "Modality spec, repeatable: xyz:0.2, rgb:0.1, lab:0.1, intensity:0.05, bands(nir,red):0.1,range=0..255"

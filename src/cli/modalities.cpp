@@ -15,6 +15,13 @@ namespace {
 int run_modalities(const std::vector<std::string>& plugins) {
   load_plugins(plugins);
   for (const auto& [name, help] : ced::registered_modalities()) std::cout << name << "\t" << help << "\n";
+  std::cout << "\nEvery modality also takes scale=K: measured over K x the radius (its threshold too).\n"
+            << "\nPresets (--preset):\n";
+  for (const auto& p : ced::preset_names()) {
+    std::string specs;
+    for (const auto& s : ced::preset_specs(p)) specs += (specs.empty() ? "" : " ") + ("-m " + s);
+    std::cout << p << "\t" << specs << "\n";
+  }
   return exit_ok;
 }
 

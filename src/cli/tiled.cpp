@@ -298,7 +298,7 @@ command add_plan_command(CLI::App& app) {
       ->required();
   cmd->add_option("--format", o->format, "Input format when the extension does not say: ply, pcd, las, csv, auto");
   cmd->add_option("--columns", o->columns, "CSV column names, e.g. x,y,z,intensity (the file then has no header)");
-  cmd->add_option("--preset", o->preset, "ced3d or ced6d")->check(CLI::IsMember({"ced3d", "ced6d"}));
+  cmd->add_option("--preset", o->preset, "A preset (see `ced modalities`)")->check(CLI::IsMember(ced::preset_names()));
   cmd->add_option("-m,--modality", o->modalities, "Modality spec, repeatable (see `ced detect --help`)");
   add_plugin_option(cmd, o->plugins);
   cmd->add_option("-r,--radius", o->radius, "Neighbourhood radius in metres (default 0.05)");

@@ -37,6 +37,8 @@ detection_context::detection_context(const point_cloud& cloud, const detect_para
 
 detection_context::~detection_context() = default;
 
+void detection_context::add_bind_ms(double ms) { m_impl->result.times.saliency_ms += ms; }
+
 detection_result detection_context::finish() {
   const auto t0 = clock_type::now();
   auto& r = m_impl->result;
@@ -72,10 +74,12 @@ detection_result detect(const point_cloud& cloud, const detect_params& params,
   detail::detection_context ctx(cloud, params, std::move(names), std::move(thresholds));
   std::vector<std::unique_ptr<bound_modality>> bound;
   std::vector<channel_source> sources;
+  const auto t_bind = detail::clock_type::now();
   for (const auto& m : modalities) {
     bound.push_back(m.bind(cloud, params));
     sources.push_back(bound.back()->channels());
   }
+  ctx.add_bind_ms(detail::ms_since(t_bind));
   ctx.compute_saliency(sources, [&](const block_view& block, float* const* columns) {
     for (std::size_t k = 0; k < bound.size(); ++k) bound[k]->evaluate(block, k, params.min_neighbors, columns[k]);
   });

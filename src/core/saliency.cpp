@@ -83,7 +83,7 @@ void detection_context::compute_saliency(const std::vector<channel_source>& sour
         params.progress(double(done) / double(blocks.block_count()));
     }
   });
-  r.times.saliency_ms = ms_since(t0);
+  r.times.saliency_ms += ms_since(t0);
 }
 
 }  // namespace ced::detail

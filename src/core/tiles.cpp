@@ -7,6 +7,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "ced/scaled.hpp"
+
 namespace ced {
 
 namespace {
@@ -166,7 +168,8 @@ std::vector<std::uint32_t> detect_tiled(const point_cloud& cloud, const detect_p
       lo[k] = std::min(lo[k], double(cloud.position(i)[k]));
       hi[k] = std::max(hi[k], double(cloud.position(i)[k]));
     }
-  const tile_grid grid = make_tile_grid(lo, hi, tile_size, params);
+  // A modality at a larger scale (scale=) reads farther: the halo grows with it.
+  const tile_grid grid = make_tile_grid(lo, hi, tile_size, scaled_params(params, max_scale_factor(modalities)));
   const std::vector<value_range> ranges = field_ranges(cloud);
   // Each tile's points, and which tiles own a point: only those are detected.
   std::vector<std::vector<std::uint32_t>> members(grid.count());

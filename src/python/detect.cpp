@@ -140,7 +140,8 @@ std::vector<ced::any_modality> make_modalities(const ced::point_cloud& cloud, py
   if (modalities.is_none()) return ced::preset(cloud.has_rgb() ? "ced6d" : "ced3d");
   if (py::isinstance<py::str>(modalities)) {
     const auto s = modalities.cast<std::string>();
-    if (s == "ced3d" || s == "ced6d") return ced::preset(s);
+    for (const auto& p : ced::preset_names())
+      if (s == p) return ced::preset(s);
   }
   if (auto m = one_modality(modalities)) return {*m};
   std::vector<ced::any_modality> out;

@@ -114,8 +114,11 @@ void bind_modalities(py::module_& m) {
       "fn(points, offsets, neighbors) -> saliencies, neighbours of points[k] in "
       "neighbors[offsets[k]:offsets[k+1]]; with per_point=True: fn(point, neighbors) -> float.");
   m.def(
+      "preset_names", [] { return ced::preset_names(); }, "The presets' names: ced3d, ced6d, robust3d, robust6d.");
+  m.def(
       "preset", [](const std::string& name) { return ced::preset(name); }, py::arg("name"),
-      "The modalities of a preset: 'ced3d' (xyz:0.2) or 'ced6d' (xyz:0.2, rgb:0.1).");
+      "The modalities of a preset: 'ced3d' (xyz:0.2), 'ced6d' (xyz:0.2, rgb:0.1), 'robust3d' (xyz:0.2,scale=3) or "
+      "'robust6d' (xyz:0.2,scale=3, rgb:0.5).");
   m.def("_split_modality_specs", &ced::split_modality_specs, py::arg("text"),
         "Modality specs joined by commas, split as `ced eval --detector` splits them.");
   m.def("modalities", &ced::registered_modalities, "(name, help) of every registered modality, sorted.");

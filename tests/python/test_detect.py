@@ -14,10 +14,10 @@ def channels_of(cloud):
 def test_numpy_gives_the_cli_keypoints_on_the_redwood_sample(cli, sample, sample_path):
     points = np.array(sample.points)  # a plain numpy copy: no ced object goes in
     colours = {k: np.array(v) for k, v in channels_of(sample).items()}
-    for preset in ("ced6d", "ced3d"):
+    for preset in ("ced6d", "ced3d", "robust6d", "robust3d"):
         expected = cli_keypoints(cli, sample_path, "--preset", preset)
         got = ced.detect(points, colours, modalities=preset)
-        assert len(expected) > 100
+        assert len(expected) > 50
         np.testing.assert_array_equal(got.keypoints, expected, err_msg=preset)
     # The default is the CLI's: ced6d when the cloud has colour.
     np.testing.assert_array_equal(ced.detect(points, colours).keypoints, cli_keypoints(cli, sample_path, "--preset", "ced6d"))

@@ -26,6 +26,7 @@ from ._ced import (
     modalities,
     plan_tiles,
     preset,
+    preset_names,
     python_modality,
     read,
     read_part,
@@ -38,7 +39,7 @@ from . import eval  # noqa: F401  (ced.eval.repeatability)
 __all__ = [
     "Cloud", "FileError", "Modality", "PluginError", "Result", "TilePart", "TilePlan", "__version__", "bands",
     "detect", "detect_tile", "estimate_resolution", "eval", "intensity", "lab", "load_plugin", "merge_parts",
-    "modalities", "modality", "plan_tiles", "preset", "python_modality", "read", "read_part",
+    "modalities", "modality", "plan_tiles", "preset", "preset_names", "python_modality", "read", "read_part",
     "release_cached_memory", "render", "rgb", "voxel_downsample", "write", "write_keypoints", "xyz",
 ]
 
@@ -167,7 +168,7 @@ def detect(points, channels=None, modalities=None, radius=0.05, nms_radius=None,
         any numeric dtype. An (N, 3) 'rgb' (or 'colors') array gives
         red, green, blue; a key 'a,b,c' names each column; another (N, k) array 'x' gives x_0 .. x_{k-1}.
     modalities: spec strings ('xyz:0.2', 'rgb:0.1', 'bands(nir,red):0.1'), ced.Modality objects, or a preset name
-        ('ced6d', 'ced3d'). None: ced6d (xyz:0.2, rgb:0.1) when the cloud has colour, else ced3d, as the CLI.
+        ('ced6d', 'ced3d', 'robust6d', 'robust3d'). None: ced6d (xyz:0.2, rgb:0.1) when the cloud has colour, else ced3d, as the CLI.
     radius: neighbourhood radius, or 'auto' (radius_factor x the estimated resolution).
     nms_radius: None = radius. threads: 0 = all cores (the result does not depend on it).
 

@@ -142,8 +142,12 @@ def python_modality(name: str, fn: Union[BlockFunction, PointFunction], threshol
                     per_point: bool = False) -> Modality:
     """A modality whose saliency a Python function computes (slow; for prototyping)."""
 
+def preset_names() -> List[str]:
+    """The presets' names: ced3d, ced6d, robust3d, robust6d."""
+
 def preset(name: str) -> List[Modality]:
-    """'ced3d' (xyz:0.2) or 'ced6d' (xyz:0.2, rgb:0.1)."""
+    """'ced3d' (xyz:0.2), 'ced6d' (xyz:0.2, rgb:0.1), 'robust3d' (xyz:0.2,scale=3) or 'robust6d'
+    (xyz:0.2,scale=3, rgb:0.5)."""
 
 def modalities() -> List[Tuple[str, str]]:
     """(name, help) of every registered modality, sorted."""

@@ -31,7 +31,7 @@ def _detector(d):
         return "+".join(m.name for m in mods), mods
     if d == "random":
         return d, None
-    if d in ("ced6d", "ced3d"):
+    if d in _ced.preset_names():
         return d, preset(d)
     if d in ("iss3d", "harris3d", "harris6d", "sift"):
         raise ValueError(f"detectors: {d!r} is a PCL detector, available in the CLI "
