@@ -880,6 +880,18 @@ void check_complete(const tile_plan& plan, const std::vector<std::uint64_t>& til
   }
 }
 
+/// A merge's part before any part is added: the plan's modality names and
+/// thresholds, no candidates, no keypoints.
+tile_part empty_merge(const tile_plan& plan) {
+  tile_part out;
+  const auto modalities = modalities_of(plan.request.modalities);
+  name_modalities(plan, modalities, out);
+  out.candidates.assign(modalities.size(), 0);
+  out.saliency.assign(modalities.size(), {});
+  out.keypoints = empty_cloud(plan, 0);
+  return out;
+}
+
 }  // namespace
 
 tile_part read_part(const std::string& path, const tile_plan& plan) {
@@ -901,13 +913,8 @@ void merge_part_files(const tile_plan& plan, const std::vector<std::string>& pat
     tiles.push_back(readers.back().totals.tile);
   }
   check_complete(plan, tiles);
-  tile_part totals;
-  const auto modalities = modalities_of(plan.request.modalities);
-  name_modalities(plan, modalities, totals);
-  const std::size_t m = modalities.size();
-  totals.candidates.assign(m, 0);
-  totals.saliency.assign(m, {});
-  totals.keypoints = empty_cloud(plan, 0);
+  tile_part totals = empty_merge(plan);
+  const std::size_t m = totals.names.size();
   std::uint64_t count = 0;
   for (const auto& r : readers) {
     for (std::size_t k = 0; k < m; ++k) totals.candidates[k] += r.totals.candidates[k];
@@ -956,11 +963,8 @@ tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts) {
   std::vector<std::uint64_t> tiles;
   for (const auto& p : parts) tiles.push_back(p.tile);
   check_complete(plan, tiles);
-  tile_part out;
-  const auto modalities = modalities_of(plan.request.modalities);
-  name_modalities(plan, modalities, out);
-  const std::size_t m = modalities.size();
-  out.candidates.assign(m, 0);
+  tile_part out = empty_merge(plan);
+  const std::size_t m = out.names.size();
   // Keypoints of all parts, by index (the parts' are disjoint).
   std::vector<std::pair<std::uint64_t, std::pair<std::size_t, std::size_t>>> order;
   for (std::size_t i = 0; i < parts.size(); ++i) {

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -227,6 +228,20 @@ TEST(Tiles, BadTileSizesAreErrors) {
 }
 
 namespace {
+/// A request for room16(n, seed) written as a LAS file (with `origin`): xyz + rgb, r = 0.02.
+ced::tiled_request room_request(std::size_t n, std::uint32_t seed, const std::string& name, double tile,
+                                const std::array<double, 3>& origin = {0, 0, 0}) {
+  ced::point_cloud c = room16(n, seed);
+  c.set_origin(origin);
+  ced::tiled_request r;
+  r.input = ced_test::temp_file(name);
+  ced::io::write_cloud(r.input, c);
+  r.tile_size = tile;
+  r.params.radius = r.params.nms_radius = 0.02;
+  r.modalities = {"xyz:0.2", "rgb:0.1"};
+  return r;
+}
+
 void expect_same_part(const ced::tile_part& a, const ced::tile_part& b, const std::string& what) {
   EXPECT_EQ(a.index, b.index) << what;
   EXPECT_EQ(a.file_index, b.file_index) << what;
@@ -248,15 +263,8 @@ void expect_same_part(const ced::tile_part& a, const ced::tile_part& b, const st
 }  // namespace
 
 TEST(Tiles, StreamedMergeOfPartFilesIsTheMergeInMemory) {
-  ced::point_cloud c = room16(6000, 9);
-  c.set_origin({431000.0, 5091000.0, 120.0});
-  const std::string input = ced_test::temp_file("merge_room.las");
-  ced::io::write_cloud(input, c);
-  ced::tiled_request r;
-  r.input = input;
-  r.tile_size = 0.15;
-  r.params.radius = r.params.nms_radius = 0.02;
-  r.modalities = {"xyz:0.2", "rgb:0.1"};
+  const ced::tiled_request r = room_request(6000, 9, "merge_room.las", 0.15, {431000.0, 5091000.0, 120.0});
+  const std::string& input = r.input;
   const ced::tile_plan plan = ced::plan_tiles(r);
   ASSERT_GT(plan.tiles.size(), 4u);
   std::vector<ced::tile_part> parts;
@@ -337,14 +345,8 @@ TEST(Tiles, StreamedMergeOfPartFilesIsTheMergeInMemory) {
 }
 
 TEST(Tiles, AFailedMergeKeepsThePartsForResume) {
-  ced::point_cloud c = room16(4000, 11);
-  const std::string input = ced_test::temp_file("resume_room.las");
-  ced::io::write_cloud(input, c);
-  ced::tiled_request r;
-  r.input = input;
-  r.tile_size = 0.2;
-  r.params.radius = r.params.nms_radius = 0.02;
-  r.modalities = {"xyz:0.2", "rgb:0.1"};
+  const ced::tiled_request r = room_request(4000, 11, "resume_room.las", 0.2);
+  const std::string& input = r.input;
   ced::tiled_run_options o;
   o.work_dir = ced_test::temp_file("resume_work");
   ced::merge_sink failing;
