@@ -186,6 +186,16 @@ point_cloud empty_cloud(const tile_plan& p, std::size_t n) {
   return c;
 }
 
+/// Points [i, i + n) of `from` (positions and field bytes) into [j, j + n)
+/// of `to`, a cloud with the same fields.
+void copy_points(const point_cloud& from, std::size_t i, point_cloud& to, std::size_t j, std::size_t n = 1) {
+  std::copy_n(from.position(i), 3 * n, to.positions().data() + 3 * j);
+  for (std::size_t f = 0; f < from.fields().size(); ++f) {
+    const std::size_t w = size_of(from.fields()[f].type());
+    std::memcpy(to.fields()[f].values.bytes() + w * j, from.fields()[f].values.bytes() + w * i, w * n);
+  }
+}
+
 /// The fields of a chunk as (bytes, width) pairs, for append_record().
 using field_bytes = std::vector<std::pair<const unsigned char*, std::size_t>>;
 field_bytes bytes_of(const point_cloud& c) {
@@ -720,12 +730,7 @@ tile_part detect_tile(const tile_plan& plan, const tile_points& points, unsigned
     const std::uint32_t i = kept[j];
     part.index.push_back(points.index[i]);
     part.file_index.push_back(points.file_index[i]);
-    std::copy_n(points.cloud.position(i), 3, part.keypoints.positions().data() + 3 * j);
-    for (std::size_t f = 0; f < plan.fields.size(); ++f) {
-      const std::size_t w = size_of(plan.fields[f].type);
-      std::memcpy(part.keypoints.fields()[f].values.bytes() + w * j, points.cloud.fields()[f].values.bytes() + w * i,
-                  w);
-    }
+    copy_points(points.cloud, i, part.keypoints, j);
     for (std::size_t k = 0; k < m; ++k) part.saliency[k].push_back(r.saliency[k][i]);
   }
   part.detect_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -981,11 +986,7 @@ tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts) {
     const tile_part& p = parts[i];
     out.index.push_back(p.index[j]);
     out.file_index.push_back(p.file_index[j]);
-    std::copy_n(p.keypoints.position(j), 3, out.keypoints.positions().data() + 3 * q);
-    for (std::size_t f = 0; f < plan.fields.size(); ++f) {
-      const std::size_t w = size_of(plan.fields[f].type);
-      std::memcpy(out.keypoints.fields()[f].values.bytes() + w * q, p.keypoints.fields()[f].values.bytes() + w * j, w);
-    }
+    copy_points(p.keypoints, j, out.keypoints, q);
     for (std::size_t k = 0; k < m; ++k) out.saliency[k][q] = p.saliency[k][j];
   }
   for (auto& f : out.keypoints.fields()) f.whole_range.reset();
@@ -1124,11 +1125,7 @@ tile_part merge_work_dir(const tile_plan& plan, const std::string& work_dir, con
     const std::size_t n = c.index.size();
     std::copy_n(c.index.begin(), n, out.index.begin() + at);
     std::copy_n(c.file_index.begin(), n, out.file_index.begin() + at);
-    std::copy_n(c.keypoints.positions().begin(), 3 * n, out.keypoints.positions().begin() + 3 * at);
-    for (std::size_t f = 0; f < plan.fields.size(); ++f) {
-      const std::size_t w = size_of(plan.fields[f].type);
-      std::memcpy(out.keypoints.fields()[f].values.bytes() + w * at, c.keypoints.fields()[f].values.bytes(), w * n);
-    }
+    copy_points(c.keypoints, 0, out.keypoints, at, n);
     for (std::size_t k = 0; k < c.saliency.size(); ++k)
       std::copy_n(c.saliency[k].begin(), n, out.saliency[k].begin() + at);
     at += n;
