@@ -3,6 +3,7 @@
 
 #include <array>
 #include <cstddef>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -63,5 +64,24 @@ void linear_srgb_to_lab(const double* r, const double* g, const double* b, std::
 /// `threads` threads (0 = all cores; the result does not depend on it).
 std::vector<float> lab_values(const std::array<const field*, 3>& f, const std::array<double, 3>& scale,
                               unsigned threads);
+
+/// Unit normals by local PCA: for every point, the eigenvector of the
+/// smallest eigenvalue of the covariance of its neighbours within `radius`
+/// (itself included), N×3 floats, row-major. The sign is not oriented (the
+/// largest component is made positive). Points with fewer than 3 neighbours,
+/// or all at one place, get (0, 0, 0). The moments are summed in index order
+/// in double, so the result depends only on each point's neighbours: the
+/// same for any thread count and in any tile that holds them. `threads`: 0 =
+/// all cores. Throws std::invalid_argument unless radius > 0.
+std::vector<float> estimate_normals(const point_cloud& cloud, double radius, unsigned threads = 0);
+/// One point's normal as estimate_normals computes it, from its `n`
+/// neighbours (indices into `xyz`, N×3 floats) in the given order.
+void normal_from_neighbors(const float* xyz, std::uint32_t point, const std::uint32_t* neighbors, std::uint32_t n,
+                           float out[3]) noexcept;
+/// N×6 floats: the orientation tensor n nᵀ of every normal (N×3, made unit
+/// length; zero stays zero) as (xx, yy, zz, xy, xz, yz). It is the same for n
+/// and −n, so normals of any orientation compare. Throws
+/// std::invalid_argument naming the point when a normal is not finite.
+std::vector<float> normal_tensors(const std::vector<float>& normals);
 
 }  // namespace ced

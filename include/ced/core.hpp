@@ -11,6 +11,7 @@
 #include "ced/modalities/bands.hpp"
 #include "ced/modalities/intensity.hpp"
 #include "ced/modalities/lab.hpp"
+#include "ced/modalities/normals.hpp"
 #include "ced/modalities/rgb.hpp"
 #include "ced/modalities/xyz.hpp"
 #include "ced/modality.hpp"

@@ -12,6 +12,7 @@
 #include "ced/modalities/bands.hpp"
 #include "ced/modalities/intensity.hpp"
 #include "ced/modalities/lab.hpp"
+#include "ced/modalities/normals.hpp"
 #include "ced/modalities/rgb.hpp"
 #include "ced/modalities/xyz.hpp"
 #include "ced/modality.hpp"
@@ -154,6 +155,8 @@ struct registry {
     add_builtin<xyz>(factories, "geometry: L2 distance to the neighbours' centroid; threshold = ratio of the radius");
     add_builtin<rgb>(factories, "colour: L1 distance in RGB scaled to [0,1]; options norm=, range=");
     add_builtin<lab>(factories, "colour in CIELAB: dE*76/100 to the neighbours' mean");
+    add_builtin<normals>(factories,
+                         "surface normals (nx,ny,nz or PCA): orientation-tensor distance; options radius=, from=");
     add_builtin<intensity>(factories, "a scalar field (default 'intensity'); intensity(FIELD); options range=");
     add_builtin<bands>(factories, "bands(F1,F2,...): named channels as one vector; options norm=, range=");
   }

@@ -2,6 +2,7 @@
 // ced.Cloud, ced.read, ced.write, ced.render and the cloud utilities.
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -154,6 +155,22 @@ void bind_cloud(py::module_& m) {
         return ced::estimate_resolution(*c);
       },
       py::arg("cloud"), "Median nearest-neighbour distance over up to 20000 evenly spread points.");
+  m.def(
+      "estimate_normals",
+      [](py::handle cloud, double radius, unsigned threads) {
+        const cloud_ptr c = to_cloud(cloud, py::none());
+        std::vector<float> n;
+        {
+          py::gil_scoped_release release;
+          n = ced::estimate_normals(*c, radius, threads);
+        }
+        py::array_t<float> out({py::ssize_t(c->size()), py::ssize_t(3)});
+        std::copy(n.begin(), n.end(), out.mutable_data());
+        return out;
+      },
+      py::arg("cloud"), py::arg("radius"), py::arg("threads") = 0,
+      "Unit normals (N x 3) by PCA of the neighbours within `radius`, unoriented; (0, 0, 0) with fewer than 3 "
+      "neighbours. What the normals modality uses when the cloud has no nx, ny, nz.");
   m.def(
       "voxel_downsample",
       [](py::handle cloud, double size) {

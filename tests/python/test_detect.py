@@ -229,3 +229,25 @@ def test_clouds_pickle_exactly(sample):
             np.testing.assert_array_equal(back.fields[name], values)
     np.testing.assert_array_equal(ced.detect(pickle.loads(pickle.dumps(sample))).keypoints,
                                   ced.detect(sample).keypoints)
+
+
+def test_normals_modality_reads_or_estimates_normals():
+    pts, rgb = room()
+    r = 0.1
+    est = ced.estimate_normals(pts, r)
+    assert est.shape == (len(pts), 3) and est.dtype == np.float32
+    lengths = np.linalg.norm(est, axis=1)
+    assert np.all((np.abs(lengths - 1) < 1e-5) | (lengths == 0)) and np.mean(lengths > 0) > 0.99
+    assert ced.normals(0.2).name == "normals" and ced.normals(0.2, radius=0.5, source="estimate").name == "normals"
+    a = ced.detect(pts, {"rgb": rgb}, modalities=[ced.normals(0.2), ced.rgb(0.1)], radius=r)
+    b = ced.detect(pts, {"rgb": rgb}, modalities=["normals:0.2", "rgb:0.1"], radius=r)
+    np.testing.assert_array_equal(a.keypoints, b.keypoints)
+    assert len(a.keypoints) > 0 and set(a.saliency) == {"normals", "rgb"}
+    # The estimated normals given as fields give the same saliencies; flipped ones too (n and -n are one axis).
+    given = ced.detect(pts, {"nx,ny,nz": -est}, modalities=[ced.normals(0.2, source="fields")], radius=r)
+    own = ced.detect(pts, modalities=[ced.normals(0.2, source="estimate")], radius=r)
+    np.testing.assert_array_equal(given.saliency["normals"], own.saliency["normals"])
+    with pytest.raises(ValueError, match="radius"):
+        ced.normals(0.2, radius=2)
+    with pytest.raises(ValueError, match="nx"):
+        ced.detect(pts, modalities=[ced.normals(source="fields")], radius=r)

@@ -21,6 +21,7 @@ from ._ced import (
     TilePlan,
     __version__,
     detect_tile,
+    estimate_normals,
     load_plugin,
     merge_parts,
     modalities,
@@ -38,8 +39,8 @@ from . import eval  # noqa: F401  (ced.eval.repeatability)
 
 __all__ = [
     "Cloud", "FileError", "Modality", "PluginError", "Result", "TilePart", "TilePlan", "__version__", "bands",
-    "detect", "detect_tile", "estimate_resolution", "eval", "intensity", "lab", "load_plugin", "merge_parts",
-    "modalities", "modality", "plan_tiles", "preset", "preset_names", "python_modality", "read", "read_part",
+    "detect", "detect_tile", "estimate_normals", "estimate_resolution", "eval", "intensity", "lab", "load_plugin", "merge_parts",
+    "modalities", "modality", "normals", "plan_tiles", "preset", "preset_names", "python_modality", "read", "read_part",
     "release_cached_memory", "render", "rgb", "voxel_downsample", "write", "write_keypoints", "xyz",
 ]
 
@@ -89,6 +90,13 @@ def rgb(threshold=0.1, norm=None, range=None):
 def lab(threshold=None, norm=None, range=None):
     """Colour in CIELAB (perceptual distance)."""
     return _spec("lab", threshold, norm=norm, range=range)
+
+
+def normals(threshold=None, radius=None, source=None):
+    """Surface normals: distance of a point's normal axis (n n^T) to its neighbours' mean. Normals come from the
+    fields nx, ny, nz when present, else by PCA within `radius` x the detection radius (0 < radius <= 1);
+    `source` is 'auto', 'fields' or 'estimate'."""
+    return _spec("normals", threshold, radius=None if radius is None else _number(radius, "radius"), **{"from": source})
 
 
 def intensity(threshold=None, field=None, range=None):

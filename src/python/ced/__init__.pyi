@@ -113,6 +113,9 @@ def render(path: str, cloud: PointsLike, keypoints: Optional[npt.ArrayLike] = No
 def estimate_resolution(cloud: PointsLike) -> float:
     """The median nearest-neighbour distance over up to 20000 evenly spread points."""
 
+def estimate_normals(cloud: PointsLike, radius: float, threads: int = 0) -> npt.NDArray[np.float32]:
+    """Unit normals (N x 3) by PCA within `radius`, unoriented."""
+
 def voxel_downsample(cloud: PointsLike, size: float) -> Cloud:
     """Voxel-grid down-sampling as PCL's VoxelGrid (positions and fields averaged)."""
 
@@ -129,6 +132,10 @@ def rgb(threshold: float = 0.1, norm: Optional[str] = None,
 def lab(threshold: Optional[float] = None, norm: Optional[str] = None,
         range: Union[None, str, Tuple[float, float]] = None) -> Modality:
     """Colour in CIELAB."""
+
+def normals(threshold: Optional[float] = None, radius: Optional[float] = None,
+            source: Optional[str] = None) -> Modality:
+    """Surface normals (the orientation tensor n n^T), read from nx, ny, nz or estimated."""
 
 def intensity(threshold: Optional[float] = None, field: Optional[str] = None,
               range: Union[None, str, Tuple[float, float]] = None) -> Modality:
