@@ -66,6 +66,11 @@ class detection_context {
   /// is modality m's saliency column, to be written at the block's points.
   void compute_saliency(const std::vector<channel_source>& sources,
                         const std::function<void(const block_view&, float* const*)>& f);
+  /// The next compute_saliency() makes only neighbour counts and sums, not
+  /// lists: for modalities that all sum channels (block_view::operator[]
+  /// then throws std::logic_error). The NMS queries its neighbourhoods
+  /// anew. Used by saliency_of, whose pass has no candidates.
+  void without_neighbor_lists();
   /// Candidates, products and NMS; moves the result out.
   detection_result finish();
   /// Adds the time the modalities took to bind (their channels; a scaled

@@ -37,6 +37,8 @@ detection_context::detection_context(const point_cloud& cloud, const detect_para
 
 detection_context::~detection_context() = default;
 
+void detection_context::without_neighbor_lists() { m_impl->keep_lists = false; }
+
 void detection_context::add_bind_ms(double ms) { m_impl->result.times.saliency_ms += ms; }
 
 detection_result detection_context::finish() {

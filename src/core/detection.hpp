@@ -22,6 +22,7 @@ struct detection_context::impl {
   block_partition blocks;
   std::vector<candidate_hits> hits;
   chunk_arena hit_memory;  // the hits' arrays
+  bool keep_lists = true;  // see detection_context::without_neighbor_lists
 
   impl(const point_cloud& c, const detect_params& p, block_partition&& b) : cloud(c), params(p), blocks(std::move(b)) {}
 };

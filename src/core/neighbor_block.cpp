@@ -306,14 +306,16 @@ void neighbor_block::run(const float* xyz, const std::uint32_t* points, std::siz
 
   const std::size_t stride = copy_channels_in(points, count);
   set_up_rows(xyz, points, count, r);
-  grow(m_bits, m_bit_offsets[count]);
+  // The kernel skips the bits only for positions alone (no channels).
+  const bool bits = m_keep_lists || m_channels != 0;
+  if (bits) grow(m_bits, m_bit_offsets[count]);
   grow(m_counts, count);
   grow(m_sums, m_sum_stride * count);
 
   const detail::block_kernel_input in{
       m_gx.data(), m_gy.data(),     m_gz.data(),  m_channel_values.data(), stride,           m_channels,
       count,       m_centre.data(), m_own.data(), m_ranges.data(),         squared_radius(r)};
-  const detail::block_kernel_output out{m_counts.data(), m_sums.data(), m_bits.data()};
+  const detail::block_kernel_output out{m_counts.data(), m_sums.data(), bits ? m_bits.data() : nullptr};
   active_kernels().pass(in, out);
 }
 
@@ -323,6 +325,7 @@ void neighbor_block::neighbors(std::size_t k, std::uint32_t* out) const noexcept
 }
 
 neighborhood neighbor_block::operator[](std::size_t k) const {
+  if (!m_keep_lists) throw std::logic_error("neighbor_block: neighbour lists were not kept (set_keep_lists)");
   if (!m_lists_built) {
     grow(m_offsets, m_count + 1);
     m_offsets[0] = 0;

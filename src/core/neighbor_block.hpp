@@ -28,6 +28,11 @@ class neighbor_block {
  public:
   /// The channels summed by fill(); slot s of sums() is sources[s].
   void set_channels(const std::vector<channel_source>& sources);
+  /// Whether fill() records which points are neighbours (default true).
+  /// Without, only counts and sums are made, and neighbors(), operator[]
+  /// and sweep() must not be called: a pass that needs no lists and has no
+  /// candidates (a scaled modality's own pass) skips that work.
+  void set_keep_lists(bool keep) noexcept { m_keep_lists = keep; }
 
   /// Runs the pass for points `points[0..count)`, gathering from the blocks'
   /// grid (in an order that does not depend on the rest of the cloud: a
@@ -117,6 +122,7 @@ class neighbor_block {
   std::vector<std::uint8_t> m_bits;
   // Lists, built on demand.
   mutable bool m_lists_built = false;
+  bool m_keep_lists = true;
   mutable std::vector<std::uint32_t> m_offsets, m_indices;
 };
 

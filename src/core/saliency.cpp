@@ -35,7 +35,8 @@ void detection_context::compute_saliency(const std::vector<channel_source>& sour
   // under 100 bytes a point.
   // Past the budget, blocks fall back to querying again (which blocks do
   // depends on timing, the result does not).
-  const bool keep_hits = params.nms_radius <= params.radius;
+  const bool keep_lists = m_impl->keep_lists;
+  const bool keep_hits = params.nms_radius <= params.radius && keep_lists;
   std::atomic<std::size_t> budget{std::max<std::size_t>(std::size_t(64) << 20, 16 * n)};  // bytes
   m_impl->hits.assign(keep_hits ? blocks.block_count() : 0, {});
   std::atomic<std::size_t> blocks_done{0};
@@ -61,6 +62,7 @@ void detection_context::compute_saliency(const std::vector<channel_source>& sour
     if (!w) {
       w = std::make_unique<worker>();
       w->block.set_channels(sources);
+      w->block.set_keep_lists(keep_lists);
     }
     neighbor_block& block = w->block;
     std::vector<std::uint32_t>& candidates = w->candidates;

@@ -19,6 +19,9 @@ std::vector<float> saliency_of(const point_cloud& cloud, const detect_params& pa
   detail::detection_context ctx(cloud, params, {m.name()}, {std::numeric_limits<double>::max()});
   {
     const std::unique_ptr<bound_modality> bound = m.bind(cloud, params);
+    // A measure on sums needs no neighbour lists: the pass skips them.
+    const channel_source src = bound->channels();
+    if (src.positions || src.values) ctx.without_neighbor_lists();
     ctx.compute_saliency({bound->channels()}, [&](const block_view& block, float* const* columns) {
       bound->evaluate(block, 0, params.min_neighbors, columns[0]);
     });

@@ -52,7 +52,8 @@ struct block_kernel_output {
   /// positions first, then the channels.
   double* sums;
   /// Per group of 8 tested points, bit l set when lane l is a neighbour;
-  /// groups follow the ranges in order, point after point.
+  /// groups follow the ranges in order, point after point. nullptr: not
+  /// wanted (only with channel_count 0, i.e. positions alone).
   std::uint8_t* bits;
 };
 
