@@ -27,6 +27,25 @@ check "keypoint file: saliency fields" grep -q "saliency_rgb" "$T/info.txt"
 check "viewer: scalar_keypoint" grep -q "scalar_keypoint" "$T/info.txt"
 check "stdout without outputs" test "$("$CED" detect "$sample" --preset ced3d -q | wc -l)" = 118
 
+# --- The interactive page: from a run, and from clouds written earlier ---
+"$CED" detect "$sample" --preset ced6d --html "$T/view.html" -q
+check "html written" grep -q "const CED_DATA = " "$T/view.html"
+check "html: the run's parameters" grep -q '"min neighbours","5"' "$T/view.html"
+check "html: no external script" sh -c "! grep -qi '<script src' '$T/view.html'"
+"$CED" view "$T/view.ply" -o "$T/from_viewer.html" --threshold xyz=0.01 --threshold rgb=0.1
+check "view: of a viewer cloud" grep -q '"threshold":0.01' "$T/from_viewer.html"
+"$CED" view "$T/kp.ply" -o "$T/from_kp.html"
+check "view: of a keypoint cloud" grep -q '"threshold":null' "$T/from_kp.html"
+expect_exit 2 "html-max-points must be at least 1" "html: zero points" -- \
+  detect "$sample" --preset ced6d --html "$T/x.html" --html-max-points 0
+expect_exit 2 "html shows the whole cloud" "html: not with tiles" -- \
+  detect "$sample" --preset ced6d --html "$T/x.html" --tile-size 1
+expect_exit 2 "no saliency_nope field" "view: unknown threshold name" -- \
+  view "$T/view.ply" -o "$T/x.html" --threshold nope=1
+expect_exit 2 "NAME=VALUE" "view: bad threshold" -- view "$T/view.ply" -o "$T/x.html" --threshold xyz
+expect_exit 1 "missing.ply" "view: missing input" -- view "$T/missing.ply" -o "$T/x.html"
+check "view: no page after errors" test ! -e "$T/x.html"
+
 # --- The same cloud in every format gives the same keypoints ---
 for ext in pcd csv; do
   "$CED" convert "$sample" "$T/sample.$ext"

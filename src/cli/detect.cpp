@@ -26,6 +26,7 @@ detect_outputs::detect_outputs(const detect_options& o) {
   viewer = open(o.viewer);
   png = open(o.png);
   summary = open(o.summary);
+  html = open(o.html);
 }
 
 ced::io::atomic_output_file* detect_outputs::open(const std::string& path) {
@@ -52,6 +53,7 @@ void check_numbers(const detect_options& o, detect_plan& plan) {
   if (o.min_neighbors < 0) throw usage_error("--min-neighbors must be >= 0");
   if (o.threads < 0) throw usage_error("--threads must be >= 0");
   if (o.voxel < 0 || !std::isfinite(o.voxel)) throw usage_error("--voxel must be a positive size in metres");
+  if (o.html_max_points < 1) throw usage_error("--html-max-points must be at least 1");
   params.min_neighbors = static_cast<std::uint32_t>(o.min_neighbors);
   params.threads = static_cast<unsigned>(o.threads);
   ced::detect_params check = params;
@@ -98,7 +100,7 @@ ced::render_options render_view(const detect_options& o) {
 ced::field_selection needed_fields(const detect_options& o, const std::vector<ced::any_modality>& modalities) {
   if (!o.output.empty() || !o.viewer.empty()) return {};
   std::vector<std::string> names;
-  if (modalities.empty() || !o.png.empty()) names = ced::rgb_field_names();
+  if (modalities.empty() || !o.png.empty() || !o.html.empty()) names = ced::rgb_field_names();
   for (const auto& m : modalities) {
     const auto f = m.fields();
     if (!f) return {};  // a modality that does not say: everything
@@ -223,6 +225,11 @@ command add_detect_command(CLI::App& app, std::function<int(const detect_options
   det->add_option("--png", o->png, "Picture of the cloud with the keypoints as red discs");
   det->add_option("--view", o->view, "View for --png: top, front or iso (default iso)");
   det->add_option("--png-size", o->png_size, "Size for --png, WIDTHxHEIGHT (default 1280x960)");
+  det->add_option("--html", o->html,
+                  "Interactive page (one offline HTML file): orbit the cloud, colour it by saliency, inspect points");
+  det->add_option("--html-max-points", o->html_max_points,
+                  "For --html: draw at most this many points, subsampling larger clouds (keypoints always drawn; "
+                  "default 2000000)");
   det->add_option("--summary", o->summary, "JSON summary: input, parameters used, counts, per-stage times");
   det->add_flag("-q,--quiet", o->quiet, "Print nothing on stderr");
   det->add_option("--tile-size", o->tile_size,
@@ -241,6 +248,7 @@ command add_detect_command(CLI::App& app, std::function<int(const detect_options
   det->footer(
       "Examples:\n"
       "  ced detect scan.ply --preset ced6d --indices kp.txt --png kp.png\n"
+      "  ced detect scan.ply --preset ced6d --html view.html\n"
       "  ced detect raw.pcd --voxel 0.01 --preset ced6d -o keypoints.ply\n"
       "  ced detect tile.las -m xyz:0.2 -m 'intensity:0.05' --radius auto --summary run.json\n"
       "  ced detect field.ply -m xyz:0.2 -m 'bands(NIR,RED,REG):0.1' --radius 0.5 --viewer view.ply\n"

@@ -29,7 +29,8 @@ struct detect_options {
   double voxel = 0;
   int min_neighbors = 5;
   int threads = 0;
-  std::string indices, indices_original, output, viewer, png, summary;
+  std::string indices, indices_original, output, viewer, png, summary, html;
+  long long html_max_points = 2000000;
   std::string view = "iso", png_size = "1280x960";
   bool quiet = false;
   // Tiles (tiled.cpp): one process with a tile cache, or one tile of a plan.
@@ -55,7 +56,7 @@ struct detect_plan {
 struct detect_outputs {
   std::vector<std::unique_ptr<ced::io::atomic_output_file>> files;
   ced::io::atomic_output_file *indices = nullptr, *original = nullptr, *keypoints = nullptr, *viewer = nullptr,
-                              *png = nullptr, *summary = nullptr;
+                              *png = nullptr, *summary = nullptr, *html = nullptr;
 
   explicit detect_outputs(const detect_options& o);
   ced::io::atomic_output_file* open(const std::string& path);

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "ced/ced.hpp"
+#include "ced/html.hpp"
 #include "ced/io/io.hpp"
 #include "ced/render.hpp"
 #include "common.hpp"
@@ -141,6 +142,40 @@ nlohmann::json summary_json(const detect_options& o, const detect_plan& plan, co
   return j;
 }
 
+std::string number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+/// --html: the page's text beside the cloud (the run's parameters and counts).
+ced::html_options html_options_of(const detect_options& o, const detect_plan& plan, const detect_input& in,
+                                  const ced::detection_result& r) {
+  ced::html_options h;
+  h.title = "ced: " + std::to_string(r.keypoints.size()) + " keypoints";
+  h.source = o.input;
+  h.max_points = static_cast<std::size_t>(o.html_max_points);
+  h.spacing = plan.resolution;
+  std::size_t candidates = 0;
+  for (auto c : r.candidate) candidates += c;
+  h.info.push_back(
+      {"points", std::to_string(in.cloud.size()) + (o.voxel > 0 ? " (voxel " + number(o.voxel) + ")" : "")});
+  for (std::size_t m = 0; m < r.names.size(); ++m) {
+    std::size_t c = 0;
+    for (float v : r.saliency[m]) c += v >= r.thresholds[m];
+    h.info.push_back({r.names[m], "t = " + number(r.thresholds[m]) + ", " + std::to_string(c) + " candidates"});
+  }
+  h.info.push_back({"radius", number(plan.params.radius) + (plan.auto_radius ? " (auto)" : "")});
+  h.info.push_back({"NMS radius", number(plan.params.nms_radius)});
+  h.info.push_back({"min neighbours", std::to_string(plan.params.min_neighbors)});
+  h.info.push_back({"candidates", std::to_string(candidates)});
+  h.info.push_back({"keypoints", std::to_string(r.keypoints.size())});
+  char ms[32];
+  std::snprintf(ms, sizeof ms, "%.1f ms", r.times.total_ms());
+  h.info.push_back({"detect time", ms});
+  return h;
+}
+
 }  // namespace
 
 void write_outputs(const detect_options& o, const detect_plan& plan, const detect_input& in,
@@ -156,6 +191,8 @@ void write_outputs(const detect_options& o, const detect_plan& plan, const detec
     const auto rgb = ced::render_rgb(in.cloud, r.keypoints, plan.view, w, h);
     out.png->stream() << ced::encode_png(rgb, w, h);
   }
+  if (out.html)
+    out.html->stream() << ced::html_page(in.cloud, r.keypoints, ced::html_layers(r), html_options_of(o, plan, in, r));
   if (out.summary) out.summary->stream() << summary_json(o, plan, in, r).dump(2) << '\n';
   for (auto& file : out.files) file->commit();
 }

@@ -31,6 +31,7 @@ int main(int argc, char** argv) {
   const command convert = add_convert_command(app);
   const command plan = add_plan_command(app);
   const command merge = add_merge_command(app);
+  const command view = add_view_command(app);
 
   ced::io::remove_temporaries_on_signals();  // an interrupted run leaves no partial output
   std::vector<std::string> args(argv + 1, argv + argc);
@@ -47,7 +48,8 @@ int main(int argc, char** argv) {
     return app.exit(e) == 0 ? exit_ok : exit_usage;
   }
   try {
-    for (const command* c : {&detect, &info, &repeatability, &registration, &convert, &modalities, &plan, &merge})
+    for (const command* c :
+         {&detect, &info, &repeatability, &registration, &convert, &modalities, &plan, &merge, &view})
       if (*c->app) return c->run();
   } catch (const usage_error& e) {
     std::cerr << "ced: error: " << e.what() << "\n";

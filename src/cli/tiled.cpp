@@ -67,6 +67,7 @@ std::uint64_t parse_size(const std::string& text, const std::string& option) {
 ced::tiled_request request_from(const detect_options& o, detect_plan& plan) {
   if (!o.viewer.empty()) throw usage_error("--viewer writes the whole cloud: not with --tile-size or --memory-limit");
   if (!o.png.empty()) throw usage_error("--png draws the whole cloud: not with --tile-size or --memory-limit");
+  if (!o.html.empty()) throw usage_error("--html shows the whole cloud: not with --tile-size or --memory-limit");
   if (o.voxel > 0) throw usage_error("--voxel is not available with --tile-size or --memory-limit");
   if (plan.auto_radius)
     throw usage_error("--radius auto needs the whole cloud: give --radius (or --preset) with --tile-size");
@@ -267,7 +268,8 @@ int run_detect_tiled(const detect_options& o, detect_plan& plan, detect_outputs&
 int run_detect_plan_tile(const detect_options& o) {
   if (o.tile < 0) throw usage_error("--plan needs --tile ID (a tile id of the plan)");
   if (o.output.empty()) throw usage_error("--plan --tile writes the tile's part: give -o PART");
-  if (!o.indices.empty() || !o.indices_original.empty() || !o.viewer.empty() || !o.png.empty() || !o.summary.empty())
+  if (!o.indices.empty() || !o.indices_original.empty() || !o.viewer.empty() || !o.png.empty() || !o.summary.empty() ||
+      !o.html.empty())
     throw usage_error("--plan --tile writes only the tile's part (-o); `ced merge` writes the outputs");
   if (!o.input.empty()) throw usage_error("--plan names the input: give no input file with it");
   load_plugins(o.plugins);
