@@ -151,6 +151,33 @@ float auto_point_size(const projected& p, const viewport& vp, int w, int h) {
   return static_cast<float>(std::clamp(std::round(spacing * 1.5), 1.0, 10.0));
 }
 
+/// Automatic keypoint diameter: 40 % of the typical distance between the
+/// keypoints on screen (the area the cloud covers, in cells of the point
+/// size, shared among them), at least 4 pixels and at most the default of a
+/// sparse set (3 × the point size, at least 5): dense keypoints on a large
+/// scene stay apart instead of covering it.
+double auto_keypoint_size(const projected& p, const viewport& vp, int w, int h, float point_size,
+                          const std::vector<std::uint32_t>& keypoints) {
+  const double sparse = std::max(5.0, 3.0 * point_size);
+  std::size_t shown = 0;
+  for (std::uint32_t k : keypoints) shown += p.ok[k];
+  if (shown == 0) return sparse;
+  const double cell = std::max(2.0, double(point_size));
+  const auto gw = static_cast<std::size_t>(w / cell) + 1, gh = static_cast<std::size_t>(h / cell) + 1;
+  std::vector<std::uint8_t> covered(gw * gh, 0);
+  std::size_t cells = 0;
+  for (std::size_t i = 0; i < p.ok.size(); ++i) {
+    if (!p.ok[i]) continue;
+    const double x = vp.x(p.u[i]) / cell, y = vp.y(p.v[i]) / cell;
+    if (!(x >= 0 && y >= 0 && x < double(gw) && y < double(gh))) continue;
+    std::uint8_t& c = covered[static_cast<std::size_t>(y) * gw + static_cast<std::size_t>(x)];
+    cells += c == 0;
+    c = 1;
+  }
+  const double spacing = std::sqrt(double(cells) * cell * cell / double(shown));
+  return std::clamp(std::round(spacing / 2.5), 4.0, sparse);
+}
+
 /// Pixel offsets of a filled disc (a square for diameters below 3).
 std::vector<std::array<int, 2>> stamp(int size) {
   std::vector<std::array<int, 2>> offsets;
@@ -166,7 +193,8 @@ std::vector<std::array<int, 2>> stamp(int size) {
 void draw_keypoint(std::vector<std::uint8_t>& rgb, int w, int h, double cx, double cy, double diameter,
                    const std::array<std::uint8_t, 3>& fill) {
   const std::array<double, 3> outline{30, 30, 30};
-  const double r = 0.5 * diameter, border = std::max(1.0, 0.12 * diameter);
+  // Small discs get a hairline outline, so that their fill still shows.
+  const double r = 0.5 * diameter, border = diameter >= 7 ? std::max(1.0, 0.12 * diameter) : 0.6;
   const int x0 = std::max(0, static_cast<int>(std::floor(cx - r - 1))),
             x1 = std::min(w - 1, static_cast<int>(cx + r + 1));
   const int y0 = std::max(0, static_cast<int>(std::floor(cy - r - 1))),
@@ -199,6 +227,9 @@ std::vector<std::uint8_t> render_rgb(const point_cloud& cloud, const std::vector
     if (k >= cloud.size())
       throw std::invalid_argument("keypoint index " + std::to_string(k) + " is out of range for a cloud of " +
                                   std::to_string(cloud.size()) + " points");
+  if (!options.point_colors.empty() && options.point_colors.size() != 3 * cloud.size())
+    throw std::invalid_argument("point_colors holds " + std::to_string(options.point_colors.size()) +
+                                " bytes, not 3 per point (" + std::to_string(cloud.size()) + " points)");
   width = w;
   height = h;
   const std::size_t npix = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
@@ -212,8 +243,9 @@ std::vector<std::uint8_t> render_rgb(const point_cloud& cloud, const std::vector
     const double base_margin = 0.04 * std::min(w, h);
     const float point_size = options.point_size_px > 0 ? std::clamp(options.point_size_px, 1.0f, 64.0f)
                                                        : auto_point_size(p, viewport(p, w, h, base_margin), w, h);
-    const double kp_size =
-        options.keypoint_size_px > 0 ? std::min(options.keypoint_size_px, 256.0f) : std::max(5.0f, 3.0f * point_size);
+    const double kp_size = options.keypoint_size_px > 0
+                               ? std::min(options.keypoint_size_px, 256.0f)
+                               : auto_keypoint_size(p, viewport(p, w, h, base_margin), w, h, point_size, keypoints);
     const viewport vp(p, w, h, std::max(base_margin, 0.5 * kp_size + 2));
 
     // Z-buffer pass.
@@ -222,7 +254,7 @@ std::vector<std::uint8_t> render_rgb(const point_cloud& cloud, const std::vector
     std::vector<std::uint8_t> colour(3 * npix);
     const auto rgb_fields = find_rgb_fields(cloud);
     std::vector<channel> channels;
-    if (rgb_fields[0]) {
+    if (rgb_fields[0] && options.point_colors.empty()) {
       const auto scales = rgb::scale(rgb_fields, std::nullopt);
       for (std::size_t k = 0; k < 3; ++k) channels.emplace_back(rgb_fields[k], scales[k]);
     }
@@ -233,7 +265,9 @@ std::vector<std::uint8_t> render_rgb(const point_cloud& cloud, const std::vector
       if (!p.ok[i]) continue;
       const int x = static_cast<int>(std::floor(vp.x(p.u[i]))), y = static_cast<int>(std::floor(vp.y(p.v[i])));
       std::uint8_t c[3];
-      if (!channels.empty()) {
+      if (!options.point_colors.empty()) {
+        for (int k = 0; k < 3; ++k) c[k] = options.point_colors[3 * i + std::size_t(k)];
+      } else if (!channels.empty()) {
         for (int k = 0; k < 3; ++k) c[k] = static_cast<std::uint8_t>(channels[k](i) * 255.0f + 0.5f);
       } else {  // grey: near points dark, far points fading towards the background
         const double t = (p.dmax - p.d[i]) / drange;
@@ -284,6 +318,39 @@ std::vector<std::uint8_t> render_rgb(const point_cloud& cloud, const std::vector
   }
 
   return rgb;
+}
+
+std::vector<std::uint8_t> colour_map(const std::vector<float>& values, double lo, double hi) {
+  // viridis, five stops, linear in between
+  static const double stops[5][3] = {{0.267, 0.005, 0.329},
+                                     {0.229, 0.322, 0.546},
+                                     {0.128, 0.567, 0.551},
+                                     {0.369, 0.789, 0.383},
+                                     {0.993, 0.906, 0.144}};
+  std::vector<std::uint8_t> out(3 * values.size());
+  const double span = hi > lo ? hi - lo : 1.0;
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    double t = std::isfinite(values[i]) ? std::clamp((values[i] - lo) / span, 0.0, 1.0) * 4 : 0.0;
+    const int a = std::min(3, static_cast<int>(t));
+    t -= a;
+    for (int k = 0; k < 3; ++k)
+      out[3 * i + std::size_t(k)] =
+          static_cast<std::uint8_t>(255.0 * (stops[a][k] + t * (stops[a + 1][k] - stops[a][k])) + 0.5);
+  }
+  return out;
+}
+
+std::vector<std::uint8_t> side_by_side(const std::vector<std::uint8_t>& a, int wa, const std::vector<std::uint8_t>& b,
+                                       int wb, int h) {
+  if (a.size() != std::size_t(wa) * std::size_t(h) * 3 || b.size() != std::size_t(wb) * std::size_t(h) * 3)
+    throw std::invalid_argument("side_by_side: the images do not match their sizes");
+  std::vector<std::uint8_t> out;
+  out.reserve(a.size() + b.size());
+  for (int y = 0; y < h; ++y) {
+    out.insert(out.end(), a.begin() + 3 * std::ptrdiff_t(y) * wa, a.begin() + 3 * std::ptrdiff_t(y + 1) * wa);
+    out.insert(out.end(), b.begin() + 3 * std::ptrdiff_t(y) * wb, b.begin() + 3 * std::ptrdiff_t(y + 1) * wb);
+  }
+  return out;
 }
 
 std::string encode_png(const std::vector<std::uint8_t>& rgb, int w, int h) {

@@ -27,6 +27,18 @@ check "keypoint file: saliency fields" grep -q "saliency_rgb" "$T/info.txt"
 check "viewer: scalar_keypoint" grep -q "scalar_keypoint" "$T/info.txt"
 check "stdout without outputs" test "$("$CED" detect "$sample" --preset ced3d -q | wc -l)" = 118
 
+# --- Pictures: colours by saliency or height, a second view from above ---
+"$CED" detect "$sample" --preset ced6d --png "$T/sal.png" --png-color saliency:xyz --png-top -q
+check "png-top: twice as wide" test "$(head -c 24 "$T/sal.png" | od -An -tu1 -j16 | tr -s ' ' | cut -d' ' -f2-5)" = "0 0 10 0"
+"$CED" detect "$sample" --preset ced6d --png "$T/h.png" --png-color height -q
+check "png-color height" test -s "$T/h.png"
+check "png-color changes the picture" sh -c "! cmp -s '$T/h.png' '$T/kp.png'"
+expect_exit 2 "no such modality in this run (xyz, rgb)" "png-color: unknown modality" -- \
+  detect "$sample" --preset ced6d --png "$T/x.png" --png-color saliency:nope
+expect_exit 2 "rgb, height or saliency:NAME" "png-color: bad value" -- \
+  detect "$sample" --png "$T/x.png" --png-color blue
+check "png-color: no picture after errors" test ! -e "$T/x.png"
+
 # --- The interactive page: from a run, and from clouds written earlier ---
 "$CED" detect "$sample" --preset ced6d --html "$T/view.html" -q
 check "html written" grep -q "const CED_DATA = " "$T/view.html"

@@ -178,6 +178,83 @@ TEST(Render, CustomColoursAndSizes) {
   EXPECT_EQ(corner[0] + corner[1] + corner[2], 0);
 }
 
+TEST(Render, KeypointMarkersShrinkWithTheirDensity) {
+  // A finer grid (161 x 161 points over 2 x 2) seen from above at 800 x 800.
+  point_cloud c;
+  for (int r = 0; r <= 160; ++r)
+    for (int k = 0; k <= 160; ++k) c.push_back(-1 + 0.0125f * k, -1 + 0.0125f * r, 0);
+  render_options o;
+  o.width = o.height = 800;
+  o.view = view_direction::top;
+  o.point_size_px = 4;
+  // Red pixels a keypoint: a few keypoints get the sparse default (12 px
+  // discs, about 57 red pixels inside their outline); every 4th point in
+  // each direction (1681 keypoints, ~19 px apart) gets discs of about
+  // 0.4 x 19 = 7-8 px that do not touch.
+  std::vector<std::uint32_t> few = {0, 80 * 161 + 80, 160 * 161 + 160}, dense;
+  for (int r = 0; r <= 160; r += 4)
+    for (int k = 0; k <= 160; k += 4) dense.push_back(static_cast<std::uint32_t>(r * 161 + k));
+  const image a = render(c, few, o), b = render(c, dense, o);
+  const double per_few = red_pixels(a, 0, 0, a.w, a.h) / double(few.size());
+  const double per_dense = red_pixels(b, 0, 0, b.w, b.h) / double(dense.size());
+  EXPECT_GT(per_few, 40) << per_few << " " << per_dense;
+  EXPECT_LT(per_dense, 0.7 * per_few) << per_few << " " << per_dense;
+  EXPECT_GT(per_dense, 8);
+  // Apart: the pixel between two neighbouring keypoints is not red.
+  const image& img = b;
+  int gaps = 0, checked = 0;
+  for (int y = 100; y < 700; y += 37) {
+    for (int x = 100; x < 700; ++x)
+      if (is_keypoint_red(img.at(x, y))) {
+        int e = x;
+        while (e < img.w && is_keypoint_red(img.at(e, y))) ++e;
+        const int f = std::min(img.w - 1, e + 2);
+        ++checked;
+        gaps += !is_keypoint_red(img.at(f, y)) || !is_keypoint_red(img.at(e, y));
+        x = e;
+      }
+  }
+  EXPECT_GT(checked, 10);
+  EXPECT_EQ(gaps, checked);
+  // A given size still wins.
+  o.keypoint_size_px = 15;
+  EXPECT_GT(red_pixels(render(c, dense, o), 0, 0, 800, 800) / double(dense.size()), 0.9 * per_few);
+}
+
+TEST(Render, PointColoursAndTwoViews) {
+  const point_cloud c = grid(true);
+  render_options o;
+  o.width = o.height = 120;
+  o.view = view_direction::top;
+  std::vector<float> x;
+  for (std::size_t i = 0; i < c.size(); ++i) x.push_back(c.position(i)[0]);
+  o.point_colors = ced::colour_map(x, -1, 1);
+  ASSERT_EQ(o.point_colors.size(), 3 * c.size());
+  // viridis: purple at the low end (left), yellow at the high end (right).
+  const image img = render(c, {}, o);
+  const std::uint8_t* left = img.at(12, 60);
+  const std::uint8_t* right = img.at(107, 60);
+  EXPECT_GT(left[2], left[1]) << int(left[0]) << "," << int(left[1]) << "," << int(left[2]);
+  EXPECT_GT(right[0], 150);
+  EXPECT_GT(right[1], 150);
+  EXPECT_LT(right[2], 120);
+  const auto ends = ced::colour_map({-5.f, 0.f, 7.f, std::nanf("")}, 0, 1);
+  EXPECT_EQ(std::vector<std::uint8_t>(ends.begin(), ends.begin() + 3), std::vector<std::uint8_t>({68, 1, 84}));
+  EXPECT_EQ(std::vector<std::uint8_t>(ends.begin() + 3, ends.begin() + 6), std::vector<std::uint8_t>({68, 1, 84}));
+  EXPECT_EQ(std::vector<std::uint8_t>(ends.begin() + 6, ends.begin() + 9), std::vector<std::uint8_t>({253, 231, 37}));
+  o.point_colors.pop_back();
+  int w = 0, h = 0;
+  EXPECT_THROW(ced::render_rgb(c, {}, o, w, h), std::invalid_argument);
+  // Side by side: rows of a then b.
+  const std::vector<std::uint8_t> a(3 * 2 * 2, 10), b(3 * 3 * 2, 20);
+  const auto ab = ced::side_by_side(a, 2, b, 3, 2);
+  ASSERT_EQ(ab.size(), 3u * 5 * 2);
+  EXPECT_EQ(ab[0], 10);
+  EXPECT_EQ(ab[3 * 2], 20);
+  EXPECT_EQ(ab[3 * 5], 10);
+  EXPECT_THROW(ced::side_by_side(a, 3, b, 3, 2), std::invalid_argument);
+}
+
 TEST(Render, NonFinitePointsAreIgnored) {
   point_cloud c = grid();
   c.push_back(std::nanf(""), 0, 0);

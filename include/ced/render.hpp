@@ -22,8 +22,14 @@ struct render_options {
   int width = 1280;  ///< image size in pixels, 1..16384
   int height = 960;
   view_direction view = view_direction::iso;
-  float point_size_px = 0;     ///< point diameter; 0 = automatic from the projected density
-  float keypoint_size_px = 0;  ///< keypoint disc diameter; 0 = automatic (3x point size, at least 5)
+  float point_size_px = 0;  ///< point diameter; 0 = automatic from the projected density
+  /// Keypoint disc diameter; 0 = automatic: 40 % of the keypoints' typical
+  /// distance on screen, from 4 pixels up to 3 × the point size (at least
+  /// 5), so that dense keypoints on a large scene stay apart.
+  float keypoint_size_px = 0;
+  /// Colours of the points (3 bytes a point, e.g. from colour_map()) in
+  /// place of the cloud's; empty = the cloud's colour fields, or grey.
+  std::vector<std::uint8_t> point_colors;
   std::array<std::uint8_t, 3> background{255, 255, 255};
   std::array<std::uint8_t, 3> keypoint_color{230, 20, 20};
 };
@@ -43,6 +49,14 @@ struct render_options {
 /// keypoint index out of range. Threading: reentrant.
 std::vector<std::uint8_t> render_rgb(const point_cloud& cloud, const std::vector<std::uint32_t>& keypoints,
                                      const render_options& options, int& width, int& height);
+
+/// 3 bytes a value: `values` mapped from [lo, hi] (clamped) to the viridis
+/// colour map, for render_options::point_colors. NaN maps to lo.
+std::vector<std::uint8_t> colour_map(const std::vector<float>& values, double lo, double hi);
+
+/// Two RGB8 images of the same height, side by side (a left, b right).
+std::vector<std::uint8_t> side_by_side(const std::vector<std::uint8_t>& a, int width_a,
+                                       const std::vector<std::uint8_t>& b, int width_b, int height);
 
 /// Encodes an RGB8 image (row-major, top row first) as PNG bytes.
 std::string encode_png(const std::vector<std::uint8_t>& rgb, int width, int height);

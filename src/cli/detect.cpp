@@ -95,6 +95,17 @@ ced::render_options render_view(const detect_options& o) {
   return view;
 }
 
+/// --png-color: rgb, height or saliency:NAME of a chosen modality (checked
+/// again after detection when the default preset is chosen by the cloud).
+void check_png_color(const detect_options& o, const std::vector<ced::any_modality>& modalities) {
+  if (o.png_color == "rgb" || o.png_color == "height") return;
+  if (o.png_color.rfind("saliency:", 0) != 0)
+    throw usage_error("--png-color must be rgb, height or saliency:NAME, got '" + o.png_color + "'");
+  std::vector<std::string> names;
+  for (const auto& m : modalities) names.push_back(m.name());
+  if (!modalities.empty()) png_saliency_index(o.png_color.substr(9), names);
+}
+
 /// The fields to read: those the modalities and the outputs need. -o and
 /// --viewer write every field; --png and the default preset look for colour.
 ced::field_selection needed_fields(const detect_options& o, const std::vector<ced::any_modality>& modalities) {
@@ -117,6 +128,7 @@ detect_plan make_plan(const detect_options& o) {
   check_numbers(o, plan);
   plan.modalities = chosen_modalities(o);
   plan.view = render_view(o);
+  check_png_color(o, plan.modalities);
   if (!o.output.empty()) plan.out_format = ced::io::format_of(o.output);
   if (!o.viewer.empty() && ced::io::format_of(o.viewer) != ced::io::file_format::ply)
     throw usage_error("--viewer writes PLY: give it a .ply file name");
@@ -225,6 +237,9 @@ command add_detect_command(CLI::App& app, std::function<int(const detect_options
   det->add_option("--png", o->png, "Picture of the cloud with the keypoints as red discs");
   det->add_option("--view", o->view, "View for --png: top, front or iso (default iso)");
   det->add_option("--png-size", o->png_size, "Size for --png, WIDTHxHEIGHT (default 1280x960)");
+  det->add_option("--png-color", o->png_color,
+                  "Colours for --png: rgb (the cloud's, default), height, or saliency:NAME (a modality's, viridis)");
+  det->add_flag("--png-top", o->png_top, "For --png: a second view, from above, beside the first");
   det->add_option("--html", o->html,
                   "Interactive page (one offline HTML file): orbit the cloud, colour it by saliency, inspect points");
   det->add_option("--html-max-points", o->html_max_points,

@@ -31,7 +31,8 @@ struct detect_options {
   int threads = 0;
   std::string indices, indices_original, output, viewer, png, summary, html;
   long long html_max_points = 2000000;
-  std::string view = "iso", png_size = "1280x960";
+  std::string view = "iso", png_size = "1280x960", png_color = "rgb";
+  bool png_top = false;
   bool quiet = false;
   // Tiles (tiled.cpp): one process with a tile cache, or one tile of a plan.
   std::string tile_size, memory_limit, work_dir, plan;
@@ -74,6 +75,10 @@ struct detect_input {
 
 /// The options' checks and the modalities, before any file is read (detect.cpp).
 detect_plan make_plan(const detect_options& o);
+
+/// The index of the modality that --png-color saliency:NAME names (its name
+/// or its column name); throws usage_error listing the names otherwise.
+std::size_t png_saliency_index(const std::string& name, const std::vector<std::string>& names);
 
 /// The column of a modality's saliency in output clouds: its name with every
 /// character but letters and digits replaced by '_'.

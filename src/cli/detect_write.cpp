@@ -41,6 +41,15 @@ void write_keypoint_cloud(std::ostream& out, ced::point_cloud kp, const std::vec
   ced::io::write_cloud(out, keypoint_cloud(std::move(kp), names, saliency), format);
 }
 
+std::size_t png_saliency_index(const std::string& name, const std::vector<std::string>& names) {
+  std::string known;
+  for (std::size_t m = 0; m < names.size(); ++m) {
+    if (names[m] == name || column_name(names[m]) == name) return m;
+    known += (m ? ", " : "") + names[m];
+  }
+  throw usage_error("--png-color saliency:" + name + ": no such modality in this run (" + known + ")");
+}
+
 namespace {
 
 /// Adds one saliency field per modality to `c`: of every point, or of `subset`'s.
@@ -142,6 +151,32 @@ nlohmann::json summary_json(const detect_options& o, const detect_plan& plan, co
   return j;
 }
 
+/// --png-color: the points' colours (empty: the cloud's own).
+std::vector<std::uint8_t> png_colors(const detect_options& o, const ced::point_cloud& cloud,
+                                     const ced::detection_result& r) {
+  if (o.png_color == "rgb") return {};
+  std::vector<float> values;
+  double lo = 0, hi = 0;
+  if (o.png_color == "height") {
+    for (std::size_t i = 0; i < cloud.size(); ++i) values.push_back(cloud.position(i)[2]);
+    if (!values.empty()) {
+      lo = *std::min_element(values.begin(), values.end());
+      hi = *std::max_element(values.begin(), values.end());
+    }
+  } else {
+    const std::size_t m = png_saliency_index(o.png_color.substr(9), r.names);
+    values = r.saliency[m];
+    // 0 to the 99th percentile (or the threshold, if larger): a few peaks
+    // do not wash out the rest.
+    std::vector<float> sorted = values;
+    const auto at = sorted.begin() + std::ptrdiff_t(sorted.size() * 99 / 100);
+    if (!sorted.empty()) std::nth_element(sorted.begin(), at, sorted.end());
+    hi = std::max(sorted.empty() ? 0.0 : double(*at), r.thresholds[m]);
+  }
+  if (!o.quiet) std::fprintf(stderr, "ced: --png-color %s: viridis from %g to %g\n", o.png_color.c_str(), lo, hi);
+  return ced::colour_map(values, lo, hi);
+}
+
 std::string number(double v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%g", v);
@@ -187,8 +222,17 @@ void write_outputs(const detect_options& o, const detect_plan& plan, const detec
   if (out.keypoints) write_keypoints(out.keypoints->stream(), in.cloud, r, plan.out_format);
   if (out.viewer) write_viewer(out.viewer->stream(), in.cloud, r);
   if (out.png) {
+    ced::render_options view = plan.view;
+    view.point_colors = png_colors(o, in.cloud, r);
     int w = 0, h = 0;
-    const auto rgb = ced::render_rgb(in.cloud, r.keypoints, plan.view, w, h);
+    auto rgb = ced::render_rgb(in.cloud, r.keypoints, view, w, h);
+    if (o.png_top) {  // the view from above, beside
+      view.view = ced::view_direction::top;
+      int w2 = 0, h2 = 0;
+      const auto top = ced::render_rgb(in.cloud, r.keypoints, view, w2, h2);
+      rgb = ced::side_by_side(rgb, w, top, w2, h);
+      w += w2;
+    }
     out.png->stream() << ced::encode_png(rgb, w, h);
   }
   if (out.html)
