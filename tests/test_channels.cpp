@@ -238,3 +238,19 @@ TEST(Channels, RequireFiniteNamesModalityFieldAndPoint) {
       EXPECT_TRUE(names_point(what, at));
     }
 }
+
+TEST(Channels, EightBitValuesIn16BitFields) {
+  ced::point_cloud c = line_cloud(4);
+  c.add_field("a", ced::scalar_type::uint16, std::vector<double>{0, 10, 255, 3});
+  c.add_field("b", ced::scalar_type::uint16, std::vector<double>{0, 10, 256, 3});
+  c.add_field("c", ced::scalar_type::uint8, std::vector<double>{0, 10, 255, 3});
+  c.add_field("d", ced::scalar_type::int16, std::vector<double>{0, -1, 25, 3});
+  EXPECT_TRUE(ced::holds_8bit_in_16(c.get_field("a")));
+  EXPECT_FALSE(ced::holds_8bit_in_16(c.get_field("b")));
+  EXPECT_FALSE(ced::holds_8bit_in_16(c.get_field("c")));  // 8-bit already
+  EXPECT_FALSE(ced::holds_8bit_in_16(c.get_field("d")));  // negative
+  // A tile judges by the whole cloud's range.
+  ced::field tile = c.get_field("a");
+  tile.whole_range = ced::value_range{0, 1000};
+  EXPECT_FALSE(ced::holds_8bit_in_16(tile));
+}

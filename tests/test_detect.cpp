@@ -404,3 +404,26 @@ TEST(Detect, ProgressCanCancelOnAnyThreadCount) {
     EXPECT_EQ(again.saliency, expected.saliency);
   }
 }
+
+TEST(Detect, IntensityOf8BitValuesIn16BitFieldsIsScaledBy255) {
+  // LAS files often store 8-bit intensities in their 16-bit field: like rgb,
+  // intensity then scales by 255, so the same values in uint8 and uint16
+  // give the same saliency, with no range=auto needed.
+  ced::point_cloud c = ced_test::make_room(3000, 7, 0.003f);
+  std::vector<double> v;
+  for (std::size_t i = 0; i < c.size(); ++i) v.push_back(double((i * 37) % 256));
+  c.add_field("i8", ced::scalar_type::uint8, v);
+  c.add_field("i16", ced::scalar_type::uint16, v);
+  ced::detect_params p;
+  p.radius = p.nms_radius = 0.06;
+  const auto as8 = ced::detect(c, p, std::vector<ced::any_modality>{ced::make_modality("intensity(i8):0.1")});
+  const auto as16 = ced::detect(c, p, std::vector<ced::any_modality>{ced::make_modality("intensity(i16):0.1")});
+  EXPECT_EQ(as16.saliency, as8.saliency);
+  EXPECT_EQ(as16.keypoints, as8.keypoints);
+  EXPECT_FALSE(as8.keypoints.empty());
+  // A range given still wins: the whole 16-bit range.
+  const auto wide =
+      ced::detect(c, p, std::vector<ced::any_modality>{ced::make_modality("intensity(i16):0.1,range=0..65535")});
+  for (std::size_t i = 0; i < c.size(); i += 101)
+    EXPECT_NEAR(wide.saliency[0][i], as8.saliency[0][i] * 255.0 / 65535.0, 1e-6) << i;
+}

@@ -30,6 +30,11 @@ struct range_policy {
 /// cloud), else the min..max of `f`'s values.
 value_range resolve_range(const field& f, const range_policy& policy);
 
+/// True when `f` is a 16-bit integer field whose values all lie in [0, 255]
+/// (its whole_range when set, as in a tile): 8-bit data stored in 16 bits,
+/// common in LAS files, which rgb and intensity then scale by 255.
+bool holds_8bit_in_16(const field& f);
+
 /// N×D floats, row-major: the raw values of `fields` (D = fields.size()).
 /// Throws std::invalid_argument naming the field and point when a value is
 /// NaN, infinite or beyond the float range (it would become infinite).

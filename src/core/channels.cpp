@@ -16,6 +16,16 @@
 
 namespace ced {
 
+bool holds_8bit_in_16(const field& f) {
+  if (f.type() != scalar_type::uint16 && f.type() != scalar_type::int16) return false;
+  if (f.whole_range) return f.whole_range->lo >= 0 && f.whole_range->hi <= 255;
+  return f.values.visit([](const auto* v, std::size_t n) {
+    for (std::size_t i = 0; i < n; ++i)
+      if (v[i] > 255 || v[i] < 0) return false;
+    return true;
+  });
+}
+
 range_policy range_policy::parse(std::string_view text, const std::string& option) {
   range_policy p;
   if (text == "auto") {

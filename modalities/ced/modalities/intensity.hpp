@@ -4,7 +4,8 @@
 //
 // Reads the field `intensity` (any case), or another via `field=NAME`.
 // Normalisation as for bands: integer types by their range, floats as they
-// are, or `range=LO..HI` / `range=auto`.
+// are, or `range=LO..HI` / `range=auto`; like rgb, a 16-bit field holding
+// only values in 0..255 is scaled by 255.
 #pragma once
 
 #include "ced/channels.hpp"
@@ -28,7 +29,11 @@ struct intensity {
   std::vector<std::string> fields() const { return {field_name}; }
   centroid_distance<1> bind(const point_cloud& cloud, const detect_params& params) const {
     auto f = require_fields(cloud, {field_name}, name());
-    const value_range r = resolve_range(*f[0], range);
+    // 8-bit intensities in a 16-bit field (LAS files from 8-bit sensors):
+    // by 255, as rgb does, unless a range is given.
+    const value_range r = range.how == range_policy::kind::natural && holds_8bit_in_16(*f[0])
+                              ? value_range{0.0, 255.0}
+                              : resolve_range(*f[0], range);
     return centroid_distance<1>(interleave(f, params.threads), {1.0 / (r.hi - r.lo)}, norm_type::l1);
   }
   static intensity from_spec(modality_spec& s) {

@@ -43,17 +43,7 @@ struct rgb {
   /// Per-channel scale 1/(hi-lo) under `range`, or the default rule above.
   static std::array<double, 3> scale(const std::array<const field*, 3>& f, const std::optional<range_policy>& range) {
     bool eight_bit_in_16 = !range;
-    for (const field* c : f) {
-      if (c->type() != scalar_type::uint16 && c->type() != scalar_type::int16) eight_bit_in_16 = false;
-      if (eight_bit_in_16 && c->whole_range)
-        eight_bit_in_16 = c->whole_range->hi <= 255;
-      else if (eight_bit_in_16)
-        eight_bit_in_16 = c->values.visit([](const auto* v, std::size_t n) {
-          for (std::size_t i = 0; i < n; ++i)
-            if (v[i] > 255) return false;
-          return true;
-        });
-    }
+    for (const field* c : f) eight_bit_in_16 = eight_bit_in_16 && holds_8bit_in_16(*c);
     std::array<double, 3> s{};
     for (std::size_t c = 0; c < 3; ++c) {
       const value_range r =
