@@ -51,6 +51,39 @@ TEST(Cloud, AddFieldAddsAndReplacesByName) {
   EXPECT_TRUE(c.fields()[2].values == (std::vector<double>{-1, -2, -3}));
 }
 
+TEST(Cloud, AddFieldFindsNamesAfterChangesThroughFields) {
+  auto c = line_cloud(2);
+  for (const char* n : {"a", "b", "c", "d"}) c.add_field(n, ced::scalar_type::uint8, std::vector<double>{1, 2});
+  // Removed, renamed and added through fields(): add_field sees all of it.
+  auto& fs = c.fields();
+  fs.erase(fs.begin());                                                     // a
+  fs[0].name = "B";                                                         // b -> B
+  fs.push_back({"e", ced::scalar_type::uint8, std::vector<double>{5, 6}});  // e
+  c.add_field("B", ced::scalar_type::uint8, std::vector<double>{7, 7});
+  c.add_field("e", ced::scalar_type::uint8, std::vector<double>{8, 8});
+  c.add_field("b", ced::scalar_type::uint8, std::vector<double>{9, 9});
+  c.add_field("a", ced::scalar_type::uint8, std::vector<double>{3, 3});
+  EXPECT_EQ(names(c), (std::vector<std::string>{"B", "c", "d", "e", "b", "a"}));
+  EXPECT_TRUE(c.get_field("B").values == (std::vector<double>{7, 7}));
+  EXPECT_TRUE(c.get_field("e").values == (std::vector<double>{8, 8}));
+  // keep_fields, then more: still one field a name.
+  c.keep_fields(ced::field_selection::only({"d", "a"}));
+  c.add_field("d", ced::scalar_type::uint8, std::vector<double>{4, 4});
+  c.add_field("z", ced::scalar_type::uint8, std::vector<double>{0, 0});
+  EXPECT_EQ(names(c), (std::vector<std::string>{"d", "a", "z"}));
+  // A copy keeps its own index.
+  auto copy = c;
+  copy.add_field("z", ced::scalar_type::uint8, std::vector<double>{1, 1});
+  EXPECT_EQ(names(copy), (std::vector<std::string>{"d", "a", "z"}));
+  // Many fields: each added once, each replaced in place.
+  ced::point_cloud wide = line_cloud(1);
+  for (int k = 0; k < 50000; ++k) wide.add_field("f" + std::to_string(k), ced::scalar_type::uint8, {double(k % 7)});
+  for (int k = 0; k < 50000; k += 1000) wide.add_field("f" + std::to_string(k), ced::scalar_type::uint8, {100.0});
+  ASSERT_EQ(wide.fields().size(), 50000u);
+  EXPECT_EQ(wide.fields()[3000].values[0], 100.0);
+  EXPECT_EQ(wide.fields()[3001].values[0], double(3001 % 7));
+}
+
 TEST(Cloud, AddFieldOfTheWrongSizeThrows) {
   auto c = line_cloud(3);
   c.add_field("a", ced::scalar_type::uint8, std::vector<double>{1, 2, 3});

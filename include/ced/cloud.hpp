@@ -15,6 +15,7 @@
 #include <string>
 #include <string_view>
 #include <type_traits>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -336,7 +337,14 @@ class point_cloud {
 
   /// Per-point fields, in file order.
   const std::vector<field>& fields() const noexcept { return m_fields; }
-  std::vector<field>& fields() noexcept { return m_fields; }
+  /// The same, to change: values, ranges, or fields removed or added at
+  /// once. add_field() finds names through an index that this call marks
+  /// for rebuilding; names changed through a reference kept past the next
+  /// add_field() are not seen by it (call fields() again to change names).
+  std::vector<field>& fields() noexcept {
+    m_index_stale = true;
+    return m_fields;
+  }
 
   /// Field by exact name, or nullptr.
   const field* find_field(std::string_view name) const noexcept;
@@ -368,6 +376,10 @@ class point_cloud {
   std::vector<float> m_xyz;
   std::array<double, 3> m_origin{0.0, 0.0, 0.0};
   std::vector<field> m_fields;
+  // add_field's name -> position, so that adding k fields costs O(k), not
+  // O(k^2) (readers add one field a column: 65 536 columns are fine).
+  std::unordered_map<std::string, std::size_t> m_index;
+  bool m_index_stale = false;
 };
 
 /// The origin every reader uses, per axis: the centre of the finite bounding

@@ -96,6 +96,7 @@ void point_cloud::keep_fields(const field_selection& selection) {
   m_fields.erase(
       std::remove_if(m_fields.begin(), m_fields.end(), [&](const field& f) { return !selection.wants(f.name); }),
       m_fields.end());
+  m_index_stale = true;
 }
 
 const field* point_cloud::find_field(std::string_view name) const noexcept {
@@ -149,12 +150,18 @@ field& point_cloud::add_field(std::string name, column values) {
   if (values.size() != size())
     throw std::invalid_argument("field '" + name + "' has " + std::to_string(values.size()) + " values for " +
                                 std::to_string(size()) + " points");
-  for (auto& f : m_fields)
-    if (f.name == name) {
-      f.values = std::move(values);
-      return f;
-    }
+  if (m_index_stale || m_index.size() != m_fields.size()) {
+    m_index.clear();
+    for (std::size_t k = 0; k < m_fields.size(); ++k) m_index.emplace(m_fields[k].name, k);
+    m_index_stale = false;
+  }
+  const auto it = m_index.find(name);
+  if (it != m_index.end() && it->second < m_fields.size() && m_fields[it->second].name == name) {
+    m_fields[it->second].values = std::move(values);
+    return m_fields[it->second];
+  }
   m_fields.emplace_back(std::move(name), std::move(values));
+  m_index.emplace(m_fields.back().name, m_fields.size() - 1);
   return m_fields.back();
 }
 

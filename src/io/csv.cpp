@@ -303,9 +303,9 @@ std::vector<std::string> default_names(std::size_t values, std::size_t line_no, 
 /// columns of x, y and z.
 std::array<std::size_t, 3> check_names(const std::vector<std::string>& names, const std::string& source,
                                        const std::string& file) {
-  // Each column becomes a cloud field, found by linear search: bound the
-  // count so that a long header line cannot cost quadratic time.
-  constexpr std::size_t max_columns = 4096;
+  // Each column becomes a cloud field (found through its name index): the
+  // bound only keeps a header from asking for absurd numbers of fields.
+  constexpr std::size_t max_columns = 65536;
   if (names.size() > max_columns)
     fail(file, source + " names " + std::to_string(names.size()) + " columns (at most " + std::to_string(max_columns) +
                    " are supported)");

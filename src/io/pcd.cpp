@@ -80,9 +80,10 @@ std::optional<scalar_type> pcd_type(char type, std::uint64_t size) noexcept {
 
 bool has_data_line(const header_source& src) { return src.text.substr(0, 4) == "DATA" || src.contains("\nDATA"); }
 
-// Each value becomes a cloud field, found by linear search: the bound keeps a
-// tiny header (COUNT 60000) from costing quadratic time.
-constexpr std::size_t max_values_per_point = 4096;
+// Each value becomes a cloud field (found through its name index, so a tiny
+// header with COUNT 60000 costs linear time); the bound only keeps a header
+// from asking for absurd numbers of fields.
+constexpr std::size_t max_values_per_point = 65536;
 
 /// The header's lines as given, before they are checked together.
 struct header_lines {

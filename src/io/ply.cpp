@@ -16,6 +16,7 @@
 #include <string_view>
 #include <system_error>
 #include <type_traits>
+#include <unordered_set>
 
 #include "scalar_io.hpp"
 #include "stream_support.hpp"
@@ -28,11 +29,12 @@ namespace {
 
 // ---------------------------------------------------------------- utilities
 
-// Header limits. Duplicate names are checked, and vertex properties become
-// cloud fields, by linear search: bounding the counts keeps a small hostile
-// header from costing quadratic time.
-constexpr std::size_t max_elements = 4096;
-constexpr std::size_t max_properties = 4096;
+// Header limits. Duplicate names are checked through sets and vertex
+// properties become cloud fields through the cloud's name index, so time is
+// linear in the header; the bounds only keep a header from asking for absurd
+// numbers of elements or fields.
+constexpr std::size_t max_elements = 65536;
+constexpr std::size_t max_properties = 65536;
 
 double read_value(const unsigned char* p, scalar_type t, bool swap) noexcept {
   double v = 0;
@@ -60,6 +62,7 @@ struct element_desc {
   std::string name;
   std::uint64_t count = 0;
   std::vector<property_desc> props;
+  std::unordered_set<std::string> prop_names;  // for the duplicate check
 };
 
 /// Fails: the file ends after `read` of the `count` records of element e.
@@ -72,6 +75,7 @@ struct element_desc {
 struct ply_header {
   ply_format format = ply_format::ascii;
   std::vector<element_desc> elements;
+  std::unordered_set<std::string> element_names;  // for the duplicate check
   std::size_t body_offset = 0;
 };
 
@@ -123,8 +127,7 @@ void read_element_line(const header_line& l, const std::string& file, ply_header
     fail(file, l.where() + "invalid count '" + std::string(w[2]) + "' for element '" + e.name + "'");
   if (h.elements.size() >= max_elements)
     fail(file, l.where() + "too many elements (more than " + std::to_string(max_elements) + ")");
-  for (const auto& other : h.elements)
-    if (other.name == e.name) fail(file, l.where() + "element '" + e.name + "' is declared twice");
+  if (!h.element_names.insert(e.name).second) fail(file, l.where() + "element '" + e.name + "' is declared twice");
   h.elements.push_back(std::move(e));
 }
 
@@ -156,9 +159,8 @@ void read_property_line(const header_line& l, const std::string& file, ply_heade
   if (e.props.size() >= max_properties)
     fail(file, l.where() + "element '" + e.name + "' has too many properties (more than " +
                    std::to_string(max_properties) + ")");
-  for (const auto& other : e.props)
-    if (other.name == p.name)
-      fail(file, l.where() + "property '" + p.name + "' is declared twice in element '" + e.name + "'");
+  if (!e.prop_names.insert(p.name).second)
+    fail(file, l.where() + "property '" + p.name + "' is declared twice in element '" + e.name + "'");
   e.props.push_back(std::move(p));
 }
 
