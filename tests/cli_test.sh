@@ -27,6 +27,27 @@ check "keypoint file: saliency fields" grep -q "saliency_rgb" "$T/info.txt"
 check "viewer: scalar_keypoint" grep -q "scalar_keypoint" "$T/info.txt"
 check "stdout without outputs" test "$("$CED" detect "$sample" --preset ced3d -q | wc -l)" = 118
 
+# --- --indices-original counts every point of the file, NaN points of
+# organized PCD files included (whole cloud and tiles) ---
+"$CED" convert "$sample" "$T/s.csv"
+# An organized ascii PCD (HEIGHT 2): a NaN point before every 3rd point, and
+# one more to make the count even. The finite points keep their order.
+awk -F, 'NR > 1 { if ((NR - 2) % 3 == 0) print "nan nan nan"; print $1, $2, $3 }' "$T/s.csv" > "$T/rows.txt"
+[ $(( $(wc -l < "$T/rows.txt") % 2 )) = 1 ] && echo "nan nan nan" >> "$T/rows.txt"
+rows=$(wc -l < "$T/rows.txt")
+{ printf 'VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH %d\nHEIGHT 2\n' $((rows / 2))
+  printf 'VIEWPOINT 0 0 0 1 0 0 0\nPOINTS %d\nDATA ascii\n' "$rows"; cat "$T/rows.txt"; } > "$T/org.pcd"
+awk -F, 'NR > 1 { print $1 "," $2 "," $3 }' "$T/s.csv" | sed '1i x,y,z' > "$T/finite.csv"
+"$CED" detect "$T/finite.csv" --preset ced3d --indices "$T/ref.txt" -q
+"$CED" detect "$T/org.pcd" --preset ced3d --indices "$T/org_idx.txt" --indices-original "$T/org_orig.txt" -q
+check "organized PCD: same keypoints as its finite points" cmp -s "$T/ref.txt" "$T/org_idx.txt"
+# The file's own index of the k-th finite point: its line number in rows.txt, less 1.
+awk 'NR == FNR { if ($1 != "nan") f[n++] = FNR - 1; next } { print f[$1] }' "$T/rows.txt" "$T/ref.txt" > "$T/want.txt"
+check "organized PCD: --indices-original counts NaN points" cmp -s "$T/want.txt" "$T/org_orig.txt"
+check "organized PCD: the indices differ from the finite ones" sh -c "! cmp -s '$T/ref.txt' '$T/org_orig.txt'"
+"$CED" detect "$T/org.pcd" --preset ced3d --indices-original "$T/org_tiles.txt" --tile-size 1 -q
+check "organized PCD in tiles: the same original indices" cmp -s "$T/want.txt" "$T/org_tiles.txt"
+
 # --- Pictures: colours by saliency or height, a second view from above ---
 "$CED" detect "$sample" --preset ced6d --png "$T/sal.png" --png-color saliency:xyz --png-top -q
 check "png-top: twice as wide" test "$(head -c 24 "$T/sal.png" | od -An -tu1 -j16 | tr -s ' ' | cut -d' ' -f2-5)" = "0 0 10 0"

@@ -134,6 +134,9 @@ detect_plan make_plan(const detect_options& o) {
     throw usage_error("--viewer writes PLY: give it a .ply file name");
   plan.read_opts = make_read_options(o.format, o.columns);
   plan.read_opts.fields = needed_fields(o, plan.modalities);
+  // Non-finite points are dropped below (and by tiles), after their file
+  // indices are known: --indices-original counts every point of the file.
+  plan.read_opts.keep_nonfinite = true;
   return plan;
 }
 

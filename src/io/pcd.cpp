@@ -550,7 +550,7 @@ pcd_read_info info_of(const pcd_header& h) {
   return info;
 }
 
-point_cloud parse_pcd(std::string_view data, const std::string& file, pcd_read_info* info) {
+point_cloud parse_pcd(std::string_view data, const std::string& file, pcd_read_info* info, bool keep_nonfinite) {
   pcd_header h = parse_header(header_source{data}, file);
   const std::array<std::size_t, 3> axis = find_axes(h, file);
   std::size_t ncols = 0;
@@ -559,7 +559,7 @@ point_cloud parse_pcd(std::string_view data, const std::string& file, pcd_read_i
   read_body(data, h, col_of, cols, file);
   const std::vector<double>* xyz[3] = {&cols[col_of[axis[0]]], &cols[col_of[axis[1]]], &cols[col_of[axis[2]]]};
   const auto declared = static_cast<std::size_t>(h.points);
-  const std::size_t n = drop_nonfinite(cols, xyz, declared);
+  const std::size_t n = keep_nonfinite ? declared : drop_nonfinite(cols, xyz, declared);
   point_cloud cloud = cloud_at(xyz[0]->data(), xyz[1]->data(), xyz[2]->data(), n);
   add_fields(cloud, h, axis, col_of, cols);
   if (info) {
@@ -826,13 +826,14 @@ std::string lzf_decompress(std::string_view input, std::size_t out_size, const s
 
 // ------------------------------------------------------------------- public
 
-point_cloud read_pcd_buffer(std::string_view bytes, const std::string& name_for_errors, pcd_read_info* info) {
-  return parse_pcd(bytes, name_for_errors, info);
+point_cloud read_pcd_buffer(std::string_view bytes, const std::string& name_for_errors, pcd_read_info* info,
+                            bool keep_nonfinite) {
+  return parse_pcd(bytes, name_for_errors, info, keep_nonfinite);
 }
 
-point_cloud read_pcd(const std::string& path, pcd_read_info* info) {
+point_cloud read_pcd(const std::string& path, pcd_read_info* info, bool keep_nonfinite) {
   const std::string data = detail::read_whole_file(path);
-  return parse_pcd(data, path, info);
+  return parse_pcd(data, path, info, keep_nonfinite);
 }
 
 void write_pcd(std::ostream& out, const point_cloud& cloud, pcd_format fmt) {

@@ -35,12 +35,16 @@ struct read_options {
   /// The fields to keep (default: all). LAS files decode only these; other
   /// formats drop the rest right after reading.
   field_selection fields;
+  /// PCD: keep points with NaN/Inf coordinates (by default the reader drops
+  /// them, as organized clouds mark empty pixels so), so that point i is the
+  /// file's point i. Other formats always keep them.
+  bool keep_nonfinite = false;
 };
 
 /// What reading found besides the points.
 struct read_report {
   file_format format = file_format::automatic;
-  std::size_t nonfinite_removed = 0;  ///< PCD: NaN points of organized clouds, dropped while reading
+  std::size_t nonfinite_removed = 0;  ///< PCD: NaN points of organized clouds, dropped while reading (unless kept)
   std::string details;                ///< e.g. "PCD binary_compressed, organized 640x480"
 };
 

@@ -58,9 +58,14 @@ struct pcd_read_info {
 /// ascii values.
 ///
 /// Threading: reentrant (no shared state).
-point_cloud read_pcd(const std::string& path, pcd_read_info* info = nullptr);
+///
+/// `keep_nonfinite`: keep the points with NaN/Inf coordinates instead (point i
+/// is then the file's point i, as --indices-original needs; the caller drops
+/// them, e.g. with remove_nonfinite(), which returns their file indices).
+point_cloud read_pcd(const std::string& path, pcd_read_info* info = nullptr, bool keep_nonfinite = false);
 /// Same, from the bytes of a PCD file; `name_for_errors` names it in messages.
-point_cloud read_pcd_buffer(std::string_view bytes, const std::string& name_for_errors, pcd_read_info* info = nullptr);
+point_cloud read_pcd_buffer(std::string_view bytes, const std::string& name_for_errors, pcd_read_info* info = nullptr,
+                            bool keep_nonfinite = false);
 
 /// Writes `cloud` as a PCD v0.7 file to `path` atomically (see
 /// atomic_output_file); unorganized (WIDTH = N, HEIGHT = 1).
