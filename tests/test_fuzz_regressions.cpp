@@ -24,6 +24,7 @@
 #include "ced/io/las.hpp"
 #include "ced/io/pcd.hpp"
 #include "ced/io/ply.hpp"
+#include "fuzz/rgbd_entry.hpp"
 
 namespace fs = std::filesystem;
 
@@ -114,6 +115,8 @@ TEST(fuzz_regressions, spec) {
     (void)ced::detect(cloud, p, {m});
   });
 }
+
+TEST(fuzz_regressions, rgbd) { replay("rgbd", ced_fuzz::rgbd_one); }
 
 // Inputs too large to keep as files: headers naming more fields than the
 // readers accept (each would cost quadratic time to turn into cloud fields).

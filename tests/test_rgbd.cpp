@@ -216,3 +216,39 @@ TEST(Rgbd, ReadsTrajectoryLogs) {
             std::string::npos);
   EXPECT_NE(read_error_of(read, "", "empty.log").find("no poses"), std::string::npos);
 }
+
+TEST(Rgbd, RejectsJpegHuffmanTablesThatWouldOverrunStb) {
+  // Found by fuzz_rgbd: a DHT segment whose code counts sum past 256 makes
+  // Debian's stb_image write past its Huffman tables. It is refused first.
+  const std::string bad =
+      ced_test::read_bytes(std::string(CED_TEST_DATA_DIR) + "/../fuzz/regressions/rgbd/jpeg_dht_codes_over_256.jpg");
+  ASSERT_FALSE(bad.empty());
+  for (int call = 0; call < 2; ++call) {
+    try {
+      if (call == 0)
+        (void)ced::io::image_size(bad, "bad.jpg");  // stb reads the tables for the header too
+      else
+        (void)ced::io::decode_colour_image(bad, "bad.jpg", 8, 6);
+      ADD_FAILURE() << "no error, call " << call;
+    } catch (const ced::io::io_error& e) {
+      EXPECT_NE(std::string(e.what()).find("Huffman table"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("bad.jpg"), std::string::npos) << e.what();
+    }
+  }
+  // A PNG chunk that claims more bytes than the file has (stb would first
+  // allocate what it claims: 2 GB for this 400-byte file).
+  const std::string greedy =
+      ced_test::read_bytes(std::string(CED_TEST_DATA_DIR) + "/../fuzz/regressions/rgbd/png_idat_claims_2gb.png");
+  try {
+    (void)ced::io::decode_colour_image(greedy, "greedy.png", 8, 6);
+    ADD_FAILURE() << "no error";
+  } catch (const ced::io::io_error& e) {
+    EXPECT_NE(std::string(e.what()).find("corrupt PNG: chunk"), std::string::npos) << e.what();
+  }
+  // A good JPEG still decodes (the seed of the fuzz corpus, 8 x 6).
+  const std::string good = ced_test::read_bytes(std::string(CED_TEST_DATA_DIR) + "/../fuzz/corpus/rgbd/colour.jpg");
+  EXPECT_EQ(ced::io::decode_colour_image(good, "good.jpg", 8, 6).size(), 8u * 6 * 3);
+  // Sizes other than the frame's are refused before decoding.
+  EXPECT_THROW(ced::io::decode_colour_image(good, "good.jpg", 16, 6), ced::io::io_error);
+  EXPECT_THROW(ced::io::decode_depth_image(good, "good.jpg", 8, 6), ced::io::io_error);  // not 16-bit
+}

@@ -1,13 +1,18 @@
 // SPDX-License-Identifier: MIT
 #include "ced/io/rgbd.hpp"
 
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <stdexcept>
+#include <string_view>
+#include <vector>
 
 #include "ced/io/output_file.hpp"
 #include "ced/io/transform.hpp"
@@ -15,6 +20,10 @@
 // stb_image is compiled in with internal linkage (as stb_image_write in
 // render.cpp); its warnings are silenced as a system header's (CMake).
 #define STB_IMAGE_STATIC
+// Only the formats of RGB-D frames: every other stb parser is attack surface
+// (its PNM header parser overflows ints, found by fuzz_rgbd).
+#define STBI_ONLY_PNG
+#define STBI_ONLY_JPEG
 #define STB_IMAGE_IMPLEMENTATION
 #include <stb_image.h>
 
@@ -45,20 +54,108 @@ int image_side(const nlohmann::json& j, const std::string& path, const std::stri
   return static_cast<int>(v);
 }
 
-/// Reads only the header of an image file and checks its size against the
-/// intrinsics, so that no image of another size is ever decoded (a forged
-/// header cannot make the decoder allocate more than the camera's frame).
-void check_image_size(const std::string& path, const camera_intrinsics& k, const char* what) {
-  std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) throw io_error(path + ": cannot open the " + what + " image");
-  int w = 0, h = 0, c = 0;
-  const int ok = stbi_info_from_file(f, &w, &h, &c);
-  std::fclose(f);
-  if (!ok) throw io_error(path + ": cannot read the " + what + " image: " + stbi_failure_reason());
-  if (w != k.width || h != k.height)
-    throw io_error(path + ": " + what + " image is " + size_text(w, h) + " but the intrinsics say " +
-                   size_text(k.width, k.height));
+/// An image's size from its header alone, so that no image of another size
+/// is ever decoded (a forged header cannot make the decoder allocate more
+/// than the camera's frame).
+void check_size(std::string_view bytes, const std::string& name, int width, int height, const char* what) {
+  const auto size = image_size(bytes, name + " (" + what + " image)");
+  if (size[0] != width || size[1] != height)
+    throw io_error(name + ": " + what + " image is " + size_text(size[0], size[1]) + " but the intrinsics say " +
+                   size_text(width, height));
 }
+
+bool is_png(std::string_view b) {
+  return b.size() >= 8 && b.compare(0, 8, std::string_view("\x89PNG\r\n\x1a\n", 8)) == 0;
+}
+
+/// SOI, after any 0xFF fill bytes (stb skips them too); returns its offset + 2, or 0.
+std::size_t jpeg_start(std::string_view b) {
+  std::size_t pos = 0;
+  while (pos + 1 < b.size() && static_cast<unsigned char>(b[pos]) == 0xFF &&
+         static_cast<unsigned char>(b[pos + 1]) == 0xFF)
+    ++pos;
+  if (pos + 1 >= b.size() || static_cast<unsigned char>(b[pos]) != 0xFF ||
+      static_cast<unsigned char>(b[pos + 1]) != 0xD8)
+    return 0;
+  return pos + 2;
+}
+bool is_jpeg(std::string_view b) { return jpeg_start(b) != 0; }
+
+std::string printable_tag(const std::string& t) {
+  std::string out;
+  for (char c : t) out += (c >= 32 && c < 127) ? c : '?';
+  return out;
+}
+
+/// Debian's stb_image (2022-09-08) trusts a JPEG Huffman table's code
+/// counts: a DHT segment whose 16 counts sum past 256 makes it write past its
+/// tables (stb issues #1289/#1291, fixed upstream later; found here by
+/// fuzz_rgbd). So every DHT segment is checked before stb sees the bytes:
+/// the markers are walked (entropy-coded data skipped up to the next
+/// marker), and a table of more than 256 codes, or one past its segment, is
+/// an error.
+void check_jpeg_tables(std::string_view b, const std::string& name) {
+  const auto byte = [&](std::size_t i) { return static_cast<unsigned char>(b[i]); };
+  std::size_t pos = jpeg_start(b);
+  if (pos == 0) return;  // not a JPEG
+  while (pos + 1 < b.size()) {
+    if (byte(pos) != 0xFF) {  // entropy-coded data: on to the next marker
+      ++pos;
+      continue;
+    }
+    const unsigned m = byte(pos + 1);
+    if (m == 0xFF) {  // fill byte
+      ++pos;
+      continue;
+    }
+    if (m == 0x00 || m == 0x01 || (m >= 0xD0 && m <= 0xD8)) {  // stuffed byte, TEM, RSTn, SOI: no length
+      pos += 2;
+      continue;
+    }
+    if (m == 0xD9) return;  // EOI
+    if (pos + 4 > b.size()) return;
+    const std::size_t length = std::size_t(byte(pos + 2)) << 8 | byte(pos + 3);
+    const std::size_t end = std::min(b.size(), pos + 2 + length);
+    if (m == 0xC4)
+      for (std::size_t p = pos + 4; p < end;) {
+        if (p + 17 > end) throw io_error(name + ": corrupt JPEG: a Huffman table is cut short");
+        std::size_t codes = 0;
+        for (std::size_t k = 1; k <= 16; ++k) codes += byte(p + k);
+        if (codes > 256)
+          throw io_error(name + ": corrupt JPEG: a Huffman table declares " + std::to_string(codes) +
+                         " codes (at most 256)");
+        p += 17 + codes;
+        if (p > end) throw io_error(name + ": corrupt JPEG: a Huffman table runs past its segment");
+      }
+    pos = pos + 2 + length;
+  }
+}
+
+/// stb_image grows its buffer for a PNG's image data to what an IDAT chunk
+/// claims before reading it, so a 400-byte file claiming 2 GB makes it
+/// allocate 2 GB (found by fuzz_rgbd). Every chunk must fit in the file.
+void check_png_chunks(std::string_view b, const std::string& name) {
+  if (!is_png(b)) return;
+  std::size_t pos = 8;
+  while (pos + 8 <= b.size()) {
+    std::uint64_t length = 0;
+    for (std::size_t k = 0; k < 4; ++k) length = length << 8 | static_cast<unsigned char>(b[pos + k]);
+    const std::string type(b.substr(pos + 4, 4));
+    if (length + 12 > b.size() - pos)
+      throw io_error(name + ": corrupt PNG: chunk '" + printable_tag(type) + "' claims " + std::to_string(length) +
+                     " bytes, the file has " + std::to_string(b.size() - pos) + " left");
+    pos += 12 + length;
+    if (type == "IEND") return;
+  }
+}
+
+int stb_length(std::string_view bytes, const std::string& name) {
+  if (bytes.size() > std::size_t(std::numeric_limits<int>::max()))
+    throw io_error(name + ": the image file is too large (" + std::to_string(bytes.size()) + " bytes)");
+  return static_cast<int>(bytes.size());
+}
+
+const stbi_uc* stb_bytes(std::string_view bytes) { return reinterpret_cast<const stbi_uc*>(bytes.data()); }
 
 }  // namespace
 
@@ -116,30 +213,61 @@ point_cloud back_project(const std::uint16_t* depth, const std::uint8_t* rgb, in
   return cloud;
 }
 
+std::array<int, 2> image_size(std::string_view bytes, const std::string& name) {
+  if (!is_png(bytes) && !is_jpeg(bytes)) throw io_error(name + ": not a PNG or JPEG image");
+  check_jpeg_tables(bytes, name);  // stb reads the tables before SOF for the header too
+  check_png_chunks(bytes, name);
+  int w = 0, h = 0, c = 0;
+  if (!stbi_info_from_memory(stb_bytes(bytes), stb_length(bytes, name), &w, &h, &c))
+    throw io_error(name + ": not an image stb can read: " + stbi_failure_reason());
+  return {w, h};
+}
+
+std::vector<std::uint16_t> decode_depth_image(std::string_view bytes, const std::string& name, int width, int height) {
+  check_size(bytes, name, width, height, "depth");
+  check_jpeg_tables(bytes, name);
+  const int n = stb_length(bytes, name);
+  if (!stbi_is_16_bit_from_memory(stb_bytes(bytes), n))
+    throw io_error(name + ": the depth image must be a 16-bit greyscale PNG");
+  int w = 0, h = 0, c = 0;
+  const stbi_buffer<std::uint16_t> depth(stbi_load_16_from_memory(stb_bytes(bytes), n, &w, &h, &c, 0));
+  if (!depth) throw io_error(name + ": cannot decode the depth image: " + stbi_failure_reason());
+  if (c != 1) throw io_error(name + ": the depth image must have one channel (greyscale), it has " + std::to_string(c));
+  if (w != width || h != height)
+    throw io_error(name + ": the depth image decodes to " + size_text(w, h) + ", its header said " +
+                   size_text(width, height));
+  return std::vector<std::uint16_t>(depth.get(), depth.get() + std::size_t(w) * std::size_t(h));
+}
+
+std::vector<std::uint8_t> decode_colour_image(std::string_view bytes, const std::string& name, int width, int height) {
+  check_size(bytes, name, width, height, "colour");
+  check_jpeg_tables(bytes, name);
+  int w = 0, h = 0, c = 0;
+  const stbi_buffer<std::uint8_t> colour(
+      stbi_load_from_memory(stb_bytes(bytes), stb_length(bytes, name), &w, &h, &c, 3));
+  if (!colour) throw io_error(name + ": cannot read the colour image: " + stbi_failure_reason());
+  if (w != width || h != height)
+    throw io_error(name + ": the colour image decodes to " + size_text(w, h) + ", its header said " +
+                   size_text(width, height));
+  return std::vector<std::uint8_t>(colour.get(), colour.get() + 3 * std::size_t(w) * std::size_t(h));
+}
+
 point_cloud read_rgbd(const std::string& depth_path, const std::string& color_path, const camera_intrinsics& k,
                       const rgbd_options& options) {
-  check_image_size(depth_path, k, "depth");
-  check_image_size(color_path, k, "colour");
-  int dw = 0, dh = 0, dc = 0;
-  std::FILE* f = std::fopen(depth_path.c_str(), "rb");
-  if (!f) throw io_error(depth_path + ": cannot open the depth image");
-  const bool sixteen = stbi_is_16_bit_from_file(f) != 0;
-  stbi_buffer<std::uint16_t> depth(sixteen ? stbi_load_from_file_16(f, &dw, &dh, &dc, 0) : nullptr);
-  std::fclose(f);
-  if (!sixteen) throw io_error(depth_path + ": the depth image must be a 16-bit greyscale PNG");
-  if (!depth) throw io_error(depth_path + ": cannot decode the depth image: " + stbi_failure_reason());
-  if (dc != 1)
-    throw io_error(depth_path + ": the depth image must have one channel (greyscale), it has " + std::to_string(dc));
-  int cw = 0, ch = 0, cc = 0;
-  stbi_buffer<std::uint8_t> colour(stbi_load(color_path.c_str(), &cw, &ch, &cc, 3));
-  if (!colour) throw io_error(color_path + ": cannot read the colour image: " + stbi_failure_reason());
-  if (cw != dw || ch != dh)
-    throw io_error(color_path + ": colour image is " + size_text(cw, ch) + " but the depth image " + depth_path +
-                   " is " + size_text(dw, dh));
-  if (dw != k.width || dh != k.height)
-    throw io_error(depth_path + ": image is " + size_text(dw, dh) + " but the intrinsics say " +
-                   size_text(k.width, k.height));
-  return back_project(depth.get(), colour.get(), dw, dh, k, options);
+  const auto read = [](const std::string& path, const char* what) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw io_error(path + ": cannot open the " + std::string(what) + " image");
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+  };
+  const std::string depth_bytes = read(depth_path, "depth"), colour_bytes = read(color_path, "colour");
+  // Both sizes are checked against the intrinsics before either is decoded.
+  check_size(depth_bytes, depth_path, k.width, k.height, "depth");
+  check_size(colour_bytes, color_path, k.width, k.height, "colour");
+  const auto depth = decode_depth_image(depth_bytes, depth_path, k.width, k.height);
+  const auto colour = decode_colour_image(colour_bytes, color_path, k.width, k.height);
+  return back_project(depth.data(), colour.data(), k.width, k.height, k, options);
 }
 
 std::vector<eval::rigid_transform> read_trajectory_log(const std::string& path) {

@@ -4,11 +4,14 @@
 // the camera poses of an Open3D trajectory log.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "ced/cloud.hpp"
+#include "ced/io/output_file.hpp"
 #include "ced/transform.hpp"
 
 namespace ced::io {
@@ -45,6 +48,18 @@ point_cloud back_project(const std::uint16_t* depth, const std::uint8_t* rgb, in
 /// from each other or from the intrinsics.
 point_cloud read_rgbd(const std::string& depth_path, const std::string& color_path, const camera_intrinsics& k,
                       const rgbd_options& options = {});
+
+/// The width and height of an encoded image (PNG, JPEG, BMP, ...) from its
+/// header alone. Throws io_error naming `name` when stb cannot read it.
+std::array<int, 2> image_size(std::string_view bytes, const std::string& name);
+/// Decodes a 16-bit single-channel depth image (PNG) of `width`×`height`
+/// pixels: the header's size is checked before anything is decoded, so a
+/// forged header cannot make it allocate more. Throws io_error naming
+/// `name` for any other size, channel count or depth, or undecodable data.
+std::vector<std::uint16_t> decode_depth_image(std::string_view bytes, const std::string& name, int width, int height);
+/// Decodes a colour image to width×height×3 bytes (RGB), the size checked
+/// first in the same way. Throws io_error naming `name`.
+std::vector<std::uint8_t> decode_colour_image(std::string_view bytes, const std::string& name, int width, int height);
 
 /// Reads an Open3D trajectory log: per frame a line "i j n" followed by the 4
 /// rows of its camera-to-world matrix. Returns the poses in file order.
