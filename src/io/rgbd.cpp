@@ -137,6 +137,7 @@ void check_jpeg_tables(std::string_view b, const std::string& name) {
 void check_png_chunks(std::string_view b, const std::string& name) {
   if (!is_png(b)) return;
   std::size_t pos = 8;
+  bool data = false;
   while (pos + 8 <= b.size()) {
     std::uint64_t length = 0;
     for (std::size_t k = 0; k < 4; ++k) length = length << 8 | static_cast<unsigned char>(b[pos + k]);
@@ -144,6 +145,11 @@ void check_png_chunks(std::string_view b, const std::string& name) {
     if (length + 12 > b.size() - pos)
       throw io_error(name + ": corrupt PNG: chunk '" + printable_tag(type) + "' claims " + std::to_string(length) +
                      " bytes, the file has " + std::to_string(b.size() - pos) + " left");
+    // An empty IDAT before any image data makes stb memcpy to a null buffer
+    // (undefined behaviour, found by fuzz_rgbd); no camera writes one.
+    if (type == "IDAT" && length == 0 && !data)
+      throw io_error(name + ": corrupt PNG: an empty IDAT chunk before any image data");
+    data = data || type == "IDAT";
     pos += 12 + length;
     if (type == "IEND") return;
   }
