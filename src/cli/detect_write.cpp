@@ -108,6 +108,20 @@ void write_viewer(std::ostream& out, const ced::point_cloud& cloud, const ced::d
   ced::io::write_ply(out, v, ced::io::ply_format::binary_little_endian);
 }
 
+/// Points at or above modality m's threshold.
+std::size_t modality_candidates(const ced::detection_result& r, std::size_t m) {
+  std::size_t n = 0;
+  for (float v : r.saliency[m]) n += v >= r.thresholds[m];
+  return n;
+}
+
+/// Points that are candidates of some modality.
+std::size_t candidate_count(const ced::detection_result& r) {
+  std::size_t n = 0;
+  for (auto c : r.candidate) n += c != 0;
+  return n;
+}
+
 /// The names of the cloud's fields: those the run read.
 std::vector<std::string> field_names(const ced::point_cloud& cloud) {
   std::vector<std::string> names;
@@ -137,14 +151,9 @@ nlohmann::json summary_json(const detect_options& o, const detect_plan& plan, co
                  {"voxel", o.voxel},
                  {"threads", ced::resolve_threads(params.threads)}};
   auto& mods = j["modalities"] = nlohmann::json::array();
-  for (std::size_t m = 0; m < r.names.size(); ++m) {
-    std::size_t cand = 0;
-    for (std::size_t i = 0; i < cloud.size(); ++i) cand += r.saliency[m][i] >= r.thresholds[m];
-    mods.push_back({{"name", r.names[m]}, {"threshold", r.thresholds[m]}, {"candidates", cand}});
-  }
-  std::size_t candidates = 0;
-  for (auto c : r.candidate) candidates += c;
-  j["counts"] = {{"candidates", candidates}, {"keypoints", r.keypoints.size()}};
+  for (std::size_t m = 0; m < r.names.size(); ++m)
+    mods.push_back({{"name", r.names[m]}, {"threshold", r.thresholds[m]}, {"candidates", modality_candidates(r, m)}});
+  j["counts"] = {{"candidates", candidate_count(r)}, {"keypoints", r.keypoints.size()}};
   j["times_ms"] = {{"read", in.load_ms},        {"voxel", in.voxel_ms},
                    {"index", r.times.index_ms}, {"saliency", r.times.saliency_ms},
                    {"nms", r.times.nms_ms},     {"detect", r.times.total_ms()}};
@@ -191,19 +200,15 @@ ced::html_options html_options_of(const detect_options& o, const detect_plan& pl
   h.source = o.input;
   h.max_points = static_cast<std::size_t>(o.html_max_points);
   h.spacing = plan.resolution;
-  std::size_t candidates = 0;
-  for (auto c : r.candidate) candidates += c;
   h.info.push_back(
       {"points", std::to_string(in.cloud.size()) + (o.voxel > 0 ? " (voxel " + number(o.voxel) + ")" : "")});
-  for (std::size_t m = 0; m < r.names.size(); ++m) {
-    std::size_t c = 0;
-    for (float v : r.saliency[m]) c += v >= r.thresholds[m];
-    h.info.push_back({r.names[m], "t = " + number(r.thresholds[m]) + ", " + std::to_string(c) + " candidates"});
-  }
+  for (std::size_t m = 0; m < r.names.size(); ++m)
+    h.info.push_back({r.names[m], "t = " + number(r.thresholds[m]) + ", " + std::to_string(modality_candidates(r, m)) +
+                                      " candidates"});
   h.info.push_back({"radius", number(plan.params.radius) + (plan.auto_radius ? " (auto)" : "")});
   h.info.push_back({"NMS radius", number(plan.params.nms_radius)});
   h.info.push_back({"min neighbours", std::to_string(plan.params.min_neighbors)});
-  h.info.push_back({"candidates", std::to_string(candidates)});
+  h.info.push_back({"candidates", std::to_string(candidate_count(r))});
   h.info.push_back({"keypoints", std::to_string(r.keypoints.size())});
   char ms[32];
   std::snprintf(ms, sizeof ms, "%.1f ms", r.times.total_ms());
