@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <nlohmann/json.hpp>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -42,36 +43,11 @@ void base64(const void* data, std::size_t size, std::string& out) {
   }
 }
 
-/// A JSON string; '<' escaped too, so that no text can close the script.
-std::string json_string(const std::string& s) {
-  std::string out = "\"";
-  for (unsigned char c : s) {
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += char(c);
-    } else if (c < 0x20 || c == '<' || c == '>' || c == '&') {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\u%04x", c);
-      out += buf;
-    } else {
-      out += char(c);
-    }
-  }
-  return out + "\"";
-}
-
-std::string json_number(double v) {
-  if (!std::isfinite(v)) return "null";
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.17g", v);
-  return buf;
-}
-
 template <class T>
-std::string json_base64(const std::vector<T>& v) {
-  std::string s = "\"";
+std::string base64_of(const std::vector<T>& v) {
+  std::string s;
   base64(v.data(), v.size() * sizeof(T), s);
-  return s + "\"";
+  return s;
 }
 
 }  // namespace
@@ -131,21 +107,18 @@ std::string html_page(const point_cloud& cloud, const std::vector<std::uint32_t>
   int decimals = 3;
   if (spacing > 0) decimals = std::clamp(int(std::ceil(-std::log10(spacing))) + 1, 2, 6);
 
-  std::string data = "const CED_DATA = {";
-  data += "\"title\":" + json_string(options.title);
-  data += ",\"source\":" + json_string(options.source);
-  data += ",\"total_points\":" + std::to_string(n_finite);
-  data += ",\"max_points\":" + std::to_string(options.max_points);
-  data += ",\"stride\":" + std::to_string(stride);
-  data += ",\"spacing\":" + json_number(spacing);
-  data += ",\"decimals\":" + std::to_string(decimals);
-  data += ",\"origin\":[" + json_number(cloud.origin()[0]) + "," + json_number(cloud.origin()[1]) + "," +
-          json_number(cloud.origin()[2]) + "]";
-  data += ",\"info\":[";
-  for (std::size_t k = 0; k < options.info.size(); ++k)
-    data += (k ? ",[" : "[") + json_string(options.info[k].first) + "," + json_string(options.info[k].second) + "]";
-  data += "]";
-  data += ",\"positions\":" + json_base64(pos);
+  nlohmann::json j;
+  j["title"] = options.title;
+  j["source"] = options.source;
+  j["total_points"] = n_finite;
+  j["max_points"] = options.max_points;
+  j["stride"] = stride;
+  j["spacing"] = spacing;  // NaN becomes null
+  j["decimals"] = decimals;
+  j["origin"] = cloud.origin();
+  j["info"] = nlohmann::json::array();
+  for (const auto& [k, v] : options.info) j["info"].push_back({k, v});
+  j["positions"] = base64_of(pos);
   const auto f = find_rgb_fields(cloud);
   if (f[0]) {
     const auto s = rgb::scale(f, std::nullopt);
@@ -155,18 +128,30 @@ std::string html_page(const point_cloud& cloud, const std::vector<std::uint32_t>
         const double v = f[c]->values[shown[d]] * s[c] * 255.0 + 0.5;
         colours[3 * d + c] = static_cast<std::uint8_t>(std::isfinite(v) ? std::clamp(v, 0.0, 255.0) : 0.0);
       }
-    data += ",\"rgb\":" + json_base64(colours);
+    j["rgb"] = base64_of(colours);
   }
-  if (subset) data += ",\"index\":" + json_base64(shown);
-  data += ",\"keypoints\":" + json_base64(kp);
-  data += ",\"modalities\":[";
-  for (std::size_t m = 0; m < layers.size(); ++m) {
+  if (subset) j["index"] = base64_of(shown);
+  j["keypoints"] = base64_of(kp);
+  j["modalities"] = nlohmann::json::array();
+  for (const auto& layer : layers) {
     std::vector<float> s(shown.size());
-    for (std::size_t d = 0; d < shown.size(); ++d) s[d] = layers[m].saliency[shown[d]];
-    data += (m ? ",{" : "{") + std::string("\"name\":") + json_string(layers[m].name) +
-            ",\"threshold\":" + json_number(layers[m].threshold) + ",\"saliency\":" + json_base64(s) + "}";
+    for (std::size_t d = 0; d < shown.size(); ++d) s[d] = layer.saliency[shown[d]];
+    j["modalities"].push_back({{"name", layer.name}, {"threshold", layer.threshold}, {"saliency", base64_of(s)}});
   }
-  data += "]};";
+  // '<', '>' and '&' occur only inside strings: escaped, no text can close
+  // the script. Invalid UTF-8 (a file name) becomes U+FFFD.
+  std::string data = "const CED_DATA = ";
+  for (char c : j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace)) {
+    if (c == '<')
+      data += "\\u003c";
+    else if (c == '>')
+      data += "\\u003e";
+    else if (c == '&')
+      data += "\\u0026";
+    else
+      data += c;
+  }
+  data += ";";
 
   const std::string page = detail::viewer_html;
   const std::string mark = "/*CED_DATA*/";

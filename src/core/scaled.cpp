@@ -22,7 +22,7 @@ std::vector<float> saliency_of(const point_cloud& cloud, const detect_params& pa
     // A measure on sums needs no neighbour lists: the pass skips them.
     const channel_source src = bound->channels();
     if (src.positions || src.values) ctx.without_neighbor_lists();
-    ctx.compute_saliency({bound->channels()}, [&](const block_view& block, float* const* columns) {
+    ctx.compute_saliency({src}, [&](const block_view& block, float* const* columns) {
       bound->evaluate(block, 0, params.min_neighbors, columns[0]);
     });
   }

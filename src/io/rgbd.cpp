@@ -16,6 +16,7 @@
 
 #include "ced/io/output_file.hpp"
 #include "ced/io/transform.hpp"
+#include "scalar_io.hpp"
 
 // stb_image is compiled in with internal linkage (as stb_image_write in
 // render.cpp); its warnings are silenced as a system header's (CMake).
@@ -260,14 +261,8 @@ std::vector<std::uint8_t> decode_colour_image(std::string_view bytes, const std:
 
 point_cloud read_rgbd(const std::string& depth_path, const std::string& color_path, const camera_intrinsics& k,
                       const rgbd_options& options) {
-  const auto read = [](const std::string& path, const char* what) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw io_error(path + ": cannot open the " + std::string(what) + " image");
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-  };
-  const std::string depth_bytes = read(depth_path, "depth"), colour_bytes = read(color_path, "colour");
+  const std::string depth_bytes = detail::read_whole_file(depth_path);
+  const std::string colour_bytes = detail::read_whole_file(color_path);
   // Both sizes are checked against the intrinsics before either is decoded.
   check_size(depth_bytes, depth_path, k.width, k.height, "depth");
   check_size(colour_bytes, color_path, k.width, k.height, "colour");

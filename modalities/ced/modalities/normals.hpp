@@ -67,14 +67,7 @@ struct normals {
     normals m;
     m.threshold_value = s.threshold_or(0.2);
     if (auto r = s.take("radius")) {
-      std::size_t used = 0;
-      double k = 0;
-      try {
-        k = std::stod(*r, &used);
-      } catch (const std::exception&) {
-        used = 0;
-      }
-      if (used != r->size()) throw std::invalid_argument("normals: radius must be a number, got '" + *r + "'");
+      const double k = parse_number(*r, "radius= of normals in '" + s.text() + "'");
       check_radius(k);
       m.radius_factor = k;
     }
