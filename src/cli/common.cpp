@@ -112,7 +112,7 @@ std::vector<std::string> expand_config(const std::vector<std::string>& args, CLI
     const CLI::Option* opt = det.get_option_no_throw("--" + item.name);
     if (!opt || item.name == "config") throw usage_error("--config " + path + ": unknown key '" + item.name + "'");
     if (given_on_command_line(opt, rest)) continue;
-    if (opt->get_type_size() == 0) {  // a flag
+    if (opt->get_expected_max() == 0) {  // a flag (CLI11 gives flags a type size of 1)
       if (!item.inputs.empty() && (item.inputs[0] == "true" || item.inputs[0] == "1")) out.push_back("--" + item.name);
       continue;
     }
