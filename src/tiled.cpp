@@ -125,6 +125,7 @@ nlohmann::json request_json(const tiled_request& r) {
   j["nms_radius"] = r.params.nms_radius;
   j["min_neighbors"] = r.params.min_neighbors;
   j["block_scale"] = r.params.block_scale;
+  j["refine"] = r.params.refine;
   j["modalities"] = r.modalities;
   j["tile_size"] = r.tile_size;
   j["memory_limit"] = r.memory_limit;
@@ -144,6 +145,7 @@ tiled_request request_from_json(const nlohmann::json& j) {
   r.params.nms_radius = j.at("nms_radius").get<double>();
   r.params.min_neighbors = j.at("min_neighbors").get<std::uint32_t>();
   r.params.block_scale = j.at("block_scale").get<double>();
+  r.params.refine = j.value("refine", false);  // plans written before refinement existed
   r.modalities = j.at("modalities").get<std::vector<std::string>>();
   r.tile_size = j.at("tile_size").get<double>();
   r.memory_limit = j.at("memory_limit").get<std::uint64_t>();

@@ -116,6 +116,8 @@ printf 'preset = "ced3d"\n' > "$T/c.toml"
 check "toml config" test "$("$CED" detect "$sample" --config "$T/c.toml" -q | wc -l)" = 118
 
 # --- Usage errors: exit 2, nothing written ---
+expect_exit 2 "refine or --no-refine, not both" "refine: both flags" -- \
+  detect "$sample" --preset robust3d --refine --no-refine --indices "$T/no.txt"
 expect_exit 2 "radius" "radius 0" -- detect "$sample" --radius 0 --indices "$T/no.txt"
 expect_exit 2 "radius" "radius nan" -- detect "$sample" --radius nan --indices "$T/no.txt"
 expect_exit 2 "radius" "radius negative" -- detect "$sample" --radius -1 --indices "$T/no.txt"
@@ -210,5 +212,18 @@ else
   expect_exit 2 "needs ced's PCL component" "no PCL: registration" -- eval registration "$sample"
 fi
 
+# --- Refinement: the robust presets refine, --no-refine keeps the NMS maxima ---
+check "modalities: robust presets list --refine" sh -c "'$CED' modalities | grep -q '^robust6d.*-m rgb:0.5 --refine'"
+"$CED" detect "$sample" --preset robust6d --indices "$T/r6.txt" --summary "$T/r6.json" -q
+"$CED" detect "$sample" -m xyz:0.2,scale=3 -m rgb:0.5 --radius 0.05 --refine --indices "$T/r6m.txt" -q
+"$CED" detect "$sample" --preset robust6d --no-refine --indices "$T/r6n.txt" -q
+check "refine: the preset is its specs with --refine" cmp -s "$T/r6.txt" "$T/r6m.txt"
+check "refine: --no-refine changes the keypoints" sh -c "! cmp -s '$T/r6.txt' '$T/r6n.txt'"
+check "refine: the summary says so" grep -q '"refine": *true' "$T/r6.json"
+printf '{"preset": "robust6d", "no-refine": true}' > "$T/norefine.json"
+"$CED" detect "$sample" --config "$T/norefine.json" --indices "$T/r6c.txt" -q
+check "refine: --config takes no-refine" cmp -s "$T/r6n.txt" "$T/r6c.txt"
+
 echo "cli: $pass passed, $fail failed"
 [ "$fail" = 0 ]
+

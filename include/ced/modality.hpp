@@ -314,6 +314,9 @@ std::vector<any_modality> preset(std::string_view name);
 std::vector<std::string> preset_specs(std::string_view name);
 /// The presets' names.
 std::vector<std::string> preset_names();
+/// Whether a preset refines its keypoints (detect_params::refine): the
+/// robust presets do, the paper's (ced3d, ced6d) do not.
+bool preset_refines(std::string_view name);
 
 /// Parses a number; throws std::invalid_argument naming `what` on failure.
 double parse_number(std::string_view text, const std::string& what);

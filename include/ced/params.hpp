@@ -23,6 +23,14 @@ struct detect_params {
   /// the last bits, and only points within a rounding error of a threshold or
   /// of a neighbour's score can change; the thread count changes nothing).
   double block_scale = 6.0;
+  /// Keypoint refinement (off in the paper's method; on in the robust
+  /// presets). Each keypoint k of the NMS is replaced by the point of its NMS
+  /// neighbourhood (within nms_radius of k, itself included) nearest to that
+  /// neighbourhood's centroid weighted by the NMS score (the product of the
+  /// saliencies): the peak's centre of mass rather than its noisiest point.
+  /// Keypoints that land on the same point are kept once. Under noise the
+  /// refined keypoints repeat far more (docs/EVALUATION.md#robust-presets).
+  bool refine = false;
   /// Optional: called with the fraction of the saliency stage done (0..1),
   /// from any worker thread, never concurrently; keep it cheap. It may throw
   /// to cancel the detection: detect() then stops its workers and rethrows

@@ -24,7 +24,7 @@ namespace ced {
 struct tiled_request {
   std::string input;
   io::read_options read;  ///< format, CSV options, the fields to read (all for keypoint clouds)
-  /// radius, nms_radius, min_neighbors, block_scale; threads are per tile.
+  /// radius, nms_radius, min_neighbors, block_scale, refine; threads are per tile.
   detect_params params;
   /// Modality specs ("xyz:0.2", ...); empty: ced6d when the file has colour, else ced3d.
   std::vector<std::string> modalities;

@@ -51,8 +51,8 @@ struct tile_grid {
   std::array<double, 6> core_box(std::uint64_t t) const noexcept;
 };
 
-/// The halo that makes tiles exact under `params`: nms_radius + block side
-/// (block_scale · radius) + radius, with a margin for float rounding of
+/// The halo that makes tiles exact under `params`: nms_radius (twice with
+/// `refine`) + block side (block_scale · radius) + radius, with a margin for float rounding of
 /// coordinates up to `max_abs_coordinate` (positions, the cloud's frame).
 double exact_halo(const detect_params& params, double max_abs_coordinate = 0.0);
 

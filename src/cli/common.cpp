@@ -207,9 +207,15 @@ eval_detector parse_detector(const std::string& text) {
   for (const auto& p : ced::preset_names())
     if (text == p) {
       d.modalities = ced::preset(text);
+      d.refine = ced::preset_refines(text);
       return d;
     }
-  for (const auto& s : ced::split_modality_specs(text)) d.modalities.push_back(ced::make_modality(s));
+  for (const auto& s : ced::split_modality_specs(text)) {
+    if (s == "refine")
+      d.refine = true;
+    else
+      d.modalities.push_back(ced::make_modality(s));
+  }
   if (d.modalities.empty()) throw std::invalid_argument("--detector '" + text + "' names no modality");
   return d;
 }
@@ -271,7 +277,9 @@ detection run_detector(const eval_detector& d, const ced::point_cloud& cloud, co
       out.keypoints = ced::eval::random_keypoints(cloud.size(), random_count, rng);
       break;
     case eval_detector::kind::ced: {
-      const auto r = ced::detect(cloud, s.params, d.modalities);
+      ced::detect_params params = s.params;
+      params.refine = d.refine;
+      const auto r = ced::detect(cloud, params, d.modalities);
       out.keypoints = r.keypoints;
       out.ms = r.times.total_ms();
       return out;

@@ -85,12 +85,14 @@ extern const std::vector<std::string> pcl_detector_names;
 extern const char* const no_pcl_message;
 
 /// A detector of the evaluation: "random", a preset, one of PCL's, or
-/// modality specs joined by commas ("xyz:0.2,bands(nir):0.1,range=0..255").
+/// modality specs joined by commas ("xyz:0.2,bands(nir):0.1,range=0..255"),
+/// among which the word "refine" asks for keypoint refinement.
 struct eval_detector {
   enum class kind { ced, random, pcl };
   std::string name;
   kind type = kind::ced;
   std::vector<ced::any_modality> modalities;
+  bool refine = false;  ///< a robust preset, or "refine" among the specs
 };
 
 eval_detector parse_detector(const std::string& text);

@@ -56,6 +56,8 @@ void check_numbers(const detect_options& o, detect_plan& plan) {
   if (o.html_max_points < 1) throw usage_error("--html-max-points must be at least 1");
   params.min_neighbors = static_cast<std::uint32_t>(o.min_neighbors);
   params.threads = static_cast<unsigned>(o.threads);
+  if (o.refine && o.no_refine) throw usage_error("give --refine or --no-refine, not both");
+  params.refine = o.refine || (!o.no_refine && !o.preset.empty() && ced::preset_refines(o.preset));
   ced::detect_params check = params;
   check.nms_radius = std::isnan(o.nms_radius) ? check.radius : o.nms_radius;
   try {
@@ -207,6 +209,13 @@ int run_detect(const detect_options& o) {
 
 }  // namespace
 
+void add_refine_flags(CLI::App* cmd, detect_options& o) {
+  cmd->add_flag("--refine", o.refine,
+                "Move each keypoint to the point nearest the score-weighted centroid of its NMS neighbourhood "
+                "(more repeatable under noise; default with the robust presets)");
+  cmd->add_flag("--no-refine", o.no_refine, "Keep the NMS maxima themselves, as the paper (default with ced3d/ced6d)");
+}
+
 command add_detect_command(CLI::App& app, std::function<int(const detect_options&)> run) {
   auto o = std::make_shared<detect_options>();
   auto* det = app.add_subcommand("detect", "Detect keypoints");
@@ -214,8 +223,8 @@ command add_detect_command(CLI::App& app, std::function<int(const detect_options
   det->add_option("--format", o->format, "Input format when the extension does not say: ply, pcd, las, csv, auto");
   det->add_option("--columns", o->columns, "CSV column names, e.g. x,y,z,intensity (the file then has no header)");
   det->add_option("--preset", o->preset,
-                  "ced3d (xyz:0.2), ced6d (xyz:0.2 + rgb:0.1), robust3d (xyz:0.2,scale=3) or robust6d "
-                  "(xyz:0.2,scale=3 + rgb:0.5); radius 0.05 unless given")
+                  "ced3d (xyz:0.2), ced6d (xyz:0.2 + rgb:0.1), robust3d (xyz:0.2,scale=2, refined) or "
+                  "robust6d (xyz:0.2,scale=3 + rgb:0.5, refined); radius 0.05 unless given")
       ->check(CLI::IsMember(ced::preset_names()));
   det->add_option(
       "-m,--modality", o->modalities,
@@ -228,6 +237,7 @@ command add_detect_command(CLI::App& app, std::function<int(const detect_options
   det->add_option("--radius-factor", o->radius_factor, "For --radius auto: radius = factor x resolution (default 5)");
   det->add_option("--nms-radius", o->nms_radius, "Non-maximum-suppression radius (default: the radius)");
   det->add_option("-k,--min-neighbors", o->min_neighbors, "Minimum neighbours, the point included (default 5)");
+  add_refine_flags(det, *o);
   det->add_option("--voxel", o->voxel, "Down-sample first: average every channel per voxel of this size (metres)");
   det->add_option("-j,--threads", o->threads, "Threads (default 0 = all cores; the result does not depend on it)");
   det->add_option("--indices", o->indices, "Keypoint indices into the cloud the detector saw (0-based, ascending)");

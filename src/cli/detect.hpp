@@ -33,6 +33,7 @@ struct detect_options {
   long long html_max_points = 2000000;
   std::string view = "iso", png_size = "1280x960", png_color = "rgb";
   bool png_top = false;
+  bool refine = false, no_refine = false;  // default: the preset's (robust3d/6d refine)
   bool quiet = false;
   // Tiles (tiled.cpp): one process with a tile cache, or one tile of a plan.
   std::string tile_size, memory_limit, work_dir, plan;
@@ -40,6 +41,9 @@ struct detect_options {
   long long tile = -1;
   std::string config;  // --config: expand_config() has already replaced it by the file's options
 };
+
+/// --refine / --no-refine (keypoint refinement; default: the preset's).
+void add_refine_flags(CLI::App* cmd, detect_options& o);
 
 /// What the options ask for, checked before any file is read.
 struct detect_plan {

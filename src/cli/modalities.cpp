@@ -20,6 +20,7 @@ int run_modalities(const std::vector<std::string>& plugins) {
   for (const auto& p : ced::preset_names()) {
     std::string specs;
     for (const auto& s : ced::preset_specs(p)) specs += (specs.empty() ? "" : " ") + ("-m " + s);
+    if (ced::preset_refines(p)) specs += " --refine";
     std::cout << p << "\t" << specs << "\n";
   }
   return exit_ok;

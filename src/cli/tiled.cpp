@@ -174,7 +174,8 @@ void merged_writer::finish(const ced::tile_plan& p, const ced::tile_part& m, dou
                   {"points_used", p.finite_points}};
     j["params"] = {{"radius", p.request.params.radius},
                    {"nms_radius", p.request.params.nms_radius},
-                   {"min_neighbors", p.request.params.min_neighbors}};
+                   {"min_neighbors", p.request.params.min_neighbors},
+                   {"refine", p.request.params.refine}};
     auto& mods = j["modalities"] = nlohmann::json::array();
     for (std::size_t k = 0; k < m.names.size(); ++k)
       mods.push_back({{"name", m.names[k]}, {"threshold", m.thresholds[k]}, {"candidates", m.candidates[k]}});
@@ -253,9 +254,9 @@ int run_detect_tiled(const detect_options& o, detect_plan& plan, detect_outputs&
       mods += (m ? " + " : "") + merged.names[m] + " (t=" + std::to_string(merged.thresholds[m]) + ")";
     std::fprintf(stderr, "ced: %s: %llu points (%s)\n", o.input.c_str(), static_cast<unsigned long long>(p.file_points),
                  p.details.c_str());
-    std::fprintf(stderr, "ced: modalities %s; radius %g, nms radius %g, min neighbours %u, %u thread(s)\n",
+    std::fprintf(stderr, "ced: modalities %s; radius %g, nms radius %g, min neighbours %u%s, %u thread(s)\n",
                  mods.c_str(), p.request.params.radius, p.request.params.nms_radius, p.request.params.min_neighbors,
-                 ced::resolve_threads(plan.params.threads));
+                 p.request.params.refine ? ", refined" : "", ced::resolve_threads(plan.params.threads));
     std::fprintf(stderr,
                  "ced: %zu keypoints; %zu tiles; plan and tile cache %.1f ms, tiles %.1f ms (detection %.1f), "
                  "merge %.1f ms; total %.1f ms\n",
@@ -306,6 +307,7 @@ command add_plan_command(CLI::App& app) {
   cmd->add_option("-r,--radius", o->radius, "Neighbourhood radius in metres (default 0.05)");
   cmd->add_option("--nms-radius", o->nms_radius, "Non-maximum-suppression radius (default: the radius)");
   cmd->add_option("-k,--min-neighbors", o->min_neighbors, "Minimum neighbours, the point included (default 5)");
+  add_refine_flags(cmd, *o);
   cmd->add_option("--tile-size", o->tile_size, "Edge of a tile's core, in metres");
   cmd->add_option("--memory-limit", o->memory_limit, "Or: the tile size chosen so that a tile fits, e.g. 4G");
   cmd->add_option("-o,--output", *plan_path, "The plan (JSON)")->required();

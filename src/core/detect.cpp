@@ -54,6 +54,9 @@ detection_result detection_context::finish() {
   candidates_and_scores(columns, r.thresholds, n, threads, r.candidate.data(), product.data());
   r.keypoints = non_maximum_suppression(m_impl->blocks, m_impl->cloud.positions().data(), product.data(),
                                         r.candidate.data(), params.nms_radius, params.radius, m_impl->hits, threads);
+  if (params.refine)
+    r.keypoints = refine_keypoints(m_impl->blocks, m_impl->cloud.positions().data(), product.data(), r.keypoints,
+                                   params.nms_radius, threads);
   m_impl->hits.clear();
   m_impl->hits.shrink_to_fit();
   r.times.nms_ms = ms_since(t0);

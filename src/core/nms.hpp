@@ -55,6 +55,13 @@ void nms_block_by_query(const block_partition& blocks, const float* xyz, const s
                         std::vector<std::uint32_t>& gathered);
 
 /// Indices of the non-zero flags, ascending.
+/// Keypoint refinement (detect_params::refine): each of `keypoints` moved to
+/// the point within `radius` (strict) nearest to the score-weighted centroid
+/// of the points within `radius`; ascending, each point once.
+std::vector<std::uint32_t> refine_keypoints(const block_partition& blocks, const float* xyz, const float* score,
+                                            const std::vector<std::uint32_t>& keypoints, double radius,
+                                            unsigned threads);
+
 std::vector<std::uint32_t> compact_flags(const std::vector<std::uint8_t>& flags);
 
 }  // namespace ced::detail

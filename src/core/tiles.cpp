@@ -65,7 +65,10 @@ double exact_halo(const detect_params& params, double max_abs_coordinate) {
   // their blocks (the blocks fix the order of the sums); radius (with the
   // 1.001 pad of a block's box): what those blocks gather. 1% more, and some
   // float steps of the largest coordinate, for rounding.
-  const double h = params.nms_radius + params.block_scale * params.radius + 1.001 * params.radius;
+  // With refinement a core keypoint may come from a maximum up to nms_radius
+  // outside the core, whose own competitors lie nms_radius further.
+  const double h =
+      (params.refine ? 2 : 1) * params.nms_radius + params.block_scale * params.radius + 1.001 * params.radius;
   return 1.01 * h + 16.0 * std::ldexp(std::fabs(max_abs_coordinate), -23);
 }
 

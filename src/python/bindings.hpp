@@ -16,6 +16,10 @@ namespace ced_python {
 
 namespace py = pybind11;
 
+/// `refine=` of detect and plan_tiles: a bool, or None for the preset's
+/// (robust3d/robust6d refine; anything else does not).
+bool refine_of(py::handle modalities, py::handle refine);
+
 /// A cloud shared between Python objects (Cloud, Result's views) and C++.
 using cloud_ptr = std::shared_ptr<ced::point_cloud>;
 

@@ -25,6 +25,7 @@ struct result {
   ced::detection_result r;
   double radius = 0, nms_radius = 0;
   std::uint32_t min_neighbors = 0;
+  bool refine = false;
 };
 
 /// Unique keys for the modalities (a name given twice gets "#2", ...).
@@ -209,26 +210,29 @@ void bind_detect(py::module_& m) {
       .def_readonly("radius", &result::radius)
       .def_readonly("nms_radius", &result::nms_radius)
       .def_readonly("min_neighbors", &result::min_neighbors)
+      .def_readonly("refine", &result::refine, "Whether the keypoints were refined (detect(refine=...)).")
       .def("__len__", [](const result& res) { return res.r.keypoints.size(); })
       .def("__repr__", &repr);
 
   m.def(
       "_detect",
       [](py::handle points, py::handle channels, py::handle modalities, py::handle radius, double radius_factor,
-         std::optional<double> nms_radius, long long min_neighbors, long long threads) {
+         std::optional<double> nms_radius, long long min_neighbors, long long threads, py::handle refine) {
         const cloud_ptr cloud = to_cloud(points, channels);
         if (cloud->empty()) throw py::value_error("points: the cloud is empty");
-        const ced::detect_params p = make_params(*cloud, radius, radius_factor, nms_radius, min_neighbors, threads);
+        ced::detect_params p = make_params(*cloud, radius, radius_factor, nms_radius, min_neighbors, threads);
+        p.refine = refine_of(modalities, refine);
         const auto mods = make_modalities(*cloud, modalities);
         auto res = std::make_shared<result>();
         res->r = run_interruptible(*cloud, p, mods);
         res->radius = p.radius;
         res->nms_radius = p.nms_radius;
         res->min_neighbors = p.min_neighbors;
+        res->refine = p.refine;
         return res;
       },
       py::arg("points"), py::arg("channels"), py::arg("modalities"), py::arg("radius"), py::arg("radius_factor"),
-      py::arg("nms_radius"), py::arg("min_neighbors"), py::arg("threads"));
+      py::arg("nms_radius"), py::arg("min_neighbors"), py::arg("threads"), py::arg("refine"));
   m.def("release_cached_memory", &ced::release_cached_memory,
         "Frees the up to 32 MiB that detections keep cached for the next one.");
 }

@@ -54,6 +54,18 @@ std::vector<std::string> specs_of(py::handle modalities) {
 
 }  // namespace
 
+bool refine_of(py::handle modalities, py::handle refine) {
+  if (!refine.is_none()) {
+    if (!py::isinstance<py::bool_>(refine)) throw py::type_error("refine: expected True, False or None");
+    return refine.cast<bool>();
+  }
+  if (!py::isinstance<py::str>(modalities)) return false;
+  const std::string s = modalities.cast<std::string>();
+  for (const auto& p : ced::preset_names())
+    if (s == p) return ced::preset_refines(s);
+  return false;
+}
+
 void bind_tiles(py::module_& m) {
   py::class_<ced::tile_plan, plan_ptr>(m, "TilePlan",
                                        "The tiles of a cloud file: what ced.detect_tile runs and ced.merge_parts "
@@ -131,7 +143,7 @@ void bind_tiles(py::module_& m) {
   m.def(
       "plan_tiles",
       [](const std::string& input, py::object tile_size, py::object memory_limit, py::object modalities, double radius,
-         py::object nms_radius, std::uint32_t min_neighbors, const std::string& format) {
+         py::object nms_radius, std::uint32_t min_neighbors, const std::string& format, py::object refine) {
         ced::tiled_request r;
         r.input = input;
         r.read.format = ced::io::parse_format(format);
@@ -139,6 +151,7 @@ void bind_tiles(py::module_& m) {
         r.params.nms_radius = nms_radius.is_none() ? radius : nms_radius.cast<double>();
         r.params.min_neighbors = min_neighbors;
         r.modalities = specs_of(modalities);
+        r.params.refine = refine_of(modalities, refine);
         if (!tile_size.is_none()) r.tile_size = tile_size.cast<double>();
         if (!memory_limit.is_none()) {
           const double v = memory_limit.cast<double>();
@@ -152,9 +165,10 @@ void bind_tiles(py::module_& m) {
       },
       py::arg("input"), py::arg("tile_size") = py::none(), py::arg("memory_limit") = py::none(),
       py::arg("modalities") = py::none(), py::arg("radius") = 0.05, py::arg("nms_radius") = py::none(),
-      py::arg("min_neighbors") = 5, py::arg("format") = "auto",
+      py::arg("min_neighbors") = 5, py::arg("format") = "auto", py::arg("refine") = py::none(),
       "Plans the tiles of a cloud file (two passes over it), as `ced plan`. modalities: spec strings or a preset "
-      "name (default: ced6d when the file has colour, else ced3d).");
+      "name (default: ced6d when the file has colour, else ced3d). refine: keypoint refinement (None: the "
+      "preset's, on for robust3d/robust6d).");
   m.def(
       "detect_tile",
       [](const ced::tile_plan& plan, std::uint64_t tile, py::object part, unsigned threads) {

@@ -23,6 +23,25 @@ def test_numpy_gives_the_cli_keypoints_on_the_redwood_sample(cli, sample, sample
     np.testing.assert_array_equal(ced.detect(points, colours).keypoints, cli_keypoints(cli, sample_path, "--preset", "ced6d"))
 
 
+def test_refine_follows_the_preset_and_can_be_set(cli, sample, sample_path):
+    assert ced.preset_refines("robust6d") and not ced.preset_refines("ced6d")
+    robust = ced.detect(sample, modalities="robust6d")
+    assert robust.refine
+    specs = ["xyz:0.2,scale=3", "rgb:0.5"]
+    plain = ced.detect(sample, modalities=specs)  # a list of specs: no refinement unless asked
+    assert not plain.refine
+    np.testing.assert_array_equal(ced.detect(sample, modalities="robust6d", refine=False).keypoints, plain.keypoints)
+    np.testing.assert_array_equal(ced.detect(sample, modalities=specs, refine=True).keypoints, robust.keypoints)
+    # Refinement moves keypoints, and the CLI's flags do the same.
+    assert not np.array_equal(robust.keypoints, plain.keypoints)
+    np.testing.assert_array_equal(cli_keypoints(cli, sample_path, "-m", "xyz:0.2", "--radius", "0.05", "--refine"),
+                                  ced.detect(sample, modalities="xyz:0.2", refine=True).keypoints)
+    np.testing.assert_array_equal(cli_keypoints(cli, sample_path, "--preset", "robust3d", "--no-refine"),
+                                  ced.detect(sample, modalities="robust3d", refine=False).keypoints)
+    with pytest.raises(TypeError, match="refine"):
+        ced.detect(sample, refine="yes")
+
+
 def test_auto_radius_matches_the_cli(cli, sample, sample_path):
     expected = cli_keypoints(cli, sample_path, "-m", "xyz:0.2", "-m", "rgb:0.1", "--radius", "auto")
     got = ced.detect(sample, modalities=["xyz:0.2", "rgb:0.1"], radius="auto")

@@ -13,16 +13,17 @@ def test_repeatability_matches_the_cli(cli, sample_path, tmp_path):
     out = tmp_path / "rep.csv"
     subprocess.run([cli, "eval", "repeatability", sample_path, "--trials", "2", "--noise", "0,0.5", "--seed", "7",
                     "--detector", "ced6d", "--detector", "xyz:0.25,rgb:0.12", "--detector", "random", "--detector",
-                    "robust6d", "--quiet",
+                    "robust6d", "--detector", "xyz:0.2,scale=2,refine", "--quiet",
                     "--csv", str(out)], check=True, capture_output=True)
     with open(out) as f:
         expected = [(r["detector"], float(r["noise_resolution"]), int(r["trial"]), int(r["source_keypoints"]),
                      int(r["target_keypoints"]), int(r["repeated"])) for r in csv.DictReader(f)]
-    rows = ced.eval.repeatability(ced.read(sample_path), detectors=["ced6d", "xyz:0.25,rgb:0.12", "random", "robust6d"],
+    rows = ced.eval.repeatability(ced.read(sample_path), detectors=["ced6d", "xyz:0.25,rgb:0.12", "random", "robust6d",
+                                                                        "xyz:0.2,scale=2,refine"],
                                   noise=[0, 0.5], trials=2, seed=7)
     got = [(r["detector"], r["noise"], r["trial"], r["source_keypoints"], r["target_keypoints"], r["repeated"])
            for r in rows]
-    assert len(expected) == 16
+    assert len(expected) == 20
     assert sorted(got) == sorted(expected)
     assert all(0 <= r["relative"] <= 1 for r in rows)
 

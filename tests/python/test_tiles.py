@@ -39,6 +39,19 @@ def test_tiles_give_the_whole_result(las, tmp_path):
     assert len(merged.cloud) == len(whole.keypoints)
 
 
+def test_refined_tiles_give_the_whole_result(las, tmp_path):
+    whole = ced.detect(ced.read(las), modalities="robust6d")  # refines
+    assert whole.refine
+    plan = ced.plan_tiles(las, tile_size=0.8, modalities="robust6d")
+    merged = ced.merge_parts(plan, [ced.detect_tile(plan, t) for t, _, _ in plan.tiles])
+    assert np.array_equal(merged.keypoints, np.asarray(whole.keypoints, dtype=np.uint64))
+    plain = ced.plan_tiles(las, tile_size=0.8, modalities="robust6d", refine=False)
+    merged = ced.merge_parts(plain, [ced.detect_tile(plain, t) for t, _, _ in plain.tiles])
+    expected = ced.detect(ced.read(las), modalities="robust6d", refine=False).keypoints
+    assert np.array_equal(merged.keypoints, np.asarray(expected, dtype=np.uint64))
+    assert not np.array_equal(expected, whole.keypoints)
+
+
 def test_tiles_bad_input(las, tmp_path):
     with pytest.raises(ValueError, match="tile_size"):
         ced.plan_tiles(las)

@@ -28,6 +28,7 @@ from ._ced import (
     plan_tiles,
     preset,
     preset_names,
+    preset_refines,
     python_modality,
     read,
     read_part,
@@ -40,7 +41,7 @@ from . import eval  # noqa: F401  (ced.eval.repeatability)
 __all__ = [
     "Cloud", "FileError", "Modality", "PluginError", "Result", "TilePart", "TilePlan", "__version__", "bands",
     "detect", "detect_tile", "estimate_normals", "estimate_resolution", "eval", "intensity", "lab", "load_plugin", "merge_parts",
-    "modalities", "modality", "normals", "plan_tiles", "preset", "preset_names", "python_modality", "read", "read_part",
+    "modalities", "modality", "normals", "plan_tiles", "preset", "preset_names", "preset_refines", "python_modality", "read", "read_part",
     "release_cached_memory", "render", "rgb", "voxel_downsample", "write", "write_keypoints", "xyz",
 ]
 
@@ -167,7 +168,7 @@ def voxel_downsample(cloud, size):
 
 
 def detect(points, channels=None, modalities=None, radius=0.05, nms_radius=None, min_neighbors=5, threads=0,
-           radius_factor=5.0):
+           radius_factor=5.0, refine=None):
     """Detects keypoints.
 
     points: an (N, 3) float32/float64 array (any strides), a numpy structured array with X, Y, Z fields (PDAL's
@@ -179,6 +180,8 @@ def detect(points, channels=None, modalities=None, radius=0.05, nms_radius=None,
         ('ced6d', 'ced3d', 'robust6d', 'robust3d'). None: ced6d (xyz:0.2, rgb:0.1) when the cloud has colour, else ced3d, as the CLI.
     radius: neighbourhood radius, or 'auto' (radius_factor x the estimated resolution).
     nms_radius: None = radius. threads: 0 = all cores (the result does not depend on it).
+    refine: move each keypoint to the point nearest the score-weighted centroid of its NMS neighbourhood (more
+        repeatable under noise). None: the preset's (on for 'robust3d' and 'robust6d'), else off.
 
     Returns a ced.Result. The GIL is released while detecting; Ctrl-C raises KeyboardInterrupt.
     """
@@ -188,7 +191,10 @@ def detect(points, channels=None, modalities=None, radius=0.05, nms_radius=None,
     for name, value in (("min_neighbors", min_neighbors), ("threads", threads)):
         if isinstance(value, bool) or not isinstance(value, int):
             raise TypeError(f"{name}: expected an int, got {type(value).__name__}")
-    return _detect(points, channels, modalities, radius, float(radius_factor), nms_radius, min_neighbors, threads)
+    if refine is not None and not isinstance(refine, bool):
+        raise TypeError(f"refine: expected True, False or None, got {type(refine).__name__}")
+    return _detect(points, channels, modalities, radius, float(radius_factor), nms_radius, min_neighbors, threads,
+                   refine)
 
 
 def write(path, cloud, channels=None, format=None):

@@ -77,6 +77,8 @@ class Result:
     def nms_radius(self) -> float: ...
     @property
     def min_neighbors(self) -> int: ...
+    @property
+    def refine(self) -> bool: ...
     def __len__(self) -> int: ...
 
 PointsLike = Union[npt.ArrayLike, Cloud, Any]  # (N, 3) floats, a structured array, a Cloud, an Open3D cloud
@@ -94,6 +96,7 @@ def detect(
     min_neighbors: int = 5,
     threads: int = 0,
     radius_factor: float = 5.0,
+    refine: Optional[bool] = None,
 ) -> Result:
     """Detects keypoints (see docs/PYTHON.md). Releases the GIL; Ctrl-C raises KeyboardInterrupt."""
 
@@ -152,9 +155,12 @@ def python_modality(name: str, fn: Union[BlockFunction, PointFunction], threshol
 def preset_names() -> List[str]:
     """The presets' names: ced3d, ced6d, robust3d, robust6d."""
 
+def preset_refines(name: str) -> bool:
+    """Whether a preset refines its keypoints: robust3d and robust6d do, ced3d and ced6d not."""
+
 def preset(name: str) -> List[Modality]:
-    """'ced3d' (xyz:0.2), 'ced6d' (xyz:0.2, rgb:0.1), 'robust3d' (xyz:0.2,scale=3) or 'robust6d'
-    (xyz:0.2,scale=3, rgb:0.5)."""
+    """'ced3d' (xyz:0.2), 'ced6d' (xyz:0.2, rgb:0.1), 'robust3d' (xyz:0.2,scale=2) or 'robust6d'
+    (xyz:0.2,scale=3, rgb:0.5). The robust presets also refine their keypoints (ced.preset_refines)."""
 
 def modalities() -> List[Tuple[str, str]]:
     """(name, help) of every registered modality, sorted."""
@@ -217,7 +223,8 @@ class TilePart:
 
 def plan_tiles(input: str, tile_size: Optional[float] = None, memory_limit: Optional[float] = None,
                modalities: Union[None, str, Sequence[str]] = None, radius: float = 0.05,
-               nms_radius: Optional[float] = None, min_neighbors: int = 5, format: str = "auto") -> TilePlan:
+               nms_radius: Optional[float] = None, min_neighbors: int = 5, format: str = "auto",
+               refine: Optional[bool] = None) -> TilePlan:
     """Plans the tiles of a cloud file (two passes over it), as `ced plan`."""
 
 

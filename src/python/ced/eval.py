@@ -21,25 +21,27 @@ def measure(source, source_keypoints, target, target_keypoints, transform, epsil
 
 
 def _detector(d):
-    """(label, modalities or None for the random baseline)."""
+    """(label, modalities or None for the random baseline, refine)."""
     from . import Modality, _ced, preset
 
     if not isinstance(d, str):
         mods = [m if isinstance(m, Modality) else Modality(m) for m in d]
         if not mods:
             raise ValueError("detectors: an empty modality list")
-        return "+".join(m.name for m in mods), mods
+        return "+".join(m.name for m in mods), mods, False
     if d == "random":
-        return d, None
+        return d, None, False
     if d in _ced.preset_names():
-        return d, preset(d)
+        return d, preset(d), _ced.preset_refines(d)
     if d in ("iss3d", "harris3d", "harris6d", "sift"):
         raise ValueError(f"detectors: {d!r} is a PCL detector, available in the CLI "
                          f"(ced eval repeatability --detector {d}) but not from Python")
     specs = _ced._split_modality_specs(d)
+    refine = "refine" in specs  # as in the CLI: the word "refine" among the specs
+    specs = [s for s in specs if s != "refine"]
     if not specs:
         raise ValueError(f"detectors: {d!r} names no modality")
-    return d, [Modality(s) for s in specs]
+    return d, [Modality(s) for s in specs], refine
 
 
 def repeatability(cloud, detectors=("ced6d", "ced3d", "random"), noise=(0.0, 0.5), trials=5, seed=1,
@@ -79,15 +81,15 @@ def repeatability(cloud, detectors=("ced6d", "ced3d", "random"), noise=(0.0, 0.5
             t = random_transform(rng, max_translation)
             q = transform(cloud, t, level * res, rng)
             last_count = max(1, len(cloud) // 100)
-            for name, mods in kinds:
+            for name, mods, refine in kinds:
                 if mods is None:
                     a = random_keypoints(len(cloud), last_count, rng)
                     b = random_keypoints(len(q), last_count, rng)
                 else:
                     a = detect(cloud, modalities=mods, radius=r, nms_radius=r, min_neighbors=min_neighbors,
-                               threads=threads).keypoints
+                               threads=threads, refine=refine).keypoints
                     b = detect(q, modalities=mods, radius=r, nms_radius=r, min_neighbors=min_neighbors,
-                               threads=threads).keypoints
+                               threads=threads, refine=refine).keypoints
                     last_count = max(1, len(a))
                 kp, kq, rep = measure(cloud, a, q, b, t, eps)
                 rows.append({"detector": name, "noise": level, "trial": trial, "source_keypoints": kp,
