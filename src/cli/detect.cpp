@@ -223,8 +223,8 @@ command add_detect_command(CLI::App& app, std::function<int(const detect_options
   det->add_option("--format", o->format, "Input format when the extension does not say: ply, pcd, las, csv, auto");
   det->add_option("--columns", o->columns, "CSV column names, e.g. x,y,z,intensity (the file then has no header)");
   det->add_option("--preset", o->preset,
-                  "ced3d (xyz:0.2), ced6d (xyz:0.2 + rgb:0.1), robust3d (xyz:0.2,scale=2, refined) or "
-                  "robust6d (xyz:0.2,scale=3 + rgb:0.5, refined); radius 0.05 unless given")
+                  "ced3d (xyz:0.2), ced6d (xyz:0.2 + rgb:0.1), robust3d (xyz:0.2,scale=1.75, refined) or "
+                  "robust6d (xyz:0.2,scale=2.25 + rgb:0.5, refined); radius 0.05 unless given")
       ->check(CLI::IsMember(ced::preset_names()));
   det->add_option(
       "-m,--modality", o->modalities,

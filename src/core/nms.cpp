@@ -174,62 +174,53 @@ std::vector<std::uint32_t> non_maximum_suppression(const block_partition& blocks
 std::vector<std::uint32_t> refine_keypoints(const block_partition& blocks, const float* xyz, const float* score,
                                             const std::vector<std::uint32_t>& keypoints, double radius,
                                             unsigned threads) {
-  // Keypoints by block (one box search a block), each refined on its own.
-  std::vector<std::uint32_t> block_of_point(blocks.order().size(), 0);
-  for (std::size_t b = 0; b < blocks.block_count(); ++b)
-    for (std::size_t k = 0; k < blocks.block_size(b); ++k)
-      block_of_point[blocks.block_points(b)[k]] = static_cast<std::uint32_t>(b);
-  std::vector<std::vector<std::uint32_t>> by_block(blocks.block_count());
-  for (std::uint32_t k : keypoints) by_block[block_of_point[k]].push_back(k);
-  std::vector<std::uint32_t> moved(blocks.order().size(), 0);  // keypoint → its refined point + 1
+  std::vector<std::uint32_t> moved(keypoints.size());
   const float r2 = squared_radius(radius);
-  parallel_for(blocks.block_count(), threads, 16, [&](std::size_t b0, std::size_t b1) {
-    std::vector<std::uint32_t> gathered, ball;
-    for (std::size_t b = b0; b < b1; ++b) {
-      const auto& kps = by_block[b];
-      if (kps.empty()) continue;
+  parallel_for(keypoints.size(), threads, 64, [&](std::size_t q0, std::size_t q1) {
+    std::vector<std::uint32_t> ball;
+    for (std::size_t q = q0; q < q1; ++q) {
+      const std::uint32_t k = keypoints[q];
+      const float* pk = xyz + 3 * std::size_t(k);
       float lo[3], hi[3];
-      padded_bounds(xyz, kps.data(), kps.size(), radius, lo, hi);
-      blocks.box_search(xyz, lo, hi, gathered);
-      for (std::uint32_t k : kps) {
-        const float* pk = xyz + 3 * std::size_t(k);
-        ball.clear();
-        for (std::uint32_t j : gathered)
-          if (squared_distance(xyz + 3 * std::size_t(j), pk) < r2) ball.push_back(j);
-        // By index: the sums do not depend on the blocks (tiles are exact).
-        std::sort(ball.begin(), ball.end());
-        double w = 0, m[3] = {0, 0, 0};
-        for (std::uint32_t j : ball) {
-          w += score[j];
-          for (std::size_t a = 0; a < 3; ++a) m[a] += double(score[j]) * xyz[3 * std::size_t(j) + a];
-        }
-        if (!(w > 0)) {  // no score around (a keypoint whose product is 0): the plain centroid
-          w = double(ball.size());
-          m[0] = m[1] = m[2] = 0;
-          for (std::uint32_t j : ball)
-            for (std::size_t a = 0; a < 3; ++a) m[a] += xyz[3 * std::size_t(j) + a];
-        }
-        for (double& v : m) v /= w;
-        std::uint32_t best = k;
-        double best_d = std::numeric_limits<double>::infinity();
-        for (std::uint32_t j : ball) {  // ascending: ties go to the smaller index
-          double d = 0;
-          for (std::size_t a = 0; a < 3; ++a) {
-            const double e = double(xyz[3 * std::size_t(j) + a]) - m[a];
-            d += e * e;
-          }
-          if (d < best_d) {
-            best_d = d;
-            best = j;
-          }
-        }
-        moved[k] = best + 1;
+      padded_bounds(xyz, &k, 1, radius, lo, hi);
+      blocks.box_search(xyz, lo, hi, ball);
+      ball.erase(
+          std::remove_if(ball.begin(), ball.end(),
+                         [&](std::uint32_t j) { return !(squared_distance(xyz + 3 * std::size_t(j), pk) < r2); }),
+          ball.end());
+      // By index: the sums do not depend on the blocks (tiles are exact).
+      std::sort(ball.begin(), ball.end());
+      double w = 0, m[3] = {0, 0, 0};
+      for (std::uint32_t j : ball) {
+        w += score[j];
+        for (std::size_t a = 0; a < 3; ++a) m[a] += double(score[j]) * xyz[3 * std::size_t(j) + a];
       }
+      if (!(w > 0)) {  // no score around (a keypoint whose product is 0): the plain centroid
+        w = double(ball.size());
+        m[0] = m[1] = m[2] = 0;
+        for (std::uint32_t j : ball)
+          for (std::size_t a = 0; a < 3; ++a) m[a] += xyz[3 * std::size_t(j) + a];
+      }
+      for (double& v : m) v /= w;
+      std::uint32_t best = k;
+      double best_d = std::numeric_limits<double>::infinity();
+      for (std::uint32_t j : ball) {  // ascending: ties go to the smaller index
+        double d = 0;
+        for (std::size_t a = 0; a < 3; ++a) {
+          const double e = double(xyz[3 * std::size_t(j) + a]) - m[a];
+          d += e * e;
+        }
+        if (d < best_d) {
+          best_d = d;
+          best = j;
+        }
+      }
+      moved[q] = best;
     }
   });
-  std::vector<std::uint8_t> flags(moved.size(), 0);
-  for (std::uint32_t k : keypoints) flags[moved[k] - 1] = 1;
-  return compact_flags(flags);
+  std::sort(moved.begin(), moved.end());
+  moved.erase(std::unique(moved.begin(), moved.end()), moved.end());
+  return moved;
 }
 
 std::vector<std::uint32_t> compact_flags(const std::vector<std::uint8_t>& flags) {

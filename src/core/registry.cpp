@@ -235,18 +235,18 @@ any_modality make_modality(std::string_view text) {
 std::vector<any_modality> preset(std::string_view name) {
   if (name == "ced3d") return {xyz{}};
   if (name == "ced6d") return {xyz{}, rgb{}};
-  // Chosen on apartment_mesh_214 alone (docs/EVALUATION.md): geometry at 2 or 3 × the radius, colour at
-  // 0.5; both refine their keypoints (preset_refines).
-  if (name == "robust3d") return {scaled<xyz>{xyz{}, 2}};
-  if (name == "robust6d") return {scaled<xyz>{xyz{}, 3}, rgb{0.5}};
+  // Chosen on apartment_mesh_214 alone (docs/EVALUATION.md): geometry at 1.75 or 2.25 × the radius,
+  // colour at 0.5; both refine their keypoints (preset_refines).
+  if (name == "robust3d") return {scaled<xyz>{xyz{}, 1.75}};
+  if (name == "robust6d") return {scaled<xyz>{xyz{}, 2.25}, rgb{0.5}};
   throw std::invalid_argument("unknown preset '" + std::string(name) + "' (known: ced3d, ced6d, robust3d, robust6d)");
 }
 
 std::vector<std::string> preset_specs(std::string_view name) {
   if (name == "ced3d") return {"xyz:0.2"};
   if (name == "ced6d") return {"xyz:0.2", "rgb:0.1"};
-  if (name == "robust3d") return {"xyz:0.2,scale=2"};
-  if (name == "robust6d") return {"xyz:0.2,scale=3", "rgb:0.5"};
+  if (name == "robust3d") return {"xyz:0.2,scale=1.75"};
+  if (name == "robust6d") return {"xyz:0.2,scale=2.25", "rgb:0.5"};
   throw std::invalid_argument("unknown preset '" + std::string(name) + "' (known: ced3d, ced6d, robust3d, robust6d)");
 }
 

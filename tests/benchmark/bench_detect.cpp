@@ -144,6 +144,7 @@ void bm_ced(benchmark::State& state, const std::string& name, const std::string&
   const auto& c = clouds().at(name);
   ced::detect_params p;
   p.threads = static_cast<unsigned>(state.range(0));
+  p.refine = preset != "five" && ced::preset_refines(preset);  // as `ced detect --preset` does
   const auto mods = preset == "five" ? five_modalities() : ced::preset(preset);
   ced::detection_result r;
   for (auto _ : state) {
