@@ -127,6 +127,8 @@ expect_exit 2 "--viewer writes the whole cloud" "--viewer with tiles" -- detect 
 "$CED" detect "$T/small.las" --preset ced6d --tile-size 0.05 --indices "$T/st.txt" 2> "$T/err" > /dev/null
 check "tiny tiles: same keypoints" cmp -s "$T/sw.txt" "$T/st.txt"
 check "tiny tiles: a warning with the cost" grep -q "warning: the halo .* outweighs .* read .* times" "$T/err"
+"$CED" detect "$T/small.las" --preset ced6d --tile-size 0.05 --indices "$T/st.txt" -q 2> "$T/err" > /dev/null
+check "tiny tiles: -q prints nothing, not even the warning" test ! -s "$T/err"
 head -c 5000 "$T/big.las" > "$T/cut.las"
 expect_exit 1 "truncated" "truncated LAS" -- detect "$T/cut.las" --preset ced6d --tile-size 2 --indices "$T/b.txt"
 check "no output for bad input" test ! -e "$T/b.txt"

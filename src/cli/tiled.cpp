@@ -119,6 +119,7 @@ void report_plan(const ced::tile_plan& p, bool quiet) {
     largest = std::max(largest, t.points);
   }
   const double ratio = owned ? double(read) / double(owned) : 0;
+  if (quiet) return;  // -q: nothing on stderr, warnings included (errors still are)
   if (!p.streamed)
     std::fprintf(stderr,
                  "ced: warning: %s is read whole before it is tiled (PLY ascii, PCD ascii and binary_compressed are "
@@ -130,12 +131,11 @@ void report_plan(const ced::tile_plan& p, bool quiet) {
                  "average (%llu points read for %llu), which costs as much more time and cache space\n",
                  p.grid.halo, p.grid.size, ratio, static_cast<unsigned long long>(read),
                  static_cast<unsigned long long>(owned));
-  if (!quiet)
-    std::fprintf(stderr,
-                 "ced: %zu tiles of %.4g (halo %.4g) own %llu points; %.2f points read a point, the largest tile reads "
-                 "%llu\n",
-                 p.tiles.size(), p.grid.size, p.grid.halo, static_cast<unsigned long long>(owned), ratio,
-                 static_cast<unsigned long long>(largest));
+  std::fprintf(stderr,
+               "ced: %zu tiles of %.4g (halo %.4g) own %llu points; %.2f points read a point, the largest tile reads "
+               "%llu\n",
+               p.tiles.size(), p.grid.size, p.grid.halo, static_cast<unsigned long long>(owned), ratio,
+               static_cast<unsigned long long>(largest));
 }
 
 merged_writer::merged_writer(detect_outputs& out, ced::io::file_format format) : m_out(out), m_format(format) {}
