@@ -54,7 +54,6 @@ void nms_block_by_query(const block_partition& blocks, const float* xyz, const s
                         std::size_t count, const float* score, double radius, std::uint8_t* keep,
                         std::vector<std::uint32_t>& gathered);
 
-/// Indices of the non-zero flags, ascending.
 /// Keypoint refinement (detect_params::refine): each of `keypoints` moved to
 /// the point within `radius` (strict) nearest to the score-weighted centroid
 /// of the points within `radius`; ascending, each point once.
@@ -62,6 +61,7 @@ std::vector<std::uint32_t> refine_keypoints(const block_partition& blocks, const
                                             const std::vector<std::uint32_t>& keypoints, double radius,
                                             unsigned threads);
 
+/// Indices of the non-zero flags, ascending.
 std::vector<std::uint32_t> compact_flags(const std::vector<std::uint8_t>& flags);
 
 }  // namespace ced::detail

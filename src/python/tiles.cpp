@@ -56,7 +56,9 @@ std::vector<std::string> specs_of(py::handle modalities) {
 
 bool refine_of(py::handle modalities, py::handle refine) {
   if (!refine.is_none()) {
-    if (!py::isinstance<py::bool_>(refine)) throw py::type_error("refine: expected True, False or None");
+    if (!py::isinstance<py::bool_>(refine))
+      throw py::type_error("refine: expected True, False or None, got " +
+                           py::str(py::type::of(refine).attr("__name__")).cast<std::string>());
     return refine.cast<bool>();
   }
   if (!py::isinstance<py::str>(modalities)) return false;

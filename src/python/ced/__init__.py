@@ -191,8 +191,6 @@ def detect(points, channels=None, modalities=None, radius=0.05, nms_radius=None,
     for name, value in (("min_neighbors", min_neighbors), ("threads", threads)):
         if isinstance(value, bool) or not isinstance(value, int):
             raise TypeError(f"{name}: expected an int, got {type(value).__name__}")
-    if refine is not None and not isinstance(refine, bool):
-        raise TypeError(f"refine: expected True, False or None, got {type(refine).__name__}")
     return _detect(points, channels, modalities, radius, float(radius_factor), nms_radius, min_neighbors, threads,
                    refine)
 
