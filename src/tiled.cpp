@@ -13,9 +13,11 @@
 #include <filesystem>
 #include <fstream>
 #include <future>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <queue>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <unordered_map>
@@ -44,6 +46,30 @@ std::uint64_t fnv1a(const char* p, std::size_t n, std::uint64_t h = 146959810393
     h ^= static_cast<unsigned char>(p[i]);
     h *= 1099511628211ull;
   }
+  return h;
+}
+
+/// A fast hash of decoded data, 8 bytes at a time (the content of a plan).
+std::uint64_t hash_words(const unsigned char* p, std::size_t n, std::uint64_t h) {
+  auto mix = [](std::uint64_t x, std::uint64_t w) {
+    x = (x ^ w) * 0x9E3779B97F4A7C15ull;
+    return x ^ (x >> 29);
+  };
+  std::size_t i = 0;
+  for (; i + 8 <= n; i += 8) {
+    std::uint64_t w;
+    std::memcpy(&w, p + i, 8);
+    h = mix(h, w);
+  }
+  std::uint64_t tail = 0;
+  if (i < n) std::memcpy(&tail, p + i, n - i);
+  return mix(mix(h, tail), n);
+}
+
+/// A chunk's positions and every field's values, into the content hash.
+std::uint64_t hash_chunk(const point_cloud& c, std::uint64_t h) {
+  h = hash_words(reinterpret_cast<const unsigned char*>(c.positions().data()), 12 * c.size(), h);
+  for (const field& f : c.fields()) h = hash_words(f.values.bytes(), size_of(f.type()) * c.size(), h);
   return h;
 }
 
@@ -132,23 +158,68 @@ nlohmann::json request_json(const tiled_request& r) {
   return j;
 }
 
+/// A whole number of a plan, within T's range: nlohmann's get<> would wrap
+/// -1 to 2^32-1 and truncate 2.5.
+template <class T>
+T count_of(const nlohmann::json& j, const char* key) {
+  const nlohmann::json& v = j.at(key);
+  if (!v.is_number_unsigned() || v.get<std::uint64_t>() > std::numeric_limits<T>::max())
+    throw std::invalid_argument(std::string("'") + key + "' must be a whole number from 0 to " +
+                                std::to_string(std::numeric_limits<T>::max()) + ", got " + v.dump());
+  return static_cast<T>(v.get<std::uint64_t>());
+}
+template <class T>
+T count_at(const nlohmann::json& a, std::size_t k, const char* what) {
+  const nlohmann::json& v = a.at(k);
+  if (!v.is_number_unsigned() || v.get<std::uint64_t>() > std::numeric_limits<T>::max())
+    throw std::invalid_argument(std::string(what) + " must be a whole number >= 0, got " + v.dump());
+  return static_cast<T>(v.get<std::uint64_t>());
+}
+/// A finite number of a plan.
+double number_of(const nlohmann::json& j, const char* key) {
+  const nlohmann::json& v = j.at(key);
+  if (!v.is_number() || !std::isfinite(v.get<double>()))
+    throw std::invalid_argument(std::string("'") + key + "' must be a finite number, got " + v.dump());
+  return v.get<double>();
+}
+std::array<double, 3> point_of(const nlohmann::json& j, const char* key) {
+  const nlohmann::json& v = j.at(key);
+  if (!v.is_array() || v.size() != 3) throw std::invalid_argument(std::string("'") + key + "' must be 3 numbers");
+  std::array<double, 3> out{};
+  for (std::size_t k = 0; k < 3; ++k) {
+    if (!v[k].is_number() || !std::isfinite(v[k].get<double>()))
+      throw std::invalid_argument(std::string("'") + key + "' must be 3 finite numbers, got " + v.dump());
+    out[k] = v[k].get<double>();
+  }
+  return out;
+}
+
 tiled_request request_from_json(const nlohmann::json& j) {
   tiled_request r;
   r.input = j.at("input").get<std::string>();
   r.read.format = io::parse_format(j.at("format").get<std::string>());
   r.read.csv.columns = j.at("csv_columns").get<std::vector<std::string>>();
-  if (j.at("fields").is_string())
+  if (j.at("fields").is_string()) {
+    if (j.at("fields").get<std::string>() != "all") throw std::invalid_argument("'fields' must be \"all\" or a list");
     r.read.fields = {};
-  else
+  } else {
     r.read.fields = field_selection::only(j.at("fields").get<std::vector<std::string>>());
-  r.params.radius = j.at("radius").get<double>();
-  r.params.nms_radius = j.at("nms_radius").get<double>();
-  r.params.min_neighbors = j.at("min_neighbors").get<std::uint32_t>();
-  r.params.block_scale = j.at("block_scale").get<double>();
+  }
+  r.params.radius = number_of(j, "radius");
+  r.params.nms_radius = number_of(j, "nms_radius");
+  r.params.min_neighbors = count_of<std::uint32_t>(j, "min_neighbors");
+  r.params.block_scale = number_of(j, "block_scale");
+  if (j.contains("refine") && !j.at("refine").is_boolean())
+    throw std::invalid_argument("'refine' must be true or false");
   r.params.refine = j.value("refine", false);  // plans written before refinement existed
   r.modalities = j.at("modalities").get<std::vector<std::string>>();
-  r.tile_size = j.at("tile_size").get<double>();
-  r.memory_limit = j.at("memory_limit").get<std::uint64_t>();
+  r.tile_size = number_of(j, "tile_size");
+  r.memory_limit = count_of<std::uint64_t>(j, "memory_limit");
+  validate(r.params);
+  if (r.modalities.empty()) throw std::invalid_argument("'modalities' is empty");
+  modalities_of(r.modalities);  // each spec parses
+  if (r.tile_size < 0 || (r.tile_size == 0) == (r.memory_limit == 0))
+    throw std::invalid_argument("a plan has a positive 'tile_size' or a 'memory_limit', one of them");
   return r;
 }
 
@@ -577,6 +648,7 @@ std::string tile_plan::to_json() const {
   j["request"] = request_json(request);
   j["input"] = {{"details", details},    {"bytes", input_bytes},           {"fingerprint", fingerprint},
                 {"points", file_points}, {"finite_points", finite_points}, {"streamed", streamed}};
+  if (!content.empty()) j["input"]["content"] = content;
   j["origin"] = origin;
   j["grid"] = {{"lo", grid.lo}, {"size", grid.size}, {"dims", grid.dims}, {"halo", grid.halo}};
   auto& fl = j["fields"] = nlohmann::json::array();
@@ -598,32 +670,55 @@ tile_plan tile_plan::from_json(const std::string& text, const std::string& name)
     p.request = request_from_json(j.at("request"));
     const auto& in = j.at("input");
     p.details = in.at("details").get<std::string>();
-    p.input_bytes = in.at("bytes").get<std::uint64_t>();
+    p.input_bytes = count_of<std::uint64_t>(in, "bytes");
     p.fingerprint = in.at("fingerprint").get<std::string>();
-    p.file_points = in.at("points").get<std::uint64_t>();
-    p.finite_points = in.at("finite_points").get<std::uint64_t>();
+    p.content = in.value("content", std::string());
+    p.file_points = count_of<std::uint64_t>(in, "points");
+    p.finite_points = count_of<std::uint64_t>(in, "finite_points");
     p.streamed = in.at("streamed").get<bool>();
-    p.origin = j.at("origin").get<std::array<double, 3>>();
+    if (p.finite_points == 0 || p.finite_points > p.file_points ||
+        p.finite_points > std::numeric_limits<std::uint32_t>::max())
+      fail(name, "invalid tile plan: its point counts are inconsistent");
+    p.origin = point_of(j, "origin");
     const auto& g = j.at("grid");
-    p.grid.lo = g.at("lo").get<std::array<double, 3>>();
-    p.grid.size = g.at("size").get<double>();
-    p.grid.dims = g.at("dims").get<std::array<std::uint32_t, 3>>();
-    p.grid.halo = g.at("halo").get<double>();
-    if (!(p.grid.size > 0) || !std::isfinite(p.grid.size) || !(p.grid.halo >= 0) ||
+    p.grid.lo = point_of(g, "lo");
+    p.grid.size = number_of(g, "size");
+    const auto& dims = g.at("dims");
+    if (!dims.is_array() || dims.size() != 3) fail(name, "invalid tile plan: the grid's 'dims' must be 3 counts");
+    for (std::size_t k = 0; k < 3; ++k) p.grid.dims[k] = count_at<std::uint32_t>(dims, k, "the grid's dims");
+    p.grid.halo = number_of(g, "halo");
+    if (!(p.grid.size > 0) || !(p.grid.halo >= 0) ||
         p.grid.dims[0] * std::uint64_t(p.grid.dims[1]) * p.grid.dims[2] == 0 ||
         p.grid.count() > (std::uint64_t(1) << 24))
       fail(name, "the tile grid is invalid");
-    for (const auto& f : j.at("fields"))
-      p.fields.push_back({f.at("name").get<std::string>(),
+    // The halo makes the tiles exact: at least the one the request needs.
+    const double needed = exact_halo(halo_params(p.request), 0);
+    if (p.grid.halo < needed)
+      fail(name, "invalid tile plan: its halo " + std::to_string(p.grid.halo) + " is less than the " +
+                     std::to_string(needed) + " its radii and modalities need (tiles would not be exact)");
+    std::set<std::string> names;
+    for (const auto& f : j.at("fields")) {
+      const plan_field pf{f.at("name").get<std::string>(),
                           type_named(f.at("type").get<std::string>(), name),
-                          {f.at("lo").get<double>(), f.at("hi").get<double>()}});
+                          {number_of(f, "lo"), number_of(f, "hi")}};
+      if (pf.name.empty() || !names.insert(pf.name).second || !(pf.range.lo <= pf.range.hi))
+        fail(name, "invalid tile plan: field '" + pf.name + "' is unnamed, repeated or has lo > hi");
+      p.fields.push_back(pf);
+    }
+    std::uint64_t owned = 0;
     for (const auto& t : j.at("tiles")) {
-      const tile_entry e{t.at(0).get<std::uint64_t>(), t.at(1).get<std::uint64_t>(), t.at(2).get<std::uint64_t>()};
+      const tile_entry e{count_at<std::uint64_t>(t, 0, "a tile's id"), count_at<std::uint64_t>(t, 1, "a tile's count"),
+                         count_at<std::uint64_t>(t, 2, "a tile's count")};
       if (e.id >= p.grid.count() || (!p.tiles.empty() && e.id <= p.tiles.back().id))
         fail(name, "tile " + std::to_string(e.id) + " is out of the grid or out of order");
+      if (e.core_points == 0 || e.core_points > e.points || e.points > p.finite_points)
+        fail(name, "invalid tile plan: tile " + std::to_string(e.id) + "'s counts are inconsistent");
+      owned += e.core_points;
       p.tiles.push_back(e);
     }
-    validate(p.request.params);
+    if (owned != p.finite_points)
+      fail(name, "invalid tile plan: its tiles own " + std::to_string(owned) + " points, its input has " +
+                     std::to_string(p.finite_points) + " finite points");
   } catch (const nlohmann::json::exception& e) {
     fail(name, std::string("malformed tile plan: ") + e.what());
   } catch (const std::invalid_argument& e) {
@@ -659,7 +754,9 @@ tile_plan plan_tiles(const tiled_request& request, const tiled_progress& progres
   tile_counter counts(p.grid.count());
   std::vector<std::uint64_t> near;
   std::uint64_t done = 0;
+  std::uint64_t content = 0;
   for_each_chunk(*s, p.origin, [&](const point_cloud& c) {
+    content = hash_chunk(c, content);
     for (std::size_t i = 0; i < c.size(); ++i) {
       if (!finite3(c.position(i))) continue;
       counts.core(p.grid.tile_of(c.position(i)));
@@ -670,6 +767,7 @@ tile_plan plan_tiles(const tiled_request& request, const tiled_progress& progres
     if (progress) progress("reading (pass 2: points per tile)", double(done) / double(p.file_points));
   });
   p.tiles = counts.entries();
+  p.content = hex(content);
   return p;
 }
 
@@ -691,17 +789,35 @@ tile_points read_tile(const tile_plan& plan, std::uint64_t id) {
   s->rewind();
   const auto coords = plan.grid.coords(id);
   std::string records;
-  std::uint64_t file_index = 0, index = 0;
+  std::uint64_t file_index = 0, index = 0, content = 0, core = 0;
   for_each_chunk(*s, plan.origin, [&](const point_cloud& c) {
     if (c.fields().size() != plan.fields.size())
       fail(plan.request.input, "its fields differ from the plan's: make a new plan");
+    if (!plan.content.empty()) content = hash_chunk(c, content);
     for (std::size_t i = 0; i < c.size(); ++i, ++file_index) {
       if (!finite3(c.position(i))) continue;
-      if (near_tile(plan.grid, coords, c.position(i))) append_record(records, index, file_index, c, i);
+      if (near_tile(plan.grid, coords, c.position(i))) {
+        append_record(records, index, file_index, c, i);
+        core += plan.grid.tile_of(c.position(i)) == id;
+      }
       ++index;
     }
   });
-  return points_from_records(plan, id, records, plan.request.input);
+  const tile_entry& e = plan.tile(id);
+  auto changed = [&](const std::string& what) {
+    fail(plan.request.input, "the file changed since the plan was made (" + what + "): make a new plan");
+  };
+  if (file_index != plan.file_points || index != plan.finite_points)
+    changed(std::to_string(file_index) + " points, " + std::to_string(index) + " finite; the plan says " +
+            std::to_string(plan.file_points) + ", " + std::to_string(plan.finite_points));
+  if (!plan.content.empty() && hex(content) != plan.content)
+    changed("its decoded points hash to " + hex(content) + ", the plan's to " + plan.content);
+  tile_points pts = points_from_records(plan, id, records, plan.request.input);
+  if (core != e.core_points || pts.cloud.size() != e.points)
+    changed("tile " + std::to_string(id) + " reads " + std::to_string(pts.cloud.size()) + " points and owns " +
+            std::to_string(core) + "; the plan says " + std::to_string(e.points) + " and " +
+            std::to_string(e.core_points));
+  return pts;
 }
 
 // ------------------------------------------------------------------ tiles
@@ -710,6 +826,7 @@ tile_part detect_tile(const tile_plan& plan, const tile_points& points, unsigned
   const auto t0 = std::chrono::steady_clock::now();
   tile_part part;
   part.tile = points.tile;
+  part.plan = plan.digest();
   const auto modalities = modalities_of(plan.request.modalities);
   detect_params params = plan.request.params;
   params.threads = threads;
@@ -793,6 +910,7 @@ class part_reader {
       at += sizeof v;
     };
     std::uint32_t nm = 0, nf = 0;
+    totals.plan = digest;
     get(totals.tile);
     get(m_count);
     get(nm);
@@ -867,6 +985,23 @@ void resize_part(tile_part& p, const tile_plan& plan, std::size_t n) {
   for (auto& s : p.saliency) s.resize(n);
 }
 
+/// Checks one keypoint of tile `tile`'s part as a merge takes it: indices in
+/// range and after the previous keypoint's (`last`, none yet: UINT64_MAX),
+/// and the position in the tile's core. io_error naming `where` otherwise.
+void check_keypoint(const tile_plan& plan, const std::string& where, std::uint64_t tile, std::uint64_t index,
+                    std::uint64_t file_index, const float* xyz, std::uint64_t& last) {
+  auto bad = [&](const std::string& what) {
+    fail(where, "not a whole part of this plan: keypoint " + std::to_string(index) + " " + what);
+  };
+  if (index >= plan.finite_points || file_index >= plan.file_points)
+    bad("is out of the input's range (" + std::to_string(plan.finite_points) + " finite points)");
+  if (last != std::numeric_limits<std::uint64_t>::max() && index <= last)
+    bad(index == last ? "is given twice" : "comes after keypoint " + std::to_string(last));
+  if (file_index < index) bad("has a file index below its index");
+  if (!finite3(xyz) || plan.grid.tile_of(xyz) != tile) bad("lies outside tile " + std::to_string(tile) + "'s core");
+  last = index;
+}
+
 /// Throws io_error naming the tiles of the plan that own points and have
 /// no part, and a tile given twice.
 void check_complete(const tile_plan& plan, const std::vector<std::uint64_t>& tiles) {
@@ -891,6 +1026,7 @@ void check_complete(const tile_plan& plan, const std::vector<std::uint64_t>& til
 /// thresholds, no candidates, no keypoints.
 tile_part empty_merge(const tile_plan& plan) {
   tile_part out;
+  out.plan = plan.digest();
   const auto modalities = modalities_of(plan.request.modalities);
   name_modalities(plan, modalities, out);
   out.candidates.assign(modalities.size(), 0);
@@ -949,7 +1085,7 @@ void merge_part_files(const tile_plan& plan, const std::vector<std::string>& pat
   };
   for (std::size_t i = 0; i < readers.size(); ++i) push(i);
   tile_part chunk = totals;
-  std::uint64_t emitted = 0;
+  std::uint64_t emitted = 0, last = std::numeric_limits<std::uint64_t>::max();
   while (emitted < count) {
     const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(chunk_cap, count - emitted));
     resize_part(chunk, plan, n);
@@ -959,7 +1095,10 @@ void merge_part_files(const tile_plan& plan, const std::vector<std::string>& pat
       heap.pop();
       (void)index;
       decode_part_record(where.second, chunk, j);
-      push(where.first);
+      const std::size_t r = where.first;
+      check_keypoint(plan, paths[r], readers[r].totals.tile, chunk.index[j], chunk.file_index[j],
+                     chunk.keypoints.position(j), last);
+      push(r);
     }
     emitted += n;
     if (sink.chunk) sink.chunk(chunk);
@@ -969,9 +1108,27 @@ void merge_part_files(const tile_plan& plan, const std::vector<std::string>& pat
 tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts) {
   std::vector<std::uint64_t> tiles;
   for (const auto& p : parts) tiles.push_back(p.tile);
-  check_complete(plan, tiles);
   tile_part out = empty_merge(plan);
   const std::size_t m = out.names.size();
+  for (const auto& p : parts) {
+    const std::string where = "the part of tile " + std::to_string(p.tile);
+    if (p.plan != out.plan)
+      fail(where, "it belongs to another plan (plan digest " + (p.plan.empty() ? std::string("none") : p.plan) +
+                      ", expected " + out.plan + ")");
+    const std::size_t n = p.index.size();
+    bool whole = p.names == out.names && p.saliency.size() == m && p.candidates.size() == m &&
+                 p.file_index.size() == n && p.keypoints.size() == n &&
+                 p.keypoints.fields().size() == plan.fields.size();
+    for (std::size_t k = 0; whole && k < m; ++k) whole = p.saliency[k].size() == n;
+    for (std::size_t f = 0; whole && f < plan.fields.size(); ++f)
+      whole =
+          p.keypoints.fields()[f].name == plan.fields[f].name && p.keypoints.fields()[f].type() == plan.fields[f].type;
+    if (!whole) fail(where, "its modalities, fields or array sizes differ from the plan's");
+    std::uint64_t last = std::numeric_limits<std::uint64_t>::max();
+    for (std::size_t j = 0; j < n; ++j)
+      check_keypoint(plan, where, p.tile, p.index[j], p.file_index[j], p.keypoints.position(j), last);
+  }
+  check_complete(plan, tiles);
   // Keypoints of all parts, by index (the parts' are disjoint).
   std::vector<std::pair<std::uint64_t, std::pair<std::size_t, std::size_t>>> order;
   for (std::size_t i = 0; i < parts.size(); ++i) {
@@ -981,6 +1138,11 @@ tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts) {
     for (std::size_t j = 0; j < parts[i].index.size(); ++j) order.push_back({parts[i].index[j], {i, j}});
   }
   std::sort(order.begin(), order.end());
+  for (std::size_t q = 1; q < order.size(); ++q)
+    if (order[q].first == order[q - 1].first)
+      fail("the parts of tiles " + std::to_string(parts[order[q - 1].second.first].tile) + " and " +
+               std::to_string(parts[order[q].second.first].tile),
+           "both have keypoint " + std::to_string(order[q].first) + ": not parts of one plan's run");
   out.keypoints = empty_cloud(plan, order.size());
   out.saliency.assign(m, std::vector<float>(order.size()));
   for (std::size_t q = 0; q < order.size(); ++q) {
@@ -995,6 +1157,115 @@ tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts) {
   return out;
 }
 
+// ------------------------------------------------------------------ work directory
+
+namespace {
+
+/// The marker's text; "created" says whether ced made the directory (then
+/// it removes the directory too, once empty).
+std::string marker_text(bool created) {
+  return std::string("ced tiled-run work directory: ced removes its own files here when the run succeeds\n") +
+         "created " + (created ? "yes" : "no") + "\n";
+}
+
+bool has_marker(const fs::path& dir) {
+  std::error_code ec;
+  return fs::is_regular_file(fs::symlink_status(dir / work_dir_marker, ec));
+}
+
+/// A name ced gives a file of its work directory: `base` (plan.json) or
+/// t<digits><suffix> when `base` is empty, or the temporary of such a name,
+/// ".<name>.tmp.<pid>.<n>".
+bool ced_file_name(std::string name, const std::string& base, const std::string& suffix) {
+  if (!name.empty() && name[0] == '.') {
+    const std::size_t tmp = name.find(".tmp.");
+    if (tmp == std::string::npos) return false;
+    const std::string rest = name.substr(tmp + 5);
+    if (rest.empty() || rest.find_first_not_of("0123456789.") != std::string::npos) return false;
+    name = name.substr(1, tmp - 1);
+  }
+  if (!base.empty()) return name == base;
+  if (name.size() < 1 + suffix.size() + 1 || name[0] != 't' ||
+      name.compare(name.size() - suffix.size(), suffix.size(), suffix) != 0)
+    return false;
+  const std::string id = name.substr(1, name.size() - 1 - suffix.size());
+  return id.find_first_not_of("0123456789") == std::string::npos;
+}
+
+/// Removes ced's files (names ced_file_name() accepts) from `dir`, and
+/// `dir` itself when it is then empty. Other files stay.
+void remove_ced_files(const fs::path& dir, const std::string& base, const std::string& suffix) {
+  std::error_code ec;
+  if (!fs::is_directory(fs::symlink_status(dir, ec))) return;
+  std::vector<fs::path> ours;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    std::error_code e2;
+    if (fs::is_regular_file(it->symlink_status(e2)) && ced_file_name(it->path().filename().string(), base, suffix))
+      ours.push_back(it->path());
+  }
+  for (const auto& p : ours) fs::remove(p, ec);
+  fs::remove(dir, ec);  // only when empty
+}
+
+/// Empties ced's cache and parts of a work directory (a run stopped before
+/// its plan was written: its cache is incomplete).
+void clear_tiles(const fs::path& dir) {
+  remove_ced_files(dir / "cache", "", ".bin");
+  remove_ced_files(dir / "parts", "", ".part");
+}
+
+/// Makes `dir` ced's: creates it (marker "created yes"), or marks an empty
+/// directory (marker "created no"), or accepts one that has ced's marker.
+/// Anything else is refused, with or without `resume`.
+void claim_work_dir(const std::string& work_dir) {
+  const fs::path dir(work_dir);
+  std::error_code ec;
+  const fs::file_status st = fs::status(dir, ec);
+  bool created = false;
+  if (!fs::exists(st)) {
+    // Only the last component is created: a mistyped parent is an error.
+    if (dir.has_parent_path() && !fs::is_directory(dir.parent_path(), ec))
+      throw work_dir_error("work directory '" + work_dir + "': its parent directory does not exist");
+    if (!fs::create_directory(dir, ec) || ec)
+      fail(work_dir, "cannot create the work directory: " + (ec ? ec.message() : std::string("it appeared meanwhile")));
+    created = true;
+  } else if (!fs::is_directory(st)) {
+    throw work_dir_error("work directory '" + work_dir + "' exists and is not a directory");
+  } else if (has_marker(dir)) {
+    return;
+  } else if (!fs::is_empty(dir, ec) || ec) {
+    std::string first;
+    for (fs::directory_iterator it(dir, ec), end; !ec && it != end && first.empty(); it.increment(ec))
+      first = it->path().filename().string();
+    throw work_dir_error("work directory '" + work_dir + "' holds files ced did not make (" +
+                         (first.empty() ? std::string("it cannot be listed") : "'" + first + "'") +
+                         "): ced works only in a new or empty directory, and never deletes what it did not "
+                         "create; choose another --work-dir");
+  }
+  io::write_text_file_atomic((dir / work_dir_marker).string(), marker_text(created));
+}
+
+}  // namespace
+
+void remove_work_dir(const std::string& work_dir) noexcept {
+  try {
+    const fs::path dir(work_dir);
+    if (work_dir.empty() || !has_marker(dir)) return;
+    std::error_code ec;
+    std::string marker;
+    try {
+      marker = slurp((dir / work_dir_marker).string());
+    } catch (const std::exception&) {
+    }
+    const bool created = marker.find("\ncreated yes\n") != std::string::npos;
+    clear_tiles(dir);
+    remove_ced_files(dir, "plan.json", "");
+    fs::remove(dir / work_dir_marker, ec);
+    if (created) fs::remove(dir, ec);  // only when empty: a file someone put there keeps it
+  } catch (...) {
+  }
+}
+
 // ------------------------------------------------------------------ one process
 
 tile_plan prepare_tiled(const tiled_request& request, const tiled_run_options& o) {
@@ -1003,6 +1274,7 @@ tile_plan prepare_tiled(const tiled_request& request, const tiled_run_options& o
   std::error_code ec;
   tile_plan plan;
   bool have_plan = false;
+  claim_work_dir(o.work_dir);
   if (fs::exists(plan_path, ec)) {
     if (!o.resume)
       fail(o.work_dir, "holds the tiles of an unfinished run: pass --resume to finish it, or remove the directory");
@@ -1014,12 +1286,8 @@ tile_plan prepare_tiled(const tiled_request& request, const tiled_run_options& o
                            "): remove it or choose another work directory");
     check_plan_input(plan);
     have_plan = true;
-  } else if (fs::exists(dir, ec) && !fs::is_empty(dir, ec)) {
-    // A run stopped before its plan was written: its cache is incomplete.
-    if (!o.resume && !fs::exists(cache, ec))
-      fail(o.work_dir, "exists and is not a ced work directory: remove it or choose another");
-    fs::remove_all(cache, ec);
-    fs::remove_all(parts, ec);
+  } else {
+    clear_tiles(dir);  // a run stopped before its plan was written: its cache is incomplete
   }
   if (!have_plan) {
     fs::create_directories(cache, ec);
@@ -1140,8 +1408,7 @@ tile_part merge_work_dir(const tile_plan& plan, const std::string& work_dir, con
 
 tile_part finish_tiled(const tile_plan& plan, const std::string& work_dir, const merge_sink* sink, bool keep_work_dir) {
   tile_part merged = merge_work_dir(plan, work_dir, sink);
-  std::error_code ec;
-  if (!keep_work_dir) fs::remove_all(work_dir, ec);
+  if (!keep_work_dir) remove_work_dir(work_dir);
   return merged;
 }
 
@@ -1176,7 +1443,7 @@ tile_part run_tiled(const tiled_request& request, const tiled_run_options& o, ti
   }
   const auto t_merge = std::chrono::steady_clock::now();
   tile_part merged = merge_work_dir(plan, o.work_dir, o.sink);
-  if (!o.keep_work_dir) fs::remove_all(o.work_dir, ec);
+  if (!o.keep_work_dir) remove_work_dir(o.work_dir);
   if (o.times) *o.times = {ms(t_plan, t0), ms(t0, t_merge), ms(t_merge, clock::now())};
   return merged;
 }

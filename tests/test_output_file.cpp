@@ -142,3 +142,134 @@ TEST(AtomicOutputFile, CommitTwiceIsAnError) {
   f.commit();
   EXPECT_THROW(f.commit(), io_error);
 }
+
+// ---------------------------------------------------------------- what ced may write (issue #25)
+
+namespace {
+void write_file(const fs::path& p, const std::string& text) { std::ofstream(p, std::ios::binary) << text; }
+std::string read_file(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+}  // namespace
+
+TEST(SameFile, EverySpellingOfOneFile) {
+  const fs::path dir = fresh_dir("same_file");
+  fs::create_directories(dir / "sub");
+  write_file(dir / "in.ply", "cloud");
+  fs::create_symlink(dir / "in.ply", dir / "link.ply");
+  fs::create_hard_link(dir / "in.ply", dir / "hard.ply");
+  write_file(dir / "other.ply", "cloud");
+  const std::string in = (dir / "in.ply").string();
+  EXPECT_TRUE(ced::io::same_file(in, in));
+  EXPECT_TRUE(ced::io::same_file(in, (dir / "sub" / ".." / "in.ply").string()));
+  EXPECT_TRUE(ced::io::same_file(in, (dir / "link.ply").string()));
+  EXPECT_TRUE(ced::io::same_file(in, (dir / "hard.ply").string()));
+  EXPECT_FALSE(ced::io::same_file(in, (dir / "other.ply").string()));  // equal bytes, another file
+  EXPECT_FALSE(ced::io::same_file(in, (dir / "missing.ply").string()));
+  EXPECT_FALSE(ced::io::same_file(in, ""));
+}
+
+TEST(CheckOutputsDistinct, AnOutputThatIsAnInputIsRefusedNamingBoth) {
+  const fs::path dir = fresh_dir("distinct");
+  write_file(dir / "in.ply", "cloud");
+  fs::create_symlink(dir / "in.ply", dir / "link.ply");
+  fs::create_hard_link(dir / "in.ply", dir / "hard.ply");
+  const std::string in = (dir / "in.ply").string();
+  for (const fs::path& out : {dir / "in.ply", dir / "." / "in.ply", dir / "link.ply", dir / "hard.ply"}) {
+    try {
+      ced::io::check_outputs_distinct({{"the input", in}}, {{"--indices", ""}, {"-o", out.string()}});
+      ADD_FAILURE() << out << " was accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("-o '" + out.string() + "' is the input"), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_NO_THROW(ced::io::check_outputs_distinct({{"the input", in}}, {{"-o", (dir / "k.ply").string()}}));
+  EXPECT_EQ(read_file(dir / "in.ply"), "cloud");
+}
+
+TEST(CheckOutputsDistinct, TwoOutputsOfOnePathAreRefused) {
+  const fs::path dir = fresh_dir("two_outputs");
+  fs::create_directories(dir / "sub");
+  const std::string k = (dir / "k.ply").string();
+  EXPECT_THROW(ced::io::check_outputs_distinct({}, {{"-o", k}, {"--viewer", k}}), std::invalid_argument);
+  EXPECT_THROW(ced::io::check_outputs_distinct({}, {{"-o", k}, {"--viewer", (dir / "sub" / ".." / "k.ply").string()}}),
+               std::invalid_argument);
+  write_file(dir / "k.ply", "old");
+  fs::create_symlink(dir / "k.ply", dir / "alias.ply");
+  EXPECT_THROW(ced::io::check_outputs_distinct({}, {{"-o", k}, {"--viewer", (dir / "alias.ply").string()}}),
+               std::invalid_argument);
+  EXPECT_NO_THROW(ced::io::check_outputs_distinct({}, {{"-o", k}, {"--viewer", (dir / "v.ply").string()}}));
+  // Devices may take several outputs.
+  EXPECT_NO_THROW(ced::io::check_outputs_distinct({}, {{"-o", "/dev/null"}, {"--viewer", "/dev/null"}}));
+}
+
+TEST(AtomicOutputFile, ADeviceIsWrittenInPlaceNeverRenamedOver) {
+  {
+    atomic_output_file f("/dev/null");
+    EXPECT_TRUE(f.temp_path().empty());
+    f.stream() << "discarded";
+    f.commit();
+  }
+  struct stat st {};
+  ASSERT_EQ(::stat("/dev/null", &st), 0);
+  EXPECT_TRUE(S_ISCHR(st.st_mode));
+  // /dev/stdout names whatever fd 1 is (a regular file under ctest): written
+  // through, not replaced by a renamed temporary.
+  struct stat link {};
+  if (::lstat("/dev/stdout", &link) == 0) {
+    atomic_output_file f("/dev/stdout");
+    EXPECT_TRUE(f.temp_path().empty());
+    f.commit();
+    struct stat after {};
+    ASSERT_EQ(::lstat("/dev/stdout", &after), 0);
+    EXPECT_EQ(after.st_mode, link.st_mode);
+    EXPECT_EQ(after.st_ino, link.st_ino);
+  }
+}
+
+TEST(AtomicOutputFile, ACommitRemovesTheTemporariesOfKilledProcesses) {
+  const fs::path dir = fresh_dir("stale");
+  // A process id that runs no process: past the kernel's pid_max.
+  long dead = 4194304 + 17;
+  if (std::ifstream max("/proc/sys/kernel/pid_max"); max) max >> dead, dead += 17;
+  const fs::path stale = dir / (".k.txt.tmp." + std::to_string(dead) + ".0");
+  const fs::path live = dir / (".k.txt.tmp." + std::to_string(::getppid()) + ".3");  // a process that runs
+  const fs::path other = dir / (".j.txt.tmp." + std::to_string(dead) + ".0");        // another output's
+  const fs::path user = dir / (".k.txt.tmp." + std::to_string(dead) + ".0.mine");    // not ced's name
+  for (const auto& p : {stale, live, other, user}) write_file(p, "partial");
+  atomic_output_file f((dir / "k.txt").string());
+  f.stream() << "1\n";
+  f.commit();
+  EXPECT_FALSE(fs::exists(stale));
+  EXPECT_TRUE(fs::exists(live));
+  EXPECT_TRUE(fs::exists(other));
+  EXPECT_TRUE(fs::exists(user));
+  EXPECT_EQ(read_file(dir / "k.txt"), "1\n");
+}
+
+TEST(WriteNamed, AFailedWriteNamesTheFile) {
+  const fs::path dir = fresh_dir("named");
+  atomic_output_file f((dir / "k.las").string());
+  try {
+    ced::io::write_named(f, [](std::ostream&) { throw io_error("error writing LAS data to the output stream"); });
+    ADD_FAILURE();
+  } catch (const io_error& e) {
+    EXPECT_NE(std::string(e.what()).find("k.las"), std::string::npos) << e.what();
+  }
+  if (fs::exists("/dev/full")) {
+    atomic_output_file full("/dev/full");
+    try {
+      ced::io::write_named(full, [](std::ostream& s) {
+        const std::string block(1 << 20, 'x');
+        s.write(block.data(), static_cast<std::streamsize>(block.size()));
+        s.flush();
+      });
+      ADD_FAILURE() << "a write to /dev/full succeeded";
+    } catch (const io_error& e) {
+      EXPECT_NE(std::string(e.what()).find("/dev/full"), std::string::npos) << e.what();
+    }
+  }
+}

@@ -10,6 +10,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -54,6 +55,11 @@ struct tile_plan {
   std::string details;  ///< "LAS 1.2, point format 3"
   std::uint64_t input_bytes = 0;
   std::string fingerprint;  ///< of the input's bytes (size and sampled blocks)
+  /// Of every decoded point of the input (positions relative to `origin`,
+  /// every field's values), made by plan_tiles() and checked by read_tile():
+  /// any change to what a tile would read is an error. Empty in the plans of
+  /// run_tiled(), which reads the input once more only to fill its cache.
+  std::string content;
   std::uint64_t file_points = 0, finite_points = 0;
   std::array<double, 3> origin{0.0, 0.0, 0.0};
   tile_grid grid;
@@ -81,7 +87,9 @@ using tiled_progress = std::function<void(const std::string& step, double fracti
 tile_plan plan_tiles(const tiled_request& request, const tiled_progress& progress = {});
 
 /// Throws io_error when the input file is no longer the one planned (size or
-/// fingerprint differ).
+/// fingerprint differ). The fingerprint reads the size, the first and last
+/// 64 KiB and 64 blocks of 4 KiB: cheap, and blind to a change elsewhere of
+/// the same size; read_tile() then checks every decoded point (`content`).
 void check_plan_input(const tile_plan& plan);
 
 /// The points a tile reads, with their indices: `index` among the file's
@@ -94,6 +102,8 @@ struct tile_points {
 
 /// Reads tile `id`'s points from the input (two passes over the file: the
 /// first learns what the whole file decides about its fields, as plan_tiles).
+/// Throws io_error when the input differs from the plan's: its fingerprint,
+/// its decoded content (when the plan has `content`), or the tile's counts.
 tile_points read_tile(const tile_plan& plan, std::uint64_t id);
 
 /// What one tile contributes: its core keypoints, ascending index.
@@ -107,6 +117,7 @@ struct tile_part {
   std::vector<std::uint64_t> candidates;     ///< per modality, core points at or over the threshold
   std::uint64_t any_candidates = 0;          ///< core candidates (any modality)
   double detect_ms = 0;
+  std::string plan;  ///< the digest of the plan it belongs to (tile_plan::digest())
 };
 
 /// Detects one tile. `threads` as in detect_params.
@@ -118,8 +129,10 @@ void write_part(const std::string& path, const tile_plan& plan, const tile_part&
 tile_part read_part(const std::string& path, const tile_plan& plan);
 
 /// Every tile's part merged: tile_part of the whole cloud. Throws io_error
-/// naming the missing tiles when a tile that owns points has no part, and
-/// for a tile given twice.
+/// naming the missing tiles when a tile that owns points has no part, for a
+/// tile given twice, and for a part that is not of this plan or not whole
+/// (its digest, its arrays' sizes, indices out of range, out of order,
+/// repeated, or keypoints outside the tile's core).
 tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts);
 
 /// A merge handed over a piece at a time, so that no more than a chunk of
@@ -148,8 +161,14 @@ struct tiled_times {
 /// (one more pass over the input), the tiles one after the other, the
 /// merge. Each finished tile's part is kept in `work_dir` (a manifest):
 /// with `resume`, a run of the same request that was stopped redoes only
-/// the tiles without a part. `work_dir` is removed when the run succeeds.
-/// `tile_done(done, total)` after each tile.
+/// the tiles without a part. `tile_done(done, total)` after each tile.
+///
+/// The work directory is ced's only when ced made it: a new directory, or
+/// an empty one, gets a marker file (work_dir_marker) and is then ced's to
+/// fill and empty. A directory that holds anything without that marker is
+/// refused (work_dir_error), with or without `resume`. When the run
+/// succeeds, remove_work_dir() removes ced's own files from it, and the
+/// directory itself only if ced created it.
 struct tiled_run_options {
   std::string work_dir;
   bool resume = false;
@@ -184,5 +203,20 @@ tile_part detect_cached_tile(const tile_plan& plan, const std::string& work_dir,
 /// then removed, unless `keep_work_dir`.
 tile_part finish_tiled(const tile_plan& plan, const std::string& work_dir, const merge_sink* sink = nullptr,
                        bool keep_work_dir = false);
+
+/// A work directory that ced may not use (it holds files ced did not make,
+/// is not a directory, or its parent does not exist).
+struct work_dir_error : std::invalid_argument {
+  using std::invalid_argument::invalid_argument;
+};
+
+/// The file that marks a directory as a tiled run's work directory.
+constexpr const char* work_dir_marker = ".ced-work-dir";
+
+/// Removes what a tiled run put in `work_dir` (its marker, plan, tile cache
+/// and parts, by their names), and the directory itself when ced created it
+/// and it is then empty. Anything else stays. A directory without ced's
+/// marker is left alone. Never throws.
+void remove_work_dir(const std::string& work_dir) noexcept;
 
 }  // namespace ced

@@ -33,6 +33,14 @@ void add_plugin_option(CLI::App* app, std::vector<std::string>& plugins) {
                   "Load modalities from a plugin, a shared library built with ced/plugin.hpp (repeatable)");
 }
 
+void check_paths(const std::vector<ced::io::named_path>& inputs, const std::vector<ced::io::named_path>& outputs) {
+  try {
+    ced::io::check_outputs_distinct(inputs, outputs);
+  } catch (const std::invalid_argument& e) {
+    throw usage_error(e.what());
+  }
+}
+
 void load_plugins(const std::vector<std::string>& plugins) {
   for (const auto& p : plugins) ced::load_plugin(p);
 }

@@ -16,6 +16,7 @@
 
 #include "ced/ced.hpp"
 #include "ced/io/io.hpp"
+#include "ced/io/output_file.hpp"
 
 namespace ced_cli {
 
@@ -43,6 +44,11 @@ class json_config : public CLI::Config {
 /// right after `detect`; options also given on the command line win (the
 /// file's value is dropped).
 std::vector<std::string> expand_config(const std::vector<std::string>& args, CLI::App& det);
+
+/// The check of every command before its work: no output is an input (the
+/// same file however spelled) and no two outputs are one file; a usage
+/// error naming both otherwise (ced::io::check_outputs_distinct).
+void check_paths(const std::vector<ced::io::named_path>& inputs, const std::vector<ced::io::named_path>& outputs);
 
 /// `--plugin FILE.so` (repeatable) on a subcommand.
 void add_plugin_option(CLI::App* app, std::vector<std::string>& plugins);

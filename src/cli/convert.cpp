@@ -21,13 +21,15 @@ struct convert_options {
 int run_convert(const convert_options& o) {
   if (o.voxel < 0 || !std::isfinite(o.voxel)) throw usage_error("--voxel must be a positive size");
   const auto fmt = ced::io::format_of(o.output);
+  // Refused rather than converted in place: ced never writes over what it reads.
+  check_paths({{"the input", o.input}}, {{"the output", o.output}});
   ced::io::atomic_output_file out(o.output);
   ced::point_cloud c = ced::io::read_cloud(o.input, make_read_options(o.format, o.columns));
   if (o.voxel > 0) {
     ced::remove_nonfinite(c);
     c = ced::voxel_downsample(c, o.voxel).cloud;
   }
-  ced::io::write_cloud(out.stream(), c, fmt);
+  ced::io::write_named(out, [&](std::ostream& s) { ced::io::write_cloud(s, c, fmt); });
   out.commit();
   return exit_ok;
 }

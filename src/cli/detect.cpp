@@ -19,7 +19,14 @@
 
 namespace ced_cli {
 
-detect_outputs::detect_outputs(const detect_options& o) {
+detect_outputs::detect_outputs(const detect_options& o, const std::vector<ced::io::named_path>& inputs) {
+  check_paths(inputs, {{"--indices", o.indices},
+                       {"--indices-original", o.indices_original},
+                       {"-o", o.output},
+                       {"--viewer", o.viewer},
+                       {"--png", o.png},
+                       {"--summary", o.summary},
+                       {"--html", o.html}});
   indices = open(o.indices);
   original = open(o.indices_original);
   keypoints = open(o.output);
@@ -188,7 +195,8 @@ int run_detect(const detect_options& o) {
   if (!o.plan.empty()) return run_detect_plan_tile(o);
   if (o.input.empty()) throw usage_error("give an input file (or --plan and --tile)");
   detect_plan plan = make_plan(o);
-  detect_outputs out(o);
+  if (wants_tiles(o)) check_outside_work_dir(o);
+  detect_outputs out(o, input_paths(o));
   if (wants_tiles(o)) return run_detect_tiled(o, plan, out);
   progress_bar progress(!o.quiet);
   const detect_input in = read_input(o, plan.read_opts, progress);
@@ -208,6 +216,12 @@ int run_detect(const detect_options& o) {
 }
 
 }  // namespace
+
+std::vector<ced::io::named_path> input_paths(const detect_options& o) {
+  std::vector<ced::io::named_path> in{{"the input", o.input}};
+  for (const auto& p : o.plugins) in.push_back({"--plugin", p});
+  return in;
+}
 
 void add_refine_flags(CLI::App* cmd, detect_options& o) {
   cmd->add_flag("--refine", o.refine,
@@ -283,8 +297,23 @@ command add_detect_command(CLI::App& app, std::function<int(const detect_options
       "  ced detect big.las --preset ced6d --tile-size 50 -o keypoints.las\n"
       "  ced detect --plan plan.json --tile 7 -o part_7.cedpart\n"
       "Without any output option the indices go to stdout. Exit codes: 0 ok, 1 bad input data or I/O, 2 usage.");
-  if (run) return {det, [o, run] { return run(*o); }};
-  return {det, [o] { return run_detect(*o); }};
+  // What a plan fixes: with --plan, these options would be silently ignored.
+  auto note_given = [det, o] {
+    o->given_plan_options.clear();
+    for (const char* name : {"--radius", "--preset", "--modality", "--nms-radius", "--min-neighbors", "--refine",
+                             "--no-refine", "--format", "--columns", "--voxel", "--radius-factor", "--tile-size",
+                             "--memory-limit", "--work-dir", "--resume"})
+      if (det->count(name) > 0) o->given_plan_options.push_back(name);
+  };
+  if (run)
+    return {det, [o, run, note_given] {
+              note_given();
+              return run(*o);
+            }};
+  return {det, [o, note_given] {
+            note_given();
+            return run_detect(*o);
+          }};
 }
 
 }  // namespace ced_cli

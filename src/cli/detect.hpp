@@ -40,6 +40,8 @@ struct detect_options {
   bool resume = false;
   long long tile = -1;
   std::string config;  // --config: expand_config() has already replaced it by the file's options
+  /// Options given on the command line that a --plan fixes (a usage error with --plan).
+  std::vector<std::string> given_plan_options;
 };
 
 /// --refine / --no-refine (keypoint refinement; default: the preset's).
@@ -58,12 +60,14 @@ struct detect_plan {
 
 /// Every output, opened first (temporary files beside the targets), so that a
 /// bad output path fails before the work and no output is half-written.
+/// First a usage error when an output is one of `inputs` or two outputs are
+/// one file (check_paths).
 struct detect_outputs {
   std::vector<std::unique_ptr<ced::io::atomic_output_file>> files;
   ced::io::atomic_output_file *indices = nullptr, *original = nullptr, *keypoints = nullptr, *viewer = nullptr,
                               *png = nullptr, *summary = nullptr, *html = nullptr;
 
-  explicit detect_outputs(const detect_options& o);
+  detect_outputs(const detect_options& o, const std::vector<ced::io::named_path>& inputs);
   ced::io::atomic_output_file* open(const std::string& path);
 };
 
@@ -95,8 +99,16 @@ ced::point_cloud keypoint_cloud(ced::point_cloud kp, const std::vector<std::stri
 void write_keypoint_cloud(std::ostream& out, ced::point_cloud kp, const std::vector<std::string>& names,
                           const std::vector<std::vector<float>>& saliency, ced::io::file_format format);
 
+/// The files `ced detect` reads: the input and the plugins.
+std::vector<ced::io::named_path> input_paths(const detect_options& o);
+
 /// `ced detect --tile-size/--memory-limit` and `--plan --tile` (tiled.cpp).
 bool wants_tiles(const detect_options& o);
+/// The work directory of a tiled run: --work-dir, or default_work_dir().
+std::string work_dir_of(const detect_options& o);
+/// A usage error when an output lies inside the work directory (ced empties
+/// that directory of its own files; outputs belong elsewhere).
+void check_outside_work_dir(const detect_options& o);
 int run_detect_tiled(const detect_options& o, detect_plan& plan, detect_outputs& out);
 int run_detect_plan_tile(const detect_options& o);
 /// The tiled request of the options; usage errors for what tiles cannot do.

@@ -226,8 +226,9 @@ void write_outputs(const detect_options& o, const detect_plan& plan, const detec
     for (std::uint32_t k : r.keypoints) out.indices->stream() << k << '\n';
   if (out.original)
     for (std::uint32_t k : r.keypoints) out.original->stream() << in.original[k] << '\n';
-  if (out.keypoints) write_keypoints(out.keypoints->stream(), in.cloud, r, plan.out_format);
-  if (out.viewer) write_viewer(out.viewer->stream(), in.cloud, r);
+  if (out.keypoints)
+    ced::io::write_named(*out.keypoints, [&](std::ostream& s) { write_keypoints(s, in.cloud, r, plan.out_format); });
+  if (out.viewer) ced::io::write_named(*out.viewer, [&](std::ostream& s) { write_viewer(s, in.cloud, r); });
   if (out.png) {
     ced::render_options view = plan.view;
     view.point_colors = png_colors(o, in.cloud, r);

@@ -215,7 +215,13 @@ command add_repeatability_command(CLI::App& eval) {
   rep->add_option("-j,--threads", o->threads, "Threads");
   rep->add_option("--csv", o->csv, "Write one row per detector x noise x trial");
   rep->add_flag("-q,--quiet", o->quiet, "Print only the table");
-  return {rep, [o, noise_opt] { return run_eval(*o, noise_opt->count() > 0); }};
+  return {
+      rep, [o, noise_opt] {
+        check_paths(
+            {{"the input", o->input}, {"--source", o->source}, {"--target", o->target}, {"--transform", o->transform}},
+            {{"--csv", o->csv}});
+        return run_eval(*o, noise_opt->count() > 0);
+      }};
 }
 
 }  // namespace ced_cli

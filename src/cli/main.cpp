@@ -3,6 +3,7 @@
 // in its own file (commands.hpp); this builds the app, parses and dispatches.
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <cstdio>
 #include <exception>
 #include <iostream>
 #include <string>
@@ -50,7 +51,15 @@ int main(int argc, char** argv) {
   try {
     for (const command* c :
          {&detect, &info, &repeatability, &registration, &convert, &modalities, &plan, &merge, &view})
-      if (*c->app) return c->run();
+      if (*c->app) {
+        const int rc = c->run();
+        // What went to stdout (indices, tables) must have arrived: a full
+        // disk or a closed pipe is an error, not a silent loss.
+        std::cout.flush();
+        if (!std::cout || std::fflush(stdout) != 0 || std::ferror(stdout))
+          throw std::runtime_error("error writing to standard output (disk full or closed?): the output is lost");
+        return rc;
+      }
   } catch (const usage_error& e) {
     std::cerr << "ced: error: " << e.what() << "\n";
     return exit_usage;

@@ -332,7 +332,16 @@ command add_registration_command(CLI::App& eval) {
   reg->add_option("-j,--threads", o->threads, "Threads");
   reg->add_option("--csv", o->csv, "Write one row per detector x pair x trial");
   reg->add_flag("-q,--quiet", o->quiet, "Print only the tables");
-  return {reg, [o] { return run_registration(*o); }};
+  return {reg, [o] {
+            std::vector<ced::io::named_path> inputs{{"the input", o->input},
+                                                    {"--source", o->source},
+                                                    {"--target", o->target},
+                                                    {"--transform", o->transform},
+                                                    {"--intrinsics", o->intrinsics}};
+            if (!o->rgbd.empty()) inputs.push_back({"--rgbd's odometry.log", o->rgbd + "/odometry.log"});
+            check_paths(inputs, {{"--csv", o->csv}});
+            return run_registration(*o);
+          }};
 }
 
 }  // namespace ced_cli

@@ -98,6 +98,25 @@ ced::tiled_request request_from(const detect_options& o, detect_plan& plan) {
   return r;
 }
 
+std::string work_dir_of(const detect_options& o) { return o.work_dir.empty() ? default_work_dir(o) : o.work_dir; }
+
+void check_outside_work_dir(const detect_options& o) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  auto resolved = [&](const std::string& p) {
+    fs::path r = fs::weakly_canonical(fs::absolute(p, ec), ec);
+    return r.lexically_normal();
+  };
+  const fs::path dir = resolved(work_dir_of(o));
+  for (const auto* p : {&o.input, &o.indices, &o.indices_original, &o.output, &o.summary}) {
+    if (p->empty()) continue;
+    const fs::path rel = resolved(*p).lexically_relative(dir);
+    if (!rel.empty() && *rel.begin() != "..")
+      throw usage_error("'" + *p + "' lies inside the work directory '" + work_dir_of(o) +
+                        "', which ced empties of its own files: keep inputs and outputs outside it");
+  }
+}
+
 std::string default_work_dir(const detect_options& o) {
   namespace fs = std::filesystem;
   std::error_code ec;
@@ -158,13 +177,15 @@ ced::merge_sink merged_writer::sink() {
     if (m_out.indices) lines(c.index, m_out.indices->stream());
     if (m_out.original) lines(c.file_index, m_out.original->stream());
     if (m_out.files.empty()) lines(c.index, std::cout);
-    if (m_cloud) m_cloud->write(keypoint_cloud(c.keypoints, c.names, c.saliency));
+    if (m_cloud)
+      ced::io::write_named(*m_out.keypoints,
+                           [&](std::ostream&) { m_cloud->write(keypoint_cloud(c.keypoints, c.names, c.saliency)); });
   };
   return s;
 }
 
 void merged_writer::finish(const ced::tile_plan& p, const ced::tile_part& m, double total_ms) {
-  if (m_cloud) m_cloud->finish();
+  if (m_cloud) ced::io::write_named(*m_out.keypoints, [&](std::ostream&) { m_cloud->finish(); });
   if (m_out.summary) {
     nlohmann::json j;
     j["input"] = {{"path", p.request.input},
@@ -212,7 +233,7 @@ int run_detect_tiled(const detect_options& o, detect_plan& plan, detect_outputs&
   const auto t_start = clock_type::now();
   const ced::tiled_request request = request_from(o, plan);
   ced::tiled_run_options ro;
-  ro.work_dir = o.work_dir.empty() ? default_work_dir(o) : o.work_dir;
+  ro.work_dir = work_dir_of(o);
   ro.resume = o.resume;
   ro.threads = plan.params.threads;
   progress_bar bar(!o.quiet);
@@ -243,10 +264,14 @@ int run_detect_tiled(const detect_options& o, detect_plan& plan, detect_outputs&
     if (done == total) bar.stage("merging and writing");
   };
   ro.keep_work_dir = true;  // until the outputs are committed
-  const ced::tile_part merged = ced::run_tiled(request, ro, &p);
+  ced::tile_part merged;
+  try {
+    merged = ced::run_tiled(request, ro, &p);
+  } catch (const ced::work_dir_error& e) {
+    throw usage_error(e.what());
+  }
   writer.finish(p, merged, ms_since(t_start));
-  std::error_code ec;
-  std::filesystem::remove_all(ro.work_dir, ec);
+  ced::remove_work_dir(ro.work_dir);  // ced's own files only, once the outputs are committed
   bar.done();
   if (!o.quiet) {
     std::string mods;
@@ -273,10 +298,17 @@ int run_detect_plan_tile(const detect_options& o) {
       !o.html.empty())
     throw usage_error("--plan --tile writes only the tile's part (-o); `ced merge` writes the outputs");
   if (!o.input.empty()) throw usage_error("--plan names the input: give no input file with it");
+  if (!o.given_plan_options.empty()) {
+    std::string list;
+    for (const auto& g : o.given_plan_options) list += (list.empty() ? "" : ", ") + g;
+    throw usage_error("--plan fixes the input, the modalities and the parameters: " + list +
+                      " cannot be given with it (make a new plan with `ced plan`)");
+  }
   load_plugins(o.plugins);
-  ced::io::atomic_output_file check(o.output);  // a bad output path fails before the work
   const auto t0 = clock_type::now();
   const ced::tile_plan plan = ced::tile_plan::load(o.plan);
+  check_paths({{"--plan", o.plan}, {"the plan's input", plan.request.input}}, {{"-o", o.output}});
+  ced::io::atomic_output_file check(o.output);  // a bad output path fails before the work
   try {
     plan.tile(static_cast<std::uint64_t>(o.tile));
   } catch (const std::invalid_argument& e) {
@@ -323,6 +355,7 @@ command add_plan_command(CLI::App& app) {
             plan.read_opts.fields = {};  // all: merge may write keypoint clouds
             ced::tiled_request r = request_from(*o, plan);
             if (!wants_tiles(*o)) throw usage_error("give --tile-size or --memory-limit");
+            check_paths(input_paths(*o), {{"-o", *plan_path}});
             ced::io::atomic_output_file out(*plan_path);
             progress_bar bar(!o->quiet);
             const ced::tile_plan p = ced::plan_tiles(r, bar_progress(bar));
@@ -352,8 +385,11 @@ command add_merge_command(CLI::App& app) {
             load_plugins(o->plugins);
             const ced::io::file_format format =
                 o->output.empty() ? ced::io::file_format::automatic : ced::io::format_of(o->output);
-            detect_outputs out(*o);
             const ced::tile_plan p = ced::tile_plan::load(*plan_path);
+            std::vector<ced::io::named_path> inputs{{"the plan", *plan_path}, {"the plan's input", p.request.input}};
+            for (const auto& part : *parts) inputs.push_back({"part", part});
+            for (const auto& plugin : o->plugins) inputs.push_back({"--plugin", plugin});
+            detect_outputs out(*o, inputs);
             merged_writer writer(out, format);
             ced::tile_part totals;
             ced::merge_sink sink = writer.sink();

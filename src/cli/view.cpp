@@ -102,7 +102,10 @@ command add_view_command(CLI::App& app) {
   v->footer(
       "Examples:\n  ced detect scan.ply --preset ced6d --viewer all.ply\n  ced view all.ply -o view.html "
       "--threshold xyz=0.01 --threshold rgb=0.1");
-  return {v, [o] { return run_view(*o); }};
+  return {v, [o] {
+            check_paths({{"the input", o->input}}, {{"-o", o->output}});
+            return run_view(*o);
+          }};
 }
 
 }  // namespace ced_cli

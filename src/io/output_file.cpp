@@ -6,6 +6,8 @@
 #ifdef _WIN32
 #include <process.h>
 #else
+#include <signal.h>
+#include <sys/stat.h>
 #include <unistd.h>
 #endif
 
@@ -13,6 +15,7 @@
 #include <cerrno>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <memory>
@@ -76,6 +79,18 @@ atomic_output_file::atomic_output_file(const std::string& path) : m_path(path) {
   const fs::path p(path);
   std::error_code ec;
   if (fs::is_directory(p, ec)) throw io_error("cannot write '" + path + "': it is a directory");
+  const fs::file_status st = fs::status(p, ec);
+  const std::string abs = fs::absolute(p, ec).lexically_normal().string();
+  const bool system_node = abs.rfind("/dev/", 0) == 0 || abs.rfind("/proc/", 0) == 0;
+  if ((!ec && fs::exists(st) && !fs::is_regular_file(st)) || system_node) {
+    // A device or FIFO (/dev/null, a pipe), or a name under /dev or /proc
+    // (/dev/stdout links to whatever fd 1 is, a regular file too): written
+    // in place, never renamed over.
+    m_direct = true;
+    m_stream.open(path, std::ios::binary | std::ios::out);
+    if (!m_stream.is_open()) throw io_error("cannot write '" + path + "': " + errno_text(errno));
+    return;
+  }
   const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
   const fs::path name = p.filename();
   if (name.empty() || name == "." || name == "..") throw io_error("cannot write '" + path + "': it is a directory");
@@ -117,6 +132,10 @@ void atomic_output_file::commit() {
   if (!m_stream) throw io_error("error writing '" + m_path + "' (disk full?)");
   m_stream.close();
   if (m_stream.fail()) throw io_error("error closing '" + m_path + "' (disk full?)");
+  if (m_direct) {
+    m_committed = true;
+    return;
+  }
   unregister_temporary(m_slot);
   m_slot = -1;
   if (std::rename(m_temp_path.c_str(), m_path.c_str()) != 0) {
@@ -124,6 +143,32 @@ void atomic_output_file::commit() {
     throw io_error("cannot rename the temporary file onto '" + m_path + "': " + errno_text(err));
   }
   m_committed = true;
+  remove_stale_temporaries();
+}
+
+void atomic_output_file::remove_stale_temporaries() const noexcept {
+#ifndef _WIN32
+  // ".<name>.tmp.<pid>.<n>" beside the file, of a process that no longer runs.
+  const fs::path p(m_path);
+  const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
+  const std::string prefix = "." + p.filename().string() + ".tmp.";
+  std::error_code ec;
+  fs::directory_iterator it(dir, ec), end;
+  for (; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.compare(0, prefix.size(), prefix) != 0) continue;
+    const std::string rest = name.substr(prefix.size());
+    const std::size_t dot = rest.find('.');
+    if (dot == 0 || dot == std::string::npos || dot + 1 == rest.size() ||
+        rest.find_first_not_of("0123456789.") != std::string::npos || rest.find('.', dot + 1) != std::string::npos)
+      continue;
+    const long pid = std::strtol(rest.substr(0, dot).c_str(), nullptr, 10);
+    if (pid <= 0 || pid == process_id()) continue;
+    if (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;  // alive, or not ours to judge
+    std::error_code rm;
+    if (fs::is_regular_file(it->symlink_status(rm))) fs::remove(it->path(), rm);
+  }
+#endif
 }
 
 namespace detail {
@@ -150,6 +195,49 @@ void write_text_file_atomic(const std::string& path, const std::string& content)
   atomic_output_file out(path);
   out.stream().write(content.data(), static_cast<std::streamsize>(content.size()));
   out.commit();
+}
+
+bool same_file(const std::string& a, const std::string& b) {
+  if (a.empty() || b.empty()) return false;
+  std::error_code ec;
+  const bool same = fs::equivalent(a, b, ec);
+  return !ec && same;
+}
+
+namespace {
+/// An output's path for comparing outputs that may not exist yet: absolute,
+/// symbolic links of its existing part resolved, "." and ".." folded.
+std::string comparable(const std::string& path) {
+  std::error_code ec;
+  fs::path p = fs::weakly_canonical(fs::absolute(path, ec), ec);
+  if (ec) p = fs::absolute(path, ec).lexically_normal();
+  return p.string();
+}
+bool special_node(const std::string& path) {
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  return !ec && fs::exists(st) && !fs::is_regular_file(st);
+}
+std::string quoted(const named_path& p) { return p.what + " '" + p.path + "'"; }
+}  // namespace
+
+void check_outputs_distinct(const std::vector<named_path>& inputs, const std::vector<named_path>& outputs) {
+  for (std::size_t i = 0; i < outputs.size(); ++i) {
+    const named_path& o = outputs[i];
+    if (o.path.empty()) continue;
+    for (const named_path& in : inputs)
+      if (same_file(o.path, in.path))
+        throw std::invalid_argument(quoted(o) + " is " + quoted(in) +
+                                    ": ced never writes over a file it reads; choose another output path");
+    if (special_node(o.path)) continue;
+    for (std::size_t j = 0; j < i; ++j) {
+      const named_path& e = outputs[j];
+      if (e.path.empty() || special_node(e.path)) continue;
+      if (same_file(o.path, e.path) || comparable(o.path) == comparable(e.path))
+        throw std::invalid_argument(quoted(o) + " and " + quoted(e) +
+                                    " are one file: each output needs a path of its own");
+    }
+  }
 }
 
 }  // namespace ced::io

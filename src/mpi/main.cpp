@@ -66,14 +66,18 @@ int run_mpi(const detect_options& o, mpi::communicator& world) {
       if (o.input.empty()) throw usage_error("give an input file");
       if (!wants_tiles(o)) throw usage_error("ced-mpi needs --tile-size or --memory-limit");
       dplan = make_plan(o);
-      out = std::make_unique<detect_outputs>(o);
+      check_outside_work_dir(o);
+      out = std::make_unique<detect_outputs>(o, input_paths(o));
       const ced::tiled_request request = request_from(o, dplan);
       ced::tiled_run_options ro;
-      ro.work_dir = work_dir = o.work_dir.empty() ? default_work_dir(o) : o.work_dir;
+      ro.work_dir = work_dir = work_dir_of(o);
       ro.resume = o.resume;
       ro.planned = [&](const ced::tile_plan& p) { report_plan(p, o.quiet); };
       plan_json = ced::prepare_tiled(request, ro).to_json();
     } catch (const usage_error& e) {
+      status = exit_usage;
+      message = e.what();
+    } catch (const ced::work_dir_error& e) {
       status = exit_usage;
       message = e.what();
     } catch (const std::exception& e) {
@@ -88,18 +92,19 @@ int run_mpi(const detect_options& o, mpi::communicator& world) {
   }
   mpi::broadcast(world, plan_json, 0);
   mpi::broadcast(world, work_dir, 0);
-  // Every rank reads the plan from the same text: the same digest in every part.
-  const ced::tile_plan plan = ced::tile_plan::from_json(plan_json, work_dir + "/plan.json");
   const unsigned threads = threads_per_rank(o.threads);
 
   if (!root) {  // a worker: ask, detect, report, until told to stop
+    ced::tile_plan plan;
     try {
-      load_plugins(o.plugins);  // rank 0 loaded them in make_plan()
+      load_plugins(o.plugins);  // rank 0 loaded them in make_plan(); the plan's modalities may need them
+      // Every rank reads the plan from the same text: the same digest in every part.
+      plan = ced::tile_plan::from_json(plan_json, work_dir + "/plan.json");
     } catch (const std::exception& e) {
       world.send(0, tag_ready);
       long long id = -1;
       world.recv(0, tag_tile, id);
-      world.send(0, tag_failed, "loading plugins: " + std::string(e.what()));
+      world.send(0, tag_failed, "loading plugins or the plan: " + std::string(e.what()));
       return exit_failure;
     }
     for (;;) {
@@ -117,6 +122,7 @@ int run_mpi(const detect_options& o, mpi::communicator& world) {
     }
   }
 
+  const ced::tile_plan plan = ced::tile_plan::from_json(plan_json, work_dir + "/plan.json");
   // Rank 0: the queue, largest tiles first (their cost grows with density).
   std::vector<ced::tile_entry> queue = plan.tiles;
   std::stable_sort(queue.begin(), queue.end(),
@@ -160,8 +166,7 @@ int run_mpi(const detect_options& o, mpi::communicator& world) {
   const ced::merge_sink sink = writer.sink();
   const ced::tile_part totals = ced::finish_tiled(plan, work_dir, &sink, /*keep_work_dir=*/true);
   writer.finish(plan, totals, ms_since(t_start));
-  std::error_code ec;
-  std::filesystem::remove_all(work_dir, ec);  // once the outputs are committed
+  ced::remove_work_dir(work_dir);  // ced's own files only, once the outputs are committed
   if (!o.quiet)
     std::fprintf(stderr, "ced-mpi: %llu keypoints; %zu tiles on %d rank(s), %u thread(s) each; total %.1f ms\n",
                  static_cast<unsigned long long>(writer.keypoints()), total, world.size(), threads, ms_since(t_start));
@@ -194,7 +199,11 @@ int main(int argc, char** argv) {
     return exit_usage;
   }
   try {
-    return detect.run();
+    const int rc = detect.run();
+    std::cout.flush();  // the indices, when no output file is given
+    if (world.rank() == 0 && (!std::cout || std::fflush(stdout) != 0 || std::ferror(stdout)))
+      throw std::runtime_error("error writing to standard output (disk full or closed?): the output is lost");
+    return rc;
   } catch (const usage_error& e) {
     std::cerr << "ced-mpi: error (rank " << world.rank() << "): " << e.what() << "\n";
     if (world.size() > 1) world.abort(exit_usage);

@@ -6,6 +6,7 @@
 #include <ostream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace ced::io {
 
@@ -18,7 +19,13 @@ struct io_error : std::runtime_error {
 /// directory (".<name>.tmp.<pid>.<n>"), which commit() renames onto the final
 /// path. Until commit() succeeds the final path is untouched, and a file that
 /// is destroyed without a successful commit() removes its temporary file, so
-/// a failed run leaves neither a partial file nor a clobbered old one.
+/// a failed run leaves neither a partial file nor a clobbered old one. A
+/// successful commit() also removes the temporaries of `path` that a killed
+/// process of this machine left (its process id no longer runs).
+///
+/// A path that exists and is not a regular file (a character device such as
+/// /dev/null, a FIFO), and any path under /dev or /proc (/dev/stdout), is
+/// written directly: such a node is never renamed over or removed.
 ///
 /// Threading: one object per thread; distinct objects may be used concurrently
 /// (temporary names are unique per process and object).
@@ -44,9 +51,12 @@ class atomic_output_file {
   const std::string& temp_path() const noexcept { return m_temp_path; }
 
  private:
+  void remove_stale_temporaries() const noexcept;
+
   std::string m_path;
   std::string m_temp_path;
   std::ofstream m_stream;
+  bool m_direct = false;  // a device or FIFO, written in place
   bool m_committed = false;
   int m_slot = -1;  // in the table the signal handler cleans
 };
@@ -59,5 +69,34 @@ class atomic_output_file {
 void remove_temporaries_on_signals();
 
 void write_text_file_atomic(const std::string& path, const std::string& content);
+
+/// Runs `write(file.stream())`. An io_error it throws, or a stream that
+/// failed (a full disk), becomes an io_error that names the file.
+template <class F>
+void write_named(atomic_output_file& file, F&& write) {
+  try {
+    write(file.stream());
+  } catch (const io_error& e) {
+    throw io_error("cannot write '" + file.path() + "': " + e.what());
+  }
+  if (!file.stream()) throw io_error("error writing '" + file.path() + "' (disk full?)");
+}
+
+/// True when `a` and `b` are one existing file, however they are spelled
+/// ("sub/../x", symbolic links, hard links): the same device and inode.
+bool same_file(const std::string& a, const std::string& b);
+
+/// A file a command reads or writes, and what names it ("-o", "the input").
+struct named_path {
+  std::string what, path;
+};
+
+/// The check every command makes before any work: throws
+/// std::invalid_argument naming both when an output is one of the inputs
+/// (same_file()), or when two outputs are one file (the same file or, for
+/// files yet to be written, the same absolute path once symbolic links are
+/// resolved). Empty paths are skipped; outputs that are devices or FIFOs
+/// (/dev/null) may repeat. ced never writes over what it reads.
+void check_outputs_distinct(const std::vector<named_path>& inputs, const std::vector<named_path>& outputs);
 
 }  // namespace ced::io
