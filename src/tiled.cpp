@@ -624,6 +624,50 @@ class cache_writer {
   std::unordered_map<std::uint64_t, std::string> m_buffers;
 };
 
+/// Points per tile (a pass over `s`, which is left rewound), and the hash
+/// of every decoded point into `content` when given.
+std::vector<tile_entry> count_tiles(io::point_stream& s, const tile_plan& p, const tiled_progress& progress,
+                                    std::uint64_t* content) {
+  tile_counter counts(p.grid.count());
+  std::vector<std::uint64_t> near;
+  std::uint64_t done = 0;
+  for_each_chunk(s, p.origin, [&](const point_cloud& c) {
+    if (content) *content = hash_chunk(c, *content);
+    for (std::size_t i = 0; i < c.size(); ++i) {
+      if (!finite3(c.position(i))) continue;
+      counts.core(p.grid.tile_of(c.position(i)));
+      p.grid.tiles_near(c.position(i), near);
+      for (std::uint64_t t : near) counts.near(t);
+    }
+    done += c.size();
+    if (progress) progress("reading (pass 2: points per tile)", double(done) / double(p.file_points));
+  });
+  s.rewind();
+  return counts.entries();
+}
+
+/// About how many tiles read a point: the tile and its halo, per axis, at
+/// most the grid's extent.
+double tiles_per_point(const tile_grid& g) {
+  double n = 1;
+  for (std::size_t k = 0; k < 3; ++k) n *= std::min<double>(g.dims[k], (g.size + 2 * g.halo) / g.size);
+  return n;
+}
+
+/// Which tiles own points (all of them until told).
+class tile_owners {
+ public:
+  tile_owners() = default;
+  explicit tile_owners(const tile_plan& p) : m_all(false) {
+    for (const auto& t : p.tiles) m_ids.push_back(t.id);  // ascending
+  }
+  bool owns(std::uint64_t t) const { return m_all || std::binary_search(m_ids.begin(), m_ids.end(), t); }
+
+ private:
+  bool m_all = true;
+  std::vector<std::uint64_t> m_ids;
+};
+
 tile_points points_from_records(const tile_plan& p, std::uint64_t id, const std::string& bytes,
                                 const std::string& name) {
   const std::size_t rs = record_size(p);
@@ -750,23 +794,8 @@ const tile_entry& tile_plan::tile(std::uint64_t id) const {
 tile_plan plan_tiles(const tiled_request& request, const tiled_progress& progress) {
   auto s = io::open_point_stream(request.input, request.read);
   tile_plan p = plan_grid(request, *s, progress);
-  // Pass 2: points per tile.
-  tile_counter counts(p.grid.count());
-  std::vector<std::uint64_t> near;
-  std::uint64_t done = 0;
   std::uint64_t content = 0;
-  for_each_chunk(*s, p.origin, [&](const point_cloud& c) {
-    content = hash_chunk(c, content);
-    for (std::size_t i = 0; i < c.size(); ++i) {
-      if (!finite3(c.position(i))) continue;
-      counts.core(p.grid.tile_of(c.position(i)));
-      p.grid.tiles_near(c.position(i), near);
-      for (std::uint64_t t : near) counts.near(t);
-    }
-    done += c.size();
-    if (progress) progress("reading (pass 2: points per tile)", double(done) / double(p.file_points));
-  });
-  p.tiles = counts.entries();
+  p.tiles = count_tiles(*s, p, progress, &content);  // pass 2
   p.content = hex(content);
   return p;
 }
@@ -1273,7 +1302,7 @@ tile_plan prepare_tiled(const tiled_request& request, const tiled_run_options& o
   const fs::path dir(o.work_dir), plan_path = dir / "plan.json", cache = dir / "cache", parts = dir / "parts";
   std::error_code ec;
   tile_plan plan;
-  bool have_plan = false;
+  bool have_plan = false, announced = false;
   claim_work_dir(o.work_dir);
   if (fs::exists(plan_path, ec)) {
     if (!o.resume)
@@ -1294,12 +1323,22 @@ tile_plan prepare_tiled(const tiled_request& request, const tiled_run_options& o
     if (ec) fail(cache.string(), "cannot create the tile cache directory: " + ec.message());
     auto s = io::open_point_stream(request.input, request.read);
     plan = plan_grid(request, *s, o.progress);
+    // Small tiles under a large halo: a point lands in many tiles, most of
+    // which may own none (the air above the ground). Then the tiles are
+    // counted first (one more pass), the plan is reported before anything
+    // is written, and only tiles that own points are cached.
+    tile_owners owners;
+    if (tiles_per_point(plan.grid) > 2) {
+      plan.tiles = count_tiles(*s, plan, o.progress, nullptr);
+      owners = tile_owners(plan);
+      if (o.planned) o.planned(plan);
+      announced = true;
+    }
     // Pass 2: every point into the cache file of each tile that reads it.
     tile_counter counts(plan.grid.count());
     cache_writer writer(cache.string(), std::size_t(64) << 20);
     std::uint64_t file_index = 0, index = 0;
     for_each_chunk(*s, plan.origin, [&](const point_cloud& c) {
-      std::size_t added = 0;
       const std::size_t rs = record_size(plan);
       const field_bytes fields = bytes_of(c);
       const tile_grid& g = plan.grid;
@@ -1309,17 +1348,19 @@ tile_plan prepare_tiled(const tiled_request& request, const tiled_run_options& o
         std::int64_t own[3], c0[3], c1[3];
         g.locate(q, own, c0, c1);
         counts.core((std::uint64_t(own[2]) * g.dims[1] + std::uint64_t(own[1])) * g.dims[0] + std::uint64_t(own[0]));
+        std::size_t added = 0;
         for (std::int64_t z = c0[2]; z <= c1[2]; ++z)
           for (std::int64_t y = c0[1]; y <= c1[1]; ++y)
             for (std::int64_t x = c0[0]; x <= c1[0]; ++x) {
               const std::uint64_t t = (std::uint64_t(z) * g.dims[1] + std::uint64_t(y)) * g.dims[0] + std::uint64_t(x);
               counts.near(t);
+              if (!owners.owns(t)) continue;
               append_record(writer.buffer(t), rs, index, file_index, c.positions().data(), fields, i);
               added += rs;
             }
+        writer.maybe_flush(added);  // a point at a time: the buffers never hold much more than their budget
         ++index;
       }
-      writer.maybe_flush(added);
       if (o.progress) o.progress("reading (pass 2: tile cache)", double(file_index) / double(plan.file_points));
     });
     writer.flush();
@@ -1328,7 +1369,7 @@ tile_plan prepare_tiled(const tiled_request& request, const tiled_run_options& o
   }
   fs::create_directories(parts, ec);
   if (ec) fail(parts.string(), "cannot create the parts directory: " + ec.message());
-  if (o.planned) o.planned(plan);
+  if (o.planned && !announced) o.planned(plan);
   return plan;
 }
 
