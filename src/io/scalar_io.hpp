@@ -185,7 +185,11 @@ void write_points(std::ostream& out, std::size_t n, const std::vector<scalar_typ
   const std::size_t nc = types.size();
   std::size_t record = 0;
   for (scalar_type t : types) record += size_of(t);
-  constexpr std::size_t chunk = 4096;
+  // Up to 4096 points a chunk, fewer when there are many values per point:
+  // the buffer holds at most ~2^20 values (8 MiB), not 4096 x 65536 (2 GiB).
+  // The bytes written do not depend on the chunk size.
+  const std::size_t chunk =
+      std::clamp<std::size_t>(std::min<std::size_t>(n, (std::size_t{1} << 20) / std::max<std::size_t>(nc, 1)), 1, 4096);
   std::vector<double> vals(chunk * nc);  // column-major: value c of point i0 + i at vals[c * chunk + i]
   std::string buf;
   for (std::size_t i0 = 0; i0 < n; i0 += chunk) {
