@@ -17,6 +17,7 @@
 #include <string_view>
 #include <system_error>
 #include <type_traits>
+#include <unordered_set>
 
 #include "scalar_io.hpp"
 #include "stream_support.hpp"
@@ -183,6 +184,7 @@ void make_fields(const header_lines& l, const std::string& file, pcd_header& h) 
   check_length(l.have_count, l.counts, "COUNT");
 
   std::uint64_t values = 0;
+  std::unordered_set<std::string_view> seen;  // names, for the duplicate check in linear time
   for (std::size_t i = 0; i < nf; ++i) {
     pcd_field f;
     f.name = std::string(l.names[i]);
@@ -208,9 +210,7 @@ void make_fields(const header_lines& l, const std::string& file, pcd_header& h) 
     f.stype = *t;
     f.size = static_cast<std::size_t>(size);
     f.count = static_cast<std::size_t>(count);
-    if (!f.padding)
-      for (const auto& other : h.fields)
-        if (other.name == f.name) fail(file, "field '" + f.name + "' is declared twice in FIELDS");
+    if (!f.padding && !seen.insert(l.names[i]).second) fail(file, "field '" + f.name + "' is declared twice in FIELDS");
     h.fields.push_back(std::move(f));
   }
 }
