@@ -65,6 +65,16 @@ void add_saliency(ced::point_cloud& c, const ced::detection_result& r, const std
   }
 }
 
+/// Runs `write`, naming `path` in its io_error (a writer sees only a stream).
+template <class Write>
+void writing(const std::string& path, Write&& write) {
+  try {
+    write();
+  } catch (const ced::io::io_error& e) {
+    throw ced::io::io_error(path + ": " + e.what());
+  }
+}
+
 /// -o: the keypoints with all their fields and their saliencies.
 void write_keypoints(std::ostream& out, const ced::point_cloud& cloud, const ced::detection_result& r,
                      ced::io::file_format format) {
@@ -226,8 +236,8 @@ void write_outputs(const detect_options& o, const detect_plan& plan, const detec
     for (std::uint32_t k : r.keypoints) out.indices->stream() << k << '\n';
   if (out.original)
     for (std::uint32_t k : r.keypoints) out.original->stream() << in.original[k] << '\n';
-  if (out.keypoints) write_keypoints(out.keypoints->stream(), in.cloud, r, plan.out_format);
-  if (out.viewer) write_viewer(out.viewer->stream(), in.cloud, r);
+  if (out.keypoints) writing(o.output, [&] { write_keypoints(out.keypoints->stream(), in.cloud, r, plan.out_format); });
+  if (out.viewer) writing(o.viewer, [&] { write_viewer(out.viewer->stream(), in.cloud, r); });
   if (out.png) {
     ced::render_options view = plan.view;
     view.point_colors = png_colors(o, in.cloud, r);

@@ -81,11 +81,6 @@ std::optional<scalar_type> pcd_type(char type, std::uint64_t size) noexcept {
 
 bool has_data_line(const header_source& src) { return src.text.substr(0, 4) == "DATA" || src.contains("\nDATA"); }
 
-// Each value becomes a cloud field (found through its name index, so a tiny
-// header with COUNT 60000 costs linear time); the bound only keeps a header
-// from asking for absurd numbers of fields.
-constexpr std::size_t max_values_per_point = 65536;
-
 /// The header's lines as given, before they are checked together.
 struct header_lines {
   std::vector<std::string_view> names, sizes, types, counts;
@@ -627,6 +622,7 @@ std::vector<out_column> plan_columns(const point_cloud& cloud, pcd_format fmt) {
     }
     cols.push_back(c);
   }
+  check_values_per_point(cols.size(), "PCD");
   return cols;
 }
 

@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# Hostile input at the command line (issue #25): deep or odd --config files,
+# bad option values, modality specs, images sizes, thresholds, evaluation
+# settings and clouds too wide to write. Each is a clear error with its exit
+# code (2 usage, 1 data or I/O), never a crash and never a partial output.
+#   tests/cli_edges_test.sh path/to/ced path/to/tests/data
+set -u
+CED=$1
+DATA=$2
+T=$(mktemp -d)
+trap 'rm -rf "$T"' EXIT
+# shellcheck source=cli_support.sh
+. "$(dirname "$0")/cli_support.sh"
+sample=$DATA/apartment_mesh_214.ply
+
+# repeat CHAR N: CHAR N times, no newline.
+repeat() { head -c "$2" < /dev/zero | tr '\0' "$1"; }
+
+# --- 10. More values per point than the readers accept: refused before writing ---
+# A PLY of 65,536 properties (x, y, z and 65,533 more), the most ced reads;
+# -o would add a saliency column.
+{
+  printf 'ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n'
+  awk 'BEGIN { for (i = 0; i < 65533; i++) print "property uchar p" i }'
+  echo end_header
+  for p in "0 0 0" "1 0 0" "0 1 0" "0 0 1"; do
+    awk -v p="$p" 'BEGIN { printf "%s", p; for (i = 0; i < 65533; i++) printf " 1"; print "" }'
+  done
+} > "$T/wide.ply"
+check "wide: ced reads it" sh -c "'$CED' info '$T/wide.ply' | grep -q ': 4 points'"
+for ext in ply pcd csv; do
+  expect_exit 1 "wide_out.$ext: cannot write .*65537 values per point.*at most 65536" "wide: -o .$ext" -- \
+    detect "$T/wide.ply" -m xyz:0.2 -r 2 -k 1 -o "$T/wide_out.$ext" -q
+  check "wide: no .$ext left" test ! -e "$T/wide_out.$ext"
+done
+expect_exit 1 "wide_v.ply: cannot write PLY: .*at most 65536" "wide: --viewer" -- detect "$T/wide.ply" -m xyz:0.2 -r 2 -k 1 --viewer "$T/wide_v.ply" -q
+check "wide: no viewer cloud left" test ! -e "$T/wide_v.ply"
+expect_exit 1 "cannot write PLY: 65537 values per point" "wide: -o in tiles" -- \
+  detect "$T/wide.ply" -m xyz:0.2 -r 2 -k 1 --tile-size 10 -o "$T/wide_t.ply" -q
+check "wide: no tiled output left" test ! -e "$T/wide_t.ply"
+"$CED" convert "$T/wide.ply" "$T/wide.csv"
+check "wide: 65,536 values convert" test $? = 0 -a -s "$T/wide.csv"
+
+echo "cli_edges: $pass passed, $fail failed"
+[ "$fail" = 0 ]
