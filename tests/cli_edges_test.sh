@@ -16,6 +16,13 @@ sample=$DATA/apartment_mesh_214.ply
 # repeat CHAR N: CHAR N times, no newline.
 repeat() { head -c "$2" < /dev/zero | tr '\0' "$1"; }
 
+# --- 5. A modality's field given twice ---
+expect_exit 2 "field given twice" "spec: intensity(red),field=green" -- \
+  detect "$sample" -m 'intensity(red):0.05,field=green' -q
+expect_exit 2 "field given twice" "spec: intensity(red),field=red" -- detect "$sample" -m 'intensity(red),field=red' -q
+expect_exit 2 "lists field 'red' twice" "spec: bands(red,green,red)" -- detect "$sample" -m 'bands(red,green,red)' -q
+expect_exit 2 "field given twice" "eval: spec" -- eval repeatability "$sample" -d 'intensity(red),field=green'
+
 # --- 10. More values per point than the readers accept: refused before writing ---
 # A PLY of 65,536 properties (x, y, z and 65,533 more), the most ced reads;
 # -o would add a saliency column.
