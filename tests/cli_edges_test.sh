@@ -23,6 +23,25 @@ expect_exit 2 "field given twice" "spec: intensity(red),field=red" -- detect "$s
 expect_exit 2 "lists field 'red' twice" "spec: bands(red,green,red)" -- detect "$sample" -m 'bands(red,green,red)' -q
 expect_exit 2 "field given twice" "eval: spec" -- eval repeatability "$sample" -d 'intensity(red),field=green'
 
+# --- 6. A missing field: the file's fields are listed, not those read ---
+expect_exit 1 "needs field 'intensity', which .*apartment_mesh_214.ply does not have (its fields: red, green, blue)" \
+  "missing field: the file's fields" -- detect "$sample" -m xyz:0.2 -m intensity:0.05 -q
+expect_exit 1 "needs field 'nir'.*(its fields: red, green, blue)" "missing field: bands" -- \
+  detect "$sample" -m 'bands(red,nir)' -q
+printf 'x,y,z\n0,0,0\n1,0,0\n0,1,0\n' > "$T/xyz.csv"
+expect_exit 1 "needs field 'red'.*(its fields: none besides x, y, z)" "missing field: no fields" -- \
+  detect "$T/xyz.csv" -m xyz:0.2 -m rgb -q
+printf 'x,y,z,Intensity,nir\n0,0,0,1,2\n1,0,0,3,4\n0,1,0,5,6\n' > "$T/f.csv"
+expect_exit 1 "(its fields: Intensity, nir)" "missing field: CSV" -- detect "$T/f.csv" -m lab -q
+"$CED" detect "$T/f.csv" -m xyz:0.2 -m intensity:0.05 -r 2 -q > /dev/null
+check "missing field: a field in another case is found" test $? = 0
+expect_exit 1 "which .*apartment_mesh_214.ply does not have (its fields: red, green, blue)" "missing field: tiles" -- \
+  detect "$sample" -m intensity:0.05 -r 0.05 --tile-size 1 -q
+# Every field read (-o): the message was right already, and stays so.
+expect_exit 1 "fields present: red, green, blue" "missing field: -o" -- \
+  detect "$sample" -m intensity:0.05 -o "$T/x.ply" -q
+check "missing field: no output" test ! -e "$T/x.ply"
+
 # --- 10. More values per point than the readers accept: refused before writing ---
 # A PLY of 65,536 properties (x, y, z and 65,533 more), the most ced reads;
 # -o would add a saliency column.

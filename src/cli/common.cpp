@@ -15,11 +15,13 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
+#include <unordered_set>
 #include <vector>
 
 #include "ced/ced.hpp"
 #include "ced/eval.hpp"
 #include "ced/io/io.hpp"
+#include "ced/io/stream.hpp"
 #include "ced/plugin.hpp"
 #include "ced/preprocess.hpp"
 #ifdef CED_HAS_PCL
@@ -173,6 +175,28 @@ ced::io::read_options make_read_options(const std::string& format, const std::st
     for (std::string c; std::getline(ss, c, ',');) r.csv.columns.push_back(c);
   }
   return r;
+}
+
+ced::missing_field_error with_file_fields(const ced::missing_field_error& e, const std::string& path,
+                                          ced::io::read_options read_opts) {
+  if (read_opts.fields.all) return e;
+  read_opts.fields = {};
+  std::vector<std::string> names;  // in the order found; a LAS flag may appear only in later chunks
+  try {
+    const auto stream = ced::io::open_point_stream(path, read_opts);
+    std::unordered_set<std::string> seen;
+    ced::point_cloud chunk;
+    while (stream->read(std::size_t{1} << 16, {0.0, 0.0, 0.0}, chunk) > 0)
+      for (const auto& f : chunk.fields())
+        if (seen.insert(f.name).second) names.push_back(f.name);
+  } catch (const std::exception&) {
+    return e;
+  }
+  std::string list;
+  for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
+  return {e.modality_name, e.field_name,
+          "modality '" + e.modality_name + "' needs field '" + e.field_name + "', which " + path +
+              " does not have (its fields: " + (list.empty() ? "none besides x, y, z" : list) + ")"};
 }
 
 ced::point_cloud read_finite(const std::string& path, const std::string& format, const std::string& columns,

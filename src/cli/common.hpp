@@ -76,6 +76,14 @@ class progress_bar {
 
 ced::io::read_options make_read_options(const std::string& format, const std::string& columns);
 
+/// `e` (a modality needs a field that the cloud read from `path` with
+/// `read_opts` lacks) naming the file's fields rather than those read: ced
+/// reads only the fields its modalities need. This costs one more pass over
+/// the file, chunk by chunk; `e` itself when every field was read or the file
+/// cannot be read again.
+ced::missing_field_error with_file_fields(const ced::missing_field_error& e, const std::string& path,
+                                          ced::io::read_options read_opts);
+
 /// Reads a cloud, drops its non-finite points, then voxel down-samples it when `voxel` > 0.
 ced::point_cloud read_finite(const std::string& path, const std::string& format, const std::string& columns,
                              double voxel = 0);

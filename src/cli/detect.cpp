@@ -189,14 +189,25 @@ int run_detect(const detect_options& o) {
   if (o.input.empty()) throw usage_error("give an input file (or --plan and --tile)");
   detect_plan plan = make_plan(o);
   detect_outputs out(o);
-  if (wants_tiles(o)) return run_detect_tiled(o, plan, out);
+  if (wants_tiles(o)) {
+    try {
+      return run_detect_tiled(o, plan, out);
+    } catch (const ced::missing_field_error& e) {
+      throw with_file_fields(e, o.input, plan.read_opts);  // the file's fields, not those read
+    }
+  }
   progress_bar progress(!o.quiet);
   const detect_input in = read_input(o, plan.read_opts, progress);
   complete_plan(o, in.cloud, plan);
 
   progress.stage("detecting");
   plan.params.progress = progress.callback();
-  const ced::detection_result r = ced::detect(in.cloud, plan.params, plan.modalities);
+  ced::detection_result r;
+  try {
+    r = ced::detect(in.cloud, plan.params, plan.modalities);
+  } catch (const ced::missing_field_error& e) {
+    throw with_file_fields(e, o.input, plan.read_opts);  // the file's fields, not those read
+  }
   progress.stage("writing");
   write_outputs(o, plan, in, r, out);
   progress.done();
