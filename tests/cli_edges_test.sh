@@ -16,6 +16,47 @@ sample=$DATA/apartment_mesh_214.ply
 # repeat CHAR N: CHAR N times, no newline.
 repeat() { head -c "$2" < /dev/zero | tr '\0' "$1"; }
 
+# --- 1. --config nested 100,000 levels deep: refused before parsing ---
+{ repeat '[' 100000; repeat ']' 100000; } > "$T/deep_array.json"
+{ for _ in $(seq 2000); do printf '{"a":'; done; printf '1'; repeat '}' 2000; } > "$T/deep2k.json"
+{ printf '{"preset": "ced3d", "radius": '; repeat '[' 100000; } > "$T/deep_open.json"
+python_free_objects() {  # {"a":{"a":...1...}} N deep
+  local n=$1
+  { for ((i = 0; i < n; i += 1000)); do printf '{"a":%.0s' $(seq 1000); done; printf 1; repeat '}' "$n"; }
+}
+python_free_objects 100000 > "$T/deep_object.json"
+for f in deep_array deep_object deep_open deep2k; do
+  expect_exit 2 "nested more than 4 deep (line 1)" "config: $f.json" -- detect "$sample" --config "$T/$f.json" -q
+done
+{ printf 'radius = '; repeat '[' 100000; repeat ']' 100000; echo; } > "$T/deep_value.toml"
+{ repeat '[' 100000; repeat ']' 100000; echo; } > "$T/deep_section.toml"
+{ printf 'preset = "ced3d"\nradius = '; repeat '{' 100000; echo; } > "$T/deep_table.toml"
+for f in deep_value deep_section deep_table; do
+  expect_exit 2 "nested more than 4 deep" "config: $f.toml" -- detect "$sample" --config "$T/$f.toml" -q
+done
+expect_exit 2 "nested more than 4 deep (line 2)" "config: the line is named" -- \
+  detect "$sample" --config "$T/deep_table.toml" -q
+# Brackets in strings and comments do not count.
+printf '{"preset": "ced3d", "indices": "%s/[[[[[{{{{{.txt"}\n' "$T" > "$T/strings.json"
+"$CED" detect "$sample" --config "$T/strings.json" -q
+check "config: brackets in a JSON string" test -s "$T/[[[[[{{{{{.txt"
+printf '# [[[[[[[[[[ {{{{{{{{{{\npreset = "ced3d" # ]]]] [[[[[[\nindices = "%s/[[[[[[.txt"\n' "$T" > "$T/c.toml"
+"$CED" detect "$sample" --config "$T/c.toml" -q
+check "config: brackets in TOML comments and strings" test -s "$T/[[[[[[.txt"
+printf '{"preset": "ced3d", "modality": ["xyz:0.2"], "radius": 0.05}\n' > "$T/flat.json"
+check "config: a flat JSON config runs" sh -c "'$CED' detect '$sample' --config '$T/flat.json' -q > '$T/flat.txt'"
+check "config: 118 keypoints" test "$(wc -l < "$T/flat.txt")" = 118
+expect_exit 2 "larger than 1 MiB" "config: huge file" -- detect "$sample" --config /dev/zero
+
+# --- 2. --config DIR, --config without a file, --config twice ---
+mkdir "$T/confdir"
+expect_exit 2 "'$T/confdir' is a directory" "config: a directory" -- detect "$sample" --config "$T/confdir" -q
+expect_exit 2 "is a directory" "config: a directory (=)" -- detect "$sample" "--config=$T/confdir" -q
+expect_exit 2 "cannot open" "config: missing" -- detect "$sample" --config "$T/missing.json" -q
+expect_exit 2 "no file given" "config: ''" -- detect "$sample" --config '' -q
+expect_exit 2 "no file given" "config: --config=" -- detect "$sample" --config= -q
+expect_exit 2 "given twice" "config: twice" -- detect "$sample" --config "$T/flat.json" --config "$T/c.toml" -q
+
 # --- 5. A modality's field given twice ---
 expect_exit 2 "field given twice" "spec: intensity(red),field=green" -- \
   detect "$sample" -m 'intensity(red):0.05,field=green' -q

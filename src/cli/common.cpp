@@ -10,11 +10,13 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
+#include <system_error>
 #include <unordered_set>
 #include <vector>
 
@@ -67,11 +69,72 @@ std::vector<CLI::ConfigItem> json_config::from_config(std::istream& in) const {
 
 namespace {
 
+// A config holds options with a value or an array of values: two levels of
+// brackets and braces (the JSON object, an array; TOML's [[table]] headers).
+// Deeper nesting is refused before a parser sees it: JSON objects nested
+// 100,000 deep overflowed the stack (#25).
+constexpr int max_config_depth = 4;
+// Far more than any set of options takes; keeps --config /dev/zero from filling memory.
+constexpr std::size_t max_config_bytes = std::size_t{1} << 20;
+
+/// The text of the --config file at `path`.
+std::string read_config_text(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw usage_error("--config: '" + path + "' is a directory");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw usage_error("--config: cannot open '" + path + "'");
+  std::string text(max_config_bytes + 1, '\0');
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  if (in.bad()) throw usage_error("--config: cannot read '" + path + "'");
+  text.resize(static_cast<std::size_t>(in.gcount()));
+  if (text.size() > max_config_bytes)
+    throw usage_error("--config " + path + ": larger than " + std::to_string(max_config_bytes >> 20) +
+                      " MiB (a config file holds options)");
+  return text;
+}
+
+/// 0 when brackets and braces nest at most max_config_depth deep in `text`,
+/// strings (and TOML comments) aside; else the line where they go deeper.
+/// TOML/INI strings end with their line, as CLI11 reads them.
+std::size_t line_too_deep(const std::string& text, bool json) {
+  int depth = 0;
+  std::size_t line = 1;
+  char quote = 0;  // the quote of the string we are in, if any
+  bool comment = false;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (c == '\n') {
+      ++line;
+      comment = false;
+      if (!json) quote = 0;
+    } else if (comment) {
+    } else if (quote) {
+      if (c == '\\' && quote != '\'' && i + 1 < text.size() && text[i + 1] != '\n')
+        ++i;  // an escaped character
+      else if (c == quote)
+        quote = 0;
+    } else if (c == '"' || (!json && (c == '\'' || c == '`'))) {
+      quote = c;
+    } else if (!json && c == '#') {
+      comment = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > max_config_depth) return line;
+    } else if ((c == ']' || c == '}') && depth > 0) {
+      --depth;
+    }
+  }
+  return 0;
+}
+
 /// The items of the --config file at `path`: JSON for .json, else TOML/INI.
 std::vector<CLI::ConfigItem> read_config_items(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw usage_error("--config: cannot open '" + path + "'");
+  const std::string text = read_config_text(path);
   const bool json = path.size() > 5 && path.compare(path.size() - 5, 5, ".json") == 0;
+  if (const std::size_t line = line_too_deep(text, json))
+    throw usage_error("--config " + path + ": brackets or braces nested more than " + std::to_string(max_config_depth) +
+                      " deep (line " + std::to_string(line) +
+                      "); a config holds options with a value or an array of values");
+  std::istringstream in(text);
   try {
     return json ? json_config().from_config(in) : CLI::ConfigTOML().from_config(in);
   } catch (const std::exception& e) {
@@ -96,8 +159,11 @@ std::vector<std::string> expand_config(const std::vector<std::string>& args, CLI
   const auto sub = std::find(args.begin(), args.end(), "detect");
   if (sub == args.end()) return args;
   std::string path;
+  bool given = false;
   std::vector<std::string> rest;
   for (auto it = sub + 1; it != args.end(); ++it) {
+    const bool config = (*it == "--config" && it + 1 != args.end()) || it->rfind("--config=", 0) == 0;
+    if (config && given) throw usage_error("--config given twice");
     if (*it == "--config" && it + 1 != args.end()) {
       path = *++it;
     } else if (it->rfind("--config=", 0) == 0) {
@@ -105,8 +171,10 @@ std::vector<std::string> expand_config(const std::vector<std::string>& args, CLI
     } else {
       rest.push_back(*it);
     }
+    given = given || config;
   }
-  if (path.empty()) return args;
+  if (!given) return args;
+  if (path.empty()) throw usage_error("--config: no file given");
   const std::vector<CLI::ConfigItem> items = read_config_items(path);
   std::vector<std::string> out(args.begin(), sub + 1);
   for (const auto& item : items) {
