@@ -57,6 +57,48 @@ expect_exit 2 "no file given" "config: ''" -- detect "$sample" --config '' -q
 expect_exit 2 "no file given" "config: --config=" -- detect "$sample" --config= -q
 expect_exit 2 "given twice" "config: twice" -- detect "$sample" --config "$T/flat.json" --config "$T/c.toml" -q
 
+# --- 3. A flag's value is true or false ---
+for v in '"yes"' '"no"' 2 '"on"' '[]' '[true, false]' '{}' null; do
+  printf '{"preset": "ced3d", "quiet": %s}\n' "$v" > "$T/flag.json"
+  expect_exit 2 "'quiet' is a flag: its value must be true or false" "config: quiet = $v" -- \
+    detect "$sample" --config "$T/flag.json" --indices "$T/flag.txt"
+done
+check "config: no output after bad flags" test ! -e "$T/flag.txt"
+printf 'preset = "ced3d"\nquiet = yes\n' > "$T/flag.toml"
+expect_exit 2 "'quiet' is a flag" "config: TOML quiet = yes" -- detect "$sample" --config "$T/flag.toml"
+# Even when the command line gives the flag too.
+expect_exit 2 "'quiet' is a flag" "config: a bad flag value, the flag on the command line" -- \
+  detect "$sample" --config "$T/flag.toml" -q
+for v in true '"true"' 1 '"1"' '[true]'; do
+  printf '{"preset": "ced3d", "quiet": %s, "indices": "%s/q.txt"}\n' "$v" "$T" > "$T/flag.json"
+  "$CED" detect "$sample" --config "$T/flag.json" 2> "$T/err"
+  check "config: quiet = $v is on" test $? = 0 -a ! -s "$T/err"
+done
+for v in false '"false"' 0; do
+  printf '{"preset": "ced3d", "quiet": %s, "indices": "%s/q.txt"}\n' "$v" "$T" > "$T/flag.json"
+  "$CED" detect "$sample" --config "$T/flag.json" 2> "$T/err"
+  check "config: quiet = $v is off" test $? = 0 -a -s "$T/err"
+done
+printf 'preset = "ced3d"\nquiet\nindices = "%s/q.txt"\n' "$T" > "$T/bare.toml"
+"$CED" detect "$sample" --config "$T/bare.toml" 2> "$T/err"
+check "config: a bare TOML flag is on" test $? = 0 -a ! -s "$T/err"
+
+# --- 4. An option without a value ---
+printf 'preset = "ced3d"\nradius =\n' > "$T/empty.toml"
+expect_exit 2 "'radius' has no value" "config: TOML radius =" -- detect "$sample" --config "$T/empty.toml" -q
+printf 'preset = "ced3d"\nradius = ""\n' > "$T/empty2.toml"
+expect_exit 2 "'radius' has no value" "config: TOML radius = \"\"" -- detect "$sample" --config "$T/empty2.toml" -q
+printf '{"preset": "ced3d", "radius": ""}\n' > "$T/empty.json"
+expect_exit 2 "'radius' has no value" "config: JSON radius \"\"" -- detect "$sample" --config "$T/empty.json" -q
+printf '{"preset": "ced3d", "modality": []}\n' > "$T/empty2.json"
+expect_exit 2 "'modality' has no value" "config: JSON modality []" -- detect "$sample" --config "$T/empty2.json" -q
+printf '{"modality": ["xyz:0.2", ""]}\n' > "$T/empty3.json"
+expect_exit 2 "'modality' has no value" "config: an empty value in a list" -- \
+  detect "$sample" --config "$T/empty3.json" -q
+# Also when the command line gives the option.
+expect_exit 2 "'radius' has no value" "config: empty value, option on the command line" -- \
+  detect "$sample" --config "$T/empty.toml" -r 0.05 -q
+
 # --- 5. A modality's field given twice ---
 expect_exit 2 "field given twice" "spec: intensity(red),field=green" -- \
   detect "$sample" -m 'intensity(red):0.05,field=green' -q

@@ -142,6 +142,18 @@ std::vector<CLI::ConfigItem> read_config_items(const std::string& path) {
   }
 }
 
+/// A flag's value in a config: true or false (also 1 or 0).
+bool flag_value(const std::string& path, const CLI::ConfigItem& item) {
+  const std::string v = item.inputs.size() == 1 ? item.inputs[0] : std::string();
+  if (v == "true" || v == "1") return true;
+  if (v == "false" || v == "0") return false;
+  const std::string got = item.inputs.empty()      ? "no value"
+                          : item.inputs.size() > 1 ? std::to_string(item.inputs.size()) + " values"
+                                                   : "'" + v + "'";
+  throw usage_error("--config " + path + ": '" + item.name + "' is a flag: its value must be true or false, got " +
+                    got);
+}
+
 /// Whether `opt` is among the command-line arguments `rest`.
 bool given_on_command_line(const CLI::Option* opt, const std::vector<std::string>& rest) {
   for (const auto& a : rest) {
@@ -181,11 +193,14 @@ std::vector<std::string> expand_config(const std::vector<std::string>& args, CLI
     if (item.name == "++" || item.name == "--") continue;  // TOML section markers
     const CLI::Option* opt = det.get_option_no_throw("--" + item.name);
     if (!opt || item.name == "config") throw usage_error("--config " + path + ": unknown key '" + item.name + "'");
-    if (given_on_command_line(opt, rest)) continue;
     if (opt->get_expected_max() == 0) {  // a flag (CLI11 gives flags a type size of 1)
-      if (!item.inputs.empty() && (item.inputs[0] == "true" || item.inputs[0] == "1")) out.push_back("--" + item.name);
+      if (flag_value(path, item) && !given_on_command_line(opt, rest)) out.push_back("--" + item.name);
       continue;
     }
+    if (item.inputs.empty() ||
+        std::any_of(item.inputs.begin(), item.inputs.end(), [](const std::string& v) { return v.empty(); }))
+      throw usage_error("--config " + path + ": '" + item.name + "' has no value");
+    if (given_on_command_line(opt, rest)) continue;
     for (const auto& v : item.inputs) {
       out.push_back("--" + item.name);
       out.push_back(v);
