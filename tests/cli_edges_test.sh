@@ -125,6 +125,19 @@ expect_exit 1 "fields present: red, green, blue" "missing field: -o" -- \
   detect "$sample" -m intensity:0.05 -o "$T/x.ply" -q
 check "missing field: no output" test ! -e "$T/x.ply"
 
+# --- 7. --png-size is WIDTHxHEIGHT, nothing else ---
+for s in 100x100junk 100x100x 100x100.5 ' 100x100' '+100x100' '100x 100' 100X100 100x -100x100 x100 \
+  99999999999x100 100x100' '; do
+  expect_exit 2 "png-size must be WIDTHxHEIGHT" "png-size '$s'" -- \
+    detect "$sample" --preset ced3d --png "$T/x.png" --png-size "$s" -q
+done
+expect_exit 2 "png-size must be WIDTHxHEIGHT, 16..16384" "png-size too small" -- \
+  detect "$sample" --preset ced3d --png "$T/x.png" --png-size 15x100 -q
+check "png-size: no picture after errors" test ! -e "$T/x.png"
+"$CED" detect "$sample" --preset ced3d --png "$T/ok.png" --png-size 100x80 -q
+check "png-size 100x80" test "$(head -c 24 "$T/ok.png" | od -An -tu1 -j16 | tr -s ' ' | cut -d' ' -f2-9)" = \
+  "0 0 0 100 0 0 0 80"
+
 # --- 10. More values per point than the readers accept: refused before writing ---
 # A PLY of 65,536 properties (x, y, z and 65,533 more), the most ced reads;
 # -o would add a saliency column.

@@ -2,12 +2,15 @@
 // `ced detect`: the keypoints of one cloud, to stdout or to output files.
 #include "detect.hpp"
 
+#include <cctype>
+#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <iostream>
 #include <memory>
 #include <string>
+#include <system_error>
 #include <vector>
 
 #include "ced/ced.hpp"
@@ -91,8 +94,16 @@ ced::render_options render_view(const detect_options& o) {
     view.view = ced::view_direction::iso;
   else
     throw usage_error("--view must be top, front or iso");
-  if (std::sscanf(o.png_size.c_str(), "%dx%d", &view.width, &view.height) != 2 || view.width < 16 || view.height < 16 ||
-      view.width > 16384 || view.height > 16384)
+  // Digits, 'x', digits: nothing before, between or after.
+  const auto x = o.png_size.find('x');
+  const auto size = [&](std::size_t from, std::size_t to, int& v) {
+    const char* end = o.png_size.data() + to;
+    if (from >= to || !std::isdigit(static_cast<unsigned char>(o.png_size[from]))) return false;
+    const auto r = std::from_chars(o.png_size.data() + from, end, v);
+    return r.ec == std::errc() && r.ptr == end;
+  };
+  if (x == std::string::npos || !size(0, x, view.width) || !size(x + 1, o.png_size.size(), view.height) ||
+      view.width < 16 || view.height < 16 || view.width > 16384 || view.height > 16384)
     throw usage_error("--png-size must be WIDTHxHEIGHT, 16..16384 each, got '" + o.png_size + "'");
   return view;
 }
