@@ -138,6 +138,19 @@ check "png-size: no picture after errors" test ! -e "$T/x.png"
 check "png-size 100x80" test "$(head -c 24 "$T/ok.png" | od -An -tu1 -j16 | tr -s ' ' | cut -d' ' -f2-9)" = \
   "0 0 0 100 0 0 0 80"
 
+# --- 8. ced view --threshold: finite, >= 0, a saliency field of the cloud ---
+"$CED" detect "$sample" --preset ced6d --viewer "$T/view.ply" -q
+for t in xyz=-1 xyz=-0.001 xyz=nan xyz=inf xyz=-inf xyz=garbage xyz= xyz=1e999 'xyz=0.1 junk'; do
+  expect_exit 2 "--threshold xyz" "view: --threshold $t" -- view "$T/view.ply" -o "$T/x.html" --threshold "$t"
+done
+expect_exit 2 "no saliency_nope field" "view: unknown name" -- view "$T/view.ply" -o "$T/x.html" --threshold nope=1
+expect_exit 2 "given twice" "view: a name twice" -- \
+  view "$T/view.ply" -o "$T/x.html" --threshold xyz=0.1 --threshold xyz=0.2
+expect_exit 2 "NAME=VALUE" "view: no name" -- view "$T/view.ply" -o "$T/x.html" --threshold =1
+check "view: no page after errors" test ! -e "$T/x.html"
+"$CED" view "$T/view.ply" -o "$T/ok.html" --threshold xyz=0 --threshold rgb=0.1
+check "view: threshold 0 is fine" grep -q '"threshold":0.0[,}]' "$T/ok.html"
+
 # --- 10. More values per point than the readers accept: refused before writing ---
 # A PLY of 65,536 properties (x, y, z and 65,533 more), the most ced reads;
 # -o would add a saliency column.
