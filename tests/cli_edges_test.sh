@@ -151,6 +151,52 @@ check "view: no page after errors" test ! -e "$T/x.html"
 "$CED" view "$T/view.ply" -o "$T/ok.html" --threshold xyz=0 --threshold rgb=0.1
 check "view: threshold 0 is fine" grep -q '"threshold":0.0[,}]' "$T/ok.html"
 
+# --- 9. ced eval: finite numbers, no negative lengths or counts, no empty lists ---
+rep() {
+  expect_exit 2 "$1" "eval repeatability: $2" -- eval repeatability "$sample" -d random --trials 1 -q --csv "$T/e.csv" \
+    "${@:3}"
+}
+rep "radius" "-r nan" -r nan
+rep "radius" "-r inf" -r inf
+rep "radius" "-r -1" -r -1
+rep "min-neighbors" "-k -5" -k -5
+rep "threads" "-j -1" -j -1
+rep "resolution" "--resolution nan" --resolution nan
+rep "resolution" "--resolution -1" --resolution -1
+rep "max-translation" "--max-translation inf" --max-translation inf
+rep "max-translation" "--max-translation nan" --max-translation nan
+rep "epsilon" "--epsilon nan" --epsilon nan
+rep "noise" "--noise ''" --noise ''
+rep "noise" "--noise 0," --noise 0,
+rep "noise" "--noise ,0" --noise ,0
+rep "noise" "--noise 0,,1" --noise 0,,1
+rep "noise" "--noise nan" --noise nan
+rep "noise" "--noise -1" --noise -1
+rep "noise" "--noise 0,inf" --noise 0,inf
+rep "detector" "-d ''" -d ''
+check "eval: no CSV after errors" test ! -e "$T/e.csv"
+expect_exit 2 "noise applies to INPUT" "eval repeatability: --noise '' with a pair" -- \
+  eval repeatability --source "$sample" --target "$sample" --noise '' -q
+reg() {
+  expect_exit 2 "$1" "eval registration: $2" -- eval registration "$sample" -d random --trials 1 -q --csv "$T/e.csv" \
+    "${@:3}"
+}
+reg "radius" "-r nan" -r nan
+reg "radius" "-r -1" -r -1
+reg "min-neighbors" "-k -5" -k -5
+reg "threads" "-j -1" -j -1
+reg "noise" "--noise nan" --noise nan
+reg "noise" "--noise inf" --noise inf
+reg "resolution" "--resolution nan" --resolution nan
+reg "voxel" "--voxel nan" --voxel nan
+reg "max-translation" "--max-translation inf" --max-translation inf
+reg "depth-max" "--depth-max nan" --depth-max nan
+reg "depth-max" "--depth-max inf" --depth-max inf
+reg "normal-radius" "--normal-radius inf" --normal-radius inf
+reg "inlier-fraction" "--inlier-fraction nan" --inlier-fraction nan
+reg "overlap" "--overlap nan" --overlap nan
+reg "iterations" "--iterations 0" --iterations 0
+
 # --- 10. More values per point than the readers accept: refused before writing ---
 # A PLY of 65,536 properties (x, y, z and 65,533 more), the most ced reads;
 # -o would add a saliency column.

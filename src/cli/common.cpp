@@ -9,6 +9,7 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -208,6 +209,19 @@ std::vector<std::string> expand_config(const std::vector<std::string>& args, CLI
   }
   out.insert(out.end(), rest.begin(), rest.end());
   return out;
+}
+
+void check_length(double v, const std::string& option, const std::string& zero) {
+  if (std::isfinite(v) && v >= 0) return;
+  std::ostringstream got;
+  got << v;
+  throw usage_error(option + " must be a finite number >= 0" + (zero.empty() ? "" : " (" + zero + ")") + ", got " +
+                    got.str());
+}
+
+void check_counts(int min_neighbors, int threads) {
+  if (min_neighbors < 0) throw usage_error("--min-neighbors must be >= 0, got " + std::to_string(min_neighbors));
+  if (threads < 0) throw usage_error("--threads must be >= 0 (0 = all cores), got " + std::to_string(threads));
 }
 
 void keep_freed_memory() noexcept {

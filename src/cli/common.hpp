@@ -50,6 +50,12 @@ void add_plugin_option(CLI::App* app, std::vector<std::string>& plugins);
 /// ced::plugin_error (exit code 1) naming the file and why.
 void load_plugins(const std::vector<std::string>& plugins);
 
+/// Throws usage_error naming `option` unless `v` is a finite number >= 0;
+/// `zero`, when given, says what 0 means (for the message).
+void check_length(double v, const std::string& option, const std::string& zero = {});
+/// The evaluations' -k,--min-neighbors and -j,--threads: usage_error unless >= 0.
+void check_counts(int min_neighbors, int threads);
+
 /// Asks glibc's malloc to keep freed memory for reuse instead of returning it
 /// to the system (large blocks from the heap, no trimming): a run allocates
 /// and frees large arrays stage after stage, chunk after chunk, tile after
