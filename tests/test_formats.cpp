@@ -5,6 +5,8 @@
 
 #include <cmath>
 #include <filesystem>
+#include <sstream>
+#include <string>
 
 #include "ced/ced.hpp"
 #include "ced/io/io.hpp"
@@ -78,4 +80,42 @@ TEST(Formats, ExtensionsAndRefusals) {
   EXPECT_NE(message("scan.obj").find("unsupported"), std::string::npos);
   EXPECT_NE(message("dir.d/scan").find("--format"), std::string::npos);
   EXPECT_THROW(ced::io::parse_format("obj"), std::invalid_argument);
+}
+
+TEST(Formats, WritersRefuseMoreValuesPerPointThanTheReadersAccept) {
+  // The PLY, PCD and CSV readers accept at most 65 536 values per point (x, y
+  // and z included): the writers refuse a cloud with more, before writing
+  // anything (#25: 65 533 fields read, plus a saliency written, gave files
+  // ced could not read back).
+  auto cloud_of = [](std::size_t fields) {
+    ced::point_cloud c;
+    c.push_back(0, 0, 0);
+    c.push_back(1, 2, 3);
+    for (std::size_t k = 0; k < fields; ++k) c.add_field("f" + std::to_string(k), ced::scalar_type::uint8, {1, 2});
+    return c;
+  };
+  const ced::point_cloud too_many = cloud_of(65534);
+  const auto dir = std::filesystem::path(::testing::TempDir()) / "ced_formats_limit";
+  std::filesystem::create_directories(dir);
+  for (const char* name : {"wide.ply", "wide.pcd", "wide.csv"}) {
+    const std::string path = (dir / name).string();
+    try {
+      ced::io::write_cloud(path, too_many);
+      ADD_FAILURE() << name << ": written";
+    } catch (const ced::io::io_error& e) {
+      EXPECT_NE(std::string(e.what()).find("65536"), std::string::npos) << e.what();
+    }
+    EXPECT_FALSE(std::filesystem::exists(path)) << name;
+    std::ostringstream out;
+    EXPECT_THROW(ced::io::write_cloud(out, too_many, ced::io::format_of(path)), ced::io::io_error) << name;
+    EXPECT_TRUE(out.str().empty()) << name;
+  }
+  // The most the readers accept round-trips.
+  const ced::point_cloud most = cloud_of(65533);
+  for (const char* name : {"most.ply", "most.pcd", "most.csv"}) {
+    const std::string path = (dir / name).string();
+    ced::io::write_cloud(path, most);
+    EXPECT_EQ(ced::io::read_cloud(path).fields().size(), 65533u) << name;
+  }
+  std::filesystem::remove_all(dir);
 }

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstddef>
 #include <exception>
 #include <filesystem>
@@ -153,6 +154,22 @@ TEST(fuzz_regressions, field_count_limits) {
   };
   EXPECT_EQ(ced::io::read_pcd_buffer(pcd(65533), "count.pcd").fields().size(), 65533u);
   EXPECT_THROW(ced::io::read_pcd_buffer(pcd(65534), "count.pcd"), ced::io::io_error);
+  // As many fields by name: their duplicate check is linear too (#25: it
+  // compared each name with all before it, 7 s for 65 533 names).
+  const auto pcd_names = [](int n, const std::string& extra) {
+    std::string names = "FIELDS x y z", sizes = "SIZE 4 4 4", types = "TYPE F F F";
+    for (int i = 0; i < n; ++i) {
+      names += " f" + std::to_string(i);
+      sizes += " 1";
+      types += " U";
+    }
+    return names + extra + "\n" + sizes + (extra.empty() ? "" : " 1") + "\n" + types + (extra.empty() ? "" : " U") +
+           "\nPOINTS 0\nDATA binary\n";
+  };
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_EQ(ced::io::read_pcd_buffer(pcd_names(65533, ""), "names.pcd").fields().size(), 65533u);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 2.0);
+  EXPECT_THROW(ced::io::read_pcd_buffer(pcd_names(20000, " f17"), "dup.pcd"), ced::io::io_error);
 
   auto csv = [](int n) {
     std::string c = "x,y,z";

@@ -52,3 +52,26 @@ TEST(ModalitySpec, SplitJoinedSpecsKeepsOptionsAndFieldLists) {
   EXPECT_EQ(ced::split_modality_specs(",,xyz,"), (std::vector<std::string>{"xyz"}));
   EXPECT_TRUE(ced::split_modality_specs("").empty());
 }
+
+TEST(ModalitySpec, AFieldGivenTwiceIsAnError) {
+  // intensity takes its field in parentheses or as field=, not both (#25).
+  auto message = [](const std::string& spec) {
+    try {
+      ced::make_modality(spec);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(message("intensity(red):0.05,field=green").find("field given twice"), std::string::npos);
+  EXPECT_NE(message("intensity(red),field=red").find("field given twice"), std::string::npos);
+  EXPECT_NE(message("intensity(a,b)").find("at most one field"), std::string::npos);
+  // A field list names each field once (any case: fields are found ignoring it).
+  EXPECT_NE(message("bands(nir,red,nir):0.1").find("'nir' twice"), std::string::npos);
+  EXPECT_NE(message("bands(NIR,nir)").find("twice"), std::string::npos);
+  EXPECT_NE(message("bands(nir):0.1,field=red").find("no option 'field'"), std::string::npos);
+  // One way or the other is fine.
+  EXPECT_EQ(ced::make_modality("intensity(red):0.05").name(), "intensity(red)");
+  EXPECT_EQ(ced::make_modality("intensity:0.05,field=red").name(), "intensity(red)");
+  EXPECT_EQ(ced::make_modality("bands(nir,red)").fields()->size(), 2u);
+}

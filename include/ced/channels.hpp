@@ -5,8 +5,10 @@
 #include <cstddef>
 #include <cstdint>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "ced/cloud.hpp"
@@ -43,9 +45,19 @@ std::vector<float> interleave(const std::vector<const field*>& fields);
 /// depend on the thread count.
 std::vector<float> interleave(const std::vector<const field*>& fields, unsigned threads);
 
+/// What require_fields() throws when the cloud lacks a field: the message
+/// names the modality, the field and the fields present; the members keep
+/// the first two (a caller that read only some of a file's fields can then
+/// name the file's own).
+struct missing_field_error : std::invalid_argument {
+  missing_field_error(std::string modality, std::string field, const std::string& message)
+      : std::invalid_argument(message), modality_name(std::move(modality)), field_name(std::move(field)) {}
+  std::string modality_name, field_name;
+};
+
 /// The fields of `cloud` named in `names` (exact name first, then any case);
-/// throws std::invalid_argument naming `modality`, the missing field and the
-/// fields present, or when a value is NaN or infinite.
+/// throws missing_field_error naming `modality`, the missing field and the
+/// fields present, or std::invalid_argument when a value is NaN or infinite.
 std::vector<const field*> require_fields(const point_cloud& cloud, const std::vector<std::string>& names,
                                          const std::string& modality);
 

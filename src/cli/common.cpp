@@ -9,17 +9,22 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
+#include <system_error>
+#include <unordered_set>
 #include <vector>
 
 #include "ced/ced.hpp"
 #include "ced/eval.hpp"
 #include "ced/io/io.hpp"
+#include "ced/io/stream.hpp"
 #include "ced/plugin.hpp"
 #include "ced/preprocess.hpp"
 #ifdef CED_HAS_PCL
@@ -73,16 +78,89 @@ std::vector<CLI::ConfigItem> json_config::from_config(std::istream& in) const {
 
 namespace {
 
+// A config holds options with a value or an array of values: two levels of
+// brackets and braces (the JSON object, an array; TOML's [[table]] headers).
+// Deeper nesting is refused before a parser sees it: JSON objects nested
+// 100,000 deep overflowed the stack (#25).
+constexpr int max_config_depth = 4;
+// Far more than any set of options takes; keeps --config /dev/zero from filling memory.
+constexpr std::size_t max_config_bytes = std::size_t{1} << 20;
+
+/// The text of the --config file at `path`.
+std::string read_config_text(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw usage_error("--config: '" + path + "' is a directory");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw usage_error("--config: cannot open '" + path + "'");
+  std::string text(max_config_bytes + 1, '\0');
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  if (in.bad()) throw usage_error("--config: cannot read '" + path + "'");
+  text.resize(static_cast<std::size_t>(in.gcount()));
+  if (text.size() > max_config_bytes)
+    throw usage_error("--config " + path + ": larger than " + std::to_string(max_config_bytes >> 20) +
+                      " MiB (a config file holds options)");
+  return text;
+}
+
+/// 0 when brackets and braces nest at most max_config_depth deep in `text`,
+/// strings (and TOML comments) aside; else the line where they go deeper.
+/// TOML/INI strings end with their line, as CLI11 reads them.
+std::size_t line_too_deep(const std::string& text, bool json) {
+  int depth = 0;
+  std::size_t line = 1;
+  char quote = 0;  // the quote of the string we are in, if any
+  bool comment = false;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (c == '\n') {
+      ++line;
+      comment = false;
+      if (!json) quote = 0;
+    } else if (comment) {
+    } else if (quote) {
+      if (c == '\\' && quote != '\'' && i + 1 < text.size() && text[i + 1] != '\n')
+        ++i;  // an escaped character
+      else if (c == quote)
+        quote = 0;
+    } else if (c == '"' || (!json && (c == '\'' || c == '`'))) {
+      quote = c;
+    } else if (!json && c == '#') {
+      comment = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > max_config_depth) return line;
+    } else if ((c == ']' || c == '}') && depth > 0) {
+      --depth;
+    }
+  }
+  return 0;
+}
+
 /// The items of the --config file at `path`: JSON for .json, else TOML/INI.
 std::vector<CLI::ConfigItem> read_config_items(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw usage_error("--config: cannot open '" + path + "'");
+  const std::string text = read_config_text(path);
   const bool json = path.size() > 5 && path.compare(path.size() - 5, 5, ".json") == 0;
+  if (const std::size_t line = line_too_deep(text, json))
+    throw usage_error("--config " + path + ": brackets or braces nested more than " + std::to_string(max_config_depth) +
+                      " deep (line " + std::to_string(line) +
+                      "); a config holds options with a value or an array of values");
+  std::istringstream in(text);
   try {
     return json ? json_config().from_config(in) : CLI::ConfigTOML().from_config(in);
   } catch (const std::exception& e) {
     throw usage_error("--config " + path + ": " + e.what());
   }
+}
+
+/// A flag's value in a config: true or false (also 1 or 0).
+bool flag_value(const std::string& path, const CLI::ConfigItem& item) {
+  const std::string v = item.inputs.size() == 1 ? item.inputs[0] : std::string();
+  if (v == "true" || v == "1") return true;
+  if (v == "false" || v == "0") return false;
+  const std::string got = item.inputs.empty()      ? "no value"
+                          : item.inputs.size() > 1 ? std::to_string(item.inputs.size()) + " values"
+                                                   : "'" + v + "'";
+  throw usage_error("--config " + path + ": '" + item.name + "' is a flag: its value must be true or false, got " +
+                    got);
 }
 
 /// Whether `opt` is among the command-line arguments `rest`.
@@ -102,8 +180,11 @@ std::vector<std::string> expand_config(const std::vector<std::string>& args, CLI
   const auto sub = std::find(args.begin(), args.end(), "detect");
   if (sub == args.end()) return args;
   std::string path;
+  bool given = false;
   std::vector<std::string> rest;
   for (auto it = sub + 1; it != args.end(); ++it) {
+    const bool config = (*it == "--config" && it + 1 != args.end()) || it->rfind("--config=", 0) == 0;
+    if (config && given) throw usage_error("--config given twice");
     if (*it == "--config" && it + 1 != args.end()) {
       path = *++it;
     } else if (it->rfind("--config=", 0) == 0) {
@@ -111,19 +192,24 @@ std::vector<std::string> expand_config(const std::vector<std::string>& args, CLI
     } else {
       rest.push_back(*it);
     }
+    given = given || config;
   }
-  if (path.empty()) return args;
+  if (!given) return args;
+  if (path.empty()) throw usage_error("--config: no file given");
   const std::vector<CLI::ConfigItem> items = read_config_items(path);
   std::vector<std::string> out(args.begin(), sub + 1);
   for (const auto& item : items) {
     if (item.name == "++" || item.name == "--") continue;  // TOML section markers
     const CLI::Option* opt = det.get_option_no_throw("--" + item.name);
     if (!opt || item.name == "config") throw usage_error("--config " + path + ": unknown key '" + item.name + "'");
-    if (given_on_command_line(opt, rest)) continue;
     if (opt->get_expected_max() == 0) {  // a flag (CLI11 gives flags a type size of 1)
-      if (!item.inputs.empty() && (item.inputs[0] == "true" || item.inputs[0] == "1")) out.push_back("--" + item.name);
+      if (flag_value(path, item) && !given_on_command_line(opt, rest)) out.push_back("--" + item.name);
       continue;
     }
+    if (item.inputs.empty() ||
+        std::any_of(item.inputs.begin(), item.inputs.end(), [](const std::string& v) { return v.empty(); }))
+      throw usage_error("--config " + path + ": '" + item.name + "' has no value");
+    if (given_on_command_line(opt, rest)) continue;
     for (const auto& v : item.inputs) {
       out.push_back("--" + item.name);
       out.push_back(v);
@@ -131,6 +217,19 @@ std::vector<std::string> expand_config(const std::vector<std::string>& args, CLI
   }
   out.insert(out.end(), rest.begin(), rest.end());
   return out;
+}
+
+void check_length(double v, const std::string& option, const std::string& zero) {
+  if (std::isfinite(v) && v >= 0) return;
+  std::ostringstream got;
+  got << v;
+  throw usage_error(option + " must be a finite number >= 0" + (zero.empty() ? "" : " (" + zero + ")") + ", got " +
+                    got.str());
+}
+
+void check_counts(int min_neighbors, int threads) {
+  if (min_neighbors < 0) throw usage_error("--min-neighbors must be >= 0, got " + std::to_string(min_neighbors));
+  if (threads < 0) throw usage_error("--threads must be >= 0 (0 = all cores), got " + std::to_string(threads));
 }
 
 void keep_freed_memory() noexcept {
@@ -181,6 +280,28 @@ ced::io::read_options make_read_options(const std::string& format, const std::st
     for (std::string c; std::getline(ss, c, ',');) r.csv.columns.push_back(c);
   }
   return r;
+}
+
+ced::missing_field_error with_file_fields(const ced::missing_field_error& e, const std::string& path,
+                                          ced::io::read_options read_opts) {
+  if (read_opts.fields.all) return e;
+  read_opts.fields = {};
+  std::vector<std::string> names;  // in the order found; a LAS flag may appear only in later chunks
+  try {
+    const auto stream = ced::io::open_point_stream(path, read_opts);
+    std::unordered_set<std::string> seen;
+    ced::point_cloud chunk;
+    while (stream->read(std::size_t{1} << 16, {0.0, 0.0, 0.0}, chunk) > 0)
+      for (const auto& f : chunk.fields())
+        if (seen.insert(f.name).second) names.push_back(f.name);
+  } catch (const std::exception&) {
+    return e;
+  }
+  std::string list;
+  for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
+  return {e.modality_name, e.field_name,
+          "modality '" + e.modality_name + "' needs field '" + e.field_name + "', which " + path +
+              " does not have (its fields: " + (list.empty() ? "none besides x, y, z" : list) + ")"};
 }
 
 ced::point_cloud read_finite(const std::string& path, const std::string& format, const std::string& columns,

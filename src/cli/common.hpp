@@ -56,6 +56,12 @@ void add_plugin_option(CLI::App* app, std::vector<std::string>& plugins);
 /// ced::plugin_error (exit code 1) naming the file and why.
 void load_plugins(const std::vector<std::string>& plugins);
 
+/// Throws usage_error naming `option` unless `v` is a finite number >= 0;
+/// `zero`, when given, says what 0 means (for the message).
+void check_length(double v, const std::string& option, const std::string& zero = {});
+/// The evaluations' -k,--min-neighbors and -j,--threads: usage_error unless >= 0.
+void check_counts(int min_neighbors, int threads);
+
 /// Asks glibc's malloc to keep freed memory for reuse instead of returning it
 /// to the system (large blocks from the heap, no trimming): a run allocates
 /// and frees large arrays stage after stage, chunk after chunk, tile after
@@ -81,6 +87,14 @@ class progress_bar {
 };
 
 ced::io::read_options make_read_options(const std::string& format, const std::string& columns);
+
+/// `e` (a modality needs a field that the cloud read from `path` with
+/// `read_opts` lacks) naming the file's fields rather than those read: ced
+/// reads only the fields its modalities need. This costs one more pass over
+/// the file, chunk by chunk; `e` itself when every field was read or the file
+/// cannot be read again.
+ced::missing_field_error with_file_fields(const ced::missing_field_error& e, const std::string& path,
+                                          ced::io::read_options read_opts);
 
 /// Reads a cloud, drops its non-finite points, then voxel down-samples it when `voxel` > 0.
 ced::point_cloud read_finite(const std::string& path, const std::string& format, const std::string& columns,

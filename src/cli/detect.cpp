@@ -2,12 +2,15 @@
 // `ced detect`: the keypoints of one cloud, to stdout or to output files.
 #include "detect.hpp"
 
+#include <cctype>
+#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <iostream>
 #include <memory>
 #include <string>
+#include <system_error>
 #include <vector>
 
 #include "ced/ced.hpp"
@@ -98,8 +101,16 @@ ced::render_options render_view(const detect_options& o) {
     view.view = ced::view_direction::iso;
   else
     throw usage_error("--view must be top, front or iso");
-  if (std::sscanf(o.png_size.c_str(), "%dx%d", &view.width, &view.height) != 2 || view.width < 16 || view.height < 16 ||
-      view.width > 16384 || view.height > 16384)
+  // Digits, 'x', digits: nothing before, between or after.
+  const auto x = o.png_size.find('x');
+  const auto size = [&](std::size_t from, std::size_t to, int& v) {
+    const char* end = o.png_size.data() + to;
+    if (from >= to || !std::isdigit(static_cast<unsigned char>(o.png_size[from]))) return false;
+    const auto r = std::from_chars(o.png_size.data() + from, end, v);
+    return r.ec == std::errc() && r.ptr == end;
+  };
+  if (x == std::string::npos || !size(0, x, view.width) || !size(x + 1, o.png_size.size(), view.height) ||
+      view.width < 16 || view.height < 16 || view.width > 16384 || view.height > 16384)
     throw usage_error("--png-size must be WIDTHxHEIGHT, 16..16384 each, got '" + o.png_size + "'");
   return view;
 }
@@ -197,14 +208,25 @@ int run_detect(const detect_options& o) {
   detect_plan plan = make_plan(o);
   if (wants_tiles(o)) check_outside_work_dir(o);
   detect_outputs out(o, input_paths(o));
-  if (wants_tiles(o)) return run_detect_tiled(o, plan, out);
+  if (wants_tiles(o)) {
+    try {
+      return run_detect_tiled(o, plan, out);
+    } catch (const ced::missing_field_error& e) {
+      throw with_file_fields(e, o.input, plan.read_opts);  // the file's fields, not those read
+    }
+  }
   progress_bar progress(!o.quiet);
   const detect_input in = read_input(o, plan.read_opts, progress);
   complete_plan(o, in.cloud, plan);
 
   progress.stage("detecting");
   plan.params.progress = progress.callback();
-  const ced::detection_result r = ced::detect(in.cloud, plan.params, plan.modalities);
+  ced::detection_result r;
+  try {
+    r = ced::detect(in.cloud, plan.params, plan.modalities);
+  } catch (const ced::missing_field_error& e) {
+    throw with_file_fields(e, o.input, plan.read_opts);  // the file's fields, not those read
+  }
   progress.stage("writing");
   write_outputs(o, plan, in, r, out);
   progress.done();

@@ -83,8 +83,11 @@ void repeat_once(const std::vector<eval_detector>& detectors, const ced::point_c
 
 void check_eval_numbers(const eval_options& o) {
   if (o.trials < 1 || o.trials > 10000) throw usage_error("--trials must be 1..10000");
-  if (!(o.epsilon > 0) || !std::isfinite(o.epsilon)) throw usage_error("--epsilon must be positive");
-  if (o.resolution < 0 || o.radius < 0 || !(o.max_translation >= 0)) throw usage_error("negative length");
+  if (!(o.epsilon > 0) || !std::isfinite(o.epsilon)) throw usage_error("--epsilon must be a positive number");
+  check_length(o.resolution, "--resolution", "0 = estimated");
+  check_length(o.radius, "--radius", "0 = 5 x resolution");
+  check_length(o.max_translation, "--max-translation");
+  check_counts(o.min_neighbors, o.threads);
 }
 
 /// Chooses the mode: INPUT (synthetic transforms) or --source/--target (a user pair).
@@ -126,14 +129,18 @@ int run_eval_pair(const eval_options& o, const std::vector<eval_detector>& detec
   return exit_ok;
 }
 
-/// --noise: comma-separated levels, each >= 0.
+/// --noise: comma-separated levels, each a finite number >= 0; at least one.
 std::vector<double> parse_noise(const std::string& text) {
   std::vector<double> noise;
   try {
-    std::stringstream ss(text);
-    for (std::string v; std::getline(ss, v, ',');) {
-      noise.push_back(ced::parse_number(v, "--noise"));
-      if (noise.back() < 0) throw std::invalid_argument("--noise values must be >= 0");
+    std::size_t at = 0;
+    for (;;) {  // every value between commas, the empty ones too
+      const std::size_t comma = text.find(',', at);
+      noise.push_back(ced::parse_number(text.substr(at, comma == std::string::npos ? comma : comma - at),
+                                        "--noise '" + text + "'"));
+      if (noise.back() < 0) throw std::invalid_argument("--noise values must be >= 0, got '" + text + "'");
+      if (comma == std::string::npos) break;
+      at = comma + 1;
     }
   } catch (const std::invalid_argument& e) {
     throw usage_error(e.what());

@@ -10,6 +10,7 @@
 #include <ostream>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "ced/ced.hpp"
@@ -42,6 +43,37 @@ struct registration_options {
   std::string csv;
   bool quiet = false;
 };
+
+/// The numbers and modes: usage errors before anything is read (with or
+/// without PCL).
+void check_registration_numbers(const registration_options& o) {
+  if (o.trials < 1 || o.trials > 10000) throw usage_error("--trials must be 1..10000");
+  if (o.iterations < 1) throw usage_error("--iterations must be >= 1");
+  if (!(o.overlap > 0 && o.overlap < 1)) throw usage_error("--overlap must be in (0, 1)");
+  const std::pair<double, const char*> positive[] = {{o.normal_radius, "--normal-radius"},
+                                                     {o.feature_radius, "--feature-radius"},
+                                                     {o.inlier_distance, "--inlier-distance"},
+                                                     {o.max_rotation_error, "--max-rotation-error"},
+                                                     {o.max_translation_error, "--max-translation-error"}};
+  for (const auto& [v, name] : positive)
+    if (!(v > 0) || !std::isfinite(v)) throw usage_error(std::string(name) + " must be a positive number");
+  check_length(o.noise, "--noise");
+  check_length(o.resolution, "--resolution", "0 = estimated");
+  check_length(o.radius, "--radius", "0 = 5 x resolution");
+  check_length(o.voxel, "--voxel", "0 = none");
+  check_length(o.max_translation, "--max-translation");
+  check_length(o.depth_max, "--depth-max", "0 = none");
+  check_counts(o.min_neighbors, o.threads);
+  if (!(o.inlier_fraction >= 0 && o.inlier_fraction <= 1)) throw usage_error("--inlier-fraction must be in [0, 1]");
+  if (o.descriptor != "auto" && o.descriptor != "fpfh" && o.descriptor != "pfhrgb")
+    throw usage_error("--descriptor must be fpfh, pfhrgb or auto");
+  const int modes = !o.input.empty() + (!o.source.empty() || !o.target.empty()) + !o.rgbd.empty();
+  if (modes != 1) throw usage_error("give exactly one of INPUT, --source P --target Q, or --rgbd DIR");
+  if ((!o.source.empty() || !o.target.empty()) && (o.source.empty() || o.target.empty()))
+    throw usage_error("--source and --target go together");
+  if (!o.transform.empty() && o.source.empty()) throw usage_error("--transform goes with --source and --target");
+  if (!o.intrinsics.empty() && o.rgbd.empty()) throw usage_error("--intrinsics goes with --rgbd");
+}
 
 #ifdef CED_HAS_PCL
 
@@ -121,28 +153,6 @@ std::vector<registration_pair> rgbd_pairs(const registration_options& o) {
   }
   if (pairs.empty()) throw ced::io::io_error(dir + "/odometry.log: fewer than two frames");
   return pairs;
-}
-
-void check_registration_numbers(const registration_options& o) {
-  if (o.trials < 1 || o.trials > 10000) throw usage_error("--trials must be 1..10000");
-  if (o.iterations < 1) throw usage_error("--iterations must be >= 1");
-  if (!(o.overlap > 0 && o.overlap < 1)) throw usage_error("--overlap must be in (0, 1)");
-  for (double v : {o.normal_radius, o.feature_radius, o.inlier_distance, o.max_rotation_error, o.max_translation_error})
-    if (!(v > 0) || !std::isfinite(v))
-      throw usage_error(
-          "--normal-radius, --feature-radius, --inlier-distance and the error thresholds must be positive");
-  if (o.noise < 0 || o.resolution < 0 || o.radius < 0 || o.voxel < 0 || !(o.max_translation >= 0) ||
-      !(o.depth_max >= 0))
-    throw usage_error("negative length");
-  if (!(o.inlier_fraction >= 0 && o.inlier_fraction <= 1)) throw usage_error("--inlier-fraction must be in [0, 1]");
-  if (o.descriptor != "auto" && o.descriptor != "fpfh" && o.descriptor != "pfhrgb")
-    throw usage_error("--descriptor must be fpfh, pfhrgb or auto");
-  const int modes = !o.input.empty() + (!o.source.empty() || !o.target.empty()) + !o.rgbd.empty();
-  if (modes != 1) throw usage_error("give exactly one of INPUT, --source P --target Q, or --rgbd DIR");
-  if ((!o.source.empty() || !o.target.empty()) && (o.source.empty() || o.target.empty()))
-    throw usage_error("--source and --target go together");
-  if (!o.transform.empty() && o.source.empty()) throw usage_error("--transform goes with --source and --target");
-  if (!o.intrinsics.empty() && o.rgbd.empty()) throw usage_error("--intrinsics goes with --rgbd");
 }
 
 /// The pairs to register; `repeats` = how often each is run (with new seeds).
@@ -287,7 +297,8 @@ int run_registration(const registration_options& o) {
 
 #else
 
-int run_registration(const registration_options&) {
+int run_registration(const registration_options& o) {
+  check_registration_numbers(o);
   throw usage_error(std::string("ced eval registration ") + no_pcl_message);
 }
 

@@ -30,13 +30,17 @@ int run_view(const view_options& o) {
   for (const auto& t : o.thresholds) {
     const auto eq = t.find('=');
     if (eq == std::string::npos || eq == 0) throw usage_error("--threshold takes NAME=VALUE, got '" + t + "'");
+    const std::string name = t.substr(0, eq);
     double v = 0;
     try {
-      v = ced::parse_number(t.substr(eq + 1), "--threshold " + t.substr(0, eq));
+      v = ced::parse_number(t.substr(eq + 1), "--threshold " + name);  // finite
     } catch (const std::invalid_argument& e) {
       throw usage_error(e.what());
     }
-    given.push_back({t.substr(0, eq), v});
+    if (v < 0) throw usage_error("--threshold " + name + ": a threshold is >= 0, got " + t.substr(eq + 1));
+    for (const auto& g : given)
+      if (g.first == name) throw usage_error("--threshold " + name + " given twice");
+    given.push_back({name, v});
   }
   ced::io::atomic_output_file out(o.output);
   const ced::point_cloud cloud = ced::io::read_cloud(o.input, make_read_options(o.format, o.columns));

@@ -155,9 +155,10 @@ std::vector<const field*> require_fields(const point_cloud& cloud, const std::ve
     if (!f) {
       std::string present;
       for (const auto& g : cloud.fields()) present += (present.empty() ? "" : ", ") + g.name;
-      throw std::invalid_argument(
+      throw missing_field_error(
+          modality, name,
           "modality '" + modality + "' needs field '" + name +
-          "', which the cloud does not have (fields present: " + (present.empty() ? "none" : present) + ")");
+              "', which the cloud does not have (fields present: " + (present.empty() ? "none" : present) + ")");
     }
     require_finite(*f, modality);
     out.push_back(f);

@@ -7,6 +7,7 @@
 #include <charconv>
 #include <cmath>
 #include <mutex>
+#include <set>
 #include <stdexcept>
 
 #include "ced/modalities/bands.hpp"
@@ -89,11 +90,13 @@ modality_spec modality_spec::parse(std::string_view text) {
     const std::size_t close = t.find(')', pos);
     if (close == std::string::npos) fail("missing ')'");
     std::string inner = t.substr(pos + 1, close - pos - 1);
+    std::set<std::string> seen;  // in lower case: fields are found ignoring case
     std::size_t b = 0;
     for (;;) {
       const std::size_t c = inner.find(',', b);
       std::string arg = trimmed(inner.substr(b, c == std::string::npos ? std::string::npos : c - b));
       if (!valid_identifier(arg)) fail("'" + arg + "' is not a field name");
+      if (!seen.insert(detail::to_lower(arg)).second) fail("it lists field '" + arg + "' twice");
       s.m_args.push_back(arg);
       if (c == std::string::npos) break;
       b = c + 1;

@@ -303,9 +303,7 @@ std::vector<std::string> default_names(std::size_t values, std::size_t line_no, 
 /// columns of x, y and z.
 std::array<std::size_t, 3> check_names(const std::vector<std::string>& names, const std::string& source,
                                        const std::string& file) {
-  // Each column becomes a cloud field (found through its name index): the
-  // bound only keeps a header from asking for absurd numbers of fields.
-  constexpr std::size_t max_columns = 65536;
+  constexpr std::size_t max_columns = max_values_per_point;  // scalar_io.hpp
   if (names.size() > max_columns)
     fail(file, source + " names " + std::to_string(names.size()) + " columns (at most " + std::to_string(max_columns) +
                    " are supported)");
@@ -465,8 +463,10 @@ point_cloud parse_csv(std::string_view text, const std::string& file, const csv_
 
 // ------------------------------------------------------------------ writer
 
-/// Throws std::invalid_argument when a field cannot be a CSV column.
+/// Throws std::invalid_argument when a field cannot be a CSV column,
+/// io_error when there are more columns than the reader accepts.
 void check_writable(const point_cloud& cloud) {
+  check_values_per_point(3 + cloud.fields().size(), "CSV");
   const std::size_t n = cloud.size();
   for (const auto& f : cloud.fields()) {
     if (f.name.empty() || std::any_of(f.name.begin(), f.name.end(), [](char c) {

@@ -114,7 +114,11 @@ void write_cloud(std::ostream& out, const point_cloud& cloud, file_format format
 void write_cloud(const std::string& path, const point_cloud& cloud, file_format format) {
   const file_format f = format == file_format::automatic ? format_of(path) : format;
   atomic_output_file out(path);
-  write_cloud(out.stream(), cloud, f);
+  try {
+    write_cloud(out.stream(), cloud, f);
+  } catch (const io_error& e) {
+    throw io_error(path + ": " + e.what());
+  }
   out.commit();
 }
 

@@ -17,6 +17,7 @@
 #include <string_view>
 #include <system_error>
 #include <type_traits>
+#include <unordered_set>
 
 #include "scalar_io.hpp"
 #include "stream_support.hpp"
@@ -79,11 +80,6 @@ std::optional<scalar_type> pcd_type(char type, std::uint64_t size) noexcept {
 }
 
 bool has_data_line(const header_source& src) { return src.text.substr(0, 4) == "DATA" || src.contains("\nDATA"); }
-
-// Each value becomes a cloud field (found through its name index, so a tiny
-// header with COUNT 60000 costs linear time); the bound only keeps a header
-// from asking for absurd numbers of fields.
-constexpr std::size_t max_values_per_point = 65536;
 
 /// The header's lines as given, before they are checked together.
 struct header_lines {
@@ -183,6 +179,7 @@ void make_fields(const header_lines& l, const std::string& file, pcd_header& h) 
   check_length(l.have_count, l.counts, "COUNT");
 
   std::uint64_t values = 0;
+  std::unordered_set<std::string_view> seen;  // names, for the duplicate check in linear time
   for (std::size_t i = 0; i < nf; ++i) {
     pcd_field f;
     f.name = std::string(l.names[i]);
@@ -208,9 +205,7 @@ void make_fields(const header_lines& l, const std::string& file, pcd_header& h) 
     f.stype = *t;
     f.size = static_cast<std::size_t>(size);
     f.count = static_cast<std::size_t>(count);
-    if (!f.padding)
-      for (const auto& other : h.fields)
-        if (other.name == f.name) fail(file, "field '" + f.name + "' is declared twice in FIELDS");
+    if (!f.padding && !seen.insert(l.names[i]).second) fail(file, "field '" + f.name + "' is declared twice in FIELDS");
     h.fields.push_back(std::move(f));
   }
 }
@@ -627,6 +622,7 @@ std::vector<out_column> plan_columns(const point_cloud& cloud, pcd_format fmt) {
     }
     cols.push_back(c);
   }
+  check_values_per_point(cols.size(), "PCD");
   return cols;
 }
 

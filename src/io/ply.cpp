@@ -34,7 +34,7 @@ namespace {
 // linear in the header; the bounds only keep a header from asking for absurd
 // numbers of elements or fields.
 constexpr std::size_t max_elements = 65536;
-constexpr std::size_t max_properties = 65536;
+constexpr std::size_t max_properties = max_values_per_point;  // per element
 
 double read_value(const unsigned char* p, scalar_type t, bool swap) noexcept {
   double v = 0;
@@ -442,8 +442,10 @@ scalar_type written_type(scalar_type t) noexcept {
   return t == scalar_type::int64 || t == scalar_type::uint64 ? scalar_type::float64 : t;
 }
 
-/// Throws std::invalid_argument when a field cannot be written as a vertex property.
+/// Throws std::invalid_argument when a field cannot be written as a vertex
+/// property, io_error when there are more than the reader accepts.
 void check_writable(const point_cloud& cloud) {
+  check_values_per_point(3 + cloud.fields().size(), "PLY");
   const std::size_t n = cloud.size();
   for (const auto& f : cloud.fields()) {
     if (f.name.empty() || std::any_of(f.name.begin(), f.name.end(), [](char c) { return is_space(c); }))

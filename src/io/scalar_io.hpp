@@ -29,6 +29,23 @@ namespace ced::io::detail {
 /// cannot be opened or cannot be read. (Defined in output_file.cpp.)
 std::string read_whole_file(const std::string& path);
 
+/// The most values per point, x, y and z included, that the PLY, PCD and CSV
+/// readers accept: the properties of a PLY element, the values of a PCD
+/// point (its COUNTs summed), the columns of a CSV file. Each becomes a cloud
+/// field found through its name index, so the bound only keeps a header from
+/// asking for absurd numbers of fields. The writers write no more than this,
+/// so that ced reads back what it writes.
+constexpr std::size_t max_values_per_point = 65536;
+
+/// Throws io_error when a point of `values` values (x, y and z included, as
+/// written in `format`) is more than the readers accept.
+inline void check_values_per_point(std::size_t values, const char* format) {
+  if (values > max_values_per_point)
+    throw io_error(std::string("cannot write ") + format + ": " + std::to_string(values) +
+                   " values per point (x, y, z and " + std::to_string(values - 3) +
+                   " more), and ced's readers accept at most " + std::to_string(max_values_per_point));
+}
+
 /// The public stream overload of every writer: `write(out)`, then a flush;
 /// io_error naming `format` when the stream has failed.
 template <class Write>
@@ -43,7 +60,11 @@ void write_to_stream(std::ostream& out, const char* format, Write&& write) {
 template <class Write>
 void write_to_file(const std::string& path, Write&& write) {
   atomic_output_file file(path);
-  write(file.stream());
+  try {
+    write(file.stream());
+  } catch (const io_error& e) {
+    throw io_error(path + ": " + e.what());
+  }
   file.commit();
 }
 
@@ -185,7 +206,11 @@ void write_points(std::ostream& out, std::size_t n, const std::vector<scalar_typ
   const std::size_t nc = types.size();
   std::size_t record = 0;
   for (scalar_type t : types) record += size_of(t);
-  constexpr std::size_t chunk = 4096;
+  // Up to 4096 points a chunk, fewer when there are many values per point:
+  // the buffer holds at most ~2^20 values (8 MiB), not 4096 x 65536 (2 GiB).
+  // The bytes written do not depend on the chunk size.
+  const std::size_t chunk =
+      std::clamp<std::size_t>(std::min<std::size_t>(n, (std::size_t{1} << 20) / std::max<std::size_t>(nc, 1)), 1, 4096);
   std::vector<double> vals(chunk * nc);  // column-major: value c of point i0 + i at vals[c * chunk + i]
   std::string buf;
   for (std::size_t i0 = 0; i0 < n; i0 += chunk) {

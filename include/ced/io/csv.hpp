@@ -69,7 +69,8 @@ point_cloud read_csv_buffer(std::string_view text, const std::string& name, cons
 /// shortest form that reads back to the same float (float32 fields and
 /// positions with a zero origin) or double (everything else); integer fields
 /// are rounded and clamped to their type; NaN is written as `nan`.
-/// Throws io_error on I/O failure and std::invalid_argument for fields that
+/// Throws io_error on I/O failure and for more than 65 536 columns (read_csv's
+/// limit), before writing anything, and std::invalid_argument for fields that
 /// cannot be written (name empty, x/y/z, or containing a delimiter, quote,
 /// `#` or whitespace; wrong number of values).
 void write_csv(const std::string& path, const point_cloud& cloud);

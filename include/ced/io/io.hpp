@@ -75,7 +75,9 @@ class piece_writer;
 ///   f.commit();
 class cloud_writer {
  public:
-  /// Throws std::invalid_argument when `layout` cannot be written in `format`.
+  /// Throws std::invalid_argument when `layout` cannot be written in `format`
+  /// (io_error when it has more values per point than the format's reader
+  /// accepts).
   cloud_writer(std::ostream& out, const point_cloud& layout, std::uint64_t points, file_format format);
   ~cloud_writer();
   cloud_writer(const cloud_writer&) = delete;

@@ -79,7 +79,8 @@ point_cloud read_pcd_buffer(std::string_view bytes, const std::string& name_for_
 /// - Points with NaN/Inf coordinates are written as they are (read_pcd drops
 ///   them).
 /// Throws io_error on I/O failure (and for binary_compressed bodies of 4 GiB or
-/// more) and std::invalid_argument for fields that cannot be written (name
+/// more, and for more than 65 536 values per point, read_pcd's limit, before
+/// writing anything) and std::invalid_argument for fields that cannot be written (name
 /// empty, containing whitespace, x/y/z, rgb/rgba when red/green/blue are
 /// packed; wrong number of values).
 void write_pcd(const std::string& path, const point_cloud& cloud, pcd_format fmt = pcd_format::binary);

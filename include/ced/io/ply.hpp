@@ -41,8 +41,10 @@ point_cloud read_ply(std::istream& in, const std::string& name_for_errors);
 /// double with the origin added back. Fields follow with their original type
 /// (int64/uint64 fields are written as double: PLY has no 64-bit integers);
 /// integer values are rounded and clamped to their type's range, NaN becomes 0.
-/// Throws io_error on I/O failure and std::invalid_argument for fields that
-/// cannot be written (name empty, containing whitespace, or x/y/z; wrong size).
+/// Throws io_error on I/O failure and when x, y, z and the fields are more
+/// than 65 536 properties (read_ply's limit), before writing anything, and
+/// std::invalid_argument for fields that cannot be written (name empty,
+/// containing whitespace, or x/y/z; wrong size).
 void write_ply(const std::string& path, const point_cloud& cloud, ply_format fmt = ply_format::binary_little_endian);
 /// Same, to a stream (opened in binary mode for the binary formats).
 void write_ply(std::ostream& out, const point_cloud& cloud, ply_format fmt);

@@ -2,7 +2,8 @@
 // Intensity (LiDAR return strength, grey level...): the absolute difference
 // between a point's normalised intensity and its neighbours' mean.
 //
-// Reads the field `intensity` (any case), or another via `field=NAME`.
+// Reads the field `intensity` (any case), or another named in parentheses,
+// intensity(NAME), or by `field=NAME` (one or the other).
 // Normalisation as for bands: integer types by their range, floats as they
 // are, or `range=LO..HI` / `range=auto`; like rgb, a 16-bit field holding
 // only values in 0..255 is scaled by 255.
@@ -41,7 +42,12 @@ struct intensity {
     m.threshold_value = s.threshold_or(0.05);
     if (s.args().size() > 1) throw std::invalid_argument("intensity takes at most one field name: " + s.text());
     if (s.args().size() == 1) m.field_name = s.args()[0];
-    if (auto f = s.take("field")) m.field_name = *f;
+    if (auto f = s.take("field")) {
+      if (s.args().size() == 1)
+        throw std::invalid_argument("intensity: field given twice, in parentheses and as field= (in '" + s.text() +
+                                    "')");
+      m.field_name = *f;
+    }
     if (auto r = s.take("range")) m.range = range_policy::parse(*r);
     return m;
   }

@@ -1,0 +1,226 @@
+#!/usr/bin/env bash
+# Hostile input at the command line (issue #25): deep or odd --config files,
+# bad option values, modality specs, images sizes, thresholds, evaluation
+# settings and clouds too wide to write. Each is a clear error with its exit
+# code (2 usage, 1 data or I/O), never a crash and never a partial output.
+#   tests/cli_edges_test.sh path/to/ced path/to/tests/data
+set -u
+CED=$1
+DATA=$2
+T=$(mktemp -d)
+trap 'rm -rf "$T"' EXIT
+# shellcheck source=cli_support.sh
+. "$(dirname "$0")/cli_support.sh"
+sample=$DATA/apartment_mesh_214.ply
+
+# repeat CHAR N: CHAR N times, no newline.
+repeat() { head -c "$2" < /dev/zero | tr '\0' "$1"; }
+
+# --- 1. --config nested 100,000 levels deep: refused before parsing ---
+{ repeat '[' 100000; repeat ']' 100000; } > "$T/deep_array.json"
+{ for _ in $(seq 2000); do printf '{"a":'; done; printf '1'; repeat '}' 2000; } > "$T/deep2k.json"
+{ printf '{"preset": "ced3d", "radius": '; repeat '[' 100000; } > "$T/deep_open.json"
+python_free_objects() {  # {"a":{"a":...1...}} N deep
+  local n=$1
+  { for ((i = 0; i < n; i += 1000)); do printf '{"a":%.0s' $(seq 1000); done; printf 1; repeat '}' "$n"; }
+}
+python_free_objects 100000 > "$T/deep_object.json"
+for f in deep_array deep_object deep_open deep2k; do
+  expect_exit 2 "nested more than 4 deep (line 1)" "config: $f.json" -- detect "$sample" --config "$T/$f.json" -q
+done
+{ printf 'radius = '; repeat '[' 100000; repeat ']' 100000; echo; } > "$T/deep_value.toml"
+{ repeat '[' 100000; repeat ']' 100000; echo; } > "$T/deep_section.toml"
+{ printf 'preset = "ced3d"\nradius = '; repeat '{' 100000; echo; } > "$T/deep_table.toml"
+for f in deep_value deep_section deep_table; do
+  expect_exit 2 "nested more than 4 deep" "config: $f.toml" -- detect "$sample" --config "$T/$f.toml" -q
+done
+expect_exit 2 "nested more than 4 deep (line 2)" "config: the line is named" -- \
+  detect "$sample" --config "$T/deep_table.toml" -q
+# Brackets in strings and comments do not count.
+printf '{"preset": "ced3d", "indices": "%s/[[[[[{{{{{.txt"}\n' "$T" > "$T/strings.json"
+"$CED" detect "$sample" --config "$T/strings.json" -q
+check "config: brackets in a JSON string" test -s "$T/[[[[[{{{{{.txt"
+printf '# [[[[[[[[[[ {{{{{{{{{{\npreset = "ced3d" # ]]]] [[[[[[\nindices = "%s/[[[[[[.txt"\n' "$T" > "$T/c.toml"
+"$CED" detect "$sample" --config "$T/c.toml" -q
+check "config: brackets in TOML comments and strings" test -s "$T/[[[[[[.txt"
+printf '{"preset": "ced3d", "modality": ["xyz:0.2"], "radius": 0.05}\n' > "$T/flat.json"
+check "config: a flat JSON config runs" sh -c "'$CED' detect '$sample' --config '$T/flat.json' -q > '$T/flat.txt'"
+check "config: 118 keypoints" test "$(wc -l < "$T/flat.txt")" = 118
+expect_exit 2 "larger than 1 MiB" "config: huge file" -- detect "$sample" --config /dev/zero
+
+# --- 2. --config DIR, --config without a file, --config twice ---
+mkdir "$T/confdir"
+expect_exit 2 "'$T/confdir' is a directory" "config: a directory" -- detect "$sample" --config "$T/confdir" -q
+expect_exit 2 "is a directory" "config: a directory (=)" -- detect "$sample" "--config=$T/confdir" -q
+expect_exit 2 "cannot open" "config: missing" -- detect "$sample" --config "$T/missing.json" -q
+expect_exit 2 "no file given" "config: ''" -- detect "$sample" --config '' -q
+expect_exit 2 "no file given" "config: --config=" -- detect "$sample" --config= -q
+expect_exit 2 "given twice" "config: twice" -- detect "$sample" --config "$T/flat.json" --config "$T/c.toml" -q
+
+# --- 3. A flag's value is true or false ---
+for v in '"yes"' '"no"' 2 '"on"' '[]' '[true, false]' '{}' null; do
+  printf '{"preset": "ced3d", "quiet": %s}\n' "$v" > "$T/flag.json"
+  expect_exit 2 "'quiet' is a flag: its value must be true or false" "config: quiet = $v" -- \
+    detect "$sample" --config "$T/flag.json" --indices "$T/flag.txt"
+done
+check "config: no output after bad flags" test ! -e "$T/flag.txt"
+printf 'preset = "ced3d"\nquiet = yes\n' > "$T/flag.toml"
+expect_exit 2 "'quiet' is a flag" "config: TOML quiet = yes" -- detect "$sample" --config "$T/flag.toml"
+# Even when the command line gives the flag too.
+expect_exit 2 "'quiet' is a flag" "config: a bad flag value, the flag on the command line" -- \
+  detect "$sample" --config "$T/flag.toml" -q
+for v in true '"true"' 1 '"1"' '[true]'; do
+  printf '{"preset": "ced3d", "quiet": %s, "indices": "%s/q.txt"}\n' "$v" "$T" > "$T/flag.json"
+  "$CED" detect "$sample" --config "$T/flag.json" 2> "$T/err"
+  check "config: quiet = $v is on" test $? = 0 -a ! -s "$T/err"
+done
+for v in false '"false"' 0; do
+  printf '{"preset": "ced3d", "quiet": %s, "indices": "%s/q.txt"}\n' "$v" "$T" > "$T/flag.json"
+  "$CED" detect "$sample" --config "$T/flag.json" 2> "$T/err"
+  check "config: quiet = $v is off" test $? = 0 -a -s "$T/err"
+done
+printf 'preset = "ced3d"\nquiet\nindices = "%s/q.txt"\n' "$T" > "$T/bare.toml"
+"$CED" detect "$sample" --config "$T/bare.toml" 2> "$T/err"
+check "config: a bare TOML flag is on" test $? = 0 -a ! -s "$T/err"
+
+# --- 4. An option without a value ---
+printf 'preset = "ced3d"\nradius =\n' > "$T/empty.toml"
+expect_exit 2 "'radius' has no value" "config: TOML radius =" -- detect "$sample" --config "$T/empty.toml" -q
+printf 'preset = "ced3d"\nradius = ""\n' > "$T/empty2.toml"
+expect_exit 2 "'radius' has no value" "config: TOML radius = \"\"" -- detect "$sample" --config "$T/empty2.toml" -q
+printf '{"preset": "ced3d", "radius": ""}\n' > "$T/empty.json"
+expect_exit 2 "'radius' has no value" "config: JSON radius \"\"" -- detect "$sample" --config "$T/empty.json" -q
+printf '{"preset": "ced3d", "modality": []}\n' > "$T/empty2.json"
+expect_exit 2 "'modality' has no value" "config: JSON modality []" -- detect "$sample" --config "$T/empty2.json" -q
+printf '{"modality": ["xyz:0.2", ""]}\n' > "$T/empty3.json"
+expect_exit 2 "'modality' has no value" "config: an empty value in a list" -- \
+  detect "$sample" --config "$T/empty3.json" -q
+# Also when the command line gives the option.
+expect_exit 2 "'radius' has no value" "config: empty value, option on the command line" -- \
+  detect "$sample" --config "$T/empty.toml" -r 0.05 -q
+
+# --- 5. A modality's field given twice ---
+expect_exit 2 "field given twice" "spec: intensity(red),field=green" -- \
+  detect "$sample" -m 'intensity(red):0.05,field=green' -q
+expect_exit 2 "field given twice" "spec: intensity(red),field=red" -- detect "$sample" -m 'intensity(red),field=red' -q
+expect_exit 2 "lists field 'red' twice" "spec: bands(red,green,red)" -- detect "$sample" -m 'bands(red,green,red)' -q
+expect_exit 2 "field given twice" "eval: spec" -- eval repeatability "$sample" -d 'intensity(red),field=green'
+
+# --- 6. A missing field: the file's fields are listed, not those read ---
+expect_exit 1 "needs field 'intensity', which .*apartment_mesh_214.ply does not have (its fields: red, green, blue)" \
+  "missing field: the file's fields" -- detect "$sample" -m xyz:0.2 -m intensity:0.05 -q
+expect_exit 1 "needs field 'nir'.*(its fields: red, green, blue)" "missing field: bands" -- \
+  detect "$sample" -m 'bands(red,nir)' -q
+printf 'x,y,z\n0,0,0\n1,0,0\n0,1,0\n' > "$T/xyz.csv"
+expect_exit 1 "needs field 'red'.*(its fields: none besides x, y, z)" "missing field: no fields" -- \
+  detect "$T/xyz.csv" -m xyz:0.2 -m rgb -q
+printf 'x,y,z,Intensity,nir\n0,0,0,1,2\n1,0,0,3,4\n0,1,0,5,6\n' > "$T/f.csv"
+expect_exit 1 "(its fields: Intensity, nir)" "missing field: CSV" -- detect "$T/f.csv" -m lab -q
+"$CED" detect "$T/f.csv" -m xyz:0.2 -m intensity:0.05 -r 2 -q > /dev/null
+check "missing field: a field in another case is found" test $? = 0
+expect_exit 1 "which .*apartment_mesh_214.ply does not have (its fields: red, green, blue)" "missing field: tiles" -- \
+  detect "$sample" -m intensity:0.05 -r 0.05 --tile-size 1 -q
+# Every field read (-o): the message was right already, and stays so.
+expect_exit 1 "fields present: red, green, blue" "missing field: -o" -- \
+  detect "$sample" -m intensity:0.05 -o "$T/x.ply" -q
+check "missing field: no output" test ! -e "$T/x.ply"
+
+# --- 7. --png-size is WIDTHxHEIGHT, nothing else ---
+for s in 100x100junk 100x100x 100x100.5 ' 100x100' '+100x100' '100x 100' 100X100 100x -100x100 x100 \
+  99999999999x100 100x100' '; do
+  expect_exit 2 "png-size must be WIDTHxHEIGHT" "png-size '$s'" -- \
+    detect "$sample" --preset ced3d --png "$T/x.png" --png-size "$s" -q
+done
+expect_exit 2 "png-size must be WIDTHxHEIGHT, 16..16384" "png-size too small" -- \
+  detect "$sample" --preset ced3d --png "$T/x.png" --png-size 15x100 -q
+check "png-size: no picture after errors" test ! -e "$T/x.png"
+"$CED" detect "$sample" --preset ced3d --png "$T/ok.png" --png-size 100x80 -q
+check "png-size 100x80" test "$(head -c 24 "$T/ok.png" | od -An -tu1 -j16 | tr -s ' ' | cut -d' ' -f2-9)" = \
+  "0 0 0 100 0 0 0 80"
+
+# --- 8. ced view --threshold: finite, >= 0, a saliency field of the cloud ---
+"$CED" detect "$sample" --preset ced6d --viewer "$T/view.ply" -q
+for t in xyz=-1 xyz=-0.001 xyz=nan xyz=inf xyz=-inf xyz=garbage xyz= xyz=1e999 'xyz=0.1 junk'; do
+  expect_exit 2 "--threshold xyz" "view: --threshold $t" -- view "$T/view.ply" -o "$T/x.html" --threshold "$t"
+done
+expect_exit 2 "no saliency_nope field" "view: unknown name" -- view "$T/view.ply" -o "$T/x.html" --threshold nope=1
+expect_exit 2 "given twice" "view: a name twice" -- \
+  view "$T/view.ply" -o "$T/x.html" --threshold xyz=0.1 --threshold xyz=0.2
+expect_exit 2 "NAME=VALUE" "view: no name" -- view "$T/view.ply" -o "$T/x.html" --threshold =1
+check "view: no page after errors" test ! -e "$T/x.html"
+"$CED" view "$T/view.ply" -o "$T/ok.html" --threshold xyz=0 --threshold rgb=0.1
+check "view: threshold 0 is fine" grep -q '"threshold":0.0[,}]' "$T/ok.html"
+
+# --- 9. ced eval: finite numbers, no negative lengths or counts, no empty lists ---
+rep() {
+  expect_exit 2 "$1" "eval repeatability: $2" -- eval repeatability "$sample" -d random --trials 1 -q --csv "$T/e.csv" \
+    "${@:3}"
+}
+rep "radius" "-r nan" -r nan
+rep "radius" "-r inf" -r inf
+rep "radius" "-r -1" -r -1
+rep "min-neighbors" "-k -5" -k -5
+rep "threads" "-j -1" -j -1
+rep "resolution" "--resolution nan" --resolution nan
+rep "resolution" "--resolution -1" --resolution -1
+rep "max-translation" "--max-translation inf" --max-translation inf
+rep "max-translation" "--max-translation nan" --max-translation nan
+rep "epsilon" "--epsilon nan" --epsilon nan
+rep "noise" "--noise ''" --noise ''
+rep "noise" "--noise 0," --noise 0,
+rep "noise" "--noise ,0" --noise ,0
+rep "noise" "--noise 0,,1" --noise 0,,1
+rep "noise" "--noise nan" --noise nan
+rep "noise" "--noise -1" --noise -1
+rep "noise" "--noise 0,inf" --noise 0,inf
+rep "detector" "-d ''" -d ''
+check "eval: no CSV after errors" test ! -e "$T/e.csv"
+expect_exit 2 "noise applies to INPUT" "eval repeatability: --noise '' with a pair" -- \
+  eval repeatability --source "$sample" --target "$sample" --noise '' -q
+reg() {
+  expect_exit 2 "$1" "eval registration: $2" -- eval registration "$sample" -d random --trials 1 -q --csv "$T/e.csv" \
+    "${@:3}"
+}
+reg "radius" "-r nan" -r nan
+reg "radius" "-r -1" -r -1
+reg "min-neighbors" "-k -5" -k -5
+reg "threads" "-j -1" -j -1
+reg "noise" "--noise nan" --noise nan
+reg "noise" "--noise inf" --noise inf
+reg "resolution" "--resolution nan" --resolution nan
+reg "voxel" "--voxel nan" --voxel nan
+reg "max-translation" "--max-translation inf" --max-translation inf
+reg "depth-max" "--depth-max nan" --depth-max nan
+reg "depth-max" "--depth-max inf" --depth-max inf
+reg "normal-radius" "--normal-radius inf" --normal-radius inf
+reg "inlier-fraction" "--inlier-fraction nan" --inlier-fraction nan
+reg "overlap" "--overlap nan" --overlap nan
+reg "iterations" "--iterations 0" --iterations 0
+
+# --- 10. More values per point than the readers accept: refused before writing ---
+# A PLY of 65,536 properties (x, y, z and 65,533 more), the most ced reads;
+# -o would add a saliency column.
+{
+  printf 'ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n'
+  awk 'BEGIN { for (i = 0; i < 65533; i++) print "property uchar p" i }'
+  echo end_header
+  for p in "0 0 0" "1 0 0" "0 1 0" "0 0 1"; do
+    awk -v p="$p" 'BEGIN { printf "%s", p; for (i = 0; i < 65533; i++) printf " 1"; print "" }'
+  done
+} > "$T/wide.ply"
+check "wide: ced reads it" sh -c "'$CED' info '$T/wide.ply' | grep -q ': 4 points'"
+for ext in ply pcd csv; do
+  expect_exit 1 "wide_out.$ext': cannot write .*65537 values per point.*at most 65536" "wide: -o .$ext" -- \
+    detect "$T/wide.ply" -m xyz:0.2 -r 2 -k 1 -o "$T/wide_out.$ext" -q
+  check "wide: no .$ext left" test ! -e "$T/wide_out.$ext"
+done
+expect_exit 1 "wide_v.ply': cannot write PLY: .*at most 65536" "wide: --viewer" -- detect "$T/wide.ply" -m xyz:0.2 -r 2 -k 1 --viewer "$T/wide_v.ply" -q
+check "wide: no viewer cloud left" test ! -e "$T/wide_v.ply"
+expect_exit 1 "cannot write PLY: 65537 values per point" "wide: -o in tiles" -- \
+  detect "$T/wide.ply" -m xyz:0.2 -r 2 -k 1 --tile-size 10 -o "$T/wide_t.ply" -q
+check "wide: no tiled output left" test ! -e "$T/wide_t.ply"
+"$CED" convert "$T/wide.ply" "$T/wide.csv"
+check "wide: 65,536 values convert" test $? = 0 -a -s "$T/wide.csv"
+
+echo "cli_edges: $pass passed, $fail failed"
+[ "$fail" = 0 ]
