@@ -61,7 +61,7 @@ mkdir "$T/empty"
 check "an empty work directory: the keypoints" cmp -s "$T/whole.txt" "$T/k2.txt"
 check "an empty work directory: it stays, empty" test -d "$T/empty" -a -z "$(ls -A "$T/empty")"
 # A file put into ced's work directory during a (killed) run stays.
-(CED_TEST_KILL_AFTER_TILES=3 "$CED" "${tiled[@]}" --work-dir "$T/w" --indices "$T/k3.txt" -q) > /dev/null 2>&1
+(CED_TEST_KILL_AFTER_TILES=3 "$CED" "${tiled[@]}" --work-dir "$T/w" --indices "$T/k3.txt" -q; true) > /dev/null 2>&1
 check "killed run: the work directory is marked" test -f "$T/w/.ced-work-dir"
 echo notes > "$T/w/notes.txt"
 "$CED" "${tiled[@]}" --work-dir "$T/w" --indices "$T/k3.txt" --resume -q
@@ -221,6 +221,24 @@ if [ "$dup" -ge 0 ]; then
   part_patch "$T/parts/p$big.cedpart" "$T/patched" 0 "$dup"
   merge_bad "an index of another part" "given twice\|outside tile\|comes after"
 fi
+
+# --- Small tiles under a large halo: only tiles that own points are cached ---
+# (ced6d at r 0.05 has a halo of about 0.4: with tiles of 0.05 a point is
+# near ~4000 tiles, most of them empty air; all of them were cached.)
+(CED_TEST_KILL_AFTER_TILES=1 "$CED" detect "$T/s.las" --preset ced6d --tile-size 0.05 --work-dir "$T/small" \
+  --indices "$T/ks.txt"; true) > "$T/small_err" 2>&1
+owning=$(python3 -c "import json,sys; print(len(json.load(open(sys.argv[1]))['tiles']))" "$T/small/plan.json")
+cached=$(ls "$T/small/cache" | wc -l)
+parts=$(ls "$T/small/parts" | wc -l)
+check "small tiles: only owning tiles are cached ($cached + $parts files, $owning tiles)" \
+  test $((cached + parts)) -le "$owning"
+check "small tiles: the halo warning comes before the cache is written" grep -q "the halo .* outweighs" "$T/small_err"
+"$CED" detect "$T/s.las" --preset ced6d --tile-size 0.05 --work-dir "$T/small" --indices "$T/ks.txt" --resume -q
+check "small tiles, resumed: the keypoints" cmp -s "$T/whole.txt" "$T/ks.txt"
+expect_exit 2 "memory-limit must be a size from 1 byte" "--memory-limit 0.5" -- \
+  detect "$T/s.las" --preset ced6d --memory-limit 0.5 --indices "$T/k.txt"
+expect_exit 2 "memory-limit must be a size from 1 byte" "--memory-limit 1e30" -- \
+  detect "$T/s.las" --preset ced6d --memory-limit 1e30 --indices "$T/k.txt"
 
 # --- ced-mpi deletes only what it created, too ---
 if [ -n "$MPI" ] && command -v mpirun > /dev/null; then

@@ -56,8 +56,9 @@ std::uint64_t parse_size(const std::string& text, const std::string& option) {
   } else if (got != 1) {
     throw usage_error(option + " must be a size such as 4G, 512M or 1000000 (bytes), got '" + text + "'");
   }
-  if (!(v > 0) || !std::isfinite(v * scale) || v * scale > 1e18)
-    throw usage_error(option + " must be a positive size, got '" + text + "'");
+  // Checked before the conversion: a double beyond 2^64 cast to an integer is undefined.
+  if (!(v > 0) || !std::isfinite(v * scale) || v * scale > 1e18 || v * scale < 1)
+    throw usage_error(option + " must be a size from 1 byte to 1e18 bytes (e.g. 4G, 512M), got '" + text + "'");
   return static_cast<std::uint64_t>(v * scale);
 }
 

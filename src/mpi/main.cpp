@@ -73,7 +73,11 @@ int run_mpi(const detect_options& o, mpi::communicator& world) {
       ro.work_dir = work_dir = work_dir_of(o);
       ro.resume = o.resume;
       ro.planned = [&](const ced::tile_plan& p) { report_plan(p, o.quiet); };
-      plan_json = ced::prepare_tiled(request, ro).to_json();
+      try {
+        plan_json = ced::prepare_tiled(request, ro).to_json();
+      } catch (const ced::missing_field_error& e) {
+        throw with_file_fields(e, o.input, dplan.read_opts);  // the file's fields, not those read
+      }
     } catch (const usage_error& e) {
       status = exit_usage;
       message = e.what();
