@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <random>
 #include <string>
 #include <vector>
@@ -366,4 +367,84 @@ TEST(Tiles, AFailedMergeKeepsThePartsForResume) {
   const ced::tile_part merged = ced::run_tiled(r, o);
   EXPECT_EQ(merged.index, std::vector<std::uint64_t>(whole.begin(), whole.end()));
   EXPECT_FALSE(std::filesystem::exists(o.work_dir));
+}
+
+// ---------------------------------------------------------------- tampered plans and parts (issue #25)
+
+namespace {
+ced::tile_part detect_planned_tile(const ced::tile_plan& plan, std::uint64_t id) {
+  return ced::detect_tile(plan, ced::read_tile(plan, id));
+}
+}  // namespace
+
+TEST(Tiles, PartsOfAnotherPlanOrTamperedAreRefusedInMemory) {
+  ced::tiled_request r = room_request(3000, 21, "tamper_room.las", 0.06);
+  const ced::tile_plan a = ced::plan_tiles(r);
+  r.modalities = {"xyz:0.2", "rgb:0.1", "lab:0.1", "intensity:0.05,range=auto"};
+  const ced::tile_plan b = ced::plan_tiles(r);
+  std::vector<ced::tile_part> parts;
+  for (const auto& t : a.tiles) parts.push_back(detect_planned_tile(a, t.id));
+  EXPECT_NO_THROW(ced::merge_parts(a, parts));
+  // Plan b has four modalities, a's parts one saliency array each: read past them before.
+  EXPECT_THROW(ced::merge_parts(b, parts), ced::io::io_error);
+  std::size_t k = 0;
+  while (k < parts.size() && parts[k].index.size() < 2) ++k;
+  ASSERT_LT(k, parts.size());
+  auto tampered = [&](auto change) {
+    auto copy = parts;
+    change(copy[k]);
+    return copy;
+  };
+  EXPECT_THROW(ced::merge_parts(a, tampered([&](ced::tile_part& p) { p.index[0] = std::uint64_t(1) << 40; })),
+               ced::io::io_error);
+  EXPECT_THROW(ced::merge_parts(a, tampered([&](ced::tile_part& p) { std::swap(p.index[0], p.index[1]); })),
+               ced::io::io_error);
+  EXPECT_THROW(ced::merge_parts(a, tampered([&](ced::tile_part& p) { p.saliency[0].pop_back(); })), ced::io::io_error);
+  EXPECT_THROW(ced::merge_parts(a, tampered([&](ced::tile_part& p) { p.plan.clear(); })), ced::io::io_error);
+  // A keypoint index that another part holds: repeated (or out of order in its part).
+  std::size_t other = 0;
+  while (other < parts.size() && (other == k || parts[other].index.empty())) ++other;
+  ASSERT_LT(other, parts.size());
+  EXPECT_THROW(ced::merge_parts(a, tampered([&](ced::tile_part& p) { p.index[0] = parts[other].index[0]; })),
+               ced::io::io_error);
+}
+
+TEST(Tiles, TamperedPlansAreRefusedOnLoad) {
+  const ced::tiled_request r = room_request(3000, 22, "tamper_plan.las", 0.3);
+  const ced::tile_plan p = ced::plan_tiles(r);
+  const std::string json = p.to_json();
+  EXPECT_NO_THROW(ced::tile_plan::from_json(json, "plan"));
+  auto edited = [&](const std::string& from, const std::string& to) {
+    const std::size_t at = json.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    std::string j = json;
+    if (at != std::string::npos) j.replace(at, from.size(), to);
+    return j;
+  };
+  const std::string halo = "\"halo\": " + nlohmann::json(p.grid.halo).dump();
+  const std::string k = "\"min_neighbors\": 5";
+  for (const std::string& bad :
+       {edited(halo, "\"halo\": 0"), edited(k, "\"min_neighbors\": -1"), edited(k, "\"min_neighbors\": 2.5"),
+        edited(k, "\"min_neighbors\": 4294967296"), edited("\"modalities\": [", "\"modalities\": [\"xyz:zero\", ")})
+    EXPECT_THROW(ced::tile_plan::from_json(bad, "plan"), ced::io::io_error) << bad.substr(0, 400);
+}
+
+TEST(Tiles, ATileOfAChangedInputIsRefused) {
+  const ced::tiled_request r = room_request(3000, 23, "changed_room.las", 0.3);
+  const ced::tile_plan p = ced::plan_tiles(r);
+  ASSERT_FALSE(p.content.empty());
+  EXPECT_NO_THROW(ced::read_tile(p, p.tiles.front().id));
+  // The same bytes but one point moved: the same size, maybe the same fingerprint.
+  ced::point_cloud c = ced::io::read_cloud(r.input);
+  c.positions()[3 * 1500] += 0.013f;
+  ced::io::write_cloud(r.input, c);
+  try {
+    ced::read_tile(p, p.tiles.front().id);
+    ADD_FAILURE() << "a changed input was read";
+  } catch (const ced::io::io_error& e) {
+    const std::string what = e.what();
+    EXPECT_TRUE(what.find("changed since the plan") != std::string::npos ||
+                what.find("not the file the plan was made for") != std::string::npos)
+        << what;
+  }
 }
