@@ -4,6 +4,7 @@
 #include <dlfcn.h>
 #include <pybind11/stl.h>
 
+#include <atomic>
 #include <string>
 #include <vector>
 
@@ -12,6 +13,17 @@
 
 namespace ced_python {
 namespace {
+
+/// Python modalities' functions running now, on any thread (see
+/// python_callbacks_running()).
+std::atomic<int> callbacks_running{0};
+
+struct callback_scope {
+  callback_scope() noexcept { callbacks_running.fetch_add(1); }
+  ~callback_scope() { callbacks_running.fetch_sub(1); }
+  callback_scope(const callback_scope&) = delete;
+  callback_scope& operator=(const callback_scope&) = delete;
+};
 
 /// A modality whose saliency a Python callable computes, for prototyping:
 /// per block, fn(points, offsets, neighbors) -> (B,) saliencies, where the
@@ -39,6 +51,7 @@ struct python_modality {
 
 void python_modality::evaluator::evaluate(const ced::block_view& block, float* out) const {
   py::gil_scoped_acquire gil;
+  const callback_scope running;
   const auto callable = py::reinterpret_borrow<py::object>(fn);
   const std::size_t n = block.size();
   if (per_point) {
@@ -85,6 +98,10 @@ void export_symbols_to_plugins() {
 
 }  // namespace
 
+bool python_callbacks_running() { return callbacks_running.load() > 0; }
+
+unsigned threads_for(unsigned threads) { return python_callbacks_running() ? 1u : threads; }
+
 void bind_modalities(py::module_& m) {
   py::class_<ced::any_modality>(m, "Modality", "A modality: a channel and its saliency measure.")
       .def(py::init([](const std::string& spec) { return ced::make_modality(spec); }), py::arg("spec"),
@@ -112,7 +129,8 @@ void bind_modalities(py::module_& m) {
       py::arg("name"), py::arg("fn"), py::arg("threshold"), py::arg("per_point") = false,
       "A modality whose saliency a Python function computes (slow; for prototyping). By block: "
       "fn(points, offsets, neighbors) -> saliencies, neighbours of points[k] in "
-      "neighbors[offsets[k]:offsets[k+1]]; with per_point=True: fn(point, neighbors) -> float.");
+      "neighbors[offsets[k]:offsets[k+1]]; with per_point=True: fn(point, neighbors) -> float. fn may call "
+      "ced.detect: that detection then runs on its thread, single-threaded.");
   m.def(
       "preset_names", [] { return ced::preset_names(); }, "The presets' names: ced3d, ced6d, robust3d, robust6d.");
   m.def(

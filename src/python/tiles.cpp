@@ -178,7 +178,7 @@ void bind_tiles(py::module_& m) {
         {
           py::gil_scoped_release release;
           const ced::tile_points pts = ced::read_tile(plan, tile);
-          out = std::make_shared<ced::tile_part>(ced::detect_tile(plan, pts, threads));
+          out = std::make_shared<ced::tile_part>(ced::detect_tile(plan, pts, threads_for(threads)));
         }
         if (!part.is_none()) ced::write_part(part.cast<std::string>(), plan, *out);
         return out;

@@ -1,0 +1,106 @@
+# SPDX-License-Identifier: MIT
+# Hostile input from Python (#25): parts of another plan, a detection inside a
+# Python modality, subarray fields, non-finite saliencies from a Python
+# modality, outputs over the plan's input, tile options out of range, tampered
+# pickled plans. Each is a clear exception (or, for nested detection, works);
+# what once crashed or hung runs in a subprocess with a timeout.
+import io
+import json
+import os
+import shutil
+import pickle
+import re
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+import ced
+from conftest import room
+
+FOUR = ["xyz:0.2", "rgb:0.1", "lab:0.1", "bands(red,blue):0.1"]
+
+
+def isolated(code, *args, timeout=120):
+    """Runs `code` in a fresh interpreter (the module as this one sees it): a crash or a hang fails the test
+    instead of killing or blocking the suite. Returns its stdout."""
+    try:
+        p = subprocess.run([sys.executable, "-c", textwrap.dedent(code), *map(str, args)], capture_output=True,
+                           text=True, timeout=timeout, env=os.environ)
+    except subprocess.TimeoutExpired:
+        pytest.fail(f"timed out after {timeout} s (deadlock?)")
+    assert p.returncode == 0, f"exit code {p.returncode}\nstdout:\n{p.stdout}\nstderr:\n{p.stderr}"
+    return p.stdout
+
+
+@pytest.fixture(scope="module")
+def room_file(tmp_path_factory):
+    pts, rgb = room(2000)
+    path = tmp_path_factory.mktemp("trust") / "room.ply"
+    ced.write(str(path), ced.Cloud(pts, {"rgb": rgb}))
+    return str(path)
+
+
+@pytest.fixture(scope="module")
+def plans(room_file):
+    """Two plans of one file: ced3d (one modality) and four modalities; the same tiles."""
+    a = ced.plan_tiles(room_file, tile_size=0.5, modalities="ced3d", radius=0.08)
+    b = ced.plan_tiles(room_file, tile_size=0.5, modalities=FOUR, radius=0.08)
+    assert [t for t, _, _ in a.tiles] == [t for t, _, _ in b.tiles] and len(a.tiles) > 1
+    return a, b
+
+
+# 2. A detection inside a Python modality ------------------------------------------------------------------------
+
+NESTED = """
+    import sys, threading, numpy as np, ced
+    rng = np.random.default_rng(1)
+    outer, inner = rng.random((6000, 3)), rng.random((4000, 3))
+    expected = ced.detect(inner, modalities="ced3d", radius=0.05)
+    normals = ced.estimate_normals(inner, 0.05)
+    how = sys.argv[1]
+
+    def nested():
+        if how == "thread":  # a thread of the callback's, which it waits for
+            box = []
+            t = threading.Thread(target=lambda: box.append(ced.detect(inner, modalities="ced3d", radius=0.05)))
+            t.start()
+            t.join()
+            return box[0]
+        return ced.detect(inner, modalities="ced3d", radius=0.05)  # default threads
+
+    def fn(points, offsets, neighbors):
+        if how == "normals":  # the other call that runs on all cores
+            assert np.array_equal(ced.estimate_normals(inner, 0.05), normals)
+        else:
+            r = nested()
+            assert np.array_equal(r.keypoints, expected.keypoints)
+            assert np.array_equal(r.saliency["xyz"], expected.saliency["xyz"])
+        return np.full(len(points), 1.0)
+
+    r = ced.detect(outer, modalities=[ced.python_modality("nested", fn, 0.5)], radius=0.05)
+    assert len(r.keypoints) > 0
+    print("done")
+"""
+
+
+@pytest.mark.parametrize("how", ["direct", "thread", "normals"])
+def test_detect_inside_a_python_modality(how):
+    assert isolated(NESTED, how, timeout=180).strip() == "done"
+
+
+def test_nested_detection_with_python_modalities_at_both_levels():
+    out = isolated("""
+        import numpy as np, ced
+        rng = np.random.default_rng(2)
+        outer, inner = rng.random((3000, 3)), rng.random((1500, 3))
+        ones = ced.python_modality("ones", lambda p, o, n: np.ones(len(p)), 0.5)
+        def fn(points, offsets, neighbors):
+            r = ced.detect(inner, modalities=["xyz:0.2", ones], radius=0.06, threads=2)
+            return np.full(len(points), float(len(r.keypoints) > 0))
+        r = ced.detect(outer, modalities=[ced.python_modality("nested", fn, 0.5)], radius=0.06, threads=2)
+        print(len(r.keypoints) > 0)
+    """)
+    assert out.strip() == "True"
