@@ -104,3 +104,44 @@ def test_nested_detection_with_python_modalities_at_both_levels():
         print(len(r.keypoints) > 0)
     """)
     assert out.strip() == "True"
+
+
+# 4. Non-finite or negative saliencies from a Python modality ----------------------------------------------------
+
+@pytest.fixture(scope="module")
+def cube():
+    return np.random.default_rng(6).random((1500, 3))
+
+
+@pytest.mark.parametrize("bad, text", [(np.nan, "nan"), (np.inf, "inf"), (-np.inf, "-inf"), (-0.5, "-0.5"),
+                                       (1e300, "1e+300")])
+def test_python_modality_bad_saliency_is_an_error(cube, bad, text):
+    def block(points, offsets, neighbors):
+        out = np.ones(len(points))
+        out[points == 17] = bad
+        return out
+
+    def point(p, neighbors):
+        return bad if p == 17 else 1.0
+
+    for fn, per_point in ((block, False), (point, True)):
+        mod = ced.python_modality("mine", fn, 0.5, per_point=per_point)
+        with pytest.raises(ValueError, match=rf"Python modality 'mine': the function gave {re.escape(text)} for point 17 "
+                                             r"\(saliencies must be finite and >= 0"):
+            ced.detect(cube, modalities=[mod], radius=0.15, min_neighbors=1)
+
+
+def test_python_modality_values_of_points_with_few_neighbours_are_ignored(cube):
+    def block(points, offsets, neighbors):
+        counts = np.diff(offsets)
+        return np.where(counts < 8, np.nan, 1.0)  # e.g. a mean over too few points
+
+    r = ced.detect(cube, modalities=[ced.python_modality("mine", block, 0.5)], radius=0.1, min_neighbors=8)
+    few = r.neighbor_count < 8
+    assert few.any() and (~few).any()
+    np.testing.assert_array_equal(r.saliency["mine"], np.where(few, 0.0, 1.0).astype(np.float32))
+
+
+def test_python_modality_threshold_must_be_at_least_zero():
+    with pytest.raises(ValueError, match="threshold: must be a finite number >= 0"):
+        ced.python_modality("mine", lambda p, o, n: np.ones(len(p)), -0.1)

@@ -150,7 +150,8 @@ def bands(fields: Union[str, Sequence[str]], threshold: float = 0.1, norm: Optio
 
 def python_modality(name: str, fn: Union[BlockFunction, PointFunction], threshold: float,
                     per_point: bool = False) -> Modality:
-    """A modality whose saliency a Python function computes (slow; for prototyping)."""
+    """A modality whose saliency a Python function computes (slow; for prototyping). Saliencies must be finite
+    and >= 0 (else ValueError); the function may itself call ced.detect (run single-threaded)."""
 
 def preset_names() -> List[str]:
     """The presets' names: ced3d, ced6d, robust3d, robust6d."""
