@@ -106,6 +106,57 @@ def test_nested_detection_with_python_modalities_at_both_levels():
     assert out.strip() == "True"
 
 
+# 3. Subarray fields of structured arrays ------------------------------------------------------------------------
+
+def structured(n, fields):
+    rng = np.random.default_rng(5)
+    a = np.zeros(n, dtype=fields)
+    for name in a.dtype.names:
+        a[name] = rng.random(a[name].shape) * 10
+    return a
+
+
+@pytest.mark.parametrize("field", ["X", "y", "Z"])
+def test_subarray_coordinate_fields_are_refused(field):
+    names = ["X", "y", "Z"]
+    dtype = [(n, "f8", (2,)) if n == field else (n, "f8") for n in names]
+    a = structured(300, dtype)
+    with pytest.raises(ValueError, match=rf"points\['{field}'\]: .*subarray field of shape \(2,\)"):
+        ced.detect(a)
+    with pytest.raises(ValueError, match=rf"points\['{field}'\]"):
+        ced.Cloud(a)
+
+
+def test_non_numeric_or_doubled_coordinate_fields_are_refused():
+    a = structured(50, [("X", "f8"), ("Y", "f8"), ("Z", "f8")])
+    s = np.zeros(50, dtype=[("X", "U8"), ("Y", "f8"), ("Z", "f8")])
+    s["X"] = a["X"].astype(str)
+    with pytest.raises(TypeError, match=r"points\['X'\]: expected a numeric coordinate field.*<U8"):
+        ced.Cloud(s)
+    d = structured(50, [("X", "f8"), ("x", "f8"), ("Y", "f8"), ("Z", "f8")])
+    with pytest.raises(ValueError, match=r"points: the fields 'X' and 'x' both name the x coordinate"):
+        ced.Cloud(d)
+
+
+def test_subarray_channel_fields_become_columns():
+    a = structured(200, [("X", "f8"), ("Y", "f8"), ("Z", "f8"), ("rgb", "u1", (3,)), ("nir", "<f4", (2,)),
+                         ("big", ">u2", (2,))])
+    c = ced.Cloud(a)
+    for j, name in enumerate(["red", "green", "blue"]):
+        np.testing.assert_array_equal(c.fields[name], a["rgb"][:, j])
+    for j in range(2):
+        np.testing.assert_array_equal(c.fields[f"nir_{j}"], a["nir"][:, j])
+        np.testing.assert_array_equal(c.fields[f"big_{j}"], a["big"][:, j])
+    np.testing.assert_allclose(c.absolute_points()[:, 0], a["X"], rtol=0, atol=1e-5)
+    # the same as channels of a plain (N, 3) array
+    ch = ced.Cloud(np.c_[a["X"], a["Y"], a["Z"]], a[["rgb", "nir"]])
+    np.testing.assert_array_equal(ch.fields["green"], a["rgb"][:, 1])
+    np.testing.assert_array_equal(ch.fields["nir_1"], a["nir"][:, 1])
+    bad = structured(20, [("X", "f8"), ("Y", "f8"), ("Z", "f8"), ("m", "f4", (2, 2))])
+    with pytest.raises(ValueError, match=r"points\['m'\]: expected an \(N,\) or \(N, k\) array, got shape \(20, 2, 2\)"):
+        ced.Cloud(bad)
+
+
 # 4. Non-finite or negative saliencies from a Python modality ----------------------------------------------------
 
 @pytest.fixture(scope="module")
