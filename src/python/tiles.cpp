@@ -52,6 +52,8 @@ std::vector<std::string> specs_of(py::handle modalities) {
   return out;
 }
 
+std::string type_name(py::handle obj) { return py::str(py::type::of(obj).attr("__name__")).cast<std::string>(); }
+
 }  // namespace
 
 bool refine_of(py::handle modalities, py::handle refine) {
@@ -135,9 +137,16 @@ void bind_tiles(py::module_& m) {
       .def(
           "write",
           [](const ced::tile_part& p, const ced::tile_plan& plan, const std::string& path) {
+            // A part of another plan would be written with this plan's digest.
+            if (p.plan != plan.digest())
+              throw py::value_error("TilePart.write: the part of tile " + std::to_string(p.tile) +
+                                    " belongs to another plan (plan digest " + (p.plan.empty() ? "none" : p.plan) +
+                                    ", `plan` has " + plan.digest() + ")");
+            py::gil_scoped_release release;
             ced::write_part(path, plan, p);
           },
-          py::arg("plan"), py::arg("path"), "Writes the part for ced.merge_parts or `ced merge` (atomically).")
+          py::arg("plan"), py::arg("path"),
+          "Writes the part for ced.merge_parts or `ced merge` (atomically); `plan` must be its own.")
       .def("__repr__", [](const ced::tile_part& p) {
         return "<ced.TilePart tile " + std::to_string(p.tile) + ": " + std::to_string(p.index.size()) + " keypoints>";
       });
@@ -196,8 +205,10 @@ void bind_tiles(py::module_& m) {
         for (py::handle h : parts) {
           if (py::isinstance<py::str>(h) || py::hasattr(h, "__fspath__"))
             all.push_back(ced::read_part(py::str(h).cast<std::string>(), plan));
-          else
+          else if (py::isinstance<ced::tile_part>(h))
             all.push_back(h.cast<const ced::tile_part&>());
+          else
+            throw py::type_error("parts: expected ced.TilePart objects or paths of part files, got " + type_name(h));
         }
         py::gil_scoped_release release;
         return std::make_shared<ced::tile_part>(ced::merge_parts(plan, std::move(all)));

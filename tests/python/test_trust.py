@@ -52,6 +52,62 @@ def plans(room_file):
     return a, b
 
 
+# 1. Parts of another plan ---------------------------------------------------------------------------------------
+
+MERGE_OTHER = """
+    import json, sys, ced
+    a = ced.plan_tiles(sys.argv[1], tile_size=0.5, modalities="ced3d", radius=0.08)
+    b = ced.plan_tiles(sys.argv[1], tile_size=0.5, modalities=json.loads(sys.argv[4]), radius=0.08)
+    parts = [ced.detect_tile(a, t) for t, _, _ in a.tiles]
+    if sys.argv[2] == "files":
+        paths = []
+        for p in parts:
+            paths.append(f"{sys.argv[3]}/t{p.tile}.part")
+            p.write(a, paths[-1])
+        parts = paths
+    try:
+        ced.merge_parts(b, parts)
+        print("no error")
+    except Exception as e:
+        print(type(e).__name__, e)
+"""
+
+
+def test_merge_parts_refuses_parts_of_another_plan(room_file):
+    out = isolated(MERGE_OTHER, room_file, "memory", ".", json.dumps(FOUR))
+    assert out.startswith("FileError") and "another plan" in out, out
+
+
+def test_merge_parts_refuses_part_files_of_another_plan(room_file, tmp_path):
+    out = isolated(MERGE_OTHER, room_file, "files", tmp_path, json.dumps(FOUR))
+    assert out.startswith("FileError") and "another plan" in out and "t0.part" in out, out
+
+
+def test_read_part_refuses_a_part_of_another_plan(plans, tmp_path):
+    a, b = plans
+    path = str(tmp_path / "a.part")
+    ced.detect_tile(a, a.tiles[0][0], part=path)
+    with pytest.raises(ced.FileError, match="another plan"):
+        ced.read_part(b, path)
+
+
+def test_part_write_refuses_another_plan(plans, tmp_path):
+    a, b = plans
+    part = ced.detect_tile(a, a.tiles[0][0])
+    path = tmp_path / "b.part"
+    with pytest.raises(ValueError, match=r"TilePart.write: the part of tile \d+ belongs to another plan"):
+        part.write(b, str(path))
+    assert not path.exists()
+    part.write(a, str(path))  # its own plan: fine
+    assert ced.read_part(a, str(path)).tile == part.tile
+
+
+def test_merge_parts_refuses_what_is_not_a_part(plans):
+    a, _ = plans
+    with pytest.raises(TypeError, match=r"parts: expected ced.TilePart objects or paths of part files, got int"):
+        ced.merge_parts(a, [3])
+
+
 # 2. A detection inside a Python modality ------------------------------------------------------------------------
 
 NESTED = """
