@@ -54,6 +54,23 @@ std::vector<std::string> specs_of(py::handle modalities) {
 
 std::string type_name(py::handle obj) { return py::str(py::type::of(obj).attr("__name__")).cast<std::string>(); }
 
+/// A path (str or os.PathLike), or a TypeError naming `name`.
+std::string path_arg(py::handle obj, const std::string& name) {
+  if (py::isinstance<py::str>(obj)) return obj.cast<std::string>();
+  if (py::hasattr(obj, "__fspath__")) {
+    const py::object p = py::module_::import("os").attr("fspath")(obj);
+    if (py::isinstance<py::str>(p)) return p.cast<std::string>();
+  }
+  throw py::type_error(name + ": expected a path, got " + type_name(obj));
+}
+
+/// Refuses to write `what` at `path` when that is the plan's input file
+/// (however spelled: links, "..") with a ValueError naming both: nothing
+/// ced writes may destroy what it reads.
+void check_not_input(const ced::tile_plan& plan, const std::string& what, const std::string& path) {
+  ced::io::check_outputs_distinct({{"the plan's input", plan.request.input}}, {{what, path}});
+}
+
 }  // namespace
 
 bool refine_of(py::handle modalities, py::handle refine) {
@@ -82,8 +99,12 @@ void bind_tiles(py::module_& m) {
       .def("to_json", &ced::tile_plan::to_json)
       .def(
           "save",
-          [](const ced::tile_plan& p, const std::string& path) { ced::io::write_text_file_atomic(path, p.to_json()); },
-          py::arg("path"))
+          [](const ced::tile_plan& p, const py::object& path) {
+            const std::string file = path_arg(path, "path");
+            check_not_input(p, "path", file);
+            ced::io::write_text_file_atomic(file, p.to_json());
+          },
+          py::arg("path"), "Writes the plan as JSON (atomically); never over the plan's input.")
       .def_property_readonly("input", [](const ced::tile_plan& p) { return p.request.input; })
       .def_property_readonly("modalities", [](const ced::tile_plan& p) { return p.request.modalities; })
       .def_property_readonly("radius", [](const ced::tile_plan& p) { return p.request.params.radius; })
@@ -136,17 +157,20 @@ void bind_tiles(py::module_& m) {
       .def_readonly("detect_ms", &ced::tile_part::detect_ms)
       .def(
           "write",
-          [](const ced::tile_part& p, const ced::tile_plan& plan, const std::string& path) {
+          [](const ced::tile_part& p, const ced::tile_plan& plan, const py::object& path) {
+            const std::string file = path_arg(path, "path");
             // A part of another plan would be written with this plan's digest.
             if (p.plan != plan.digest())
               throw py::value_error("TilePart.write: the part of tile " + std::to_string(p.tile) +
                                     " belongs to another plan (plan digest " + (p.plan.empty() ? "none" : p.plan) +
                                     ", `plan` has " + plan.digest() + ")");
+            check_not_input(plan, "path", file);
             py::gil_scoped_release release;
-            ced::write_part(path, plan, p);
+            ced::write_part(file, plan, p);
           },
           py::arg("plan"), py::arg("path"),
-          "Writes the part for ced.merge_parts or `ced merge` (atomically); `plan` must be its own.")
+          "Writes the part for ced.merge_parts or `ced merge` (atomically); `plan` must be its own, and `path` not "
+          "the plan's input.")
       .def("__repr__", [](const ced::tile_part& p) {
         return "<ced.TilePart tile " + std::to_string(p.tile) + ": " + std::to_string(p.index.size()) + " keypoints>";
       });
@@ -182,14 +206,16 @@ void bind_tiles(py::module_& m) {
       "preset's, on for robust3d/robust6d).");
   m.def(
       "detect_tile",
-      [](const ced::tile_plan& plan, std::uint64_t tile, py::object part, unsigned threads) {
+      [](const ced::tile_plan& plan, std::uint64_t tile, const py::object& part, unsigned threads) {
+        const std::string path = part.is_none() ? std::string() : path_arg(part, "part");
+        if (!path.empty()) check_not_input(plan, "part", path);  // before any work
         std::shared_ptr<ced::tile_part> out;
         {
           py::gil_scoped_release release;
           const ced::tile_points pts = ced::read_tile(plan, tile);
           out = std::make_shared<ced::tile_part>(ced::detect_tile(plan, pts, threads_for(threads)));
+          if (!path.empty()) ced::write_part(path, plan, *out);
         }
-        if (!part.is_none()) ced::write_part(part.cast<std::string>(), plan, *out);
         return out;
       },
       py::arg("plan"), py::arg("tile"), py::arg("part") = py::none(), py::arg("threads") = 0,

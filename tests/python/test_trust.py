@@ -252,3 +252,33 @@ def test_python_modality_values_of_points_with_few_neighbours_are_ignored(cube):
 def test_python_modality_threshold_must_be_at_least_zero():
     with pytest.raises(ValueError, match="threshold: must be a finite number >= 0"):
         ced.python_modality("mine", lambda p, o, n: np.ones(len(p)), -0.1)
+
+
+# 5. Outputs that are the plan's input ---------------------------------------------------------------------------
+
+def test_nothing_writes_over_the_plans_input(room_file, tmp_path):
+    (tmp_path / "in").mkdir()
+    room_file = str(shutil.copy(room_file, tmp_path / "in" / "room.ply"))  # its own: the old code overwrote it
+    plan = ced.plan_tiles(room_file, tile_size=0.5, modalities="ced3d", radius=0.08)
+    before = open(room_file, "rb").read()
+    tile = plan.tiles[0][0]
+    link = tmp_path / "link.ply"
+    os.symlink(room_file, link)
+    hard = tmp_path / "hard.ply"
+    os.link(room_file, hard)
+    roundabout = os.path.join(os.path.dirname(room_file), "..", os.path.basename(os.path.dirname(room_file)),
+                              "room.ply")
+    part = ced.detect_tile(plan, tile)
+    for path in (plan.input, link, hard, roundabout):
+        message = r"is the plan's input .*ced never writes over a file it reads"
+        with pytest.raises(ValueError, match="part '.*' " + message):
+            ced.detect_tile(plan, tile, part=path)
+        with pytest.raises(ValueError, match="path '.*' " + message):
+            part.write(plan, str(path))
+        with pytest.raises(ValueError, match="path '.*' " + message):
+            plan.save(str(path))
+    assert open(room_file, "rb").read() == before
+    assert sorted(os.listdir(tmp_path)) == ["hard.ply", "in", "link.ply"]
+    assert os.listdir(tmp_path / "in") == ["room.ply"]
+    ced.detect_tile(plan, tile, part=tmp_path / "t.part")  # a path-like part is fine
+    assert ced.read_part(plan, str(tmp_path / "t.part")).tile == tile

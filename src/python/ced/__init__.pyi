@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: MIT
 # Type stubs of the package `ced` (docs/PYTHON.md is the reference).
+from os import PathLike
 from typing import Any, Callable, Dict, Iterable, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -181,7 +182,8 @@ class TilePlan:
     @staticmethod
     def load(path: str) -> "TilePlan": ...
     def to_json(self) -> str: ...
-    def save(self, path: str) -> None: ...
+    def save(self, path: Union[str, PathLike[str]]) -> None:
+        """Writes the plan as JSON (atomically); never over the plan's input (ValueError)."""
     @property
     def input(self) -> str: ...
     @property
@@ -219,7 +221,8 @@ class TilePart:
     def thresholds(self) -> Dict[str, float]: ...
     @property
     def detect_ms(self) -> float: ...
-    def write(self, plan: TilePlan, path: str) -> None: ...
+    def write(self, plan: TilePlan, path: Union[str, PathLike[str]]) -> None:
+        """Writes the part file; `plan` must be its own and `path` not the plan's input (ValueError)."""
 
 
 def plan_tiles(input: str, tile_size: Optional[float] = None, memory_limit: Optional[float] = None,
@@ -229,8 +232,10 @@ def plan_tiles(input: str, tile_size: Optional[float] = None, memory_limit: Opti
     """Plans the tiles of a cloud file (two passes over it), as `ced plan`."""
 
 
-def detect_tile(plan: TilePlan, tile: int, part: Optional[str] = None, threads: int = 0) -> TilePart:
-    """Reads and detects one tile of the plan's input; writes its part to `part` when given."""
+def detect_tile(plan: TilePlan, tile: int, part: Union[None, str, PathLike[str]] = None,
+                threads: int = 0) -> TilePart:
+    """Reads and detects one tile of the plan's input; writes its part to `part` when given (never over the
+    plan's input: ValueError)."""
 
 
 def read_part(plan: TilePlan, path: str) -> TilePart: ...
