@@ -4,9 +4,12 @@
 #include <pybind11/stl.h>
 
 #include <cmath>
+#include <cstdint>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -53,6 +56,42 @@ std::vector<std::string> specs_of(py::handle modalities) {
 }
 
 std::string type_name(py::handle obj) { return py::str(py::type::of(obj).attr("__name__")).cast<std::string>(); }
+
+/// A number (int, float, a numpy scalar; not bool or str) as a double, or a
+/// TypeError naming `name`. An int too large for a double is infinite.
+double number_arg(py::handle obj, const std::string& name, const std::string& expected) {
+  if (!py::isinstance<py::bool_>(obj) && !py::isinstance<py::str>(obj) && !py::isinstance<py::bytes>(obj)) {
+    const double v = PyFloat_AsDouble(obj.ptr());
+    if (!(v == -1.0 && PyErr_Occurred())) return v;
+    const bool overflow = PyErr_ExceptionMatches(PyExc_OverflowError);
+    PyErr_Clear();
+    if (overflow)
+      return py::reinterpret_borrow<py::object>(obj) > py::int_(0) ? std::numeric_limits<double>::infinity()
+                                                                   : -std::numeric_limits<double>::infinity();
+  }
+  throw py::type_error(name + ": expected " + expected + ", got " + type_name(obj));
+}
+
+/// A positive finite number, or a TypeError / ValueError naming `name`.
+double positive_arg(py::handle obj, const std::string& name, const std::string& unit) {
+  const double v = number_arg(obj, name, "a number");
+  if (!(v > 0) || !std::isfinite(v))
+    throw py::value_error(name + ": must be a positive number" + unit + ", got " + py::str(obj).cast<std::string>());
+  return v;
+}
+
+/// An int (or a numpy integer; not bool) in 0 .. max, or a TypeError /
+/// ValueError naming `name` (and `range`, when given, for the range).
+std::uint64_t int_arg(py::handle obj, const std::string& name, std::uint64_t max, const std::string& range = "") {
+  if (py::isinstance<py::bool_>(obj) || !PyIndex_Check(obj.ptr()))
+    throw py::type_error(name + ": expected an int, got " + type_name(obj));
+  const auto i = py::reinterpret_steal<py::int_>(PyNumber_Index(obj.ptr()));
+  if (!i) throw py::error_already_set();
+  if (i < py::int_(0) || i > py::int_(max))
+    throw py::value_error(name + ": must be " + (range.empty() ? "0 .. " + std::to_string(max) : range) + ", got " +
+                          py::str(obj).cast<std::string>());
+  return i.cast<std::uint64_t>();
+}
 
 /// A path (str or os.PathLike), or a TypeError naming `name`.
 std::string path_arg(py::handle obj, const std::string& name) {
@@ -177,26 +216,41 @@ void bind_tiles(py::module_& m) {
 
   m.def(
       "plan_tiles",
-      [](const std::string& input, py::object tile_size, py::object memory_limit, py::object modalities, double radius,
-         py::object nms_radius, std::uint32_t min_neighbors, const std::string& format, py::object refine) {
+      [](const std::string& input, py::object tile_size, py::object memory_limit, py::object modalities,
+         py::object radius, py::object nms_radius, py::object min_neighbors, const std::string& format,
+         py::object refine) {
         ced::tiled_request r;
         r.input = input;
         r.read.format = ced::io::parse_format(format);
-        r.params.radius = radius;
-        r.params.nms_radius = nms_radius.is_none() ? radius : nms_radius.cast<double>();
-        r.params.min_neighbors = min_neighbors;
+        r.params.radius = positive_arg(radius, "radius", "");
+        r.params.nms_radius = nms_radius.is_none() ? r.params.radius : positive_arg(nms_radius, "nms_radius", "");
+        r.params.min_neighbors = std::uint32_t(int_arg(min_neighbors, "min_neighbors", UINT32_MAX));
         r.modalities = specs_of(modalities);
         r.params.refine = refine_of(modalities, refine);
-        if (!tile_size.is_none()) r.tile_size = tile_size.cast<double>();
-        if (!memory_limit.is_none()) {
-          const double v = memory_limit.cast<double>();
-          if (!(v > 0) || !std::isfinite(v)) throw py::value_error("memory_limit: a positive number of bytes");
-          r.memory_limit = static_cast<std::uint64_t>(v);
-        }
         if (tile_size.is_none() && memory_limit.is_none())
           throw py::value_error("give tile_size (metres) or memory_limit (bytes)");
-        py::gil_scoped_release release;
-        return std::make_shared<ced::tile_plan>(ced::plan_tiles(r));
+        if (!tile_size.is_none() && !memory_limit.is_none())
+          throw py::value_error("give tile_size or memory_limit, not both");
+        if (!tile_size.is_none()) r.tile_size = positive_arg(tile_size, "tile_size", " of metres");
+        if (!memory_limit.is_none()) {
+          // Checked before the conversion: a double beyond uint64's range
+          // (1e30, inf, nan) does not convert (undefined behaviour).
+          const double v = number_arg(memory_limit, "memory_limit", "a number of bytes");
+          if (!(v >= 1 && v <= 1e18))
+            throw py::value_error("memory_limit: must be 1 .. 1e18 bytes, got " +
+                                  py::str(memory_limit).cast<std::string>());
+          r.memory_limit = static_cast<std::uint64_t>(v);
+        }
+        try {
+          py::gil_scoped_release release;
+          return std::make_shared<ced::tile_plan>(ced::plan_tiles(r));
+        } catch (const std::invalid_argument& e) {
+          // The core names the CLI's option; here it is the argument.
+          const std::string what = e.what(), option = "--memory-limit ";
+          if (what.compare(0, option.size(), option) == 0)
+            throw py::value_error("memory_limit: " + what.substr(option.size()));
+          throw;
+        }
       },
       py::arg("input"), py::arg("tile_size") = py::none(), py::arg("memory_limit") = py::none(),
       py::arg("modalities") = py::none(), py::arg("radius") = 0.05, py::arg("nms_radius") = py::none(),
@@ -206,7 +260,10 @@ void bind_tiles(py::module_& m) {
       "preset's, on for robust3d/robust6d).");
   m.def(
       "detect_tile",
-      [](const ced::tile_plan& plan, std::uint64_t tile, const py::object& part, unsigned threads) {
+      [](const ced::tile_plan& plan, const py::object& tile_arg, const py::object& part,
+         const py::object& threads_arg) {
+        const std::uint64_t tile = int_arg(tile_arg, "tile", UINT64_MAX);
+        const auto threads = unsigned(int_arg(threads_arg, "threads", 4096, "0 (all cores) .. 4096"));
         const std::string path = part.is_none() ? std::string() : path_arg(part, "part");
         if (!path.empty()) check_not_input(plan, "part", path);  // before any work
         std::shared_ptr<ced::tile_part> out;

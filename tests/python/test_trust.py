@@ -282,3 +282,59 @@ def test_nothing_writes_over_the_plans_input(room_file, tmp_path):
     assert os.listdir(tmp_path / "in") == ["room.ply"]
     ced.detect_tile(plan, tile, part=tmp_path / "t.part")  # a path-like part is fine
     assert ced.read_part(plan, str(tmp_path / "t.part")).tile == tile
+
+
+# 6. Tile options out of range -----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("kwargs, error, message", [
+    (dict(memory_limit=1e30), ValueError, r"memory_limit: must be 1 \.\. 1e18 bytes, got 1e\+30"),
+    (dict(memory_limit=0.5), ValueError, r"memory_limit: must be 1 \.\. 1e18 bytes, got 0\.5"),
+    (dict(memory_limit=0), ValueError, r"memory_limit: must be 1 \.\. 1e18 bytes"),
+    (dict(memory_limit=-1), ValueError, r"memory_limit: must be 1 \.\. 1e18 bytes"),
+    (dict(memory_limit=float("nan")), ValueError, r"memory_limit: must be 1 \.\. 1e18 bytes, got nan"),
+    (dict(memory_limit=float("inf")), ValueError, r"memory_limit: must be 1 \.\. 1e18 bytes, got inf"),
+    (dict(memory_limit=10**30), ValueError, r"memory_limit: must be 1 \.\. 1e18 bytes"),
+    (dict(memory_limit="1G"), TypeError, r"memory_limit: expected a number of bytes, got str"),
+    (dict(memory_limit=True), TypeError, r"memory_limit: expected a number of bytes, got bool"),
+    (dict(memory_limit=1000), ValueError, r"memory_limit: 1000 bytes is too small"),
+    (dict(tile_size=float("nan")), ValueError, r"tile_size: must be a positive number of metres, got nan"),
+    (dict(tile_size=float("inf")), ValueError, r"tile_size: must be a positive number of metres, got inf"),
+    (dict(tile_size=0), ValueError, r"tile_size: must be a positive number of metres, got 0"),
+    (dict(tile_size=-1), ValueError, r"tile_size: must be a positive number of metres, got -1"),
+    (dict(tile_size="1"), TypeError, r"tile_size: expected a number, got str"),
+    (dict(tile_size=1, memory_limit=1e9), ValueError, r"give tile_size or memory_limit, not both"),
+    (dict(tile_size=1, radius=-1), ValueError, r"radius: must be a positive number, got -1"),
+    (dict(tile_size=1, radius=float("nan")), ValueError, r"radius: must be a positive number, got nan"),
+    (dict(tile_size=1, radius="auto"), TypeError, r"radius: expected a number, got str"),
+    (dict(tile_size=1, nms_radius=0), ValueError, r"nms_radius: must be a positive number, got 0"),
+    (dict(tile_size=1, nms_radius=float("inf")), ValueError, r"nms_radius: must be a positive number, got inf"),
+    (dict(tile_size=1, min_neighbors=-1), ValueError, r"min_neighbors: must be 0 \.\. 4294967295, got -1"),
+    (dict(tile_size=1, min_neighbors=2**32), ValueError, r"min_neighbors: must be 0 \.\. 4294967295"),
+    (dict(tile_size=1, min_neighbors=2.5), TypeError, r"min_neighbors: expected an int, got float"),
+])
+def test_plan_tiles_options_out_of_range(room_file, kwargs, error, message):
+    with pytest.raises(error, match=message):
+        ced.plan_tiles(room_file, **kwargs)
+
+
+def test_plan_tiles_memory_limit_in_range_works(room_file):
+    plan = ced.plan_tiles(room_file, memory_limit=4e9, modalities="ced3d", radius=0.08)
+    assert len(plan.tiles) >= 1 and plan.points == 2000
+
+
+def test_detect_tile_bad_arguments(plans):
+    a, _ = plans
+    with pytest.raises(ValueError, match=r"threads: must be 0 \(all cores\) \.\. 4096, got -1"):
+        ced.detect_tile(a, a.tiles[0][0], threads=-1)
+    with pytest.raises(ValueError, match=r"tile: must be 0 \.\. 18446744073709551615, got -1"):
+        ced.detect_tile(a, -1)
+    with pytest.raises(TypeError, match=r"part: expected a path, got int"):
+        ced.detect_tile(a, a.tiles[0][0], part=3)
+    # numpy integers are ints
+    assert ced.detect_tile(a, np.int64(a.tiles[0][0]), threads=np.int32(1)).tile == a.tiles[0][0]
+
+
+def test_plan_tiles_takes_numpy_numbers(room_file):
+    plan = ced.plan_tiles(room_file, tile_size=np.float32(0.5), modalities="ced3d", radius=np.float64(0.08),
+                          nms_radius=np.float32(0.08), min_neighbors=np.uint8(5))
+    assert plan.radius == 0.08 and plan.tile_size == 0.5

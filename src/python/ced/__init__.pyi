@@ -229,7 +229,8 @@ def plan_tiles(input: str, tile_size: Optional[float] = None, memory_limit: Opti
                modalities: Union[None, str, Sequence[str]] = None, radius: float = 0.05,
                nms_radius: Optional[float] = None, min_neighbors: int = 5, format: str = "auto",
                refine: Optional[bool] = None) -> TilePlan:
-    """Plans the tiles of a cloud file (two passes over it), as `ced plan`."""
+    """Plans the tiles of a cloud file (two passes over it), as `ced plan`. tile_size (metres, > 0) or
+    memory_limit (bytes, 1 .. 1e18), not both."""
 
 
 def detect_tile(plan: TilePlan, tile: int, part: Union[None, str, PathLike[str]] = None,
