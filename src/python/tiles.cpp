@@ -164,8 +164,13 @@ void bind_tiles(py::module_& m) {
              return "<ced.TilePlan " + p.request.input + ": " + std::to_string(p.tiles.size()) + " tiles of " +
                     std::to_string(p.grid.size) + ", " + std::to_string(p.file_points) + " points>";
            })
-      .def(py::pickle([](const ced::tile_plan& p) { return p.to_json(); },
-                      [](const std::string& s) { return plan_from_json(s, "<pickle>"); }));
+      .def(py::pickle([](const ced::tile_plan& p) -> py::object { return py::str(p.to_json()); },
+                      [](const py::object& state) {  // validated as any plan file: a FileError naming <pickle>
+                        if (!py::isinstance<py::str>(state))
+                          throw py::type_error("TilePlan: the pickled state must be the plan's JSON text, got " +
+                                               type_name(state));
+                        return plan_from_json(state.cast<std::string>(), "<pickle>");
+                      }));
 
   py::class_<ced::tile_part, part_ptr>(m, "TilePart",
                                        "The keypoints one tile contributes (or, merged, the whole cloud's).")

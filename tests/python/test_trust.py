@@ -338,3 +338,55 @@ def test_plan_tiles_takes_numpy_numbers(room_file):
     plan = ced.plan_tiles(room_file, tile_size=np.float32(0.5), modalities="ced3d", radius=np.float64(0.08),
                           nms_radius=np.float32(0.08), min_neighbors=np.uint8(5))
     assert plan.radius == 0.08 and plan.tile_size == 0.5
+
+
+# 7. Tampered pickled plans --------------------------------------------------------------------------------------
+
+def tampered_pickle(plan, state):
+    """The pickle of `plan` with `state` (a TilePlan pickles as its JSON text) in place of its own."""
+
+    class Pickler(pickle.Pickler):
+        def reducer_override(self, obj):
+            if isinstance(obj, ced.TilePlan):
+                reduced = obj.__reduce_ex__(2)
+                assert reduced[2] == plan.to_json()
+                return (reduced[0], reduced[1], state)
+            return NotImplemented
+
+    out = io.BytesIO()
+    Pickler(out, protocol=2).dump(plan)
+    return out.getvalue()
+
+
+def _halo(j):
+    j["grid"]["halo"] = 0.0
+
+
+def _min_neighbors(j):
+    j["request"]["min_neighbors"] = -1
+
+
+def _tile_counts(j):
+    j["tiles"][0][1] += 1
+
+
+@pytest.mark.parametrize("edit, message", [(_halo, "halo"), (_min_neighbors, "min_neighbors"),
+                                           (_tile_counts, "")])
+def test_tampered_plans_are_refused(plans, edit, message):
+    a, _ = plans
+    good = pickle.loads(pickle.dumps(a))
+    assert good.digest == a.digest
+    state = json.loads(a.to_json())
+    edit(state)
+    with pytest.raises(ced.FileError, match=rf"<pickle>.*{message}"):
+        pickle.loads(tampered_pickle(a, json.dumps(state)))
+    with pytest.raises(ced.FileError, match=rf"<json>.*{message}"):
+        ced.TilePlan.from_json(json.dumps(state))
+
+
+def test_pickled_plan_state_of_the_wrong_type_is_refused(plans):
+    a, _ = plans
+    with pytest.raises(TypeError, match="TilePlan: the pickled state must be the plan's JSON text"):
+        pickle.loads(tampered_pickle(a, 5))
+    with pytest.raises(ced.FileError, match="<pickle>"):
+        pickle.loads(tampered_pickle(a, "{"))
