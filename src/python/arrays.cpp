@@ -207,13 +207,30 @@ ced::point_cloud cloud_from_structured(const py::array& a) {
   std::string xyz[3];
   for (const auto& name : names)
     for (int d = 0; d < 3; ++d)
-      if (lower(name) == std::string(1, "xyz"[d])) xyz[d] = name;
+      if (lower(name) == std::string(1, "xyz"[d])) {
+        if (!xyz[d].empty())
+          throw py::value_error("points: the fields '" + xyz[d] + "' and '" + name + "' both name the " +
+                                std::string(1, "xyz"[d]) + " coordinate");
+        xyz[d] = name;
+      }
   for (int d = 0; d < 3; ++d)
     if (xyz[d].empty())
       throw py::value_error(std::string("points: the structured array has no ") + "XYZ"[d] +
                             " field (fields: " + py::str(a.dtype().attr("names")).cast<std::string>() + ")");
+  const py::dict fields = a.dtype().attr("fields");
   py::array col[3];
   for (int d = 0; d < 3; ++d) {
+    const std::string argument = "points['" + xyz[d] + "']";
+    // A subarray field ('X', 'f8', (2,)) would be read as one interleaved column.
+    const py::dtype field = py::reinterpret_borrow<py::tuple>(fields[py::str(xyz[d])])[0].cast<py::dtype>();
+    if (py::len(field.attr("shape")) != 0)
+      throw py::value_error(argument +
+                            ": a coordinate is one number per point, but this is a subarray field of shape " +
+                            py::str(field.attr("shape")).cast<std::string>());
+    const char k = field.kind();
+    if (k != 'f' && k != 'i' && k != 'u')
+      throw py::type_error(argument + ": expected a numeric coordinate field (integers or floats), got dtype " +
+                           py::str(py::handle(field)).cast<std::string>());
     col[d] = py::array(a[py::str(xyz[d])]).attr("astype")("float64");  // coordinates: float, int or scaled
   }
   ced::point_cloud cloud;

@@ -20,6 +20,17 @@ namespace py = pybind11;
 /// (robust3d/robust6d refine; anything else does not).
 bool refine_of(py::handle modalities, py::handle refine);
 
+/// True while the function of a ced.python_modality runs, on any thread.
+/// A TBB worker of that detection then waits outside TBB (for the GIL, or
+/// for whatever the function waits for) while it holds its place in the
+/// shared task arena, so a detection (or any multithreaded work) started
+/// meanwhile must not enter TBB: it would wait for those places forever.
+bool python_callbacks_running();
+
+/// The threads that work started now may use: 1 (no TBB at all) while
+/// python_callbacks_running(), else `threads`. Results do not depend on it.
+unsigned threads_for(unsigned threads);
+
 /// A cloud shared between Python objects (Cloud, Result's views) and C++.
 using cloud_ptr = std::shared_ptr<ced::point_cloud>;
 

@@ -162,7 +162,7 @@ void bind_cloud(py::module_& m) {
         std::vector<float> n;
         {
           py::gil_scoped_release release;
-          n = ced::estimate_normals(*c, radius, threads);
+          n = ced::estimate_normals(*c, radius, threads_for(threads));
         }
         py::array_t<float> out({py::ssize_t(c->size()), py::ssize_t(3)});
         std::copy(n.begin(), n.end(), out.mutable_data());

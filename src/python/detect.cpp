@@ -224,7 +224,18 @@ void bind_detect(py::module_& m) {
         p.refine = refine_of(modalities, refine);
         const auto mods = make_modalities(*cloud, modalities);
         auto res = std::make_shared<result>();
-        res->r = run_interruptible(*cloud, p, mods);
+        if (python_callbacks_running()) {
+          // Called from a python_modality's function (or from a thread it
+          // waits for): the outer detection's workers hold the task arena
+          // while they wait in Python, so this one runs here, on one thread,
+          // outside TBB (bindings.hpp). The result is the same for any
+          // thread count; Ctrl-C then stops the outer detection, after it.
+          p.threads = 1;
+          py::gil_scoped_release release;
+          res->r = ced::detect(*cloud, p, mods);
+        } else {
+          res->r = run_interruptible(*cloud, p, mods);
+        }
         res->radius = p.radius;
         res->nms_radius = p.nms_radius;
         res->min_neighbors = p.min_neighbors;

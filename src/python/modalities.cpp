@@ -4,6 +4,9 @@
 #include <dlfcn.h>
 #include <pybind11/stl.h>
 
+#include <atomic>
+#include <cmath>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -13,11 +16,24 @@
 namespace ced_python {
 namespace {
 
+/// Python modalities' functions running now, on any thread (see
+/// python_callbacks_running()).
+std::atomic<int> callbacks_running{0};
+
+struct callback_scope {
+  callback_scope() noexcept { callbacks_running.fetch_add(1); }
+  ~callback_scope() { callbacks_running.fetch_sub(1); }
+  callback_scope(const callback_scope&) = delete;
+  callback_scope& operator=(const callback_scope&) = delete;
+};
+
 /// A modality whose saliency a Python callable computes, for prototyping:
 /// per block, fn(points, offsets, neighbors) -> (B,) saliencies, where the
 /// neighbours of points[k] are neighbors[offsets[k]:offsets[k+1]]; or, with
 /// per_point, fn(point, neighbors) -> saliency. Runs under the GIL (one
-/// block at a time), so it is much slower than a C++ modality.
+/// block at a time), so it is much slower than a C++ modality. Saliencies
+/// must be finite and >= 0 (the Modality contract) and fit a float; any
+/// other value of a point the detector uses is a ValueError naming it.
 struct python_modality {
   std::string label;
   double threshold_value;
@@ -31,14 +47,27 @@ struct python_modality {
   struct evaluator {
     PyObject* fn;  // borrowed: the modality outlives the detection
     bool per_point;
+    std::uint32_t min_neighbors;  // points with fewer get 0 whatever fn says
     const std::string* label;
     void evaluate(const ced::block_view& block, float* out) const;
+    /// `v` as point `point`'s saliency, or a ValueError naming both.
+    float saliency(double v, std::uint32_t point) const;
   };
-  evaluator bind(const ced::point_cloud&, const ced::detect_params&) const { return {fn.ptr(), per_point, &label}; }
+  evaluator bind(const ced::point_cloud&, const ced::detect_params& params) const {
+    return {fn.ptr(), per_point, params.min_neighbors, &label};
+  }
 };
+
+float python_modality::evaluator::saliency(double v, std::uint32_t point) const {
+  if (std::isfinite(v) && v >= 0 && v <= double(std::numeric_limits<float>::max())) return static_cast<float>(v);
+  throw py::value_error("Python modality '" + *label + "': the function gave " +
+                        py::repr(py::float_(v)).cast<std::string>() + " for point " + std::to_string(point) +
+                        " (saliencies must be finite and >= 0, and fit a float32)");
+}
 
 void python_modality::evaluator::evaluate(const ced::block_view& block, float* out) const {
   py::gil_scoped_acquire gil;
+  const callback_scope running;
   const auto callable = py::reinterpret_borrow<py::object>(fn);
   const std::size_t n = block.size();
   if (per_point) {
@@ -46,12 +75,14 @@ void python_modality::evaluator::evaluate(const ced::block_view& block, float* o
       const ced::neighborhood nb = block[k];
       py::array_t<std::uint32_t> neighbors(py::ssize_t(nb.size), nb.indices);
       const py::object s = callable(nb.point, neighbors);
+      double v = 0;
       try {
-        out[k] = s.cast<float>();
+        v = s.cast<double>();
       } catch (const py::cast_error&) {
         throw py::type_error("Python modality '" + *label + "': fn(point, neighbors) must return a number, got " +
                              py::str(py::type::of(s)).cast<std::string>());
       }
+      out[k] = block.count(k) >= min_neighbors ? saliency(v, nb.point) : 0.0f;
     }
     return;
   }
@@ -67,12 +98,14 @@ void python_modality::evaluator::evaluate(const ced::block_view& block, float* o
     o[k + 1] = std::int64_t(all.size());
   }
   py::array_t<std::uint32_t> neighbors(py::ssize_t(all.size()), all.data());
-  const auto result = py::array_t<float, py::array::forcecast>::ensure(callable(points, offsets, neighbors));
+  // float64, so that a value beyond float32's range is named, not made infinite.
+  const auto result = py::array_t<double, py::array::forcecast>::ensure(callable(points, offsets, neighbors));
   if (!result || result.ndim() != 1 || std::size_t(result.shape(0)) != n)
     throw py::value_error("Python modality '" + *label + "': the function must return " + std::to_string(n) +
                           " saliencies (one per point of the block), as an array of shape (" + std::to_string(n) +
                           ",)");
-  for (std::size_t k = 0; k < n; ++k) out[k] = result.at(py::ssize_t(k));
+  for (std::size_t k = 0; k < n; ++k)
+    out[k] = block.count(k) >= min_neighbors ? saliency(result.at(py::ssize_t(k)), block.point(k)) : 0.0f;
 }
 
 /// Lets plugins loaded later resolve ced's symbols in this module: Python
@@ -84,6 +117,10 @@ void export_symbols_to_plugins() {
 }
 
 }  // namespace
+
+bool python_callbacks_running() { return callbacks_running.load() > 0; }
+
+unsigned threads_for(unsigned threads) { return python_callbacks_running() ? 1u : threads; }
 
 void bind_modalities(py::module_& m) {
   py::class_<ced::any_modality>(m, "Modality", "A modality: a channel and its saliency measure.")
@@ -106,13 +143,17 @@ void bind_modalities(py::module_& m) {
       "python_modality",
       [](std::string name, py::function fn, double threshold, bool per_point) {
         if (name.empty()) throw py::value_error("name: must not be empty");
-        if (!std::isfinite(threshold)) throw py::value_error("threshold: must be finite");
+        if (!std::isfinite(threshold) || threshold < 0)
+          throw py::value_error("threshold: must be a finite number >= 0, got " +
+                                py::repr(py::float_(threshold)).cast<std::string>());
         return ced::any_modality(python_modality{std::move(name), threshold, std::move(fn), per_point});
       },
       py::arg("name"), py::arg("fn"), py::arg("threshold"), py::arg("per_point") = false,
       "A modality whose saliency a Python function computes (slow; for prototyping). By block: "
       "fn(points, offsets, neighbors) -> saliencies, neighbours of points[k] in "
-      "neighbors[offsets[k]:offsets[k+1]]; with per_point=True: fn(point, neighbors) -> float.");
+      "neighbors[offsets[k]:offsets[k+1]]; with per_point=True: fn(point, neighbors) -> float. Saliencies must be "
+      "finite and >= 0 (else ValueError naming the point). fn may call ced.detect: that detection then runs on "
+      "its thread, single-threaded.");
   m.def(
       "preset_names", [] { return ced::preset_names(); }, "The presets' names: ced3d, ced6d, robust3d, robust6d.");
   m.def(

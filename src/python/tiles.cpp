@@ -4,9 +4,12 @@
 #include <pybind11/stl.h>
 
 #include <cmath>
+#include <cstdint>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -52,6 +55,61 @@ std::vector<std::string> specs_of(py::handle modalities) {
   return out;
 }
 
+std::string type_name(py::handle obj) { return py::str(py::type::of(obj).attr("__name__")).cast<std::string>(); }
+
+/// A number (int, float, a numpy scalar; not bool or str) as a double, or a
+/// TypeError naming `name`. An int too large for a double is infinite.
+double number_arg(py::handle obj, const std::string& name, const std::string& expected) {
+  if (!py::isinstance<py::bool_>(obj) && !py::isinstance<py::str>(obj) && !py::isinstance<py::bytes>(obj)) {
+    const double v = PyFloat_AsDouble(obj.ptr());
+    if (!(v == -1.0 && PyErr_Occurred())) return v;
+    const bool overflow = PyErr_ExceptionMatches(PyExc_OverflowError);
+    PyErr_Clear();
+    if (overflow)
+      return py::reinterpret_borrow<py::object>(obj) > py::int_(0) ? std::numeric_limits<double>::infinity()
+                                                                   : -std::numeric_limits<double>::infinity();
+  }
+  throw py::type_error(name + ": expected " + expected + ", got " + type_name(obj));
+}
+
+/// A positive finite number, or a TypeError / ValueError naming `name`.
+double positive_arg(py::handle obj, const std::string& name, const std::string& unit) {
+  const double v = number_arg(obj, name, "a number");
+  if (!(v > 0) || !std::isfinite(v))
+    throw py::value_error(name + ": must be a positive number" + unit + ", got " + py::str(obj).cast<std::string>());
+  return v;
+}
+
+/// An int (or a numpy integer; not bool) in 0 .. max, or a TypeError /
+/// ValueError naming `name` (and `range`, when given, for the range).
+std::uint64_t int_arg(py::handle obj, const std::string& name, std::uint64_t max, const std::string& range = "") {
+  if (py::isinstance<py::bool_>(obj) || !PyIndex_Check(obj.ptr()))
+    throw py::type_error(name + ": expected an int, got " + type_name(obj));
+  const auto i = py::reinterpret_steal<py::int_>(PyNumber_Index(obj.ptr()));
+  if (!i) throw py::error_already_set();
+  if (i < py::int_(0) || i > py::int_(max))
+    throw py::value_error(name + ": must be " + (range.empty() ? "0 .. " + std::to_string(max) : range) + ", got " +
+                          py::str(obj).cast<std::string>());
+  return i.cast<std::uint64_t>();
+}
+
+/// A path (str or os.PathLike), or a TypeError naming `name`.
+std::string path_arg(py::handle obj, const std::string& name) {
+  if (py::isinstance<py::str>(obj)) return obj.cast<std::string>();
+  if (py::hasattr(obj, "__fspath__")) {
+    const py::object p = py::module_::import("os").attr("fspath")(obj);
+    if (py::isinstance<py::str>(p)) return p.cast<std::string>();
+  }
+  throw py::type_error(name + ": expected a path, got " + type_name(obj));
+}
+
+/// Refuses to write `what` at `path` when that is the plan's input file
+/// (however spelled: links, "..") with a ValueError naming both: nothing
+/// ced writes may destroy what it reads.
+void check_not_input(const ced::tile_plan& plan, const std::string& what, const std::string& path) {
+  ced::io::check_outputs_distinct({{"the plan's input", plan.request.input}}, {{what, path}});
+}
+
 }  // namespace
 
 bool refine_of(py::handle modalities, py::handle refine) {
@@ -80,8 +138,12 @@ void bind_tiles(py::module_& m) {
       .def("to_json", &ced::tile_plan::to_json)
       .def(
           "save",
-          [](const ced::tile_plan& p, const std::string& path) { ced::io::write_text_file_atomic(path, p.to_json()); },
-          py::arg("path"))
+          [](const ced::tile_plan& p, const py::object& path) {
+            const std::string file = path_arg(path, "path");
+            check_not_input(p, "path", file);
+            ced::io::write_text_file_atomic(file, p.to_json());
+          },
+          py::arg("path"), "Writes the plan as JSON (atomically); never over the plan's input.")
       .def_property_readonly("input", [](const ced::tile_plan& p) { return p.request.input; })
       .def_property_readonly("modalities", [](const ced::tile_plan& p) { return p.request.modalities; })
       .def_property_readonly("radius", [](const ced::tile_plan& p) { return p.request.params.radius; })
@@ -102,8 +164,13 @@ void bind_tiles(py::module_& m) {
              return "<ced.TilePlan " + p.request.input + ": " + std::to_string(p.tiles.size()) + " tiles of " +
                     std::to_string(p.grid.size) + ", " + std::to_string(p.file_points) + " points>";
            })
-      .def(py::pickle([](const ced::tile_plan& p) { return p.to_json(); },
-                      [](const std::string& s) { return plan_from_json(s, "<pickle>"); }));
+      .def(py::pickle([](const ced::tile_plan& p) -> py::object { return py::str(p.to_json()); },
+                      [](const py::object& state) {  // validated as any plan file: a FileError naming <pickle>
+                        if (!py::isinstance<py::str>(state))
+                          throw py::type_error("TilePlan: the pickled state must be the plan's JSON text, got " +
+                                               type_name(state));
+                        return plan_from_json(state.cast<std::string>(), "<pickle>");
+                      }));
 
   py::class_<ced::tile_part, part_ptr>(m, "TilePart",
                                        "The keypoints one tile contributes (or, merged, the whole cloud's).")
@@ -134,36 +201,61 @@ void bind_tiles(py::module_& m) {
       .def_readonly("detect_ms", &ced::tile_part::detect_ms)
       .def(
           "write",
-          [](const ced::tile_part& p, const ced::tile_plan& plan, const std::string& path) {
-            ced::write_part(path, plan, p);
+          [](const ced::tile_part& p, const ced::tile_plan& plan, const py::object& path) {
+            const std::string file = path_arg(path, "path");
+            // A part of another plan would be written with this plan's digest.
+            if (p.plan != plan.digest())
+              throw py::value_error("TilePart.write: the part of tile " + std::to_string(p.tile) +
+                                    " belongs to another plan (plan digest " + (p.plan.empty() ? "none" : p.plan) +
+                                    ", `plan` has " + plan.digest() + ")");
+            check_not_input(plan, "path", file);
+            py::gil_scoped_release release;
+            ced::write_part(file, plan, p);
           },
-          py::arg("plan"), py::arg("path"), "Writes the part for ced.merge_parts or `ced merge` (atomically).")
+          py::arg("plan"), py::arg("path"),
+          "Writes the part for ced.merge_parts or `ced merge` (atomically); `plan` must be its own, and `path` not "
+          "the plan's input.")
       .def("__repr__", [](const ced::tile_part& p) {
         return "<ced.TilePart tile " + std::to_string(p.tile) + ": " + std::to_string(p.index.size()) + " keypoints>";
       });
 
   m.def(
       "plan_tiles",
-      [](const std::string& input, py::object tile_size, py::object memory_limit, py::object modalities, double radius,
-         py::object nms_radius, std::uint32_t min_neighbors, const std::string& format, py::object refine) {
+      [](const std::string& input, py::object tile_size, py::object memory_limit, py::object modalities,
+         py::object radius, py::object nms_radius, py::object min_neighbors, const std::string& format,
+         py::object refine) {
         ced::tiled_request r;
         r.input = input;
         r.read.format = ced::io::parse_format(format);
-        r.params.radius = radius;
-        r.params.nms_radius = nms_radius.is_none() ? radius : nms_radius.cast<double>();
-        r.params.min_neighbors = min_neighbors;
+        r.params.radius = positive_arg(radius, "radius", "");
+        r.params.nms_radius = nms_radius.is_none() ? r.params.radius : positive_arg(nms_radius, "nms_radius", "");
+        r.params.min_neighbors = std::uint32_t(int_arg(min_neighbors, "min_neighbors", UINT32_MAX));
         r.modalities = specs_of(modalities);
         r.params.refine = refine_of(modalities, refine);
-        if (!tile_size.is_none()) r.tile_size = tile_size.cast<double>();
-        if (!memory_limit.is_none()) {
-          const double v = memory_limit.cast<double>();
-          if (!(v > 0) || !std::isfinite(v)) throw py::value_error("memory_limit: a positive number of bytes");
-          r.memory_limit = static_cast<std::uint64_t>(v);
-        }
         if (tile_size.is_none() && memory_limit.is_none())
           throw py::value_error("give tile_size (metres) or memory_limit (bytes)");
-        py::gil_scoped_release release;
-        return std::make_shared<ced::tile_plan>(ced::plan_tiles(r));
+        if (!tile_size.is_none() && !memory_limit.is_none())
+          throw py::value_error("give tile_size or memory_limit, not both");
+        if (!tile_size.is_none()) r.tile_size = positive_arg(tile_size, "tile_size", " of metres");
+        if (!memory_limit.is_none()) {
+          // Checked before the conversion: a double beyond uint64's range
+          // (1e30, inf, nan) does not convert (undefined behaviour).
+          const double v = number_arg(memory_limit, "memory_limit", "a number of bytes");
+          if (!(v >= 1 && v <= 1e18))
+            throw py::value_error("memory_limit: must be 1 .. 1e18 bytes, got " +
+                                  py::str(memory_limit).cast<std::string>());
+          r.memory_limit = static_cast<std::uint64_t>(v);
+        }
+        try {
+          py::gil_scoped_release release;
+          return std::make_shared<ced::tile_plan>(ced::plan_tiles(r));
+        } catch (const std::invalid_argument& e) {
+          // The core names the CLI's option; here it is the argument.
+          const std::string what = e.what(), option = "--memory-limit ";
+          if (what.compare(0, option.size(), option) == 0)
+            throw py::value_error("memory_limit: " + what.substr(option.size()));
+          throw;
+        }
       },
       py::arg("input"), py::arg("tile_size") = py::none(), py::arg("memory_limit") = py::none(),
       py::arg("modalities") = py::none(), py::arg("radius") = 0.05, py::arg("nms_radius") = py::none(),
@@ -173,14 +265,19 @@ void bind_tiles(py::module_& m) {
       "preset's, on for robust3d/robust6d).");
   m.def(
       "detect_tile",
-      [](const ced::tile_plan& plan, std::uint64_t tile, py::object part, unsigned threads) {
+      [](const ced::tile_plan& plan, const py::object& tile_arg, const py::object& part,
+         const py::object& threads_arg) {
+        const std::uint64_t tile = int_arg(tile_arg, "tile", UINT64_MAX);
+        const auto threads = unsigned(int_arg(threads_arg, "threads", 4096, "0 (all cores) .. 4096"));
+        const std::string path = part.is_none() ? std::string() : path_arg(part, "part");
+        if (!path.empty()) check_not_input(plan, "part", path);  // before any work
         std::shared_ptr<ced::tile_part> out;
         {
           py::gil_scoped_release release;
           const ced::tile_points pts = ced::read_tile(plan, tile);
-          out = std::make_shared<ced::tile_part>(ced::detect_tile(plan, pts, threads));
+          out = std::make_shared<ced::tile_part>(ced::detect_tile(plan, pts, threads_for(threads)));
+          if (!path.empty()) ced::write_part(path, plan, *out);
         }
-        if (!part.is_none()) ced::write_part(part.cast<std::string>(), plan, *out);
         return out;
       },
       py::arg("plan"), py::arg("tile"), py::arg("part") = py::none(), py::arg("threads") = 0,
@@ -196,8 +293,10 @@ void bind_tiles(py::module_& m) {
         for (py::handle h : parts) {
           if (py::isinstance<py::str>(h) || py::hasattr(h, "__fspath__"))
             all.push_back(ced::read_part(py::str(h).cast<std::string>(), plan));
-          else
+          else if (py::isinstance<ced::tile_part>(h))
             all.push_back(h.cast<const ced::tile_part&>());
+          else
+            throw py::type_error("parts: expected ced.TilePart objects or paths of part files, got " + type_name(h));
         }
         py::gil_scoped_release release;
         return std::make_shared<ced::tile_part>(ced::merge_parts(plan, std::move(all)));

@@ -55,7 +55,7 @@ def test_refined_tiles_give_the_whole_result(las, tmp_path):
 def test_tiles_bad_input(las, tmp_path):
     with pytest.raises(ValueError, match="tile_size"):
         ced.plan_tiles(las)
-    with pytest.raises(ValueError, match="tile size"):
+    with pytest.raises(ValueError, match="tile_size: must be a positive number of metres"):
         ced.plan_tiles(las, tile_size=-1)
     with pytest.raises(TypeError, match="spec strings"):
         ced.plan_tiles(las, tile_size=1, modalities=[ced.Modality("xyz:0.2")])

@@ -183,7 +183,9 @@ def detect(points, channels=None, modalities=None, radius=0.05, nms_radius=None,
     refine: move each keypoint to the point nearest the score-weighted centroid of its NMS neighbourhood (more
         repeatable under noise). None: the preset's (on for 'robust3d' and 'robust6d'), else off.
 
-    Returns a ced.Result. The GIL is released while detecting; Ctrl-C raises KeyboardInterrupt.
+    Returns a ced.Result. The GIL is released while detecting; Ctrl-C raises KeyboardInterrupt. Called while a
+    ced.python_modality's function runs (from it, or from a thread it waits for), the detection runs on the calling
+    thread, single-threaded, whatever `threads` says (the result is the same).
     """
     points, channels = _cloud_args(points, channels)
     if nms_radius is not None:

@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: MIT
 # Type stubs of the package `ced` (docs/PYTHON.md is the reference).
+from os import PathLike
 from typing import Any, Callable, Dict, Iterable, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -150,7 +151,8 @@ def bands(fields: Union[str, Sequence[str]], threshold: float = 0.1, norm: Optio
 
 def python_modality(name: str, fn: Union[BlockFunction, PointFunction], threshold: float,
                     per_point: bool = False) -> Modality:
-    """A modality whose saliency a Python function computes (slow; for prototyping)."""
+    """A modality whose saliency a Python function computes (slow; for prototyping). Saliencies must be finite
+    and >= 0 (else ValueError); the function may itself call ced.detect (run single-threaded)."""
 
 def preset_names() -> List[str]:
     """The presets' names: ced3d, ced6d, robust3d, robust6d."""
@@ -180,7 +182,8 @@ class TilePlan:
     @staticmethod
     def load(path: str) -> "TilePlan": ...
     def to_json(self) -> str: ...
-    def save(self, path: str) -> None: ...
+    def save(self, path: Union[str, PathLike[str]]) -> None:
+        """Writes the plan as JSON (atomically); never over the plan's input (ValueError)."""
     @property
     def input(self) -> str: ...
     @property
@@ -218,18 +221,22 @@ class TilePart:
     def thresholds(self) -> Dict[str, float]: ...
     @property
     def detect_ms(self) -> float: ...
-    def write(self, plan: TilePlan, path: str) -> None: ...
+    def write(self, plan: TilePlan, path: Union[str, PathLike[str]]) -> None:
+        """Writes the part file; `plan` must be its own and `path` not the plan's input (ValueError)."""
 
 
 def plan_tiles(input: str, tile_size: Optional[float] = None, memory_limit: Optional[float] = None,
                modalities: Union[None, str, Sequence[str]] = None, radius: float = 0.05,
                nms_radius: Optional[float] = None, min_neighbors: int = 5, format: str = "auto",
                refine: Optional[bool] = None) -> TilePlan:
-    """Plans the tiles of a cloud file (two passes over it), as `ced plan`."""
+    """Plans the tiles of a cloud file (two passes over it), as `ced plan`. tile_size (metres, > 0) or
+    memory_limit (bytes, 1 .. 1e18), not both."""
 
 
-def detect_tile(plan: TilePlan, tile: int, part: Optional[str] = None, threads: int = 0) -> TilePart:
-    """Reads and detects one tile of the plan's input; writes its part to `part` when given."""
+def detect_tile(plan: TilePlan, tile: int, part: Union[None, str, PathLike[str]] = None,
+                threads: int = 0) -> TilePart:
+    """Reads and detects one tile of the plan's input; writes its part to `part` when given (never over the
+    plan's input: ValueError)."""
 
 
 def read_part(plan: TilePlan, path: str) -> TilePart: ...
