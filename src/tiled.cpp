@@ -158,22 +158,18 @@ nlohmann::json request_json(const tiled_request& r) {
   return j;
 }
 
-/// A whole number of a plan, within T's range: nlohmann's get<> would wrap
-/// -1 to 2^32-1 and truncate 2.5.
+/// A whole number of a plan, within T's range (`what` names it): nlohmann's
+/// get<> would wrap -1 to 2^32-1 and truncate 2.5.
 template <class T>
-T count_of(const nlohmann::json& j, const char* key) {
-  const nlohmann::json& v = j.at(key);
+T whole_number(const nlohmann::json& v, const std::string& what) {
   if (!v.is_number_unsigned() || v.get<std::uint64_t>() > std::numeric_limits<T>::max())
-    throw std::invalid_argument(std::string("'") + key + "' must be a whole number from 0 to " +
+    throw std::invalid_argument(what + " must be a whole number from 0 to " +
                                 std::to_string(std::numeric_limits<T>::max()) + ", got " + v.dump());
   return static_cast<T>(v.get<std::uint64_t>());
 }
 template <class T>
-T count_at(const nlohmann::json& a, std::size_t k, const char* what) {
-  const nlohmann::json& v = a.at(k);
-  if (!v.is_number_unsigned() || v.get<std::uint64_t>() > std::numeric_limits<T>::max())
-    throw std::invalid_argument(std::string(what) + " must be a whole number >= 0, got " + v.dump());
-  return static_cast<T>(v.get<std::uint64_t>());
+T count_of(const nlohmann::json& j, const char* key) {
+  return whole_number<T>(j.at(key), std::string("'") + key + "'");
 }
 /// A finite number of a plan.
 double number_of(const nlohmann::json& j, const char* key) {
@@ -729,7 +725,7 @@ tile_plan tile_plan::from_json(const std::string& text, const std::string& name)
     p.grid.size = number_of(g, "size");
     const auto& dims = g.at("dims");
     if (!dims.is_array() || dims.size() != 3) fail(name, "invalid tile plan: the grid's 'dims' must be 3 counts");
-    for (std::size_t k = 0; k < 3; ++k) p.grid.dims[k] = count_at<std::uint32_t>(dims, k, "the grid's dims");
+    for (std::size_t k = 0; k < 3; ++k) p.grid.dims[k] = whole_number<std::uint32_t>(dims.at(k), "the grid's dims");
     p.grid.halo = number_of(g, "halo");
     if (!(p.grid.size > 0) || !(p.grid.halo >= 0) ||
         p.grid.dims[0] * std::uint64_t(p.grid.dims[1]) * p.grid.dims[2] == 0 ||
@@ -751,8 +747,9 @@ tile_plan tile_plan::from_json(const std::string& text, const std::string& name)
     }
     std::uint64_t owned = 0;
     for (const auto& t : j.at("tiles")) {
-      const tile_entry e{count_at<std::uint64_t>(t, 0, "a tile's id"), count_at<std::uint64_t>(t, 1, "a tile's count"),
-                         count_at<std::uint64_t>(t, 2, "a tile's count")};
+      const tile_entry e{whole_number<std::uint64_t>(t.at(0), "a tile's id"),
+                         whole_number<std::uint64_t>(t.at(1), "a tile's count"),
+                         whole_number<std::uint64_t>(t.at(2), "a tile's count")};
       if (e.id >= p.grid.count() || (!p.tiles.empty() && e.id <= p.tiles.back().id))
         fail(name, "tile " + std::to_string(e.id) + " is out of the grid or out of order");
       if (e.core_points == 0 || e.core_points > e.points || e.points > p.finite_points)
@@ -885,9 +882,16 @@ tile_part detect_tile(const tile_plan& plan, const tile_points& points, unsigned
   return part;
 }
 
-void write_part(const std::string& path, const tile_plan& plan, const tile_part& part) {
+namespace {
+/// write_part() with the plan's digest already known (a digest formats the
+/// whole plan: of thousands of tiles, a millisecond).
+void write_part_as(const std::string& path, const tile_plan& plan, const std::string& digest, const tile_part& part) {
   std::string out(part_magic, 8);
-  const std::string digest = plan.digest();
+  // A part of another plan would be stamped with this plan's digest.
+  if (part.plan != digest)
+    throw std::invalid_argument("the part of tile " + std::to_string(part.tile) +
+                                " belongs to another plan (plan digest " +
+                                (part.plan.empty() ? std::string("none") : part.plan) + ", `plan` has " + digest + ")");
   out += digest;
   auto put = [&](const auto& v) { out.append(reinterpret_cast<const char*>(&v), sizeof v); };
   put(part.tile);
@@ -905,6 +909,11 @@ void write_part(const std::string& path, const tile_plan& plan, const tile_part&
   f.stream().write(out.data(), static_cast<std::streamsize>(out.size()));
   f.commit();
 }
+}  // namespace
+
+void write_part(const std::string& path, const tile_plan& plan, const tile_part& part) {
+  write_part_as(path, plan, plan.digest(), part);
+}
 
 namespace {
 
@@ -913,13 +922,13 @@ namespace {
 /// each refill, so that thousands of parts need no open file each).
 class part_reader {
  public:
-  part_reader(const std::string& path, const tile_plan& plan) : m_path(path) {
+  /// `digest`: plan.digest(), computed once by the caller for all its parts.
+  part_reader(const std::string& path, const tile_plan& plan, const std::string& digest) : m_path(path) {
     std::ifstream in(path, std::ios::binary);
     if (!in) fail(path, std::string("cannot open: ") + std::strerror(errno));
     std::error_code ec;
     const std::uint64_t size = fs::file_size(path, ec);
     if (ec) fail(path, "cannot read its size: " + ec.message());
-    const std::string digest = plan.digest();
     const auto modalities = modalities_of(plan.request.modalities);
     const std::size_t m = modalities.size();
     // magic, digest, tile, keypoints, modalities, fields, candidates, any, ms
@@ -1067,7 +1076,7 @@ tile_part empty_merge(const tile_plan& plan) {
 }  // namespace
 
 tile_part read_part(const std::string& path, const tile_plan& plan) {
-  part_reader r(path, plan);
+  part_reader r(path, plan, plan.digest());
   tile_part p = std::move(r.totals);
   resize_part(p, plan, static_cast<std::size_t>(r.count()));
   const std::size_t buffer = std::size_t(8) << 20;
@@ -1077,11 +1086,12 @@ tile_part read_part(const std::string& path, const tile_plan& plan) {
 
 void merge_part_files(const tile_plan& plan, const std::vector<std::string>& paths, const merge_sink& sink,
                       std::size_t memory) {
+  const std::string digest = plan.digest();
   std::vector<part_reader> readers;
   readers.reserve(paths.size());
   std::vector<std::uint64_t> tiles;
   for (const auto& path : paths) {
-    readers.emplace_back(path, plan);
+    readers.emplace_back(path, plan, digest);
     tiles.push_back(readers.back().totals.tile);
   }
   check_complete(plan, tiles);
@@ -1203,16 +1213,12 @@ bool has_marker(const fs::path& dir) {
 }
 
 /// A name ced gives a file of its work directory: `base` (plan.json) or
-/// t<digits><suffix> when `base` is empty, or the temporary of such a name,
-/// ".<name>.tmp.<pid>.<n>".
+/// t<digits><suffix> when `base` is empty, or the temporary of such a name
+/// (io::detail::temporary_name()).
 bool ced_file_name(std::string name, const std::string& base, const std::string& suffix) {
-  if (!name.empty() && name[0] == '.') {
-    const std::size_t tmp = name.find(".tmp.");
-    if (tmp == std::string::npos) return false;
-    const std::string rest = name.substr(tmp + 5);
-    if (rest.empty() || rest.find_first_not_of("0123456789.") != std::string::npos) return false;
-    name = name.substr(1, tmp - 1);
-  }
+  std::string of;
+  long pid = 0;
+  if (io::detail::parse_temporary_name(name, of, pid)) name = of;
   if (!base.empty()) return name == base;
   if (name.size() < 1 + suffix.size() + 1 || name[0] != 't' ||
       name.compare(name.size() - suffix.size(), suffix.size(), suffix) != 0)
@@ -1391,7 +1397,7 @@ tile_points load_cached(const tile_plan& plan, const std::string& work_dir, std:
 tile_part detect_and_keep(const tile_plan& plan, const std::string& work_dir, const tile_points& pts,
                           unsigned threads) {
   tile_part part = detect_tile(plan, pts, threads);
-  write_part(part_file(work_dir, pts.tile), plan, part);
+  write_part_as(part_file(work_dir, pts.tile), plan, part.plan, part);  // detect_tile's digest
   std::error_code ec;
   fs::remove(cache_file(work_dir, pts.tile), ec);
   // The resume tests' hook: die like a killed process after so many tiles.

@@ -99,9 +99,7 @@ atomic_output_file::atomic_output_file(const std::string& path) : m_path(path) {
   if (!fs::is_directory(dir, ec))
     throw io_error("cannot write '" + path + "': '" + dir.string() + "' is not a directory");
 
-  m_temp_path = (dir / ("." + name.string() + ".tmp." + std::to_string(process_id()) + "." +
-                        std::to_string(g_temp_counter.fetch_add(1))))
-                    .string();
+  m_temp_path = (dir / detail::temporary_name(name.string(), process_id(), g_temp_counter.fetch_add(1))).string();
   errno = 0;
   m_slot = register_temporary(m_temp_path);
   m_stream.open(m_temp_path, std::ios::binary | std::ios::out | std::ios::trunc);
@@ -148,21 +146,15 @@ void atomic_output_file::commit() {
 
 void atomic_output_file::remove_stale_temporaries() const noexcept {
 #ifndef _WIN32
-  // ".<name>.tmp.<pid>.<n>" beside the file, of a process that no longer runs.
+  // Temporaries of this file beside it, of a process that no longer runs.
   const fs::path p(m_path);
   const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
-  const std::string prefix = "." + p.filename().string() + ".tmp.";
   std::error_code ec;
   fs::directory_iterator it(dir, ec), end;
   for (; !ec && it != end; it.increment(ec)) {
-    const std::string name = it->path().filename().string();
-    if (name.compare(0, prefix.size(), prefix) != 0) continue;
-    const std::string rest = name.substr(prefix.size());
-    const std::size_t dot = rest.find('.');
-    if (dot == 0 || dot == std::string::npos || dot + 1 == rest.size() ||
-        rest.find_first_not_of("0123456789.") != std::string::npos || rest.find('.', dot + 1) != std::string::npos)
-      continue;
-    const long pid = std::strtol(rest.substr(0, dot).c_str(), nullptr, 10);
+    std::string of;
+    long pid = 0;
+    if (!detail::parse_temporary_name(it->path().filename().string(), of, pid) || of != p.filename().string()) continue;
     if (pid <= 0 || pid == process_id()) continue;
     if (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;  // alive, or not ours to judge
     std::error_code rm;
@@ -172,6 +164,23 @@ void atomic_output_file::remove_stale_temporaries() const noexcept {
 }
 
 namespace detail {
+std::string temporary_name(const std::string& name, long pid, unsigned long n) {
+  return "." + name + ".tmp." + std::to_string(pid) + "." + std::to_string(n);
+}
+
+bool parse_temporary_name(const std::string& file_name, std::string& name, long& pid) {
+  const std::size_t tmp = file_name.rfind(".tmp.");
+  if (file_name.size() < 2 || file_name[0] != '.' || tmp == std::string::npos || tmp < 2) return false;
+  const std::string rest = file_name.substr(tmp + 5);  // <pid>.<n>
+  const std::size_t dot = rest.find('.');
+  if (dot == 0 || dot == std::string::npos || dot + 1 == rest.size() ||
+      rest.find_first_not_of("0123456789.") != std::string::npos || rest.find('.', dot + 1) != std::string::npos)
+    return false;
+  name = file_name.substr(1, tmp - 1);
+  pid = std::strtol(rest.substr(0, dot).c_str(), nullptr, 10);
+  return true;
+}
+
 std::string read_whole_file(const std::string& path) {
   std::error_code ec;
   if (fs::is_directory(path, ec)) throw io_error("cannot read '" + path + "': it is a directory");

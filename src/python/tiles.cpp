@@ -203,14 +203,13 @@ void bind_tiles(py::module_& m) {
           "write",
           [](const ced::tile_part& p, const ced::tile_plan& plan, const py::object& path) {
             const std::string file = path_arg(path, "path");
-            // A part of another plan would be written with this plan's digest.
-            if (p.plan != plan.digest())
-              throw py::value_error("TilePart.write: the part of tile " + std::to_string(p.tile) +
-                                    " belongs to another plan (plan digest " + (p.plan.empty() ? "none" : p.plan) +
-                                    ", `plan` has " + plan.digest() + ")");
             check_not_input(plan, "path", file);
             py::gil_scoped_release release;
-            ced::write_part(file, plan, p);
+            try {
+              ced::write_part(file, plan, p);  // refuses a part of another plan
+            } catch (const std::invalid_argument& e) {
+              throw py::value_error(std::string("TilePart.write: ") + e.what());
+            }
           },
           py::arg("plan"), py::arg("path"),
           "Writes the part for ced.merge_parts or `ced merge` (atomically); `plan` must be its own, and `path` not "

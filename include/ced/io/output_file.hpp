@@ -82,6 +82,16 @@ void write_named(atomic_output_file& file, F&& write) {
   if (!file.stream()) throw io_error("error writing '" + file.path() + "' (disk full?)");
 }
 
+namespace detail {
+/// The name of an atomic_output_file's temporary for the file `name`:
+/// ".<name>.tmp.<pid>.<n>".
+std::string temporary_name(const std::string& name, long pid, unsigned long n);
+/// The file and process id of such a temporary's name; false for any other
+/// name. Who cleans temporaries (commit(), a tiled run's work directory)
+/// recognises them by this, and only by this.
+bool parse_temporary_name(const std::string& file_name, std::string& name, long& pid);
+}  // namespace detail
+
 /// True when `a` and `b` are one existing file, however they are spelled
 /// ("sub/../x", symbolic links, hard links): the same device and inode.
 bool same_file(const std::string& a, const std::string& b);
