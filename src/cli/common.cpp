@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -44,6 +45,12 @@ void check_paths(const std::vector<ced::io::named_path>& inputs, const std::vect
   } catch (const std::invalid_argument& e) {
     throw usage_error(e.what());
   }
+}
+
+void check_stdout() {
+  std::cout.flush();
+  if (!std::cout || std::fflush(stdout) != 0 || std::ferror(stdout))
+    throw std::runtime_error("error writing to standard output (disk full or closed?): the output is lost");
 }
 
 void load_plugins(const std::vector<std::string>& plugins) {

@@ -50,6 +50,10 @@ std::vector<std::string> expand_config(const std::vector<std::string>& args, CLI
 /// error naming both otherwise (ced::io::check_outputs_distinct).
 void check_paths(const std::vector<ced::io::named_path>& inputs, const std::vector<ced::io::named_path>& outputs);
 
+/// Flushes stdout and throws when what went there (indices, tables) did not
+/// arrive: a full disk or a closed pipe is an error, not a silent loss.
+void check_stdout();
+
 /// `--plugin FILE.so` (repeatable) on a subcommand.
 void add_plugin_option(CLI::App* app, std::vector<std::string>& plugins);
 /// Loads the plugins (ced::load_plugin); a plugin that cannot be loaded is a

@@ -60,8 +60,7 @@ void check_numbers(const detect_options& o, detect_plan& plan) {
   }
   if (!(o.radius_factor > 0) || !std::isfinite(o.radius_factor))
     throw usage_error("--radius-factor must be a positive number");
-  if (o.min_neighbors < 0) throw usage_error("--min-neighbors must be >= 0");
-  if (o.threads < 0) throw usage_error("--threads must be >= 0");
+  check_counts(o.min_neighbors, o.threads);
   if (o.voxel < 0 || !std::isfinite(o.voxel)) throw usage_error("--voxel must be a positive size in metres");
   if (o.html_max_points < 1) throw usage_error("--html-max-points must be at least 1");
   params.min_neighbors = static_cast<std::uint32_t>(o.min_neighbors);

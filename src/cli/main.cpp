@@ -3,7 +3,6 @@
 // in its own file (commands.hpp); this builds the app, parses and dispatches.
 #include <CLI/CLI.hpp>
 #include <algorithm>
-#include <cstdio>
 #include <exception>
 #include <iostream>
 #include <string>
@@ -53,11 +52,7 @@ int main(int argc, char** argv) {
          {&detect, &info, &repeatability, &registration, &convert, &modalities, &plan, &merge, &view})
       if (*c->app) {
         const int rc = c->run();
-        // What went to stdout (indices, tables) must have arrived: a full
-        // disk or a closed pipe is an error, not a silent loss.
-        std::cout.flush();
-        if (!std::cout || std::fflush(stdout) != 0 || std::ferror(stdout))
-          throw std::runtime_error("error writing to standard output (disk full or closed?): the output is lost");
+        check_stdout();
         return rc;
       }
   } catch (const usage_error& e) {

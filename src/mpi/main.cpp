@@ -204,9 +204,7 @@ int main(int argc, char** argv) {
   }
   try {
     const int rc = detect.run();
-    std::cout.flush();  // the indices, when no output file is given
-    if (world.rank() == 0 && (!std::cout || std::fflush(stdout) != 0 || std::ferror(stdout)))
-      throw std::runtime_error("error writing to standard output (disk full or closed?): the output is lost");
+    if (world.rank() == 0) check_stdout();  // the indices, when no output file is given
     return rc;
   } catch (const usage_error& e) {
     std::cerr << "ced-mpi: error (rank " << world.rank() << "): " << e.what() << "\n";
