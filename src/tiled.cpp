@@ -1303,12 +1303,72 @@ void remove_work_dir(const std::string& work_dir) noexcept {
 
 // ------------------------------------------------------------------ one process
 
-tile_plan prepare_tiled(const tiled_request& request, const tiled_run_options& o) {
-  if (o.work_dir.empty()) throw std::invalid_argument("tiled run: no work directory");
-  const fs::path dir(o.work_dir), plan_path = dir / "plan.json", cache = dir / "cache", parts = dir / "parts";
+namespace {
+
+/// Passes 1 and 2 of a run without a plan yet: the plan and the tile cache
+/// in `dir`, then plan.json. `announced`: the plan was reported already.
+tile_plan build_cache(const tiled_request& request, const tiled_run_options& o, const fs::path& dir, bool& announced) {
+  const fs::path plan_path = dir / "plan.json", cache = dir / "cache";
   std::error_code ec;
   tile_plan plan;
-  bool have_plan = false, announced = false;
+  fs::create_directories(cache, ec);
+  if (ec) fail(cache.string(), "cannot create the tile cache directory: " + ec.message());
+  auto s = io::open_point_stream(request.input, request.read);
+  plan = plan_grid(request, *s, o.progress);
+  // Small tiles under a large halo: a point lands in many tiles, most of
+  // which may own none (the air above the ground). Then the tiles are
+  // counted first (one more pass), the plan is reported before anything
+  // is written, and only tiles that own points are cached.
+  tile_owners owners;
+  if (tiles_per_point(plan.grid) > 2) {
+    plan.tiles = count_tiles(*s, plan, o.progress, nullptr);
+    owners = tile_owners(plan);
+    if (o.planned) o.planned(plan);
+    announced = true;
+  }
+  // Pass 2: every point into the cache file of each tile that reads it.
+  tile_counter counts(plan.grid.count());
+  cache_writer writer(cache.string(), std::size_t(64) << 20);
+  std::uint64_t file_index = 0, index = 0;
+  for_each_chunk(*s, plan.origin, [&](const point_cloud& c) {
+    const std::size_t rs = record_size(plan);
+    const field_bytes fields = bytes_of(c);
+    const tile_grid& g = plan.grid;
+    for (std::size_t i = 0; i < c.size(); ++i, ++file_index) {
+      const float* q = c.position(i);
+      if (!finite3(q)) continue;
+      std::int64_t own[3], c0[3], c1[3];
+      g.locate(q, own, c0, c1);
+      counts.core((std::uint64_t(own[2]) * g.dims[1] + std::uint64_t(own[1])) * g.dims[0] + std::uint64_t(own[0]));
+      std::size_t added = 0;
+      for (std::int64_t z = c0[2]; z <= c1[2]; ++z)
+        for (std::int64_t y = c0[1]; y <= c1[1]; ++y)
+          for (std::int64_t x = c0[0]; x <= c1[0]; ++x) {
+            const std::uint64_t t = (std::uint64_t(z) * g.dims[1] + std::uint64_t(y)) * g.dims[0] + std::uint64_t(x);
+            counts.near(t);
+            if (!owners.owns(t)) continue;
+            append_record(writer.buffer(t), rs, index, file_index, c.positions().data(), fields, i);
+            added += rs;
+          }
+      writer.maybe_flush(added);  // a point at a time: the buffers never hold much more than their budget
+      ++index;
+    }
+    if (o.progress) o.progress("reading (pass 2: tile cache)", double(file_index) / double(plan.file_points));
+  });
+  writer.flush();
+  plan.tiles = counts.entries();
+  io::write_text_file_atomic(plan_path.string(), plan.to_json());
+  return plan;
+}
+
+}  // namespace
+
+tile_plan prepare_tiled(const tiled_request& request, const tiled_run_options& o) {
+  if (o.work_dir.empty()) throw std::invalid_argument("tiled run: no work directory");
+  const fs::path dir(o.work_dir), plan_path = dir / "plan.json", parts = dir / "parts";
+  std::error_code ec;
+  tile_plan plan;
+  bool announced = false;
   claim_work_dir(o.work_dir);
   if (fs::exists(plan_path, ec)) {
     if (!o.resume)
@@ -1320,58 +1380,16 @@ tile_plan prepare_tiled(const tiled_request& request, const tiled_run_options& o
       fail(o.work_dir, "holds the tiles of another run (" + request_json(plan.request).dump() +
                            "): remove it or choose another work directory");
     check_plan_input(plan);
-    have_plan = true;
   } else {
     clear_tiles(dir);  // a run stopped before its plan was written: its cache is incomplete
-  }
-  if (!have_plan) {
-    fs::create_directories(cache, ec);
-    if (ec) fail(cache.string(), "cannot create the tile cache directory: " + ec.message());
-    auto s = io::open_point_stream(request.input, request.read);
-    plan = plan_grid(request, *s, o.progress);
-    // Small tiles under a large halo: a point lands in many tiles, most of
-    // which may own none (the air above the ground). Then the tiles are
-    // counted first (one more pass), the plan is reported before anything
-    // is written, and only tiles that own points are cached.
-    tile_owners owners;
-    if (tiles_per_point(plan.grid) > 2) {
-      plan.tiles = count_tiles(*s, plan, o.progress, nullptr);
-      owners = tile_owners(plan);
-      if (o.planned) o.planned(plan);
-      announced = true;
+    try {
+      plan = build_cache(request, o, dir, announced);
+    } catch (...) {
+      // Nothing to resume without a plan (a rerun redoes the cache): ced's
+      // files go, and the directory when ced made it.
+      remove_work_dir(o.work_dir);
+      throw;
     }
-    // Pass 2: every point into the cache file of each tile that reads it.
-    tile_counter counts(plan.grid.count());
-    cache_writer writer(cache.string(), std::size_t(64) << 20);
-    std::uint64_t file_index = 0, index = 0;
-    for_each_chunk(*s, plan.origin, [&](const point_cloud& c) {
-      const std::size_t rs = record_size(plan);
-      const field_bytes fields = bytes_of(c);
-      const tile_grid& g = plan.grid;
-      for (std::size_t i = 0; i < c.size(); ++i, ++file_index) {
-        const float* q = c.position(i);
-        if (!finite3(q)) continue;
-        std::int64_t own[3], c0[3], c1[3];
-        g.locate(q, own, c0, c1);
-        counts.core((std::uint64_t(own[2]) * g.dims[1] + std::uint64_t(own[1])) * g.dims[0] + std::uint64_t(own[0]));
-        std::size_t added = 0;
-        for (std::int64_t z = c0[2]; z <= c1[2]; ++z)
-          for (std::int64_t y = c0[1]; y <= c1[1]; ++y)
-            for (std::int64_t x = c0[0]; x <= c1[0]; ++x) {
-              const std::uint64_t t = (std::uint64_t(z) * g.dims[1] + std::uint64_t(y)) * g.dims[0] + std::uint64_t(x);
-              counts.near(t);
-              if (!owners.owns(t)) continue;
-              append_record(writer.buffer(t), rs, index, file_index, c.positions().data(), fields, i);
-              added += rs;
-            }
-        writer.maybe_flush(added);  // a point at a time: the buffers never hold much more than their budget
-        ++index;
-      }
-      if (o.progress) o.progress("reading (pass 2: tile cache)", double(file_index) / double(plan.file_points));
-    });
-    writer.flush();
-    plan.tiles = counts.entries();
-    io::write_text_file_atomic(plan_path.string(), plan.to_json());
   }
   fs::create_directories(parts, ec);
   if (ec) fail(parts.string(), "cannot create the parts directory: " + ec.message());

@@ -55,6 +55,14 @@ check "the default work directory is removed" test -z "$(ls -A "$TMPDIR")"
 "$CED" "${tiled[@]}" --indices "$T/k0.txt" -q
 check "the default work directory: the keypoints" cmp -s "$T/whole.txt" "$T/k0.txt"
 check "the default work directory: removed" test -z "$(ls -A "$TMPDIR")"
+# A run that fails before its plan is written leaves nothing to resume: ced's files go too.
+expect_exit 1 "needs field 'swir'" "a failing run in a new work directory" -- \
+  "${tiled[@]}" -m 'bands(swir):0.1' --work-dir "$T/failed" --indices "$T/kf.txt" -q
+check "a failing run: its new work directory is removed" test ! -e "$T/failed"
+mkdir "$T/failed_empty"
+expect_exit 1 "needs field 'swir'" "a failing run in an empty work directory" -- \
+  "${tiled[@]}" -m 'bands(swir):0.1' --work-dir "$T/failed_empty" --indices "$T/kf.txt" -q
+check "a failing run: an empty work directory stays, empty" test -d "$T/failed_empty" -a -z "$(ls -A "$T/failed_empty")"
 # An empty directory is lent: ced's files go, the directory stays.
 mkdir "$T/empty"
 "$CED" "${tiled[@]}" --work-dir "$T/empty" --indices "$T/k2.txt" -q
