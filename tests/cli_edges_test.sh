@@ -12,6 +12,7 @@ trap 'rm -rf "$T"' EXIT
 # shellcheck source=cli_support.sh
 . "$(dirname "$0")/cli_support.sh"
 sample=$DATA/apartment_mesh_214.ply
+export TMPDIR=$T  # the work directories of the tiled cases (a failed merge keeps its own for --resume)
 
 # repeat CHAR N: CHAR N times, no newline.
 repeat() { head -c "$2" < /dev/zero | tr '\0' "$1"; }
