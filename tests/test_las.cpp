@@ -403,7 +403,7 @@ TEST_P(LasFormat, FlagsBecomeFieldsWhenSet) {
 }
 
 INSTANTIATE_TEST_SUITE_P(AllFormats, LasFormat, ::testing::Range(0, 11),
-                         [](const auto& info) { return "format" + std::to_string(info.param); });
+                         [](const auto& p) { return "format" + std::to_string(p.param); });
 
 TEST(LasRead, LegacyVersions) {
   for (int minor : {0, 1, 2, 3, 4}) {
@@ -890,7 +890,7 @@ TEST_P(LasRoundTrip, EveryFieldAndMillimetres) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Formats678, LasRoundTrip, ::testing::Values(6, 7, 8),
-                         [](const auto& info) { return "format" + std::to_string(info.param); });
+                         [](const auto& p) { return "format" + std::to_string(p.param); });
 
 TEST(LasWrite, HeaderBytes) {
   std::vector<std::array<double, 3>> truth;

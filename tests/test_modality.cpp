@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "ced/ced.hpp"
@@ -14,6 +15,7 @@
 static_assert(ced::is_modality_v<ced::xyz>);
 static_assert(ced::is_modality_v<ced::rgb>);
 static_assert(ced::is_modality_v<ced::lab>);
+static_assert(ced::is_modality_v<ced::normals>);
 static_assert(ced::is_modality_v<ced::intensity>);
 static_assert(ced::is_modality_v<ced::bands>);
 static_assert(!ced::is_modality_v<int>);
@@ -119,6 +121,10 @@ TEST(Modality, Normalisation) {
   c.add_field("red", ced::scalar_type::uint16, {0, 0, 0, 255, 255, 255});  // 8-bit values in 16-bit fields
   c.add_field("green", ced::scalar_type::uint16, {0, 0, 0, 0, 0, 0});
   c.add_field("blue", ced::scalar_type::uint16, {0, 0, 0, 0, 0, 0});
+  // Normals as axes (n and -n the same): three along z, three along x.
+  c.add_field("nx", ced::scalar_type::float32, {0, 0, 0, 1, -1, 1});
+  c.add_field("ny", ced::scalar_type::float32, {0, 0, 0, 0, 0, 0});
+  c.add_field("nz", ced::scalar_type::float32, {1, -1, 1, 0, 0, 0});
   ced::detect_params p;
   p.radius = 0.1;  // everyone sees everyone: mean of any field = average
   p.min_neighbors = 1;
@@ -139,4 +145,11 @@ TEST(Modality, Normalisation) {
   EXPECT_NEAR(red[2], 67.20, 0.01);
   const double de = std::sqrt(std::pow(red[0] / 2, 2) + std::pow(red[1] / 2, 2) + std::pow(red[2] / 2, 2));
   EXPECT_NEAR(sal("lab"), de / 100.0, 1e-5);
+  // normals: the mean orientation tensor is diag(1/2, 0, 1/2); a point's own
+  // is diag(0, 0, 1): || diag(1/2, 0, -1/2) ||_F = sqrt(1/2), the crease of two
+  // perpendicular planes. Estimated normals (collinear points) are no test here.
+  EXPECT_NEAR(sal("normals"), std::sqrt(0.5), 1e-6);
+  EXPECT_NEAR(sal("normals,from=fields"), std::sqrt(0.5), 1e-6);
+  EXPECT_EQ(ced::normals{}.fields(), (std::vector<std::string>{"nx", "ny", "nz"}));
+  EXPECT_TRUE(ced::normals(0.2, ced::normals::source::estimate).fields().empty());
 }

@@ -222,7 +222,7 @@ TEST(PcdCompression, ConstantCloudCompressesAtLzfsMaximumRatio) {
 
 INSTANTIATE_TEST_SUITE_P(AllFormats, PcdRoundTrip,
                          ::testing::Values(pcd_format::ascii, pcd_format::binary, pcd_format::binary_compressed),
-                         [](const auto& info) { return std::string(format_name(info.param)); });
+                         [](const auto& p) { return std::string(format_name(p.param)); });
 
 // ---------------------------------------------------------------------- LZF
 

@@ -137,7 +137,7 @@ TEST_P(PlyRoundTrip, GeoreferencedCoordinatesKeepTheirPrecision) {
 INSTANTIATE_TEST_SUITE_P(AllFormats, PlyRoundTrip,
                          ::testing::Values(ply_format::ascii, ply_format::binary_little_endian,
                                            ply_format::binary_big_endian),
-                         [](const auto& info) { return std::string(format_name(info.param)); });
+                         [](const auto& p) { return std::string(format_name(p.param)); });
 
 TEST(PlyWrite, Int64FieldsAreWrittenAsDouble) {
   point_cloud c;

@@ -569,9 +569,9 @@ TEST(Stream, DamagedFilesBehaveAsReadCloud) {
       }
       const std::string path = temp_file(std::to_string(round) + name);
       write_bytes(path, b);
-      const bool pcd = name.find(".pcd") != std::string::npos;
-      const outcome want = read_cloud_outcome(path, pcd);
-      const outcome got = stream_outcome(path, pcd);
+      const bool is_pcd = name.find(".pcd") != std::string::npos;
+      const outcome want = read_cloud_outcome(path, is_pcd);
+      const outcome got = stream_outcome(path, is_pcd);
       SCOPED_TRACE(name + " round " + std::to_string(round));
       EXPECT_EQ(got.error, want.error);
       if (want.error.empty() && got.error.empty()) {

@@ -275,7 +275,7 @@ struct value_range {
 struct field {
   std::string name;
   column values;  ///< one value per point, in the type it had in its file
-  /// Set when the cloud is a part of a larger one (a tile, see ced/tiles.hpp):
+  /// Set when the cloud is a part of a larger one (a tile, see ced/tile_geometry.hpp):
   /// the min and max of this field over the whole cloud. What a modality
   /// decides from the data (`range=auto`, 8-bit colour kept in 16-bit
   /// fields) is then decided from it, so that every part decides alike.

@@ -19,5 +19,5 @@
 #include "ced/params.hpp"
 #include "ced/preprocess.hpp"
 #include "ced/scaled.hpp"
-#include "ced/tiles.hpp"
+#include "ced/tile_geometry.hpp"
 #include "ced/version.hpp"

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// Clouds larger than memory: a file cut into exact tiles (ced/tiles.hpp),
+// Clouds larger than memory: a file cut into exact tiles (ced/tile_geometry.hpp),
 // planned in two passes over it, each tile detected on its own (in this
 // process, another one, another machine), the parts merged into exactly the
 // whole-cloud result. What `ced plan`, `ced detect --tile-size`,
@@ -17,7 +17,7 @@
 #include "ced/cloud.hpp"
 #include "ced/io/io.hpp"
 #include "ced/params.hpp"
-#include "ced/tiles.hpp"
+#include "ced/tile_geometry.hpp"
 
 namespace ced {
 

@@ -27,7 +27,7 @@ detection_context::detection_context(const point_cloud& cloud, const detect_para
   // The block grid is also the search structure: a block's neighbours are
   // gathered from its cell and the cells around it, cell by cell and by
   // index within a cell. That order depends on nothing but those cells, so a
-  // tile of the cloud that holds them gets bitwise the same sums (tiles.cpp).
+  // tile of the cloud that holds them gets bitwise the same sums (tile_geometry.cpp).
   block_partition blocks(xyz, cloud.size(), params.radius * params.block_scale, threads);
   m_impl = std::make_unique<impl>(cloud, params, std::move(blocks));
   m_impl->result.names = std::move(names);

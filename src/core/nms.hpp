@@ -2,6 +2,7 @@
 // Private: stage 5 of detection, the multi-modal non-maximum suppression.
 #pragma once
 
+#include <algorithm>
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
@@ -28,6 +29,16 @@ struct candidate_hits {
   const std::uint16_t* ranges = nullptr;
   const std::uint8_t* bits = nullptr;
 };
+
+/// The memory budget of the kept sweeps (collect_candidate_hits), shared by
+/// all blocks of a detection of n points: kept_sweeps_min_bytes or
+/// kept_sweeps_bytes_per_point · n, whichever is more. docs/ALGORITHM.md
+/// quotes it (tests/test_docs.cpp checks that it still does).
+inline constexpr std::size_t kept_sweeps_min_bytes = std::size_t(64) << 20;
+inline constexpr std::size_t kept_sweeps_bytes_per_point = 16;
+inline std::size_t kept_sweeps_budget(std::size_t n) noexcept {
+  return std::max(kept_sweeps_min_bytes, kept_sweeps_bytes_per_point * n);
+}
 
 /// Keeps the sweep results of the block's candidates in `ch`, in memory from
 /// `arena`, if `budget` (bytes, shared by all blocks) still allows. Called by

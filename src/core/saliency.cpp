@@ -37,7 +37,7 @@ void detection_context::compute_saliency(const std::vector<channel_source>& sour
   // depends on timing, the result does not).
   const bool keep_lists = m_impl->keep_lists;
   const bool keep_hits = params.nms_radius <= params.radius && keep_lists;
-  std::atomic<std::size_t> budget{std::max<std::size_t>(std::size_t(64) << 20, 16 * n)};  // bytes
+  std::atomic<std::size_t> budget{kept_sweeps_budget(n)};  // bytes
   m_impl->hits.assign(keep_hits ? blocks.block_count() : 0, {});
   std::atomic<std::size_t> blocks_done{0};
   std::mutex progress_mutex;

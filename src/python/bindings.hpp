@@ -70,6 +70,6 @@ void bind_cloud(py::module_& m);
 void bind_modalities(py::module_& m);
 void bind_detect(py::module_& m);
 void bind_eval(py::module_& m);
-void bind_tiles(py::module_& m);
+void bind_tiled(py::module_& m);
 
 }  // namespace ced_python

@@ -18,5 +18,5 @@ PYBIND11_MODULE(_ced, m) {
   ced_python::bind_modalities(m);
   ced_python::bind_detect(m);
   ced_python::bind_eval(m);
-  ced_python::bind_tiles(m);
+  ced_python::bind_tiled(m);
 }

@@ -4,9 +4,21 @@
 #                     private or third-party include), compiles each on its
 #                     own, and loads an out-of-tree plugin into the installed
 #                     `ced`.
-#   add_subdirectory: builds ced from source inside the consumer.
+#   add_subdirectory: builds ced from source inside the consumer: the
+#                     libraries the consumer programs link (ced::core,
+#                     ced::io, ced::ced), not ced's optional parts (Python
+#                     module, PCL component) that no consumer target needs.
+# Compiles through LAUNCHER (the launcher of ced's own build, e.g. ccache),
+# else through ccache when it is installed: WORK_DIR's paths stay the same
+# from run to run, so a rerun compiles only what changed.
 file(REMOVE_RECURSE ${WORK_DIR})
 set(args -DCED_CONSUMER_MODE=${MODE} -DCMAKE_BUILD_TYPE=Release -DCED_SOURCE_DIR=${CED_SOURCE_DIR})
+if(NOT LAUNCHER)
+  find_program(LAUNCHER ccache)
+endif()
+if(LAUNCHER)
+  list(APPEND args -DCMAKE_CXX_COMPILER_LAUNCHER=${LAUNCHER})
+endif()
 if(MODE STREQUAL "find_package")
   execute_process(COMMAND ${CMAKE_COMMAND} --install ${CED_BINARY_DIR} --prefix ${WORK_DIR}/prefix
                   RESULT_VARIABLE rc OUTPUT_QUIET)
@@ -42,7 +54,11 @@ execute_process(COMMAND ${CMAKE_COMMAND} -S ${CED_SOURCE_DIR}/tests/consumer -B 
 if(rc)
   message(FATAL_ERROR "configure failed: ${rc}")
 endif()
-execute_process(COMMAND ${CMAKE_COMMAND} --build ${WORK_DIR}/build -j2 RESULT_VARIABLE rc)
+set(targets)
+if(MODE STREQUAL "add_subdirectory")
+  set(targets --target consumer consumer_core)
+endif()
+execute_process(COMMAND ${CMAKE_COMMAND} --build ${WORK_DIR}/build -j2 ${targets} RESULT_VARIABLE rc)
 if(rc)
   message(FATAL_ERROR "build failed: ${rc}")
 endif()

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: MIT
 // Clouds larger than memory from Python: ced.plan_tiles, ced.detect_tile,
 // ced.merge_parts (ced/tiled.hpp), for Dask, multiprocessing or any scheduler.
+#include "ced/tiled.hpp"
+
 #include <pybind11/stl.h>
 
 #include <cmath>
@@ -15,7 +17,6 @@
 
 #include "bindings.hpp"
 #include "ced/io/output_file.hpp"
-#include "ced/tiled.hpp"
 
 namespace ced_python {
 namespace {
@@ -126,7 +127,7 @@ bool refine_of(py::handle modalities, py::handle refine) {
   return false;
 }
 
-void bind_tiles(py::module_& m) {
+void bind_tiled(py::module_& m) {
   py::class_<ced::tile_plan, plan_ptr>(m, "TilePlan",
                                        "The tiles of a cloud file: what ced.detect_tile runs and ced.merge_parts "
                                        "merges (the same plan as `ced plan`).")

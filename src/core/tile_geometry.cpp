@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
-// Exact tiles (see ced/tiles.hpp for why they are exact).
-#include "ced/tiles.hpp"
+// Exact tiles (see ced/tile_geometry.hpp for why they are exact).
+#include "ced/tile_geometry.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,0 +1,55 @@
+# ced::core — detection: the cloud, modalities, the detector, preprocessing.
+# No IO; consumers need no Eigen, and never see CGAL or TBB.
+ced_library(ced_core core
+  src/core/cloud.cpp
+  src/core/channels.cpp
+  src/core/lab.cpp
+  src/core/normals.cpp
+  src/core/registry.cpp
+  src/core/plugin.cpp
+  src/core/transform.cpp
+  src/core/preprocess.cpp
+  src/core/parallel.cpp
+  src/core/arena.cpp
+  src/core/validate.cpp
+  src/core/block_partition.cpp
+  src/core/tile_geometry.cpp
+  src/core/neighbor_index.cpp
+  src/core/neighbor_block.cpp
+  src/core/kernel/block_kernel_generic.cpp
+  src/core/saliency.cpp
+  src/core/scaled.cpp
+  src/core/candidates.cpp
+  src/core/nms.cpp
+  src/core/detect.cpp)
+# The neighbour pass is also built for AVX2 and chosen at run time; both
+# builds give bitwise identical results (no FMA contraction in either).
+include(CheckCXXCompilerFlag)
+check_cxx_compiler_flag(-mavx2 CED_COMPILER_HAS_AVX2)
+if(CED_COMPILER_HAS_AVX2 AND CMAKE_SYSTEM_PROCESSOR MATCHES "x86_64|AMD64|amd64|i.86")
+  target_sources(ced_core PRIVATE src/core/kernel/block_kernel_avx2.cpp)
+  set_source_files_properties(src/core/kernel/block_kernel_avx2.cpp PROPERTIES COMPILE_OPTIONS
+    "-mavx2;-ffp-contract=off;-Wno-psabi")
+  target_compile_definitions(ced_core PRIVATE CED_HAS_AVX2_KERNEL)
+endif()
+set_source_files_properties(src/core/kernel/block_kernel_generic.cpp PROPERTIES COMPILE_OPTIONS
+  "-ffp-contract=off;-Wno-psabi")
+# CGAL stays private: only src/core/neighbor_index.cpp includes it.
+target_link_libraries(ced_core PUBLIC Threads::Threads PRIVATE CGAL::CGAL ${CMAKE_DL_LIBS})
+if(CED_WITH_TBB)
+  # What CGAL::TBB_support does, without exporting a CGAL target to users.
+  target_link_libraries(ced_core PRIVATE TBB::tbb)
+  target_compile_definitions(ced_core PRIVATE CED_HAS_TBB CGAL_LINKED_WITH_TBB)
+endif()
+
+# ced::plugin_api — headers only, for plugins (cmake/cedPlugins.cmake): the
+# include path and C++17, no library.
+add_library(ced_plugin_api INTERFACE)
+add_library(ced::plugin_api ALIAS ced_plugin_api)
+set_target_properties(ced_plugin_api PROPERTIES EXPORT_NAME plugin_api)
+target_compile_features(ced_plugin_api INTERFACE cxx_std_17)
+target_include_directories(ced_plugin_api INTERFACE
+  $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/include>
+  $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/modalities>
+  $<BUILD_INTERFACE:${PROJECT_BINARY_DIR}/include>
+  $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)

@@ -1,0 +1,20 @@
+# CED_SANITIZE (ASan + UBSan), CED_FUZZ (libFuzzer instrumentation, with the
+# sanitizers) and CED_TSAN (ThreadSanitizer): flags for everything built
+# after this point.
+if(CED_SANITIZE OR CED_FUZZ)
+  add_compile_options(-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined)
+  add_link_options(-fsanitize=address,undefined)
+endif()
+if(CED_FUZZ)
+  add_compile_options(-fsanitize=fuzzer-no-link)
+endif()
+if(CED_TSAN)
+  if(CED_SANITIZE OR CED_FUZZ)
+    message(FATAL_ERROR "CED_TSAN cannot be combined with CED_SANITIZE or CED_FUZZ")
+  endif()
+  if(CED_WITH_TBB)
+    message(WARNING "CED_TSAN with TBB: TSan cannot see TBB's joins and reports false races; use -DCED_WITH_TBB=OFF")
+  endif()
+  add_compile_options(-fsanitize=thread -fno-omit-frame-pointer)
+  add_link_options(-fsanitize=thread)
+endif()

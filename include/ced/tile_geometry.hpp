@@ -1,0 +1,96 @@
+// SPDX-License-Identifier: MIT
+// The geometry of exact tiles, on an in-memory cloud (ced::core; runs over
+// files larger than memory are ced/tiled.hpp's). Exact tiles: a cloud cut
+// into a regular grid of tiles, each detected on its own (core + halo),
+// gives index for index the keypoints of the whole cloud.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "ced/cloud.hpp"
+#include "ced/detect.hpp"
+#include "ced/modality.hpp"
+#include "ced/params.hpp"
+
+namespace ced {
+
+/// A regular grid of tiles over positions (the cloud's frame: relative to its
+/// origin). Tile t owns the half-open core box
+/// [lo + c·size, lo + (c+1)·size) per axis (c its grid coordinates; the last
+/// tile of an axis also owns what lies beyond it); it reads its core grown by
+/// `halo` on every side.
+///
+/// Why a tile is exact: a point's saliency depends on its neighbours within
+/// the radius and on the order in which their values are summed, and that
+/// order depends only on the spatial block of the point (a cell of the grid
+/// of side block_scale·radius at whole multiples of that side) and on the
+/// cells within one radius of it. A keypoint decision depends on the
+/// saliencies within the NMS radius. So a tile that holds every point within
+/// nms_radius + block side + radius of its core reproduces bitwise the whole
+/// cloud's saliencies and decisions for its core (exact_halo()).
+struct tile_grid {
+  std::array<double, 3> lo{0.0, 0.0, 0.0};  ///< corner of tile (0, 0, 0)
+  double size = 1.0;                        ///< edge of a core box (> 0)
+  std::array<std::uint32_t, 3> dims{1, 1, 1};
+  double halo = 0.0;
+
+  /// Number of tiles, dims[0]·dims[1]·dims[2]; tile ids are x-fastest.
+  std::uint64_t count() const noexcept { return std::uint64_t(dims[0]) * dims[1] * dims[2]; }
+  std::array<std::uint32_t, 3> coords(std::uint64_t t) const noexcept;
+  /// The tile whose core holds position p.
+  std::uint64_t tile_of(const float p[3]) const noexcept;
+  /// The tiles whose core grown by the halo holds p (p's own among them),
+  /// ascending; `out` is replaced.
+  void tiles_near(const float p[3], std::vector<std::uint64_t>& out) const;
+  /// Per axis: the grid coordinate of p's own tile (`own`) and the range
+  /// [lo, hi] of those whose core grown by the halo holds p. What tile_of()
+  /// and tiles_near() are made of.
+  void locate(const float p[3], std::int64_t own[3], std::int64_t lo_c[3], std::int64_t hi_c[3]) const noexcept;
+  /// The core box of tile t, {x0, y0, z0, x1, y1, z1} (half-open).
+  std::array<double, 6> core_box(std::uint64_t t) const noexcept;
+};
+
+/// The halo that makes tiles exact under `params`: nms_radius (twice with
+/// `refine`) + block side (block_scale · radius) + radius, with a margin for
+/// float rounding of coordinates up to `max_abs_coordinate` (positions, the
+/// cloud's frame).
+double exact_halo(const detect_params& params, double max_abs_coordinate = 0.0);
+
+/// Tiles of edge `size` covering the positions in the box [lo, hi], with the
+/// exact halo for `params`. Throws std::invalid_argument when `size` is not
+/// positive and finite, or when the grid would have more than 2^24 tiles.
+tile_grid make_tile_grid(const double lo[3], const double hi[3], double size, const detect_params& params);
+
+/// One tile of an in-memory cloud: its points (core and halo, in the cloud's
+/// order, the same origin), each field's whole_range set from the whole
+/// cloud, and index[i], the cloud's index of point i.
+struct cloud_tile {
+  point_cloud cloud;
+  std::vector<std::uint32_t> index;
+};
+
+/// The min and max of each field of `cloud` (what cloud_tile sets as whole_range).
+std::vector<value_range> field_ranges(const point_cloud& cloud);
+
+/// Cuts tile t out of `cloud`. `ranges` is field_ranges(cloud) (computed
+/// when empty).
+cloud_tile extract_tile(const point_cloud& cloud, const tile_grid& grid, std::uint64_t t,
+                        const std::vector<value_range>& ranges = {});
+
+/// The keypoints of tile t among those of a detection on its points: those in
+/// its core, as indices into the tile's cloud, ascending.
+std::vector<std::uint32_t> core_keypoints(const tile_grid& grid, std::uint64_t t, const point_cloud& tile_cloud,
+                                          const detection_result& result);
+
+/// Detects keypoints tile by tile (tiles of edge `tile_size`, one after the
+/// other, each with `params.threads`) and returns the indices into `cloud`,
+/// ascending: exactly detect(cloud, params, modalities).keypoints. For
+/// clouds that fit in memory (tests, and a check of the tiling); the CLI's
+/// --tile-size streams files instead.
+std::vector<std::uint32_t> detect_tiled(const point_cloud& cloud, const detect_params& params,
+                                        const std::vector<any_modality>& modalities, double tile_size);
+
+}  // namespace ced
