@@ -57,7 +57,7 @@ tile_points read_tile(const tile_plan& plan, std::uint64_t id) {
             std::to_string(plan.file_points) + ", " + std::to_string(plan.finite_points));
   if (!plan.content.empty() && hex(content) != plan.content)
     changed("its decoded points hash to " + hex(content) + ", the plan's to " + plan.content);
-  tile_points pts = points_from_records(plan, id, records, plan.request.input);
+  tile_points pts = points_from_records(plan, id, records, 0, plan.request.input);
   if (core != e.core_points || pts.cloud.size() != e.points)
     changed("tile " + std::to_string(id) + " reads " + std::to_string(pts.cloud.size()) + " points and owns " +
             std::to_string(core) + "; the plan says " + std::to_string(e.points) + " and " +

@@ -110,8 +110,49 @@ std::vector<tile_entry> count_tiles(io::point_stream& s, const tile_plan& p, con
 
 // ------------------------------------------------------------------ point records (records.cpp)
 //
-// The tile cache and the parts hold points as records: index, file index,
-// position, the plan's fields.
+// The tile cache and the parts hold points as records, little-endian
+// whatever the host, after a header (magic, format version). The layout:
+// records.cpp (records, headers, the cache) and part_file.cpp (a part).
+
+/// The format of the tile cache and part files; a reader refuses any other.
+/// 1: parts began "CEDPART1", host byte order; caches had no header.
+constexpr std::uint32_t tiled_file_version = 2;
+
+/// What a header names: a tile cache or a part.
+struct tiled_file_kind {
+  const char* magic;  ///< 7 characters, then '\0' ends the 8-byte magic
+  const char* what;   ///< "tile cache", "tile part"
+  const char* redo;   ///< what to do with a file of another version
+};
+extern const tiled_file_kind cache_kind, part_kind;
+constexpr std::size_t tiled_header_bytes = 8 + 4;
+
+/// The header of a file of `kind` (tiled_header_bytes).
+std::string tiled_header(const tiled_file_kind& kind);
+/// Checks the first `n` bytes at `p` of `path` (`size` bytes in all) for
+/// the header of `kind` and this format version; io_error naming the file
+/// (and both versions) otherwise.
+void check_tiled_header(const char* p, std::size_t n, std::uint64_t size, const tiled_file_kind& kind,
+                        const std::string& path);
+
+/// A value of w bytes (1, 2, 4 or 8) from `from` to `to`, turned from host
+/// to little-endian byte order or back (the same swap).
+inline void copy_le(char* to, const char* from, std::size_t w) noexcept {
+  if (io::detail::host_little_endian())
+    std::memcpy(to, from, w);
+  else
+    std::reverse_copy(from, from + w, to);
+}
+template <class T>
+void append_le(std::string& out, T v) {
+  char b[sizeof(T)];
+  io::detail::store_le(reinterpret_cast<unsigned char*>(b), v);
+  out.append(b, sizeof b);
+}
+template <class T>
+T load_le(const char* p) noexcept {
+  return io::detail::load_le<T>(reinterpret_cast<const unsigned char*>(p));
+}
 
 /// Bytes of one record of the plan.
 std::size_t record_size(const tile_plan& p);
@@ -128,14 +169,14 @@ inline void append_record(std::string& out, std::size_t size, std::uint64_t inde
   const std::size_t at = out.size();
   if (out.capacity() < at + size) out.reserve(std::max(2 * out.capacity(), at + size));
   out.resize(at + size);
-  char* p = out.data() + at;
-  std::memcpy(p, &index, 8);
-  std::memcpy(p + 8, &file_index, 8);
-  std::memcpy(p + 16, xyz + 3 * i, 12);
-  p += 28;
+  auto* p = reinterpret_cast<unsigned char*>(out.data() + at);
+  io::detail::store_le(p, index);
+  io::detail::store_le(p + 8, file_index);
+  for (std::size_t k = 0; k < 3; ++k) io::detail::store_le(p + 16 + 4 * k, xyz[3 * i + k]);
+  char* q = reinterpret_cast<char*>(p + 28);
   for (const auto& [bytes, w] : fields) {
-    std::memcpy(p, bytes + w * i, w);
-    p += w;
+    copy_le(q, reinterpret_cast<const char*>(bytes + w * i), w);
+    q += w;
   }
 }
 void append_record(std::string& out, std::uint64_t index, std::uint64_t file_index, const point_cloud& c,
@@ -153,9 +194,9 @@ point_cloud empty_cloud(const tile_plan& p, std::size_t n);
 /// of `to`, a cloud with the same fields.
 void copy_points(const point_cloud& from, std::size_t i, point_cloud& to, std::size_t j, std::size_t n = 1);
 
-/// Tile id's points from its records; io_error
+/// Tile id's points from its records (`bytes` from `offset` on); io_error
 /// naming `name` when they are not whole records.
-tile_points points_from_records(const tile_plan& p, std::uint64_t id, const std::string& bytes,
+tile_points points_from_records(const tile_plan& p, std::uint64_t id, const std::string& bytes, std::size_t offset,
                                 const std::string& name);
 
 // ------------------------------------------------------------------ tile cache (tile_cache.cpp)

@@ -3,7 +3,6 @@
 // in memory (merge_parts) or as a k-way merge of part files streamed into a
 // sink (merge_part_files). Each keypoint is checked as it is taken.
 #include <algorithm>
-#include <cstring>
 #include <functional>
 #include <limits>
 #include <map>
@@ -127,13 +126,10 @@ void merge_part_files(const tile_plan& plan, const std::vector<std::string>& pat
   using head = std::pair<std::uint64_t, std::pair<std::size_t, const char*>>;  // index, (part, record)
   std::priority_queue<head, std::vector<head>, std::greater<>> heap;
   auto push = [&](std::size_t i) {
-    if (const char* r = readers[i].next(buffer)) {
-      std::uint64_t index = 0;
-      std::memcpy(&index, r, 8);
-      heap.push({index, {i, r}});
-    } else {
+    if (const char* r = readers[i].next(buffer))
+      heap.push({load_le<std::uint64_t>(r), {i, r}});
+    else
       readers[i].release();
-    }
   };
   for (std::size_t i = 0; i < readers.size(); ++i) push(i);
   tile_part chunk = totals;

@@ -1,12 +1,23 @@
 // SPDX-License-Identifier: MIT
 // Tiled runs: a tile's part as a file (write_part, read_part, and the reader
 // the merge streams from).
+//
+// A part file, little-endian whatever the host (records.cpp), m modalities:
+//   offset 0       8-byte magic "CEDPART\0"
+//   offset 8       u32 format version (tiled_file_version)
+//   offset 12      the plan's digest (16 hex characters)
+//   offset 28      u64 tile, u64 keypoints, u32 m, u32 fields
+//   offset 52      u64 candidates per modality (m of them)
+//   offset 52+8m   u64 any_candidates, f64 detect_ms
+//   offset 68+8m   per keypoint, ascending index: its point record, then
+//                  its f32 saliency per modality
 #include <cerrno>
 #include <cstring>
 #include <fstream>
 #include <stdexcept>
 #include <string>
 #include <system_error>
+#include <type_traits>
 
 #include "ced/io/output_file.hpp"
 #include "tiled/internal.hpp"
@@ -15,31 +26,26 @@ namespace ced {
 
 using namespace tiled_detail;
 
-namespace {
-constexpr char part_magic[8] = {'C', 'E', 'D', 'P', 'A', 'R', 'T', '1'};
-}  // namespace
-
 namespace tiled_detail {
 
 void write_part_as(const std::string& path, const tile_plan& plan, const std::string& digest, const tile_part& part) {
-  std::string out(part_magic, 8);
+  std::string out = tiled_header(part_kind);
   // A part of another plan would be stamped with this plan's digest.
   if (part.plan != digest)
     throw std::invalid_argument("the part of tile " + std::to_string(part.tile) +
                                 " belongs to another plan (plan digest " +
                                 (part.plan.empty() ? std::string("none") : part.plan) + ", `plan` has " + digest + ")");
   out += digest;
-  auto put = [&](const auto& v) { out.append(reinterpret_cast<const char*>(&v), sizeof v); };
-  put(part.tile);
-  put(std::uint64_t(part.index.size()));
-  put(std::uint32_t(part.saliency.size()));
-  put(std::uint32_t(plan.fields.size()));
-  for (std::uint64_t c : part.candidates) put(c);
-  put(part.any_candidates);
-  put(part.detect_ms);
+  append_le(out, part.tile);
+  append_le(out, std::uint64_t(part.index.size()));
+  append_le(out, std::uint32_t(part.saliency.size()));
+  append_le(out, std::uint32_t(plan.fields.size()));
+  for (std::uint64_t c : part.candidates) append_le(out, c);
+  append_le(out, part.any_candidates);
+  append_le(out, part.detect_ms);
   for (std::size_t j = 0; j < part.index.size(); ++j) {
     append_record(out, part.index[j], part.file_index[j], part.keypoints, j);
-    for (const auto& s : part.saliency) put(s[j]);
+    for (const auto& s : part.saliency) append_le(out, s[j]);
   }
   io::atomic_output_file f(path);
   f.stream().write(out.data(), static_cast<std::streamsize>(out.size()));
@@ -54,20 +60,21 @@ part_reader::part_reader(const std::string& path, const tile_plan& plan, const s
   if (ec) fail(path, "cannot read its size: " + ec.message());
   const auto modalities = modalities_of(plan.request.modalities);
   const std::size_t m = modalities.size();
-  // magic, digest, tile, keypoints, modalities, fields, candidates, any, ms
-  const std::size_t head = 8 + digest.size() + 8 + 8 + 4 + 4 + 8 * m + 8 + 8;
+  // header, digest, tile, keypoints, modalities, fields, candidates, any, ms
+  const std::size_t head = tiled_header_bytes + digest.size() + 8 + 8 + 4 + 4 + 8 * m + 8 + 8;
   std::string b(std::min<std::uint64_t>(size, head), '\0');
   in.read(b.data(), static_cast<std::streamsize>(b.size()));
   if (!in) fail(path, "cannot read it");
-  if (b.size() < 8 + digest.size()) fail(path, "truncated tile part (" + std::to_string(size) + " bytes)");
-  if (std::memcmp(b.data(), part_magic, 8) != 0) fail(path, "not a ced tile part");
-  if (b.compare(8, digest.size(), digest) != 0)
-    fail(path,
-         "this part belongs to another plan (plan digest " + b.substr(8, digest.size()) + ", expected " + digest + ")");
+  check_tiled_header(b.data(), b.size(), size, part_kind, path);
+  std::size_t at = tiled_header_bytes;
+  if (b.size() < at + digest.size()) fail(path, "truncated tile part (" + std::to_string(size) + " bytes)");
+  if (b.compare(at, digest.size(), digest) != 0)
+    fail(path, "this part belongs to another plan (plan digest " + b.substr(at, digest.size()) + ", expected " +
+                   digest + ")");
   if (b.size() < head) fail(path, "truncated tile part (" + std::to_string(size) + " bytes)");
-  std::size_t at = 8 + digest.size();
+  at += digest.size();
   auto get = [&](auto& v) {
-    std::memcpy(&v, b.data() + at, sizeof v);
+    v = load_le<std::remove_reference_t<decltype(v)>>(b.data() + at);
     at += sizeof v;
   };
   std::uint32_t nm = 0, nf = 0;
@@ -79,8 +86,7 @@ part_reader::part_reader(const std::string& path, const tile_plan& plan, const s
   if (nm != m || nf != plan.fields.size()) fail(path, "its modalities or fields differ from the plan's");
   name_modalities(plan, modalities, totals);
   totals.candidates.resize(m);
-  std::memcpy(totals.candidates.data(), b.data() + at, 8 * m);
-  at += 8 * m;
+  for (auto& c : totals.candidates) get(c);
   get(totals.any_candidates);
   get(totals.detect_ms);
   totals.keypoints = empty_cloud(plan, 0);
@@ -113,7 +119,7 @@ const char* part_reader::next(std::size_t buffer) {
 void decode_part_record(const char* r, tile_part& p, std::size_t j) {
   r = decode_records(r, 1, p.keypoints, j, p.index.data() + j, p.file_index.data() + j);
   for (auto& s : p.saliency) {
-    std::memcpy(s.data() + j, r, 4);
+    s[j] = load_le<float>(r);
     r += 4;
   }
 }

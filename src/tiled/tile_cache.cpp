@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 // Tiled runs: the tile cache of a run in one process (or of ced-mpi's
 // ranks). Pass 2 over the input writes every point into the cache file of
-// each tile that reads it (work_dir/cache/t<id>.bin), so that
+// each tile that reads it (work_dir/cache/t<id>.bin: records.cpp), so that
 // each tile is then read from its own file, not from the whole input.
 #include <algorithm>
 #include <cerrno>
@@ -23,11 +23,15 @@ using namespace tiled_detail;
 namespace {
 
 /// Buffers of tile-cache records, written out to one file a tile when they
-/// hold more than `budget` bytes.
+/// hold more than `budget` bytes. Each file starts with its header.
 class cache_writer {
  public:
   cache_writer(std::string work_dir, std::size_t budget) : m_work_dir(std::move(work_dir)), m_budget(budget) {}
-  std::string& buffer(std::uint64_t t) { return m_buffers[t]; }
+  std::string& buffer(std::uint64_t t) {
+    const auto [it, fresh] = m_buffers.try_emplace(t);
+    if (fresh) it->second = tiled_header(cache_kind);
+    return it->second;
+  }
   void maybe_flush(std::size_t bytes_added) {
     m_held += bytes_added;
     if (m_held > m_budget) flush();
@@ -151,7 +155,9 @@ tile_plan build_cache(const tiled_request& request, const tiled_run_options& o, 
 
 tile_points load_cached(const tile_plan& plan, const std::string& work_dir, std::uint64_t id) {
   const std::string file = cache_file(work_dir, id);
-  tile_points pts = points_from_records(plan, id, io::detail::read_whole_file(file), file);
+  const std::string bytes = io::detail::read_whole_file(file);
+  check_tiled_header(bytes.data(), bytes.size(), bytes.size(), cache_kind, file);
+  tile_points pts = points_from_records(plan, id, bytes, tiled_header_bytes, file);
   if (pts.cloud.size() != plan.tile(id).points) fail(file, "the tile cache does not hold the tile's points");
   return pts;
 }
