@@ -120,9 +120,10 @@ constexpr std::uint32_t tiled_file_version = 2;
 
 /// What a header names: a tile cache or a part.
 struct tiled_file_kind {
-  const char* magic;  ///< 7 characters, then '\0' ends the 8-byte magic
-  const char* what;   ///< "tile cache", "tile part"
-  const char* redo;   ///< what to do with a file of another version
+  const char* magic;   ///< 7 characters, then '\0' ends the 8-byte magic
+  const char* what;    ///< "tile cache", "tile part"
+  const char* redo;    ///< what to do with a file of another version
+  bool v1_headerless;  ///< its files of format version 1 had no header (caches)
 };
 extern const tiled_file_kind cache_kind, part_kind;
 constexpr std::size_t tiled_header_bytes = 8 + 4;

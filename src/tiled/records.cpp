@@ -22,8 +22,8 @@
 
 namespace ced::tiled_detail {
 
-const tiled_file_kind cache_kind{"CEDTILE", "tile cache", "remove the work directory and run again"};
-const tiled_file_kind part_kind{"CEDPART", "tile part", "detect its tile again"};
+const tiled_file_kind cache_kind{"CEDTILE", "tile cache", "remove the work directory and run again", true};
+const tiled_file_kind part_kind{"CEDPART", "tile part", "detect its tile again", false};
 
 std::string tiled_header(const tiled_file_kind& kind) {
   std::string out(kind.magic, 7);
@@ -36,9 +36,15 @@ void check_tiled_header(const char* p, std::size_t n, std::uint64_t size, const 
                         const std::string& path) {
   const std::string what = kind.what;
   if (n < 8) fail(path, "truncated " + what + " (" + std::to_string(size) + " bytes)");
-  if (std::memcmp(p, kind.magic, 7) != 0 || (p[7] != '\0' && p[7] != '1')) fail(path, "not a ced " + what);
-  std::uint32_t version = 1;  // version 1 of a part: "CEDPART1", no version field
-  if (p[7] == '\0') {
+  // Version 1 of a part began "CEDPART1"; version 1 of a cache had no header.
+  const bool v1_magic = !kind.v1_headerless && p[7] == '1';
+  if (std::memcmp(p, kind.magic, 7) != 0 || (p[7] != '\0' && !v1_magic)) {
+    std::string hint;
+    if (kind.v1_headerless) hint = " (or one of format version 1, which had no header: " + std::string(kind.redo) + ")";
+    fail(path, "not a ced " + what + hint);
+  }
+  std::uint32_t version = 1;
+  if (!v1_magic) {
     if (n < tiled_header_bytes) fail(path, "truncated " + what + " (" + std::to_string(size) + " bytes)");
     version = load_le<std::uint32_t>(p + 8);
   }
