@@ -2,7 +2,17 @@
 # interactive page and tiled runs of files larger than memory.
 ced_library(ced ced
   src/eval.cpp
-  src/tiled.cpp
+  src/tiled/records.cpp
+  src/tiled/fingerprint.cpp
+  src/tiled/plan_file.cpp
+  src/tiled/planning.cpp
+  src/tiled/sizing.cpp
+  src/tiled/tile_cache.cpp
+  src/tiled/detect_tile.cpp
+  src/tiled/part_file.cpp
+  src/tiled/merge.cpp
+  src/tiled/work_dir.cpp
+  src/tiled/run.cpp
   src/render.cpp
   src/html.cpp)
 target_include_directories(ced SYSTEM PRIVATE ${CED_STB_INCLUDE_DIR})

@@ -185,15 +185,16 @@ tamper "a tile owning more than it reads" "j['tiles'][0][1]=j['tiles'][0][2]+1" 
 tamper "a bad modality" "j['request']['modalities']=['xyz:zero']" "invalid tile plan"
 check "no part written from a tampered plan" test ! -e "$T/x.cedpart"
 # Parts whose records were changed: a record's indices (after the
-# header: magic, digest, tile, count, modalities, fields, candidates, any, ms).
+# header: magic, format version, digest, tile, count, modalities, fields,
+# candidates, any, ms: src/tiled/part_file.cpp).
 part_patch() {  # part_patch IN OUT RECORD VALUE: sets the index of record RECORD
   python3 - "$@" << 'PY'
 import struct, sys
 src, dst, rec_no, value = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
 b = bytearray(open(src, "rb").read())
-m, f = struct.unpack_from("<II", b, 8 + 16 + 16)
-head = 8 + 16 + 8 + 8 + 4 + 4 + 8 * m + 8 + 8
-count = struct.unpack_from("<Q", b, 8 + 16 + 8)[0]
+m, f = struct.unpack_from("<II", b, 12 + 16 + 16)
+head = 12 + 16 + 8 + 8 + 4 + 4 + 8 * m + 8 + 8
+count = struct.unpack_from("<Q", b, 12 + 16 + 8)[0]
 rec = (len(b) - head) // count
 struct.pack_into("<QQ", b, head + rec_no * rec, value, value)  # index and file index (all points are finite)
 open(dst, "wb").write(b)
@@ -201,7 +202,7 @@ PY
 }
 big=""
 for t in $tiles; do
-  n=$(python3 -c "import struct,sys; print(struct.unpack_from('<Q', open(sys.argv[1],'rb').read(), 32)[0])" "$T/parts/p$t.cedpart")
+  n=$(python3 -c "import struct,sys; print(struct.unpack_from('<Q', open(sys.argv[1],'rb').read(), 36)[0])" "$T/parts/p$t.cedpart")
   [ "$n" -ge 2 ] && big=$t && break
 done
 check "a part with two keypoints" test -n "$big"
@@ -216,15 +217,15 @@ merge_bad() {  # merge_bad NAME PATTERN: the patched part in place of p$big
 part_patch "$T/parts/p$big.cedpart" "$T/patched" 0 $((1 << 40))
 merge_bad "an index of 2^40" "out of the input's range"
 second=$(python3 -c "
-import struct,sys; b=open(sys.argv[1],'rb').read(); m=struct.unpack_from('<I',b,40)[0]; head=8+16+8+8+4+4+8*m+8+8
-count=struct.unpack_from('<Q',b,32)[0]; rec=(len(b)-head)//count; print(struct.unpack_from('<Q',b,head+rec)[0])" "$T/parts/p$big.cedpart")
+import struct,sys; b=open(sys.argv[1],'rb').read(); m=struct.unpack_from('<I',b,44)[0]; head=12+16+8+8+4+4+8*m+8+8
+count=struct.unpack_from('<Q',b,36)[0]; rec=(len(b)-head)//count; print(struct.unpack_from('<Q',b,head+rec)[0])" "$T/parts/p$big.cedpart")
 part_patch "$T/parts/p$big.cedpart" "$T/patched" 0 $((second + 1))
 merge_bad "descending indices" "comes after"
 other=""
 for t in $tiles; do [ "$t" != "$big" ] && other=$t && break; done
 dup=$(python3 -c "
-import struct,sys; b=open(sys.argv[1],'rb').read(); m=struct.unpack_from('<I',b,40)[0]; head=8+16+8+8+4+4+8*m+8+8
-print(struct.unpack_from('<Q',b,head)[0] if struct.unpack_from('<Q',b,32)[0] else -1)" "$T/parts/p$other.cedpart")
+import struct,sys; b=open(sys.argv[1],'rb').read(); m=struct.unpack_from('<I',b,44)[0]; head=12+16+8+8+4+4+8*m+8+8
+print(struct.unpack_from('<Q',b,head)[0] if struct.unpack_from('<Q',b,36)[0] else -1)" "$T/parts/p$other.cedpart")
 if [ "$dup" -ge 0 ]; then
   part_patch "$T/parts/p$big.cedpart" "$T/patched" 0 "$dup"
   merge_bad "an index of another part" "given twice\|outside tile\|comes after"

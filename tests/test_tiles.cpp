@@ -1,48 +1,25 @@
 // SPDX-License-Identifier: MIT
-// Exact tiles: the union of the tiles' core keypoints is the whole cloud's
-// result, index for index, whatever the tile size.
+// Exact tiles in memory (core/tiles.cpp): the union of the tiles' core
+// keypoints is the whole cloud's result, index for index, whatever the tile
+// size. The tiled runs through files: test_tiled_*.cpp.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
-#include <filesystem>
-#include <nlohmann/json.hpp>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "ced/core.hpp"
-#include "ced/io/io.hpp"
-#include "ced/tiled.hpp"
-#include "file_support.hpp"
 #include "test_support.hpp"
+#include "tiled_support.hpp"
 
 namespace {
 
-std::vector<ced::any_modality> specs(const std::vector<std::string>& s) {
-  std::vector<ced::any_modality> out;
-  for (const auto& x : s) out.push_back(ced::make_modality(x));
-  return out;
-}
-
-/// The room of test_support, its colour as 16-bit fields that hold 8-bit
-/// values except in one corner (so a tile far from it sees only 8-bit values).
-ced::point_cloud room16(std::size_t n, std::uint32_t seed) {
-  ced::point_cloud c = ced_test::make_room(n, seed);
-  for (auto& f : c.fields())
-    if (f.name == "red" || f.name == "green" || f.name == "blue") {
-      std::vector<double> v(c.size());
-      for (std::size_t i = 0; i < c.size(); ++i) v[i] = f.values[i];
-      f.values = ced::column(ced::scalar_type::uint16, v);
-    }
-  auto& red = c.fields()[0];
-  for (std::size_t i = 0; i < c.size(); ++i)
-    if (c.position(i)[0] < 0.05f && c.position(i)[1] < 0.05f) red.values.set(i, 40000);
-  return c;
-}
+using ced_test::room16;
+using ced_test::specs;
 
 void expect_tiles_exact(const ced::point_cloud& c, const ced::detect_params& p,
                         const std::vector<std::string>& modalities, double tile, const std::string& what) {
@@ -225,226 +202,5 @@ TEST(Tiles, BadTileSizesAreErrors) {
     ced::make_tile_grid(lo, hi, 0.001, p);
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("too small"), std::string::npos) << e.what();
-  }
-}
-
-namespace {
-/// A request for room16(n, seed) written as a LAS file (with `origin`): xyz + rgb, r = 0.02.
-ced::tiled_request room_request(std::size_t n, std::uint32_t seed, const std::string& name, double tile,
-                                const std::array<double, 3>& origin = {0, 0, 0}) {
-  ced::point_cloud c = room16(n, seed);
-  c.set_origin(origin);
-  ced::tiled_request r;
-  r.input = ced_test::temp_file(name);
-  ced::io::write_cloud(r.input, c);
-  r.tile_size = tile;
-  r.params.radius = r.params.nms_radius = 0.02;
-  r.modalities = {"xyz:0.2", "rgb:0.1"};
-  return r;
-}
-
-void expect_same_part(const ced::tile_part& a, const ced::tile_part& b, const std::string& what) {
-  EXPECT_EQ(a.index, b.index) << what;
-  EXPECT_EQ(a.file_index, b.file_index) << what;
-  EXPECT_EQ(a.keypoints.positions(), b.keypoints.positions()) << what;
-  ASSERT_EQ(a.keypoints.fields().size(), b.keypoints.fields().size()) << what;
-  for (std::size_t f = 0; f < a.keypoints.fields().size(); ++f) {
-    const auto& x = a.keypoints.fields()[f];
-    const auto& y = b.keypoints.fields()[f];
-    EXPECT_EQ(x.name, y.name) << what;
-    ASSERT_EQ(x.type(), y.type()) << what;
-    EXPECT_EQ(0, std::memcmp(x.values.bytes(), y.values.bytes(), ced::size_of(x.type()) * a.index.size()))
-        << what << ", field " << x.name;
-  }
-  EXPECT_EQ(a.saliency, b.saliency) << what;
-  EXPECT_EQ(a.names, b.names) << what;
-  EXPECT_EQ(a.candidates, b.candidates) << what;
-  EXPECT_EQ(a.any_candidates, b.any_candidates) << what;
-}
-}  // namespace
-
-TEST(Tiles, StreamedMergeOfPartFilesIsTheMergeInMemory) {
-  const ced::tiled_request r = room_request(6000, 9, "merge_room.las", 0.15, {431000.0, 5091000.0, 120.0});
-  const std::string& input = r.input;
-  const ced::tile_plan plan = ced::plan_tiles(r);
-  ASSERT_GT(plan.tiles.size(), 4u);
-  std::vector<ced::tile_part> parts;
-  std::vector<std::string> paths;
-  for (const auto& t : plan.tiles) {
-    parts.push_back(ced::detect_tile(plan, ced::read_tile(plan, t.id), 1));
-    paths.push_back(ced_test::temp_file("merge_t" + std::to_string(t.id) + ".part"));
-    ced::write_part(paths.back(), plan, parts.back());
-  }
-  const ced::tile_part merged = ced::merge_parts(plan, parts);
-  ASSERT_GT(merged.index.size(), 20u);
-  // The whole cloud's keypoints, as the file holds them.
-  ced::detect_params p = r.params;
-  const auto whole = ced::detect(ced::io::read_cloud(input), p, specs(r.modalities));
-  EXPECT_EQ(merged.index, std::vector<std::uint64_t>(whole.keypoints.begin(), whole.keypoints.end()));
-  // Streamed with buffers of one record (and chunks of one keypoint), and with the default.
-  for (std::size_t memory : {std::size_t(1), std::size_t(3000), std::size_t(64) << 20}) {
-    ced::tile_part got;
-    std::uint64_t announced = 0;
-    std::size_t chunks = 0;
-    ced::merge_sink sink;
-    sink.begin = [&](const ced::tile_part& totals, std::uint64_t n) {
-      EXPECT_TRUE(totals.index.empty());
-      got = totals;
-      announced = n;
-    };
-    sink.chunk = [&](const ced::tile_part& chunk) {
-      ++chunks;
-      const std::size_t n = chunk.index.size();
-      got.index.insert(got.index.end(), chunk.index.begin(), chunk.index.end());
-      got.file_index.insert(got.file_index.end(), chunk.file_index.begin(), chunk.file_index.end());
-      for (std::size_t k = 0; k < chunk.saliency.size(); ++k)
-        got.saliency[k].insert(got.saliency[k].end(), chunk.saliency[k].begin(), chunk.saliency[k].end());
-      const std::size_t at = got.keypoints.size();
-      got.keypoints.resize(at + n);
-      std::copy_n(chunk.keypoints.positions().begin(), 3 * n, got.keypoints.positions().begin() + 3 * at);
-      for (std::size_t f = 0; f < chunk.keypoints.fields().size(); ++f) {
-        auto& col = got.keypoints.fields()[f].values;
-        const std::size_t w = ced::size_of(col.type());
-        ced::column grown(col.type(), at + n);
-        if (at > 0) std::memcpy(grown.bytes(), col.bytes(), w * at);  // an empty column has no buffer
-        std::memcpy(grown.bytes() + w * at, chunk.keypoints.fields()[f].values.bytes(), w * n);
-        col = std::move(grown);
-      }
-    };
-    ced::merge_part_files(plan, paths, sink, memory);
-    EXPECT_EQ(announced, merged.index.size());
-    if (memory == 1) {
-      EXPECT_EQ(chunks, merged.index.size());
-    }
-    expect_same_part(got, merged, "memory " + std::to_string(memory));
-  }
-  // Missing, repeated and damaged parts.
-  const ced::merge_sink none;
-  auto fewer = paths;
-  fewer.pop_back();
-  try {
-    ced::merge_part_files(plan, fewer, none);
-    ADD_FAILURE() << "a missing part was not an error";
-  } catch (const ced::io::io_error& e) {
-    EXPECT_NE(std::string(e.what()).find("have no part"), std::string::npos) << e.what();
-  }
-  auto twice = paths;
-  twice.push_back(paths.front());
-  EXPECT_THROW(ced::merge_part_files(plan, twice, none), ced::io::io_error);
-  const std::string bytes = ced_test::read_bytes(paths.front());
-  for (std::size_t keep : {std::size_t(5), std::size_t(60), bytes.size() - 3}) {
-    auto damaged = paths;
-    damaged.front() = ced_test::temp_file("merge_damaged.part");
-    ced_test::write_bytes(damaged.front(), bytes.substr(0, keep));
-    try {
-      ced::merge_part_files(plan, damaged, none);
-      ADD_FAILURE() << "a part cut to " << keep << " bytes was not an error";
-    } catch (const ced::io::io_error& e) {
-      EXPECT_NE(std::string(e.what()).find("truncated"), std::string::npos) << e.what();
-    }
-  }
-}
-
-TEST(Tiles, AFailedMergeKeepsThePartsForResume) {
-  const ced::tiled_request r = room_request(4000, 11, "resume_room.las", 0.2);
-  const std::string& input = r.input;
-  ced::tiled_run_options o;
-  o.work_dir = ced_test::temp_file("resume_work");
-  ced::merge_sink failing;
-  failing.chunk = [](const ced::tile_part&) { throw std::runtime_error("disk full"); };
-  o.sink = &failing;
-  EXPECT_THROW(ced::run_tiled(r, o), std::runtime_error);
-  ASSERT_TRUE(std::filesystem::exists(std::filesystem::path(o.work_dir) / "plan.json"));
-  const auto whole = ced::detect(ced::io::read_cloud(input), r.params, specs(r.modalities)).keypoints;
-  ASSERT_GT(whole.size(), 5u);
-  // Resumed: every part is there and the tile caches are gone (each went
-  // when its part was written), so the merge runs from the parts alone.
-  o.sink = nullptr;
-  o.resume = true;
-  const auto parts = std::distance(std::filesystem::directory_iterator(std::filesystem::path(o.work_dir) / "parts"),
-                                   std::filesystem::directory_iterator{});
-  EXPECT_GT(parts, 1);
-  const ced::tile_part merged = ced::run_tiled(r, o);
-  EXPECT_EQ(merged.index, std::vector<std::uint64_t>(whole.begin(), whole.end()));
-  EXPECT_FALSE(std::filesystem::exists(o.work_dir));
-}
-
-// ---------------------------------------------------------------- tampered plans and parts (issue #25)
-
-namespace {
-ced::tile_part detect_planned_tile(const ced::tile_plan& plan, std::uint64_t id) {
-  return ced::detect_tile(plan, ced::read_tile(plan, id));
-}
-}  // namespace
-
-TEST(Tiles, PartsOfAnotherPlanOrTamperedAreRefusedInMemory) {
-  ced::tiled_request r = room_request(3000, 21, "tamper_room.las", 0.06);
-  const ced::tile_plan a = ced::plan_tiles(r);
-  r.modalities = {"xyz:0.2", "rgb:0.1", "lab:0.1", "intensity:0.05,range=auto"};
-  const ced::tile_plan b = ced::plan_tiles(r);
-  std::vector<ced::tile_part> parts;
-  for (const auto& t : a.tiles) parts.push_back(detect_planned_tile(a, t.id));
-  EXPECT_NO_THROW(ced::merge_parts(a, parts));
-  // Plan b has four modalities, a's parts one saliency array each: read past them before.
-  EXPECT_THROW(ced::merge_parts(b, parts), ced::io::io_error);
-  std::size_t k = 0;
-  while (k < parts.size() && parts[k].index.size() < 2) ++k;
-  ASSERT_LT(k, parts.size());
-  auto tampered = [&](auto change) {
-    auto copy = parts;
-    change(copy[k]);
-    return copy;
-  };
-  EXPECT_THROW(ced::merge_parts(a, tampered([&](ced::tile_part& p) { p.index[0] = std::uint64_t(1) << 40; })),
-               ced::io::io_error);
-  EXPECT_THROW(ced::merge_parts(a, tampered([&](ced::tile_part& p) { std::swap(p.index[0], p.index[1]); })),
-               ced::io::io_error);
-  EXPECT_THROW(ced::merge_parts(a, tampered([&](ced::tile_part& p) { p.saliency[0].pop_back(); })), ced::io::io_error);
-  EXPECT_THROW(ced::merge_parts(a, tampered([&](ced::tile_part& p) { p.plan.clear(); })), ced::io::io_error);
-  // A keypoint index that another part holds: repeated (or out of order in its part).
-  std::size_t other = 0;
-  while (other < parts.size() && (other == k || parts[other].index.empty())) ++other;
-  ASSERT_LT(other, parts.size());
-  EXPECT_THROW(ced::merge_parts(a, tampered([&](ced::tile_part& p) { p.index[0] = parts[other].index[0]; })),
-               ced::io::io_error);
-}
-
-TEST(Tiles, TamperedPlansAreRefusedOnLoad) {
-  const ced::tiled_request r = room_request(3000, 22, "tamper_plan.las", 0.3);
-  const ced::tile_plan p = ced::plan_tiles(r);
-  const std::string json = p.to_json();
-  EXPECT_NO_THROW(ced::tile_plan::from_json(json, "plan"));
-  auto edited = [&](const std::string& from, const std::string& to) {
-    const std::size_t at = json.find(from);
-    EXPECT_NE(at, std::string::npos) << from;
-    std::string j = json;
-    if (at != std::string::npos) j.replace(at, from.size(), to);
-    return j;
-  };
-  const std::string halo = "\"halo\": " + nlohmann::json(p.grid.halo).dump();
-  const std::string k = "\"min_neighbors\": 5";
-  for (const std::string& bad :
-       {edited(halo, "\"halo\": 0"), edited(k, "\"min_neighbors\": -1"), edited(k, "\"min_neighbors\": 2.5"),
-        edited(k, "\"min_neighbors\": 4294967296"), edited("\"modalities\": [", "\"modalities\": [\"xyz:zero\", ")})
-    EXPECT_THROW(ced::tile_plan::from_json(bad, "plan"), ced::io::io_error) << bad.substr(0, 400);
-}
-
-TEST(Tiles, ATileOfAChangedInputIsRefused) {
-  const ced::tiled_request r = room_request(3000, 23, "changed_room.las", 0.3);
-  const ced::tile_plan p = ced::plan_tiles(r);
-  ASSERT_FALSE(p.content.empty());
-  EXPECT_NO_THROW(ced::read_tile(p, p.tiles.front().id));
-  // The same bytes but one point moved: the same size, maybe the same fingerprint.
-  ced::point_cloud c = ced::io::read_cloud(r.input);
-  c.positions()[3 * 1500] += 0.013f;
-  ced::io::write_cloud(r.input, c);
-  try {
-    ced::read_tile(p, p.tiles.front().id);
-    ADD_FAILURE() << "a changed input was read";
-  } catch (const ced::io::io_error& e) {
-    const std::string what = e.what();
-    EXPECT_TRUE(what.find("changed since the plan") != std::string::npos ||
-                what.find("not the file the plan was made for") != std::string::npos)
-        << what;
   }
 }

@@ -123,10 +123,12 @@ struct tile_part {
 /// Detects one tile. `threads` as in detect_params.
 tile_part detect_tile(const tile_plan& plan, const tile_points& points, unsigned threads = 0);
 
-/// Writes a part atomically (a temporary file renamed into place). Throws
+/// Writes a part atomically (a temporary file renamed into place), in a
+/// versioned little-endian format that reads on any host. Throws
 /// std::invalid_argument for a part of another plan (part.plan).
 void write_part(const std::string& path, const tile_plan& plan, const tile_part& part);
-/// Reads a part; throws io_error when it is malformed or of another plan.
+/// Reads a part; throws io_error when it is malformed, of another plan, or
+/// of another format version (written by another ced version).
 tile_part read_part(const std::string& path, const tile_plan& plan);
 
 /// Every tile's part merged: tile_part of the whole cloud. Throws io_error

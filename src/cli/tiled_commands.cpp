@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "../core/hash.hpp"
 #include "ced/ced.hpp"
 #include "ced/io/io.hpp"
 #include "commands.hpp"
@@ -124,8 +125,7 @@ std::string default_work_dir(const detect_options& o) {
   std::string key = fs::absolute(o.input, ec).string();
   for (const auto* p : {&o.indices, &o.indices_original, &o.output, &o.summary})
     key += "|" + (p->empty() ? std::string() : fs::absolute(*p, ec).string());
-  std::uint64_t h = 1469598103934665603ull;
-  for (unsigned char c : key) h = (h ^ c) * 1099511628211ull;
+  const std::uint64_t h = ced::detail::fnv1a(key);
   char name[40];
   std::snprintf(name, sizeof name, "ced-tiles-%016llx", static_cast<unsigned long long>(h));
   return (fs::temp_directory_path(ec) / name).string();

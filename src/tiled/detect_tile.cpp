@@ -1,0 +1,102 @@
+// SPDX-License-Identifier: MIT
+// Tiled runs: one tile of a plan, read from the input (checked against the
+// plan) and detected into its part: the keypoints of its core.
+#include <chrono>
+#include <string>
+#include <vector>
+
+#include "ced/detect.hpp"
+#include "tiled/internal.hpp"
+
+namespace ced {
+
+using namespace tiled_detail;
+
+namespace {
+
+/// True when p lies in tile t's core grown by the halo (the test of tiles_near()).
+bool near_tile(const tile_grid& g, const std::array<std::uint32_t, 3>& c, const float* p) noexcept {
+  std::int64_t own[3], c0[3], c1[3];
+  g.locate(p, own, c0, c1);
+  for (std::size_t k = 0; k < 3; ++k)
+    if (c0[k] > std::int64_t(c[k]) || c1[k] < std::int64_t(c[k])) return false;
+  return true;
+}
+
+}  // namespace
+
+tile_points read_tile(const tile_plan& plan, std::uint64_t id) {
+  plan.tile(id);  // throws for a tile that owns no points
+  check_plan_input(plan);
+  auto s = io::open_point_stream(plan.request.input, plan.request.read);
+  // A pass to learn the whole file's fields (LAS flags), then the tile's points.
+  for_each_chunk(*s, {0, 0, 0}, [](const point_cloud&) {});
+  s->rewind();
+  const auto coords = plan.grid.coords(id);
+  std::string records;
+  std::uint64_t file_index = 0, index = 0, content = 0, core = 0;
+  for_each_chunk(*s, plan.origin, [&](const point_cloud& c) {
+    if (c.fields().size() != plan.fields.size())
+      fail(plan.request.input, "its fields differ from the plan's: make a new plan");
+    if (!plan.content.empty()) content = hash_chunk(c, content);
+    for (std::size_t i = 0; i < c.size(); ++i, ++file_index) {
+      if (!finite3(c.position(i))) continue;
+      if (near_tile(plan.grid, coords, c.position(i))) {
+        append_record(records, index, file_index, c, i);
+        core += plan.grid.tile_of(c.position(i)) == id;
+      }
+      ++index;
+    }
+  });
+  const tile_entry& e = plan.tile(id);
+  auto changed = [&](const std::string& what) {
+    fail(plan.request.input, "the file changed since the plan was made (" + what + "): make a new plan");
+  };
+  if (file_index != plan.file_points || index != plan.finite_points)
+    changed(std::to_string(file_index) + " points, " + std::to_string(index) + " finite; the plan says " +
+            std::to_string(plan.file_points) + ", " + std::to_string(plan.finite_points));
+  if (!plan.content.empty() && hex(content) != plan.content)
+    changed("its decoded points hash to " + hex(content) + ", the plan's to " + plan.content);
+  tile_points pts = points_from_records(plan, id, records, 0, plan.request.input);
+  if (core != e.core_points || pts.cloud.size() != e.points)
+    changed("tile " + std::to_string(id) + " reads " + std::to_string(pts.cloud.size()) + " points and owns " +
+            std::to_string(core) + "; the plan says " + std::to_string(e.points) + " and " +
+            std::to_string(e.core_points));
+  return pts;
+}
+
+tile_part detect_tile(const tile_plan& plan, const tile_points& points, unsigned threads) {
+  const auto t0 = std::chrono::steady_clock::now();
+  tile_part part;
+  part.tile = points.tile;
+  part.plan = plan.digest();
+  const auto modalities = modalities_of(plan.request.modalities);
+  detect_params params = plan.request.params;
+  params.threads = threads;
+  const std::size_t m = modalities.size();
+  name_modalities(plan, modalities, part);
+  part.saliency.assign(m, {});
+  part.candidates.assign(m, 0);
+  part.keypoints = empty_cloud(plan, 0);
+  if (points.cloud.empty()) return part;
+  const detection_result r = detect(points.cloud, params, modalities);
+  std::vector<std::uint32_t> kept;
+  for (std::size_t i = 0; i < points.cloud.size(); ++i) {
+    if (plan.grid.tile_of(points.cloud.position(i)) != points.tile) continue;
+    for (std::size_t k = 0; k < m; ++k) part.candidates[k] += r.saliency[k][i] >= r.thresholds[k];
+    part.any_candidates += r.candidate[i] != 0;
+  }
+  for (std::uint32_t k : core_keypoints(plan.grid, points.tile, points.cloud, r)) kept.push_back(k);
+  part.keypoints = empty_cloud(plan, kept.size());
+  for (std::size_t j = 0; j < kept.size(); ++j) {
+    const std::uint32_t i = kept[j];
+    part.index.push_back(points.index[i]);
+    part.file_index.push_back(points.file_index[i]);
+    copy_points(points.cloud, i, part.keypoints, j);
+    for (std::size_t k = 0; k < m; ++k) part.saliency[k].push_back(r.saliency[k][i]);
+  }
+  part.detect_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return part;
+}
+
+}  // namespace ced

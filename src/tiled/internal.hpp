@@ -1,0 +1,260 @@
+// SPDX-License-Identifier: MIT
+// Private: what the stages of a tiled run (src/tiled/*.cpp) share, in the
+// order of the data path: chunks of the input, the plan and its sizing, the
+// point records of the tile cache and the parts, the tiles, the merge, the
+// work directory. Not installed.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <future>
+#include <nlohmann/json_fwd.hpp>
+#include <string>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "ced/io/stream.hpp"
+#include "ced/modality.hpp"
+#include "ced/tiled.hpp"
+#include "io/scalar_io.hpp"
+
+namespace ced::tiled_detail {
+
+namespace fs = std::filesystem;
+using io::detail::fail;
+
+// ------------------------------------------------------------------ chunks (planning, detect_tile, tile_cache)
+
+constexpr std::size_t chunk_points = std::size_t(1) << 20;
+
+inline bool finite3(const float* p) noexcept {
+  return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
+}
+
+/// Reads `s` chunk by chunk (positions relative to `origin`) and calls
+/// f(chunk) for each, in order: a thread reads and decodes the next chunk
+/// while f works on this one. An exception of either is rethrown here.
+template <class F>
+void for_each_chunk(io::point_stream& s, const std::array<double, 3>& origin, F&& f) {
+  point_cloud chunks[2];
+  std::size_t got[2] = {0, 0};
+  got[0] = s.read(chunk_points, origin, chunks[0]);
+  for (int k = 0; got[k] > 0; k ^= 1) {
+    auto next = std::async(std::launch::async, [&, k] { got[k ^ 1] = s.read(chunk_points, origin, chunks[k ^ 1]); });
+    try {
+      f(static_cast<const point_cloud&>(chunks[k]));
+    } catch (...) {
+      next.wait();
+      throw;
+    }
+    next.get();
+  }
+}
+
+// ------------------------------------------------------------------ modalities (planning.cpp)
+
+std::vector<any_modality> modalities_of(const std::vector<std::string>& specs);
+/// The parameters a tile's halo follows: the radius of the largest scale
+/// among the modalities (scale=).
+detect_params halo_params(const tiled_request& r);
+/// A part's modality names and absolute thresholds, from the plan's modalities.
+void name_modalities(const tile_plan& plan, const std::vector<any_modality>& modalities, tile_part& part);
+
+// ------------------------------------------------------------------ plan file (plan_file.cpp)
+
+std::string hex(std::uint64_t v);
+/// A chunk's positions and every field's values, into the content hash.
+std::uint64_t hash_chunk(const point_cloud& c, std::uint64_t h);
+/// The file's size (into `bytes`), and a hash of it (check_plan_input()).
+std::string fingerprint_of(const std::string& path, std::uint64_t& bytes);
+/// The request as a plan writes it (and as a resumed run compares it).
+nlohmann::json request_json(const tiled_request& r);
+
+// ------------------------------------------------------------------ planning (planning.cpp, sizing.cpp)
+
+/// Plans without the tiles' counts (run_tiled counts them while it fills
+/// its cache; plan_tiles in a pass of its own). Leaves `s` rewound.
+tile_plan plan_grid(const tiled_request& request, io::point_stream& s, const tiled_progress& progress);
+
+/// The largest tile size whose densest tile fits in the request's memory
+/// limit, from a histogram of the points (one more pass over `s`). `lo`,
+/// `hi`: the bounds relative to the plan's origin.
+double size_for_memory(io::point_stream& s, const tile_plan& p, const double lo[3], const double hi[3],
+                       const tiled_progress& progress);
+
+/// Counts per tile, from the points of one chunk.
+struct tile_counter {
+  bool dense;
+  std::vector<std::uint64_t> core_v, all_v;
+  std::unordered_map<std::uint64_t, std::pair<std::uint64_t, std::uint64_t>> sparse;
+  explicit tile_counter(std::uint64_t tiles) : dense(tiles <= (1u << 20)) {
+    if (dense) {
+      core_v.assign(tiles, 0);
+      all_v.assign(tiles, 0);
+    }
+  }
+  void core(std::uint64_t t) { dense ? ++core_v[t] : ++sparse[t].first; }
+  void near(std::uint64_t t) { dense ? ++all_v[t] : ++sparse[t].second; }
+  std::vector<tile_entry> entries() const;
+};
+
+/// Points per tile (a pass over `s`, which is left rewound), and the hash
+/// of every decoded point into `content` when given.
+std::vector<tile_entry> count_tiles(io::point_stream& s, const tile_plan& p, const tiled_progress& progress,
+                                    std::uint64_t* content);
+
+// ------------------------------------------------------------------ point records (records.cpp)
+//
+// The tile cache and the parts hold points as records, little-endian
+// whatever the host, after a header (magic, format version). The layout:
+// records.cpp (records, headers, the cache) and part_file.cpp (a part).
+
+/// The format of the tile cache and part files; a reader refuses any other.
+/// 1: parts began "CEDPART1", host byte order; caches had no header.
+constexpr std::uint32_t tiled_file_version = 2;
+
+/// What a header names: a tile cache or a part.
+struct tiled_file_kind {
+  const char* magic;   ///< 7 characters, then '\0' ends the 8-byte magic
+  const char* what;    ///< "tile cache", "tile part"
+  const char* redo;    ///< what to do with a file of another version
+  bool v1_headerless;  ///< its files of format version 1 had no header (caches)
+};
+extern const tiled_file_kind cache_kind, part_kind;
+constexpr std::size_t tiled_header_bytes = 8 + 4;
+
+/// The header of a file of `kind` (tiled_header_bytes).
+std::string tiled_header(const tiled_file_kind& kind);
+/// Checks the first `n` bytes at `p` of `path` (`size` bytes in all) for
+/// the header of `kind` and this format version; io_error naming the file
+/// (and both versions) otherwise.
+void check_tiled_header(const char* p, std::size_t n, std::uint64_t size, const tiled_file_kind& kind,
+                        const std::string& path);
+
+/// A value of w bytes (1, 2, 4 or 8) from `from` to `to`, turned from host
+/// to little-endian byte order or back (the same swap).
+inline void copy_le(char* to, const char* from, std::size_t w) noexcept {
+  if (io::detail::host_little_endian())
+    std::memcpy(to, from, w);
+  else
+    std::reverse_copy(from, from + w, to);
+}
+template <class T>
+void append_le(std::string& out, T v) {
+  char b[sizeof(T)];
+  io::detail::store_le(reinterpret_cast<unsigned char*>(b), v);
+  out.append(b, sizeof b);
+}
+template <class T>
+T load_le(const char* p) noexcept {
+  return io::detail::load_le<T>(reinterpret_cast<const unsigned char*>(p));
+}
+
+/// Bytes of one record of the plan.
+std::size_t record_size(const tile_plan& p);
+
+/// The fields of a chunk as (bytes, width) pairs, for append_record().
+using field_bytes = std::vector<std::pair<const unsigned char*, std::size_t>>;
+field_bytes bytes_of(const point_cloud& c);
+
+/// Appends point i of a chunk (positions `xyz`, fields `fields`) as a record
+/// of `size` bytes to `out`. (Inline: the tile cache calls it for every
+/// point and tile.)
+inline void append_record(std::string& out, std::size_t size, std::uint64_t index, std::uint64_t file_index,
+                          const float* xyz, const field_bytes& fields, std::size_t i) {
+  const std::size_t at = out.size();
+  if (out.capacity() < at + size) out.reserve(std::max(2 * out.capacity(), at + size));
+  out.resize(at + size);
+  auto* p = reinterpret_cast<unsigned char*>(out.data() + at);
+  io::detail::store_le(p, index);
+  io::detail::store_le(p + 8, file_index);
+  for (std::size_t k = 0; k < 3; ++k) io::detail::store_le(p + 16 + 4 * k, xyz[3 * i + k]);
+  char* q = reinterpret_cast<char*>(p + 28);
+  for (const auto& [bytes, w] : fields) {
+    copy_le(q, reinterpret_cast<const char*>(bytes + w * i), w);
+    q += w;
+  }
+}
+void append_record(std::string& out, std::uint64_t index, std::uint64_t file_index, const point_cloud& c,
+                   std::size_t i);
+
+/// Decodes n records at `p` into points [at, at + n) of `c` and the index
+/// arrays; returns the end of the records.
+const char* decode_records(const char* p, std::size_t n, point_cloud& c, std::size_t at, std::uint64_t* index,
+                           std::uint64_t* file_index);
+
+/// An empty cloud with the plan's origin and fields (whole ranges set), room for n points.
+point_cloud empty_cloud(const tile_plan& p, std::size_t n);
+
+/// Points [i, i + n) of `from` (positions and field bytes) into [j, j + n)
+/// of `to`, a cloud with the same fields.
+void copy_points(const point_cloud& from, std::size_t i, point_cloud& to, std::size_t j, std::size_t n = 1);
+
+/// Tile id's points from its records (`bytes` from `offset` on); io_error
+/// naming `name` when they are not whole records.
+tile_points points_from_records(const tile_plan& p, std::uint64_t id, const std::string& bytes, std::size_t offset,
+                                const std::string& name);
+
+// ------------------------------------------------------------------ tile cache (tile_cache.cpp)
+
+/// Passes 1 and 2 of a run without a plan yet: the plan and the tile cache
+/// in `dir`, then plan.json. `announced`: the plan was reported already.
+tile_plan build_cache(const tiled_request& request, const tiled_run_options& o, const fs::path& dir, bool& announced);
+std::string cache_file(const std::string& work_dir, std::uint64_t id);
+/// Tile id's points from the cache.
+tile_points load_cached(const tile_plan& plan, const std::string& work_dir, std::uint64_t id);
+
+// ------------------------------------------------------------------ parts (part_file.cpp)
+
+/// write_part() with the plan's digest already known (a digest formats the
+/// whole plan: of thousands of tiles, a millisecond).
+void write_part_as(const std::string& path, const tile_plan& plan, const std::string& digest, const tile_part& part);
+
+/// A part file read a piece at a time: its header at once, then its records
+/// in order through a buffer (the file is opened again for each refill, so
+/// that thousands of parts need no open file each).
+class part_reader {
+ public:
+  /// `digest`: plan.digest(), computed once by the caller for all its parts.
+  part_reader(const std::string& path, const tile_plan& plan, const std::string& digest);
+
+  /// The part without its keypoints: tile, names, thresholds, counts.
+  tile_part totals;
+  std::uint64_t count() const noexcept { return m_count; }
+  std::size_t record_bytes() const noexcept { return m_record; }
+
+  /// The next record (record_bytes()), nullptr after the last; `buffer`
+  /// bytes are read at a time.
+  const char* next(std::size_t buffer);
+  /// Drops the buffer (after the last record).
+  void release() { std::string().swap(m_buf), m_at = 0; }
+
+ private:
+  std::string m_path;
+  std::uint64_t m_count = 0, m_left = 0, m_offset = 0;
+  std::size_t m_record = 0;
+  std::string m_buf;
+  std::size_t m_at = 0;
+};
+
+/// Decodes a record of a part (point, then one saliency a modality) into `p`'s point j.
+void decode_part_record(const char* r, tile_part& p, std::size_t j);
+/// Sizes p's arrays for n keypoints.
+void resize_part(tile_part& p, const tile_plan& plan, std::size_t n);
+
+// ------------------------------------------------------------------ work directory (work_dir.cpp)
+
+/// Makes `dir` ced's: creates it (marker "created yes"), or marks an empty
+/// directory (marker "created no"), or accepts one that has ced's marker.
+/// Anything else is refused, with or without `resume`.
+void claim_work_dir(const std::string& work_dir);
+/// Empties ced's cache and parts of a work directory (a run stopped before
+/// its plan was written: its cache is incomplete).
+void clear_tiles(const fs::path& dir);
+
+}  // namespace ced::tiled_detail

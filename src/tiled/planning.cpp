@@ -1,0 +1,211 @@
+// SPDX-License-Identifier: MIT
+// Tiled runs: the plan. Pass 1 over the input learns its counts, bounds and
+// field ranges; the grid follows (its tile size asked, or sized for a memory
+// limit: sizing.cpp); pass 2 counts the points of each tile.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <stdexcept>
+#include <string>
+
+#include "ced/scaled.hpp"
+#include "tiled/internal.hpp"
+
+namespace ced {
+
+using namespace tiled_detail;
+
+namespace {
+
+/// What the first pass learns.
+struct scan_result {
+  std::uint64_t file_points = 0, finite_points = 0;
+  std::map<std::string, std::pair<value_range, bool>> ranges;  // seen in every chunk?
+  std::size_t chunks = 0;
+};
+
+/// The range of f's values over the finite points (`fin`); `any`: it has one.
+value_range finite_range(const field& f, const std::vector<std::uint8_t>& fin, bool& any) {
+  value_range r{0, 0};
+  any = false;
+  f.values.visit([&](const auto* v, std::size_t n) {
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!fin[i]) continue;
+      const double x = static_cast<double>(v[i]);
+      r.lo = any ? std::min(r.lo, x) : x;
+      r.hi = any ? std::max(r.hi, x) : x;
+      any = true;
+    }
+  });
+  return r;
+}
+
+void scan_chunk(const point_cloud& c, scan_result& s) {
+  s.file_points += c.size();
+  std::vector<std::uint8_t> fin(c.size());
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    fin[i] = finite3(c.position(i));
+    s.finite_points += fin[i];
+  }
+  std::map<std::string, bool> here;
+  for (const field& f : c.fields()) {
+    here[f.name] = true;
+    bool any = false;
+    value_range r = finite_range(f, fin, any);
+    auto it = s.ranges.find(f.name);
+    if (it == s.ranges.end()) {
+      // A field first seen after some chunks (a LAS flag): it was 0 there.
+      if (s.chunks > 0) r = any ? value_range{std::min(r.lo, 0.0), std::max(r.hi, 0.0)} : value_range{0, 0};
+      s.ranges[f.name] = {r, any || s.chunks > 0};
+    } else if (any) {
+      auto& [w, seen] = it->second;
+      w = seen ? value_range{std::min(w.lo, r.lo), std::max(w.hi, r.hi)} : r;
+      seen = true;
+    }
+  }
+  for (auto& [name, v] : s.ranges)
+    if (!here.count(name)) {  // absent from this chunk: 0 there
+      v.first = v.second ? value_range{std::min(v.first.lo, 0.0), std::max(v.first.hi, 0.0)} : value_range{0, 0};
+      v.second = true;
+    }
+  ++s.chunks;
+}
+
+/// Throws std::invalid_argument for a bad tile size, limit or modality.
+void check_request(const tiled_request& request) {
+  validate(request.params);
+  if (request.memory_limit == 0 && (!(request.tile_size > 0) || !std::isfinite(request.tile_size)))
+    throw std::invalid_argument("tile size must be a positive number of metres, got " +
+                                std::to_string(request.tile_size));
+  if (request.memory_limit > 0 && request.tile_size > 0)
+    throw std::invalid_argument("give a tile size or a memory limit, not both");
+  modalities_of(request.modalities);  // bad specs fail before the file is read
+}
+
+/// Pass 1: counts, field ranges, the origin (and the bounds, from `s`).
+scan_result scan_input(tile_plan& p, io::point_stream& s, const tiled_progress& progress) {
+  scan_result scan;
+  for_each_chunk(s, {0, 0, 0}, [&](const point_cloud& c) {
+    scan_chunk(c, scan);
+    if (progress)
+      progress("reading (pass 1: bounds and ranges)",
+               s.declared_points() ? double(scan.file_points) / double(s.declared_points()) : 0.0);
+  });
+  p.file_points = scan.file_points;
+  p.finite_points = scan.finite_points;
+  if (p.finite_points == 0) fail(p.request.input, "the cloud has no (finite) points");
+  if (p.finite_points > std::numeric_limits<std::uint32_t>::max())
+    fail(p.request.input,
+         "more than 2^32-1 finite points: a tile plan indexes points with 32 bits in each tile, "
+         "but the whole file's indices must fit the outputs' too (split the file)");
+  p.origin = s.origin();
+  return scan;
+}
+
+/// The file's own fields, as every chunk has them from now on, with their
+/// ranges; the modalities (a preset when none were asked) find theirs.
+/// Leaves `s` rewound.
+void plan_fields(tile_plan& p, io::point_stream& s, const scan_result& scan) {
+  s.rewind();
+  point_cloud probe;
+  s.read(1, p.origin, probe);
+  s.rewind();
+  for (const field& f : probe.fields()) {
+    const auto it = scan.ranges.find(f.name);
+    p.fields.push_back({f.name, f.type(), it != scan.ranges.end() ? it->second.first : value_range{0, 0}});
+  }
+  if (p.request.modalities.empty()) p.request.modalities = preset_specs(probe.has_rgb() ? "ced6d" : "ced3d");
+  // The modalities find their fields (an error now, not in every tile).
+  point_cloud one = empty_cloud(p, 1);
+  for (const auto& m : modalities_of(p.request.modalities)) m.bind(one, p.request.params);
+}
+
+}  // namespace
+
+namespace tiled_detail {
+
+std::vector<any_modality> modalities_of(const std::vector<std::string>& specs) {
+  std::vector<any_modality> out;
+  for (const auto& s : specs) out.push_back(make_modality(s));
+  return out;
+}
+
+detect_params halo_params(const tiled_request& r) {
+  return scaled_params(r.params, max_scale_factor(modalities_of(r.modalities)));
+}
+
+void name_modalities(const tile_plan& plan, const std::vector<any_modality>& modalities, tile_part& part) {
+  for (const auto& mod : modalities) {
+    part.names.push_back(mod.name());
+    part.thresholds.push_back(mod.threshold(plan.request.params));
+  }
+}
+
+tile_plan plan_grid(const tiled_request& request, io::point_stream& s, const tiled_progress& progress) {
+  tile_plan p;
+  p.request = request;
+  check_request(request);
+  p.fingerprint = fingerprint_of(request.input, p.input_bytes);
+  p.details = s.details();
+  p.streamed = s.streaming();
+  const scan_result scan = scan_input(p, s, progress);
+  double lo[3], hi[3];
+  s.bounds(lo, hi);
+  plan_fields(p, s, scan);
+  double plo[3], phi[3];
+  for (int k = 0; k < 3; ++k) {
+    plo[k] = lo[k] - p.origin[std::size_t(k)];
+    phi[k] = hi[k] - p.origin[std::size_t(k)];
+  }
+  const double size = request.memory_limit > 0 ? size_for_memory(s, p, plo, phi, progress) : request.tile_size;
+  s.rewind();
+  p.grid = make_tile_grid(plo, phi, size, halo_params(request));
+  return p;
+}
+
+std::vector<tile_entry> tile_counter::entries() const {
+  std::vector<tile_entry> out;
+  if (dense) {
+    for (std::uint64_t t = 0; t < core_v.size(); ++t)
+      if (core_v[t]) out.push_back({t, core_v[t], all_v[t]});
+  } else {
+    for (const auto& [t, v] : sparse)
+      if (v.first) out.push_back({t, v.first, v.second});
+    std::sort(out.begin(), out.end(), [](const tile_entry& a, const tile_entry& b) { return a.id < b.id; });
+  }
+  return out;
+}
+
+std::vector<tile_entry> count_tiles(io::point_stream& s, const tile_plan& p, const tiled_progress& progress,
+                                    std::uint64_t* content) {
+  tile_counter counts(p.grid.count());
+  std::vector<std::uint64_t> near;
+  std::uint64_t done = 0;
+  for_each_chunk(s, p.origin, [&](const point_cloud& c) {
+    if (content) *content = hash_chunk(c, *content);
+    for (std::size_t i = 0; i < c.size(); ++i) {
+      if (!finite3(c.position(i))) continue;
+      counts.core(p.grid.tile_of(c.position(i)));
+      p.grid.tiles_near(c.position(i), near);
+      for (std::uint64_t t : near) counts.near(t);
+    }
+    done += c.size();
+    if (progress) progress("reading (pass 2: points per tile)", double(done) / double(p.file_points));
+  });
+  s.rewind();
+  return counts.entries();
+}
+
+}  // namespace tiled_detail
+
+tile_plan plan_tiles(const tiled_request& request, const tiled_progress& progress) {
+  auto s = io::open_point_stream(request.input, request.read);
+  tile_plan p = plan_grid(request, *s, progress);
+  std::uint64_t content = 0;
+  p.tiles = count_tiles(*s, p, progress, &content);  // pass 2
+  p.content = hex(content);
+  return p;
+}
+
+}  // namespace ced

@@ -1,0 +1,170 @@
+// SPDX-License-Identifier: MIT
+// Tiled runs in a work directory: prepare (the plan and the tile cache, or a
+// run to resume), detect each cached tile into its part, merge the parts
+// (run_tiled; ced-mpi shares the steps between ranks).
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdlib>
+#include <future>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include "tiled/internal.hpp"
+
+namespace ced {
+
+using namespace tiled_detail;
+
+namespace {
+
+std::string part_file(const std::string& work_dir, std::uint64_t id) {
+  return (fs::path(work_dir) / "parts" / ("t" + std::to_string(id) + ".part")).string();
+}
+
+/// The plan of the unfinished run in `work_dir` (plan.json), which must be
+/// of the same request and input.
+tile_plan resumed_plan(const tiled_request& request, const tiled_run_options& o, const fs::path& plan_path) {
+  if (!o.resume)
+    fail(o.work_dir, "holds the tiles of an unfinished run: pass --resume to finish it, or remove the directory");
+  tile_plan plan = tile_plan::from_json(io::detail::read_whole_file(plan_path.string()), plan_path.string());
+  tiled_request asked = request;
+  if (asked.modalities.empty()) asked.modalities = plan.request.modalities;
+  if (request_json(asked) != request_json(plan.request))
+    fail(o.work_dir, "holds the tiles of another run (" + request_json(plan.request).dump() +
+                         "): remove it or choose another work directory");
+  check_plan_input(plan);
+  return plan;
+}
+
+/// Detects a cached tile and keeps its part (the cache file goes).
+tile_part detect_and_keep(const tile_plan& plan, const std::string& work_dir, const tile_points& pts,
+                          unsigned threads) {
+  tile_part part = detect_tile(plan, pts, threads);
+  write_part_as(part_file(work_dir, pts.tile), plan, part.plan, part);  // detect_tile's digest
+  std::error_code ec;
+  fs::remove(cache_file(work_dir, pts.tile), ec);
+  // The resume tests' hook: die like a killed process after so many tiles.
+  static std::atomic<long> detected{0};
+  if (const char* kill_after = std::getenv("CED_TEST_KILL_AFTER_TILES"))
+    if (++detected >= std::atol(kill_after)) std::raise(SIGKILL);
+  return part;
+}
+
+/// The parts of the plan's tiles in the work directory, merged into `sink`,
+/// or into one tile_part that is returned.
+tile_part merge_work_dir(const tile_plan& plan, const std::string& work_dir, const merge_sink* sink) {
+  std::vector<std::string> paths;
+  std::error_code ec;
+  for (const auto& t : plan.tiles)
+    if (fs::exists(part_file(work_dir, t.id), ec)) paths.push_back(part_file(work_dir, t.id));
+  tile_part out;
+  merge_sink collect;
+  collect.begin = [&](const tile_part& totals, std::uint64_t n) {
+    out = totals;
+    if (!sink) resize_part(out, plan, static_cast<std::size_t>(n));
+    if (sink && sink->begin) sink->begin(totals, n);
+  };
+  std::size_t at = 0;
+  collect.chunk = [&](const tile_part& c) {
+    if (sink) {
+      if (sink->chunk) sink->chunk(c);
+      return;
+    }
+    const std::size_t n = c.index.size();
+    std::copy_n(c.index.begin(), n, out.index.begin() + at);
+    std::copy_n(c.file_index.begin(), n, out.file_index.begin() + at);
+    copy_points(c.keypoints, 0, out.keypoints, at, n);
+    for (std::size_t k = 0; k < c.saliency.size(); ++k)
+      std::copy_n(c.saliency[k].begin(), n, out.saliency[k].begin() + at);
+    at += n;
+  };
+  merge_part_files(plan, paths, collect);
+  for (auto& f : out.keypoints.fields()) f.whole_range.reset();
+  return out;
+}
+
+}  // namespace
+
+tile_plan prepare_tiled(const tiled_request& request, const tiled_run_options& o) {
+  if (o.work_dir.empty()) throw std::invalid_argument("tiled run: no work directory");
+  const fs::path dir(o.work_dir), plan_path = dir / "plan.json", parts = dir / "parts";
+  std::error_code ec;
+  tile_plan plan;
+  bool announced = false;
+  claim_work_dir(o.work_dir);
+  if (fs::exists(plan_path, ec)) {
+    plan = resumed_plan(request, o, plan_path);
+  } else {
+    clear_tiles(dir);  // a run stopped before its plan was written: its cache is incomplete
+    try {
+      plan = build_cache(request, o, dir, announced);
+    } catch (...) {
+      // Nothing to resume without a plan (a rerun redoes the cache): ced's
+      // files go, and the directory when ced made it.
+      remove_work_dir(o.work_dir);
+      throw;
+    }
+  }
+  fs::create_directories(parts, ec);
+  if (ec) fail(parts.string(), "cannot create the parts directory: " + ec.message());
+  if (o.planned && !announced) o.planned(plan);
+  return plan;
+}
+
+tile_part detect_cached_tile(const tile_plan& plan, const std::string& work_dir, std::uint64_t id, unsigned threads,
+                             bool* was_done) {
+  plan.tile(id);
+  std::error_code ec;
+  const bool done = fs::exists(part_file(work_dir, id), ec);
+  if (was_done) *was_done = done;
+  if (done) return read_part(part_file(work_dir, id), plan);
+  return detect_and_keep(plan, work_dir, load_cached(plan, work_dir, id), threads);
+}
+
+tile_part finish_tiled(const tile_plan& plan, const std::string& work_dir, const merge_sink* sink, bool keep_work_dir) {
+  tile_part merged = merge_work_dir(plan, work_dir, sink);
+  if (!keep_work_dir) remove_work_dir(work_dir);
+  return merged;
+}
+
+tile_part run_tiled(const tiled_request& request, const tiled_run_options& o, tile_plan* plan_out) {
+  using clock = std::chrono::steady_clock;
+  auto ms = [](clock::time_point a, clock::time_point b) {
+    return std::chrono::duration<double, std::milli>(b - a).count();
+  };
+  const auto t_plan = clock::now();
+  const tile_plan plan = prepare_tiled(request, o);
+  if (plan_out) *plan_out = plan;
+  // The tiles one after the other, threads within each; the next tile's
+  // cache is read while this one is detected.
+  const auto t0 = std::chrono::steady_clock::now();
+  std::error_code ec;
+  auto needs_work = [&](std::size_t k) { return !fs::exists(part_file(o.work_dir, plan.tiles[k].id), ec); };
+  auto load = [&](std::size_t k) {
+    return std::async(std::launch::async, [&, k] { return load_cached(plan, o.work_dir, plan.tiles[k].id); });
+  };
+  std::future<tile_points> next;
+  for (std::size_t k = 0; k < plan.tiles.size(); ++k) {
+    if (needs_work(k)) {
+      const tile_points pts = next.valid() ? next.get() : load(k).get();
+      std::size_t after = k + 1;
+      while (after < plan.tiles.size() && !needs_work(after)) ++after;
+      if (after < plan.tiles.size()) next = load(after);
+      detect_and_keep(plan, o.work_dir, pts, o.threads);
+    }
+    if (o.tile_done)
+      o.tile_done(k + 1, plan.tiles.size(),
+                  std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  }
+  const auto t_merge = std::chrono::steady_clock::now();
+  tile_part merged = merge_work_dir(plan, o.work_dir, o.sink);
+  if (!o.keep_work_dir) remove_work_dir(o.work_dir);
+  if (o.times) *o.times = {ms(t_plan, t0), ms(t0, t_merge), ms(t_merge, clock::now())};
+  return merged;
+}
+
+}  // namespace ced

@@ -1,0 +1,137 @@
+// SPDX-License-Identifier: MIT
+// Tiled runs, the merge (src/tiled/merge.cpp): streamed from part files it is
+// the merge in memory; parts missing, repeated, damaged or of another plan are refused.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "ced/tiled.hpp"
+#include "tiled_support.hpp"
+
+namespace {
+using ced_test::detect_planned_tile;
+using ced_test::expect_same_part;
+using ced_test::room_request;
+using ced_test::specs;
+}  // namespace
+
+TEST(TiledMerge, StreamedMergeOfPartFilesIsTheMergeInMemory) {
+  const ced::tiled_request r = room_request(6000, 9, "merge_room.las", 0.15, {431000.0, 5091000.0, 120.0});
+  const std::string& input = r.input;
+  const ced::tile_plan plan = ced::plan_tiles(r);
+  ASSERT_GT(plan.tiles.size(), 4u);
+  std::vector<ced::tile_part> parts;
+  std::vector<std::string> paths;
+  for (const auto& t : plan.tiles) {
+    parts.push_back(ced::detect_tile(plan, ced::read_tile(plan, t.id), 1));
+    paths.push_back(ced_test::temp_file("merge_t" + std::to_string(t.id) + ".part"));
+    ced::write_part(paths.back(), plan, parts.back());
+  }
+  const ced::tile_part merged = ced::merge_parts(plan, parts);
+  ASSERT_GT(merged.index.size(), 20u);
+  // The whole cloud's keypoints, as the file holds them.
+  ced::detect_params p = r.params;
+  const auto whole = ced::detect(ced::io::read_cloud(input), p, specs(r.modalities));
+  EXPECT_EQ(merged.index, std::vector<std::uint64_t>(whole.keypoints.begin(), whole.keypoints.end()));
+  // Streamed with buffers of one record (and chunks of one keypoint), and with the default.
+  for (std::size_t memory : {std::size_t(1), std::size_t(3000), std::size_t(64) << 20}) {
+    ced::tile_part got;
+    std::uint64_t announced = 0;
+    std::size_t chunks = 0;
+    ced::merge_sink sink;
+    sink.begin = [&](const ced::tile_part& totals, std::uint64_t n) {
+      EXPECT_TRUE(totals.index.empty());
+      got = totals;
+      announced = n;
+    };
+    sink.chunk = [&](const ced::tile_part& chunk) {
+      ++chunks;
+      const std::size_t n = chunk.index.size();
+      got.index.insert(got.index.end(), chunk.index.begin(), chunk.index.end());
+      got.file_index.insert(got.file_index.end(), chunk.file_index.begin(), chunk.file_index.end());
+      for (std::size_t k = 0; k < chunk.saliency.size(); ++k)
+        got.saliency[k].insert(got.saliency[k].end(), chunk.saliency[k].begin(), chunk.saliency[k].end());
+      const std::size_t at = got.keypoints.size();
+      got.keypoints.resize(at + n);
+      std::copy_n(chunk.keypoints.positions().begin(), 3 * n, got.keypoints.positions().begin() + 3 * at);
+      for (std::size_t f = 0; f < chunk.keypoints.fields().size(); ++f) {
+        auto& col = got.keypoints.fields()[f].values;
+        const std::size_t w = ced::size_of(col.type());
+        ced::column grown(col.type(), at + n);
+        if (at > 0) std::memcpy(grown.bytes(), col.bytes(), w * at);  // an empty column has no buffer
+        std::memcpy(grown.bytes() + w * at, chunk.keypoints.fields()[f].values.bytes(), w * n);
+        col = std::move(grown);
+      }
+    };
+    ced::merge_part_files(plan, paths, sink, memory);
+    EXPECT_EQ(announced, merged.index.size());
+    if (memory == 1) {
+      EXPECT_EQ(chunks, merged.index.size());
+    }
+    expect_same_part(got, merged, "memory " + std::to_string(memory));
+  }
+  // Missing, repeated and damaged parts.
+  const ced::merge_sink none;
+  auto fewer = paths;
+  fewer.pop_back();
+  try {
+    ced::merge_part_files(plan, fewer, none);
+    ADD_FAILURE() << "a missing part was not an error";
+  } catch (const ced::io::io_error& e) {
+    EXPECT_NE(std::string(e.what()).find("have no part"), std::string::npos) << e.what();
+  }
+  auto twice = paths;
+  twice.push_back(paths.front());
+  EXPECT_THROW(ced::merge_part_files(plan, twice, none), ced::io::io_error);
+  const std::string bytes = ced_test::read_bytes(paths.front());
+  for (std::size_t keep : {std::size_t(5), std::size_t(60), bytes.size() - 3}) {
+    auto damaged = paths;
+    damaged.front() = ced_test::temp_file("merge_damaged.part");
+    ced_test::write_bytes(damaged.front(), bytes.substr(0, keep));
+    try {
+      ced::merge_part_files(plan, damaged, none);
+      ADD_FAILURE() << "a part cut to " << keep << " bytes was not an error";
+    } catch (const ced::io::io_error& e) {
+      EXPECT_NE(std::string(e.what()).find("truncated"), std::string::npos) << e.what();
+    }
+  }
+}
+
+// ---------------------------------------------------------------- tampered parts (issue #25)
+
+TEST(TiledMerge, PartsOfAnotherPlanOrTamperedAreRefusedInMemory) {
+  ced::tiled_request r = room_request(3000, 21, "tamper_room.las", 0.06);
+  const ced::tile_plan a = ced::plan_tiles(r);
+  r.modalities = {"xyz:0.2", "rgb:0.1", "lab:0.1", "intensity:0.05,range=auto"};
+  const ced::tile_plan b = ced::plan_tiles(r);
+  std::vector<ced::tile_part> parts;
+  for (const auto& t : a.tiles) parts.push_back(detect_planned_tile(a, t.id));
+  EXPECT_NO_THROW(ced::merge_parts(a, parts));
+  // Plan b has four modalities, a's parts one saliency array each: read past them before.
+  EXPECT_THROW(ced::merge_parts(b, parts), ced::io::io_error);
+  std::size_t k = 0;
+  while (k < parts.size() && parts[k].index.size() < 2) ++k;
+  ASSERT_LT(k, parts.size());
+  auto tampered = [&](auto change) {
+    auto copy = parts;
+    change(copy[k]);
+    return copy;
+  };
+  EXPECT_THROW(ced::merge_parts(a, tampered([&](ced::tile_part& p) { p.index[0] = std::uint64_t(1) << 40; })),
+               ced::io::io_error);
+  EXPECT_THROW(ced::merge_parts(a, tampered([&](ced::tile_part& p) { std::swap(p.index[0], p.index[1]); })),
+               ced::io::io_error);
+  EXPECT_THROW(ced::merge_parts(a, tampered([&](ced::tile_part& p) { p.saliency[0].pop_back(); })), ced::io::io_error);
+  EXPECT_THROW(ced::merge_parts(a, tampered([&](ced::tile_part& p) { p.plan.clear(); })), ced::io::io_error);
+  // A keypoint index that another part holds: repeated (or out of order in its part).
+  std::size_t other = 0;
+  while (other < parts.size() && (other == k || parts[other].index.empty())) ++other;
+  ASSERT_LT(other, parts.size());
+  EXPECT_THROW(ced::merge_parts(a, tampered([&](ced::tile_part& p) { p.index[0] = parts[other].index[0]; })),
+               ced::io::io_error);
+}
