@@ -3,23 +3,21 @@
 
 #include <algorithm>
 #include <cctype>
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <ctime>
-#include <filesystem>
 #include <limits>
 #include <memory>
 #include <ostream>
 #include <sstream>
-#include <system_error>
 #include <type_traits>
 #include <vector>
 
 #include "ced/io/stream.hpp"
 #include "ced/version.hpp"
 #include "scalar_io.hpp"
+#include "stream_support.hpp"
 
 namespace ced::io {
 
@@ -870,34 +868,32 @@ class las_piece_writer final : public piece_writer {
 std::unique_ptr<piece_writer> las_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n) {
   return std::make_unique<las_piece_writer>(out, layout, n);
 }
+
+std::string las_details(const las_read_info& info) {
+  return "LAS " + std::to_string(info.version_major) + "." + std::to_string(info.version_minor) + ", point format " +
+         std::to_string(info.point_format);
+}
 }  // namespace detail
 
 namespace {
 /// read_las(), chunk by chunk: the header and VLRs once, then the records.
 class las_stream final : public point_stream {
  public:
-  las_stream(const std::string& path, const field_selection& fields) : m_path(path), m_fields(fields) {
-    std::error_code ec;
-    if (std::filesystem::is_directory(path, ec)) throw io_error(path, "is a directory, not a file");
-    m_file.reset(std::fopen(path.c_str(), "rb"));
-    if (!m_file) throw io_error(path, std::string("cannot open: ") + std::strerror(errno));
-    const auto size = std::filesystem::file_size(path, ec);
-    if (ec) throw io_error(path, "cannot read its size: " + ec.message());
+  las_stream(const std::string& path, const field_selection& fields) : m_file(path), m_fields(fields) {
     // The header's own checks need the file's size and its first bytes up
     // to the point data (or the whole file, when it is shorter than a header).
     std::string head;
-    read_at(0, static_cast<std::size_t>(std::min<std::uintmax_t>(size, 375)), head);
+    m_file.read_some(0, 375, head);
     if (head.size() >= 100) {
       const auto offset = load_le<std::uint32_t>(reinterpret_cast<const unsigned char*>(head.data()) + 96);
-      if (offset > head.size() && offset <= size) read_at(0, offset, head);
+      if (offset > head.size() && offset <= m_file.size()) m_file.read_some(0, offset, head);
     }
     const auto* d = reinterpret_cast<const unsigned char*>(head.data());
-    m_header = read_header(d, static_cast<std::size_t>(size), path);
+    m_header = read_header(d, static_cast<std::size_t>(m_file.size()), path);
     m_extras = read_vlrs(d, m_header, path);
     las_read_info info;
     fill_info(info, m_header, d);
-    m_details = "LAS " + std::to_string(info.version_major) + "." + std::to_string(info.version_minor) +
-                ", point format " + std::to_string(info.point_format);
+    m_details = las_details(info);
   }
 
   std::size_t read(std::size_t max, const std::array<double, 3>& origin, point_cloud& out) override {
@@ -913,7 +909,8 @@ class las_stream final : public point_stream {
       return 0;
     }
     const std::size_t stride = m_header.record_length;
-    read_at(m_header.point_offset + m_next * stride, n * stride, m_buffer);
+    if (m_buffer.size() < n * stride) m_buffer.resize(n * stride);  // reused: no new memory once it has grown
+    m_file.read_exact(m_header.point_offset + m_next * stride, n * stride, m_buffer.data());
     const auto* base = reinterpret_cast<const unsigned char*>(m_buffer.data());
     if (!m_first_pass_done) {
       raw_bounds(base, stride, n, m_lo, m_hi, m_next > 0);
@@ -946,22 +943,8 @@ class las_stream final : public point_stream {
   std::uint64_t declared_points() const noexcept override { return m_header.count; }
 
  private:
-  struct closer {
-    void operator()(std::FILE* f) const noexcept { std::fclose(f); }
-  };
-  /// Reads n bytes at `offset` into `buf` (reused: no new memory once it has grown).
-  void read_at(std::uint64_t offset, std::size_t n, std::string& buf) {
-    if (buf.size() < n) buf.resize(n);
-    if (n == 0) return;
-    if (fseeko(m_file.get(), static_cast<off_t>(offset), SEEK_SET) != 0 ||
-        std::fread(buf.data(), 1, n, m_file.get()) != n)
-      throw io_error(m_path, "cannot read " + std::to_string(n) + " bytes at byte " + std::to_string(offset) +
-                                 " (the file is unreadable or was truncated while being read)");
-  }
-
-  std::string m_path;
+  input_file m_file;
   field_selection m_fields;
-  std::unique_ptr<std::FILE, closer> m_file;
   las_header m_header;
   std::vector<extra_desc> m_extras;
   std::string m_details, m_buffer;

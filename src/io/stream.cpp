@@ -20,9 +20,10 @@ namespace ced::io {
 namespace detail {
 
 input_file::input_file(const std::string& path) : m_path(path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw io_error("cannot read '" + path + "': it is a directory");
   m_file.reset(std::fopen(path.c_str(), "rb"));
   if (!m_file) throw io_error("cannot open '" + path + "': " + std::strerror(errno));
-  std::error_code ec;
   m_size = std::filesystem::file_size(path, ec);
   if (ec) throw io_error(path, "cannot read its size: " + ec.message());
 }
