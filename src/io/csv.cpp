@@ -61,8 +61,11 @@ char detect_delimiter(std::string_view line) noexcept {
   return ' ';
 }
 
-/// Parses a number. Sets is_int when the token is an integer literal that fits int64.
-bool parse_number(std::string_view tok, double& out, bool& is_int) noexcept {
+/// A CSV value: false (no exception) for text that is not a number; an
+/// optional '+'; infinities from overflow kept. Sets is_int when the token is
+/// an integer literal that fits int64 (the column's type comes from it). Not
+/// ced::parse_number, which parses option values and throws.
+bool parse_csv_number(std::string_view tok, double& out, bool& is_int) noexcept {
   const char* b = tok.data();
   const char* e = b + tok.size();
   if (b != e && *b == '+') ++b;
@@ -96,7 +99,7 @@ bool is_numeric_line(std::string_view line) {
   for (std::string_view w; words.next(w); ++tokens) {
     double v;
     bool is_int;
-    if (!parse_number(unquote(w), v, is_int)) return false;
+    if (!parse_csv_number(unquote(w), v, is_int)) return false;
   }
   return tokens > 0;
 }
@@ -337,7 +340,7 @@ void parse_row(std::string_view line, std::size_t line_no, bool first, char deli
   for (std::size_t j = 0; j < ncols; ++j) {
     double v = 0;
     bool is_int = false;
-    if (!parse_number(tok[j], v, is_int)) {
+    if (!parse_csv_number(tok[j], v, is_int)) {
       std::string msg = "line " + std::to_string(line_no) + ", column " + std::to_string(j + 1) + " ('" + names[j] +
                         "'): '" + printable(tok[j]) + "' is not a number";
       if (first && !opt.columns.empty() && !opt.skip_header) msg += " (a header line? set skip_header)";
