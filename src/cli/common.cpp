@@ -57,10 +57,6 @@ void load_plugins(const std::vector<std::string>& plugins) {
   for (const auto& p : plugins) ced::load_plugin(p);
 }
 
-double ms_since(clock_type::time_point t) {
-  return std::chrono::duration<double, std::milli>(clock_type::now() - t).count();
-}
-
 std::vector<CLI::ConfigItem> json_config::from_config(std::istream& in) const {
   nlohmann::json j;
   try {

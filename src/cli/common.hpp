@@ -4,7 +4,6 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
-#include <chrono>
 #include <cstddef>
 #include <functional>
 #include <iosfwd>
@@ -14,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "../core/timing.hpp"
 #include "ced/ced.hpp"
 #include "ced/io/io.hpp"
 #include "ced/io/output_file.hpp"
@@ -29,8 +29,9 @@ struct usage_error : std::invalid_argument {
   using std::invalid_argument::invalid_argument;
 };
 
-using clock_type = std::chrono::steady_clock;
-double ms_since(clock_type::time_point t);
+// The library's clock of stage times (milliseconds since a time point).
+using ced::detail::clock_type;
+using ced::detail::ms_since;
 
 /// Reads `--config FILE.json`: a JSON object whose keys are the long option
 /// names (without --), values numbers, strings, booleans or arrays.
