@@ -44,8 +44,10 @@ struct detect_options {
   std::vector<std::string> given_plan_options;
 };
 
-/// --refine / --no-refine (keypoint refinement; default: the preset's).
-void add_refine_flags(CLI::App* cmd, detect_options& o);
+/// The detector's options of `ced detect` and `ced plan`: --preset,
+/// -m/--modality, --plugin, -r/--radius (`radius_help`: its help),
+/// --nms-radius, -k/--min-neighbors, --refine and --no-refine.
+void add_detector_options(CLI::App* cmd, detect_options& o, const std::string& radius_help);
 
 /// What the options ask for, checked before any file is read.
 struct detect_plan {

@@ -328,19 +328,12 @@ command add_plan_command(CLI::App& app) {
   auto o = std::make_shared<detect_options>();
   auto plan_path = std::make_shared<std::string>();
   auto* cmd = app.add_subcommand("plan", "Plan the tiles of a cloud for `ced detect --plan --tile` and `ced merge`");
-  cmd->add_option("input", o->input,
-                  "Input cloud: .las, .ply, .pcd, .csv (streamed; PLY ascii and PCD ascii or binary_compressed "
-                  "are read whole)")
+  add_input_options(cmd, o->input,
+                    "Input cloud: .las, .ply, .pcd, .csv (streamed; PLY ascii and PCD ascii or binary_compressed "
+                    "are read whole)",
+                    o->format, o->columns)
       ->required();
-  cmd->add_option("--format", o->format, "Input format when the extension does not say: ply, pcd, las, csv, auto");
-  cmd->add_option("--columns", o->columns, "CSV column names, e.g. x,y,z,intensity (the file then has no header)");
-  cmd->add_option("--preset", o->preset, "A preset (see `ced modalities`)")->check(CLI::IsMember(ced::preset_names()));
-  cmd->add_option("-m,--modality", o->modalities, "Modality spec, repeatable (see `ced detect --help`)");
-  add_plugin_option(cmd, o->plugins);
-  cmd->add_option("-r,--radius", o->radius, "Neighbourhood radius in metres (default 0.05)");
-  cmd->add_option("--nms-radius", o->nms_radius, "Non-maximum-suppression radius (default: the radius)");
-  cmd->add_option("-k,--min-neighbors", o->min_neighbors, "Minimum neighbours, the point included (default 5)");
-  add_refine_flags(cmd, *o);
+  add_detector_options(cmd, *o, "Neighbourhood radius in metres (default 0.05)");
   cmd->add_option("--tile-size", o->tile_size, "Edge of a tile's core, in metres");
   cmd->add_option("--memory-limit", o->memory_limit, "Or: the tile size chosen so that a tile fits, e.g. 4G");
   cmd->add_option("-o,--output", *plan_path, "The plan (JSON)")->required();
