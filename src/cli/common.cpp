@@ -218,6 +218,23 @@ std::vector<std::string> expand_config(const std::vector<std::string>& args, CLI
   return out;
 }
 
+std::optional<int> parse_command_line(CLI::App& app, CLI::App& detect, int argc, char** argv, const std::string& name,
+                                      bool report) {
+  std::vector<std::string> args(argv + 1, argv + argc);
+  try {
+    args = expand_config(args, detect);
+    std::reverse(args.begin(), args.end());  // CLI11 takes a reversed vector
+    app.parse(args);
+  } catch (const CLI::ParseError& e) {
+    if (!report) return exit_usage;
+    return app.exit(e) == 0 ? exit_ok : exit_usage;
+  } catch (const std::exception& e) {
+    if (report) std::cerr << name << ": error: " << e.what() << "\n";
+    return exit_usage;
+  }
+  return std::nullopt;
+}
+
 void check_length(double v, const std::string& option, const std::string& zero) {
   if (std::isfinite(v) && v >= 0) return;
   std::ostringstream got;

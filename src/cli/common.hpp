@@ -8,6 +8,7 @@
 #include <functional>
 #include <iosfwd>
 #include <mutex>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -44,6 +45,14 @@ class json_config : public CLI::Config {
 /// right after `detect`; options also given on the command line win (the
 /// file's value is dropped).
 std::vector<std::string> expand_config(const std::vector<std::string>& args, CLI::App& det);
+
+/// Parses the command line (argc, argv) with `app`, after expand_config()
+/// for its subcommand `detect`. Nothing when the parsed command is to be
+/// run; else the exit code: --help and --version (0), a usage error (2),
+/// shown on stderr unless `!report` (the message of an error that CLI11 does
+/// not report itself prefixed with "`name`: error: ").
+std::optional<int> parse_command_line(CLI::App& app, CLI::App& detect, int argc, char** argv, const std::string& name,
+                                      bool report = true);
 
 /// The check of every command before its work: no output is an input (the
 /// same file however spelled) and no two outputs are one file; a usage

@@ -204,28 +204,17 @@ int run_detect(const detect_options& o) {
   const auto t_start = clock_type::now();
   if (!o.plan.empty()) return run_detect_plan_tile(o);
   if (o.input.empty()) throw usage_error("give an input file (or --plan and --tile)");
+  if (wants_tiles(o)) return run_detect_tiled(o);
   detect_plan plan = make_plan(o);
-  if (wants_tiles(o)) check_outside_work_dir(o);
   detect_outputs out(o, input_paths(o));
-  if (wants_tiles(o)) {
-    try {
-      return run_detect_tiled(o, plan, out);
-    } catch (const ced::missing_field_error& e) {
-      throw with_file_fields(e, o.input, plan.read_opts);  // the file's fields, not those read
-    }
-  }
   progress_bar progress(!o.quiet);
   const detect_input in = read_input(o, plan.read_opts, progress);
   complete_plan(o, in.cloud, plan);
 
   progress.stage("detecting");
   plan.params.progress = progress.callback();
-  ced::detection_result r;
-  try {
-    r = ced::detect(in.cloud, plan.params, plan.modalities);
-  } catch (const ced::missing_field_error& e) {
-    throw with_file_fields(e, o.input, plan.read_opts);  // the file's fields, not those read
-  }
+  const ced::detection_result r =
+      naming_file_fields(o, plan, [&] { return ced::detect(in.cloud, plan.params, plan.modalities); });
   progress.stage("writing");
   write_outputs(o, plan, in, r, out);
   progress.done();

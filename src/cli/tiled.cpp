@@ -230,12 +230,22 @@ ced::tiled_progress bar_progress(progress_bar& bar) {
 
 bool wants_tiles(const detect_options& o) { return !o.tile_size.empty() || !o.memory_limit.empty(); }
 
-int run_detect_tiled(const detect_options& o, detect_plan& plan, detect_outputs& out) {
+tiled_setup setup_tiled(const detect_options& o) {
+  tiled_setup s;
+  s.plan = make_plan(o);
+  check_outside_work_dir(o);
+  s.out = std::make_unique<detect_outputs>(o, input_paths(o));
+  s.request = request_from(o, s.plan);
+  s.run.work_dir = work_dir_of(o);
+  s.run.resume = o.resume;
+  return s;
+}
+
+int run_detect_tiled(const detect_options& o) {
+  tiled_setup s = setup_tiled(o);
+  const detect_plan& plan = s.plan;
   const auto t_start = clock_type::now();
-  const ced::tiled_request request = request_from(o, plan);
-  ced::tiled_run_options ro;
-  ro.work_dir = work_dir_of(o);
-  ro.resume = o.resume;
+  ced::tiled_run_options& ro = s.run;
   ro.threads = plan.params.threads;
   progress_bar bar(!o.quiet);
   ro.progress = bar_progress(bar);
@@ -257,7 +267,7 @@ int run_detect_tiled(const detect_options& o, detect_plan& plan, detect_outputs&
   ced::tile_plan p;
   ced::tiled_times times;
   ro.times = &times;
-  merged_writer writer(out, plan.out_format);
+  merged_writer writer(*s.out, plan.out_format);
   const ced::merge_sink sink = writer.sink();
   ro.sink = &sink;
   ro.tile_done = [&, tile_done = ro.tile_done](std::size_t done, std::size_t total, double ms) {
@@ -265,12 +275,13 @@ int run_detect_tiled(const detect_options& o, detect_plan& plan, detect_outputs&
     if (done == total) bar.stage("merging and writing");
   };
   ro.keep_work_dir = true;  // until the outputs are committed
-  ced::tile_part merged;
-  try {
-    merged = ced::run_tiled(request, ro, &p);
-  } catch (const ced::work_dir_error& e) {
-    throw usage_error(e.what());
-  }
+  const ced::tile_part merged = naming_file_fields(o, plan, [&] {
+    try {
+      return ced::run_tiled(s.request, ro, &p);
+    } catch (const ced::work_dir_error& e) {
+      throw usage_error(e.what());
+    }
+  });
   writer.finish(p, merged, ms_since(t_start));
   ced::remove_work_dir(ro.work_dir);  // ced's own files only, once the outputs are committed
   bar.done();
