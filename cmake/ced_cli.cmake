@@ -5,6 +5,7 @@ if(CED_BUILD_CLI)
   add_executable(ced_cli
     src/cli/main.cpp
     src/cli/common.cpp
+    src/cli/detectors.cpp
     src/cli/detect.cpp
     src/cli/detect_write.cpp
     src/cli/info.cpp

@@ -4,6 +4,7 @@ ced_library(ced_io io
   src/io/las.cpp
   src/io/stream.cpp
   src/io/pcd.cpp
+  src/io/lzf.cpp
   src/io/csv.cpp
   src/io/output_file.cpp
   src/io/io.cpp

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstring>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -58,9 +59,11 @@ std::vector<html_layer> html_layers(const detection_result& r) {
   return layers;
 }
 
-std::string html_page(const point_cloud& cloud, const std::vector<std::uint32_t>& keypoints,
-                      const std::vector<html_layer>& layers, const html_options& options) {
-  const std::size_t n = cloud.size();
+namespace {
+
+/// std::invalid_argument for what html_page() cannot show.
+void check_html_input(std::size_t n, const std::vector<std::uint32_t>& keypoints, const std::vector<html_layer>& layers,
+                      const html_options& options) {
   if (options.max_points == 0) throw std::invalid_argument("html: the display limit must be at least 1 point");
   for (std::uint32_t k : keypoints)
     if (k >= n)
@@ -70,76 +73,70 @@ std::string html_page(const point_cloud& cloud, const std::vector<std::uint32_t>
     if (l.saliency.size() != n)
       throw std::invalid_argument("html: layer '" + l.name + "' has " + std::to_string(l.saliency.size()) +
                                   " saliencies for " + std::to_string(n) + " points");
+}
+
+/// The points the page draws: all finite ones, or every stride-th and the keypoints.
+struct display_set {
+  std::size_t n_finite = 0, stride = 1;
+  std::vector<std::uint32_t> shown;      ///< the drawn points' indices in the cloud, ascending
+  bool subset = false;                   ///< not every point of the cloud is drawn
+  std::vector<std::uint32_t> keypoints;  ///< the keypoints' indices among the drawn points
+};
+
+display_set choose_display(const point_cloud& cloud, const std::vector<std::uint32_t>& keypoints,
+                           std::size_t max_points) {
+  const std::size_t n = cloud.size();
   const float* xyz = cloud.positions().data();
   const auto finite = [&](std::size_t i) {
     return std::isfinite(xyz[3 * i]) && std::isfinite(xyz[3 * i + 1]) && std::isfinite(xyz[3 * i + 2]);
   };
-  std::size_t n_finite = 0;
-  for (std::size_t i = 0; i < n; ++i) n_finite += finite(i);
-
-  // The drawn points: all finite ones, or every stride-th and the keypoints.
+  display_set d;
+  for (std::size_t i = 0; i < n; ++i) d.n_finite += finite(i);
   std::vector<std::uint8_t> is_kp(n, 0);
   for (std::uint32_t k : keypoints) is_kp[k] = 1;
-  const std::size_t stride =
-      n_finite <= options.max_points ? 1 : (n_finite + options.max_points - 1) / options.max_points;
-  std::vector<std::uint32_t> shown;
+  d.stride = d.n_finite <= max_points ? 1 : (d.n_finite + max_points - 1) / max_points;
   for (std::size_t i = 0, f = 0; i < n; ++i) {
     if (!finite(i)) continue;
-    if (f++ % stride == 0 || is_kp[i]) shown.push_back(static_cast<std::uint32_t>(i));
+    if (f++ % d.stride == 0 || is_kp[i]) d.shown.push_back(static_cast<std::uint32_t>(i));
   }
-  const bool subset = shown.size() != n;
-  std::vector<std::uint32_t> display_of(subset ? n : 0, UINT32_MAX);
-  if (subset)
-    for (std::size_t d = 0; d < shown.size(); ++d) display_of[shown[d]] = static_cast<std::uint32_t>(d);
-
-  std::vector<float> pos(3 * shown.size());
-  for (std::size_t d = 0; d < shown.size(); ++d) std::memcpy(&pos[3 * d], xyz + 3 * std::size_t(shown[d]), 12);
-  std::vector<std::uint32_t> kp;
+  d.subset = d.shown.size() != n;
+  std::vector<std::uint32_t> display_of(d.subset ? n : 0, UINT32_MAX);
+  if (d.subset)
+    for (std::size_t s = 0; s < d.shown.size(); ++s) display_of[d.shown[s]] = static_cast<std::uint32_t>(s);
   for (std::uint32_t k : keypoints)
-    if (!subset || display_of[k] != UINT32_MAX) kp.push_back(subset ? display_of[k] : k);
+    if (!d.subset || display_of[k] != UINT32_MAX) d.keypoints.push_back(d.subset ? display_of[k] : k);
+  return d;
+}
 
-  double spacing = options.spacing;
-  if (!(spacing > 0) && n_finite > 1) {
-    point_cloud sample;
-    for (std::uint32_t i : shown) sample.push_back(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
-    spacing = estimate_resolution(sample) * double(stride > 1 ? std::sqrt(double(stride)) : 1.0);
-  }
-  int decimals = 3;
-  if (spacing > 0) decimals = std::clamp(int(std::ceil(-std::log10(spacing))) + 1, 2, 6);
+/// The drawn points' spacing: `spacing` when it is > 0 or there are fewer
+/// than two finite points; else estimated on the drawn points.
+double display_spacing(const point_cloud& cloud, const display_set& d, double spacing) {
+  if (spacing > 0 || d.n_finite <= 1) return spacing;
+  const float* xyz = cloud.positions().data();
+  point_cloud sample;
+  for (std::uint32_t i : d.shown) sample.push_back(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
+  return estimate_resolution(sample) * double(d.stride > 1 ? std::sqrt(double(d.stride)) : 1.0);
+}
 
-  nlohmann::json j;
-  j["title"] = options.title;
-  j["source"] = options.source;
-  j["total_points"] = n_finite;
-  j["max_points"] = options.max_points;
-  j["stride"] = stride;
-  j["spacing"] = spacing;  // NaN becomes null
-  j["decimals"] = decimals;
-  j["origin"] = cloud.origin();
-  j["info"] = nlohmann::json::array();
-  for (const auto& [k, v] : options.info) j["info"].push_back({k, v});
-  j["positions"] = base64_of(pos);
+/// The drawn points' colours, 3 bytes each; nothing when the cloud has none.
+std::optional<std::vector<std::uint8_t>> display_colours(const point_cloud& cloud,
+                                                         const std::vector<std::uint32_t>& shown) {
   const auto f = find_rgb_fields(cloud);
-  if (f[0]) {
-    const auto s = rgb::scale(f, std::nullopt);
-    std::vector<std::uint8_t> colours(3 * shown.size());
-    for (std::size_t d = 0; d < shown.size(); ++d)
-      for (std::size_t c = 0; c < 3; ++c) {
-        const double v = f[c]->values[shown[d]] * s[c] * 255.0 + 0.5;
-        colours[3 * d + c] = static_cast<std::uint8_t>(std::isfinite(v) ? std::clamp(v, 0.0, 255.0) : 0.0);
-      }
-    j["rgb"] = base64_of(colours);
-  }
-  if (subset) j["index"] = base64_of(shown);
-  j["keypoints"] = base64_of(kp);
-  j["modalities"] = nlohmann::json::array();
-  for (const auto& layer : layers) {
-    std::vector<float> s(shown.size());
-    for (std::size_t d = 0; d < shown.size(); ++d) s[d] = layer.saliency[shown[d]];
-    j["modalities"].push_back({{"name", layer.name}, {"threshold", layer.threshold}, {"saliency", base64_of(s)}});
-  }
-  // '<', '>' and '&' occur only inside strings: escaped, no text can close
-  // the script. Invalid UTF-8 (a file name) becomes U+FFFD.
+  if (!f[0]) return std::nullopt;
+  const auto s = rgb::scale(f, std::nullopt);
+  std::vector<std::uint8_t> colours(3 * shown.size());
+  for (std::size_t d = 0; d < shown.size(); ++d)
+    for (std::size_t c = 0; c < 3; ++c) {
+      const double v = f[c]->values[shown[d]] * s[c] * 255.0 + 0.5;
+      colours[3 * d + c] = static_cast<std::uint8_t>(std::isfinite(v) ? std::clamp(v, 0.0, 255.0) : 0.0);
+    }
+  return colours;
+}
+
+/// `j` as the script statement "const CED_DATA = ...;". '<', '>' and '&'
+/// occur only inside strings: escaped, no text can close the script.
+/// Invalid UTF-8 (a file name) becomes U+FFFD.
+std::string script_data(const nlohmann::json& j) {
   std::string data = "const CED_DATA = ";
   for (char c : j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace)) {
     if (c == '<')
@@ -152,12 +149,49 @@ std::string html_page(const point_cloud& cloud, const std::vector<std::uint32_t>
       data += c;
   }
   data += ";";
+  return data;
+}
+
+}  // namespace
+
+std::string html_page(const point_cloud& cloud, const std::vector<std::uint32_t>& keypoints,
+                      const std::vector<html_layer>& layers, const html_options& options) {
+  check_html_input(cloud.size(), keypoints, layers, options);
+  const display_set d = choose_display(cloud, keypoints, options.max_points);
+  const float* xyz = cloud.positions().data();
+  std::vector<float> pos(3 * d.shown.size());
+  for (std::size_t s = 0; s < d.shown.size(); ++s) std::memcpy(&pos[3 * s], xyz + 3 * std::size_t(d.shown[s]), 12);
+  const double spacing = display_spacing(cloud, d, options.spacing);
+  int decimals = 3;
+  if (spacing > 0) decimals = std::clamp(int(std::ceil(-std::log10(spacing))) + 1, 2, 6);
+
+  nlohmann::json j;
+  j["title"] = options.title;
+  j["source"] = options.source;
+  j["total_points"] = d.n_finite;
+  j["max_points"] = options.max_points;
+  j["stride"] = d.stride;
+  j["spacing"] = spacing;  // NaN becomes null
+  j["decimals"] = decimals;
+  j["origin"] = cloud.origin();
+  j["info"] = nlohmann::json::array();
+  for (const auto& [k, v] : options.info) j["info"].push_back({k, v});
+  j["positions"] = base64_of(pos);
+  if (const auto colours = display_colours(cloud, d.shown)) j["rgb"] = base64_of(*colours);
+  if (d.subset) j["index"] = base64_of(d.shown);
+  j["keypoints"] = base64_of(d.keypoints);
+  j["modalities"] = nlohmann::json::array();
+  for (const auto& layer : layers) {
+    std::vector<float> sal(d.shown.size());
+    for (std::size_t s = 0; s < d.shown.size(); ++s) sal[s] = layer.saliency[d.shown[s]];
+    j["modalities"].push_back({{"name", layer.name}, {"threshold", layer.threshold}, {"saliency", base64_of(sal)}});
+  }
 
   const std::string page = detail::viewer_html;
   const std::string mark = "/*CED_DATA*/";
   const auto at = page.find(mark);
   if (at == std::string::npos) throw std::logic_error("html: the viewer template has no data mark");
-  return page.substr(0, at) + data + page.substr(at + mark.size());
+  return page.substr(0, at) + script_data(j) + page.substr(at + mark.size());
 }
 
 void write_html(const std::string& path, const point_cloud& cloud, const std::vector<std::uint32_t>& keypoints,

@@ -214,10 +214,9 @@ void draw_keypoint(std::vector<std::uint8_t>& rgb, int w, int h, double cx, doub
     }
 }
 
-}  // namespace
-
-std::vector<std::uint8_t> render_rgb(const point_cloud& cloud, const std::vector<std::uint32_t>& keypoints,
-                                     const render_options& options, int& width, int& height) {
+/// std::invalid_argument for what render_rgb() cannot draw.
+void check_render_input(const point_cloud& cloud, const std::vector<std::uint32_t>& keypoints,
+                        const render_options& options) {
   if (cloud.empty()) throw std::invalid_argument("cannot render an empty point cloud");
   const int w = options.width, h = options.height;
   if (w < 1 || h < 1 || w > max_image_size || h > max_image_size)
@@ -230,6 +229,104 @@ std::vector<std::uint8_t> render_rgb(const point_cloud& cloud, const std::vector
   if (!options.point_colors.empty() && options.point_colors.size() != 3 * cloud.size())
     throw std::invalid_argument("point_colors holds " + std::to_string(options.point_colors.size()) +
                                 " bytes, not 3 per point (" + std::to_string(cloud.size()) + " points)");
+}
+
+/// The nearest point's depth and colour at each pixel.
+struct z_buffer {
+  static constexpr float empty = -std::numeric_limits<float>::infinity();
+  int w, h;
+  std::vector<float> depth;
+  std::vector<std::uint8_t> colour;
+  z_buffer(int width, int height)
+      : w(width),
+        h(height),
+        depth(static_cast<std::size_t>(w) * static_cast<std::size_t>(h), empty),
+        colour(3 * depth.size()) {}
+  std::size_t at(int x, int y) const noexcept {
+    return static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x);
+  }
+};
+
+/// Every point as a disc of `size` pixels: options.point_colors, the cloud's
+/// colour, or grey by depth.
+z_buffer splat_points(const point_cloud& cloud, const projected& p, const viewport& vp, const render_options& options,
+                      int size) {
+  z_buffer zb(options.width, options.height);
+  const auto rgb_fields = find_rgb_fields(cloud);
+  std::vector<channel> channels;
+  if (rgb_fields[0] && options.point_colors.empty()) {
+    const auto scales = rgb::scale(rgb_fields, std::nullopt);
+    for (std::size_t k = 0; k < 3; ++k) channels.emplace_back(rgb_fields[k], scales[k]);
+  }
+  const double drange = p.dmax > p.dmin ? p.dmax - p.dmin : 1.0;
+  const auto offsets = stamp(size);
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (!p.ok[i]) continue;
+    const int x = static_cast<int>(std::floor(vp.x(p.u[i]))), y = static_cast<int>(std::floor(vp.y(p.v[i])));
+    std::uint8_t c[3];
+    if (!options.point_colors.empty()) {
+      for (int k = 0; k < 3; ++k) c[k] = options.point_colors[3 * i + std::size_t(k)];
+    } else if (!channels.empty()) {
+      for (int k = 0; k < 3; ++k) c[k] = static_cast<std::uint8_t>(channels[k](i) * 255.0f + 0.5f);
+    } else {  // grey: near points dark, far points fading towards the background
+      const double t = (p.dmax - p.d[i]) / drange;
+      c[0] = c[1] = c[2] = static_cast<std::uint8_t>(76.5 + 102 * t);
+    }
+    for (const auto& o : offsets) {
+      const int px = x + o[0], py = y + o[1];
+      if (px < 0 || py < 0 || px >= zb.w || py >= zb.h) continue;
+      const std::size_t j = zb.at(px, py);
+      if (p.d[i] <= zb.depth[j]) continue;
+      zb.depth[j] = p.d[i];
+      for (int k = 0; k < 3; ++k) zb.colour[3 * j + k] = c[k];
+    }
+  }
+  return zb;
+}
+
+/// Eye-dome-style shading into `rgb`: darkens the pixels of `zb` whose
+/// neighbours, `radius` pixels away, are closer to the viewer (mean slope
+/// towards them, in pixels per pixel).
+void shade(const z_buffer& zb, const viewport& vp, int radius, std::vector<std::uint8_t>& rgb) {
+  const int dirs[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {1, -1}, {-1, 1}, {-1, -1}};
+  float slope[8];  // depth difference -> slope in pixels per pixel, averaged over the 8 directions
+  for (int k = 0; k < 8; ++k)
+    slope[k] = static_cast<float>(vp.scale / (radius * std::hypot(dirs[k][0], dirs[k][1])) / 8);
+  for (int y = 0; y < zb.h; ++y)
+    for (int x = 0; x < zb.w; ++x) {
+      const std::size_t j = zb.at(x, y);
+      const float dj = zb.depth[j];
+      if (dj == z_buffer::empty) continue;
+      float response = 0;
+      for (int k = 0; k < 8; ++k) {
+        const int qx = x + dirs[k][0] * radius, qy = y + dirs[k][1] * radius;
+        if (qx < 0 || qy < 0 || qx >= zb.w || qy >= zb.h) continue;
+        const float dq = zb.depth[zb.at(qx, qy)];
+        if (dq > dj) response += (dq - dj) * slope[k];
+      }
+      const float s = std::max(0.25f, std::exp(-0.8f * response));
+      for (int k = 0; k < 3; ++k) rgb[3 * j + k] = static_cast<std::uint8_t>(zb.colour[3 * j + k] * s + 0.5f);
+    }
+}
+
+/// The keypoints on top, farthest first so that nearer ones overlap them.
+void draw_keypoints(std::vector<std::uint8_t>& rgb, int w, int h, const projected& p, const viewport& vp,
+                    const std::vector<std::uint32_t>& keypoints, double diameter,
+                    const std::array<std::uint8_t, 3>& fill) {
+  std::vector<std::uint32_t> order;
+  for (std::uint32_t k : keypoints)
+    if (p.ok[k]) order.push_back(k);
+  std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return p.d[a] < p.d[b]; });
+  for (std::uint32_t k : order)
+    draw_keypoint(rgb, w, h, std::floor(vp.x(p.u[k])) + 0.5, std::floor(vp.y(p.v[k])) + 0.5, diameter, fill);
+}
+
+}  // namespace
+
+std::vector<std::uint8_t> render_rgb(const point_cloud& cloud, const std::vector<std::uint32_t>& keypoints,
+                                     const render_options& options, int& width, int& height) {
+  check_render_input(cloud, keypoints, options);
+  const int w = options.width, h = options.height;
   width = w;
   height = h;
   const std::size_t npix = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
@@ -238,85 +335,19 @@ std::vector<std::uint8_t> render_rgb(const point_cloud& cloud, const std::vector
     for (int k = 0; k < 3; ++k) rgb[3 * i + k] = options.background[k];
 
   const projected p = project(cloud, view_basis(options.view));
-  if (p.finite > 0) {
-    // Sizes: the margin depends on the keypoint size, which depends on the point size.
-    const double base_margin = 0.04 * std::min(w, h);
-    const float point_size = options.point_size_px > 0 ? std::clamp(options.point_size_px, 1.0f, 64.0f)
-                                                       : auto_point_size(p, viewport(p, w, h, base_margin), w, h);
-    const double kp_size = options.keypoint_size_px > 0
-                               ? std::min(options.keypoint_size_px, 256.0f)
-                               : auto_keypoint_size(p, viewport(p, w, h, base_margin), w, h, point_size, keypoints);
-    const viewport vp(p, w, h, std::max(base_margin, 0.5 * kp_size + 2));
-
-    // Z-buffer pass.
-    constexpr float empty = -std::numeric_limits<float>::infinity();
-    std::vector<float> depth(npix, empty);
-    std::vector<std::uint8_t> colour(3 * npix);
-    const auto rgb_fields = find_rgb_fields(cloud);
-    std::vector<channel> channels;
-    if (rgb_fields[0] && options.point_colors.empty()) {
-      const auto scales = rgb::scale(rgb_fields, std::nullopt);
-      for (std::size_t k = 0; k < 3; ++k) channels.emplace_back(rgb_fields[k], scales[k]);
-    }
-    const double drange = p.dmax > p.dmin ? p.dmax - p.dmin : 1.0;
-    const int size = static_cast<int>(std::lround(point_size));
-    const auto offsets = stamp(size);
-    for (std::size_t i = 0; i < cloud.size(); ++i) {
-      if (!p.ok[i]) continue;
-      const int x = static_cast<int>(std::floor(vp.x(p.u[i]))), y = static_cast<int>(std::floor(vp.y(p.v[i])));
-      std::uint8_t c[3];
-      if (!options.point_colors.empty()) {
-        for (int k = 0; k < 3; ++k) c[k] = options.point_colors[3 * i + std::size_t(k)];
-      } else if (!channels.empty()) {
-        for (int k = 0; k < 3; ++k) c[k] = static_cast<std::uint8_t>(channels[k](i) * 255.0f + 0.5f);
-      } else {  // grey: near points dark, far points fading towards the background
-        const double t = (p.dmax - p.d[i]) / drange;
-        c[0] = c[1] = c[2] = static_cast<std::uint8_t>(76.5 + 102 * t);
-      }
-      for (const auto& o : offsets) {
-        const int px = x + o[0], py = y + o[1];
-        if (px < 0 || py < 0 || px >= w || py >= h) continue;
-        const std::size_t j = static_cast<std::size_t>(py) * static_cast<std::size_t>(w) + static_cast<std::size_t>(px);
-        if (p.d[i] <= depth[j]) continue;
-        depth[j] = p.d[i];
-        for (int k = 0; k < 3; ++k) colour[3 * j + k] = c[k];
-      }
-    }
-
-    // Eye-dome-style shading: darken pixels whose neighbours are closer to
-    // the viewer (mean slope towards them, in pixels per pixel).
-    const int radius = std::max(1, size / 2);
-    const int dirs[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {1, -1}, {-1, 1}, {-1, -1}};
-    float slope[8];  // depth difference -> slope in pixels per pixel, averaged over the 8 directions
-    for (int k = 0; k < 8; ++k)
-      slope[k] = static_cast<float>(vp.scale / (radius * std::hypot(dirs[k][0], dirs[k][1])) / 8);
-    for (int y = 0; y < h; ++y)
-      for (int x = 0; x < w; ++x) {
-        const std::size_t j = static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x);
-        const float dj = depth[j];
-        if (dj == empty) continue;
-        float response = 0;
-        for (int k = 0; k < 8; ++k) {
-          const int qx = x + dirs[k][0] * radius, qy = y + dirs[k][1] * radius;
-          if (qx < 0 || qy < 0 || qx >= w || qy >= h) continue;
-          const float dq =
-              depth[static_cast<std::size_t>(qy) * static_cast<std::size_t>(w) + static_cast<std::size_t>(qx)];
-          if (dq > dj) response += (dq - dj) * slope[k];
-        }
-        const float shade = std::max(0.25f, std::exp(-0.8f * response));
-        for (int k = 0; k < 3; ++k) rgb[3 * j + k] = static_cast<std::uint8_t>(colour[3 * j + k] * shade + 0.5f);
-      }
-
-    // Keypoints on top, farthest first so that nearer ones overlap them.
-    std::vector<std::uint32_t> order;
-    for (std::uint32_t k : keypoints)
-      if (p.ok[k]) order.push_back(k);
-    std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return p.d[a] < p.d[b]; });
-    for (std::uint32_t k : order)
-      draw_keypoint(rgb, w, h, std::floor(vp.x(p.u[k])) + 0.5, std::floor(vp.y(p.v[k])) + 0.5, kp_size,
-                    options.keypoint_color);
-  }
-
+  if (p.finite == 0) return rgb;
+  // Sizes: the margin depends on the keypoint size, which depends on the point size.
+  const double base_margin = 0.04 * std::min(w, h);
+  const float point_size = options.point_size_px > 0 ? std::clamp(options.point_size_px, 1.0f, 64.0f)
+                                                     : auto_point_size(p, viewport(p, w, h, base_margin), w, h);
+  const double kp_size = options.keypoint_size_px > 0
+                             ? std::min(options.keypoint_size_px, 256.0f)
+                             : auto_keypoint_size(p, viewport(p, w, h, base_margin), w, h, point_size, keypoints);
+  const viewport vp(p, w, h, std::max(base_margin, 0.5 * kp_size + 2));
+  const int size = static_cast<int>(std::lround(point_size));
+  const z_buffer zb = splat_points(cloud, p, vp, options, size);
+  shade(zb, vp, std::max(1, size / 2), rgb);
+  draw_keypoints(rgb, w, h, p, vp, keypoints, kp_size, options.keypoint_color);
   return rgb;
 }
 

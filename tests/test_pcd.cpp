@@ -39,15 +39,6 @@ std::string read_error(const std::string& bytes, const std::string& name = "bad.
   return ced_test::read_error_of([](const std::string& path) { ced::io::read_pcd(path); }, bytes, name);
 }
 
-std::string lzf_error(const std::string& compressed, std::size_t out_size) {
-  try {
-    ced::io::lzf_decompress(compressed, out_size, "lzf");
-  } catch (const io_error& e) {
-    return e.what();
-  }
-  return "<no io_error thrown>";
-}
-
 /// Appends little-endian binary values.
 struct bytes_builder {
   std::string data;
@@ -223,78 +214,6 @@ TEST(PcdCompression, ConstantCloudCompressesAtLzfsMaximumRatio) {
 INSTANTIATE_TEST_SUITE_P(AllFormats, PcdRoundTrip,
                          ::testing::Values(pcd_format::ascii, pcd_format::binary, pcd_format::binary_compressed),
                          [](const auto& p) { return std::string(format_name(p.param)); });
-
-// ---------------------------------------------------------------------- LZF
-
-TEST(Lzf, HandEncodedStreamDecodes) {
-  // Literal "abc", then a back-reference of 9 bytes at distance 3 (extended length byte), then one of 3 bytes.
-  const std::string lzf(
-      "\x02"
-      "abc"
-      "\xE0\x00\x02"
-      "\x20\x04",
-      9);
-  EXPECT_EQ(ced::io::lzf_decompress(lzf, 15, "lzf"), "abcabcabcabcbca");
-}
-
-TEST(Lzf, RandomAndRepetitiveDataRoundTrip) {
-  std::mt19937 rng(7);
-  std::vector<std::string> inputs = {"", "a", "ab", "abc", "aaaa", std::string(1 << 20, '\0')};
-  for (std::size_t size : {5u, 31u, 32u, 33u, 1000u, 100000u}) {
-    std::string s(size, '\0');
-    for (auto& ch : s) ch = static_cast<char>(rng());
-    inputs.push_back(s);  // incompressible
-    std::string t(size, '\0');
-    for (std::size_t i = 0; i < size; ++i) t[i] = static_cast<char>(rng() % 4 == 0 ? rng() : i % 13);
-    inputs.push_back(t);  // partly repetitive
-  }
-  std::string long_range;  // repeats at distances near the 8192 limit
-  for (int i = 0; i < 20000; ++i) long_range += static_cast<char>((i % 8193) * 2654435761u >> 24);
-  inputs.push_back(long_range);
-  for (const auto& in : inputs) {
-    const std::string packed = ced::io::lzf_compress(in);
-    EXPECT_LE(packed.size(), in.size() + in.size() / 32 + 1);
-    EXPECT_EQ(ced::io::lzf_decompress(packed, in.size(), "lzf"), in) << "size " << in.size();
-  }
-  EXPECT_LT(ced::io::lzf_compress(std::string(1 << 20, '\0')).size(), (1u << 20) / 80);
-}
-
-TEST(Lzf, CorruptDataIsDetected) {
-  // Back-reference before the start of the output.
-  EXPECT_CONTAINS(lzf_error(std::string("\x20\x00", 2), 3), "corrupt LZF data");
-  EXPECT_CONTAINS(lzf_error(std::string("\x20\x00", 2), 3), "before the start of the output");
-  EXPECT_CONTAINS(lzf_error(std::string("\x01xy\x20\x05", 5), 5), "before the start of the output");
-  // Output overflow: by a literal run and by a back-reference.
-  EXPECT_CONTAINS(lzf_error(std::string("\x03xyzw", 5), 3), "exceed the declared 3 bytes");
-  EXPECT_CONTAINS(lzf_error(std::string("\x00x\xE0\x10\x00", 5), 10), "exceed the declared 10 bytes");
-  // Input ends inside a literal run or a back-reference.
-  EXPECT_CONTAINS(lzf_error(std::string("\x05xy", 3), 6), "past the end of the input");
-  EXPECT_CONTAINS(lzf_error(std::string("\x00x\x20", 3), 4), "truncated back-reference");
-  EXPECT_CONTAINS(lzf_error(std::string("\x00x\xE0", 3), 12), "truncated back-reference");
-  // Too short.
-  EXPECT_CONTAINS(lzf_error(std::string("\x01xy", 3), 3), "expands to 2 bytes, not the declared 3");
-  EXPECT_CONTAINS(lzf_error("", 1), "corrupt LZF data");
-}
-
-TEST(Lzf, FlippedBytesNeverReadOrWriteOutOfBounds) {
-  std::mt19937 rng(3);
-  std::string in;
-  for (int i = 0; i < 5000; ++i) in += static_cast<char>(i % 50 < 10 ? rng() : i % 17);
-  const std::string packed = ced::io::lzf_compress(in);
-  int errors = 0;
-  for (int trial = 0; trial < 2000; ++trial) {
-    std::string bad = packed;
-    for (int k = 0; k < 3; ++k) bad[rng() % bad.size()] ^= static_cast<char>(1 + rng() % 255);
-    if (trial % 3 == 0) bad.resize(rng() % bad.size());
-    try {
-      EXPECT_EQ(ced::io::lzf_decompress(bad, in.size(), "lzf").size(), in.size());
-    } catch (const io_error& e) {
-      EXPECT_CONTAINS(e.what(), "corrupt LZF data");
-      ++errors;
-    }
-  }
-  EXPECT_GT(errors, 1000);
-}
 
 // ------------------------------------------------------------ hand written
 

@@ -1,19 +1,19 @@
 // SPDX-License-Identifier: MIT
 // What the `ced` subcommands share: exit codes, usage errors, the --config
-// reader, the progress bar, reading options, and the evaluated detectors.
+// reader, the progress bar, the input options and reading.
 #pragma once
 
 #include <CLI/CLI.hpp>
-#include <chrono>
 #include <cstddef>
 #include <functional>
 #include <iosfwd>
 #include <mutex>
-#include <random>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "../core/timing.hpp"
 #include "ced/ced.hpp"
 #include "ced/io/io.hpp"
 #include "ced/io/output_file.hpp"
@@ -29,8 +29,9 @@ struct usage_error : std::invalid_argument {
   using std::invalid_argument::invalid_argument;
 };
 
-using clock_type = std::chrono::steady_clock;
-double ms_since(clock_type::time_point t);
+// The library's clock of stage times (milliseconds since a time point).
+using ced::detail::clock_type;
+using ced::detail::ms_since;
 
 /// Reads `--config FILE.json`: a JSON object whose keys are the long option
 /// names (without --), values numbers, strings, booleans or arrays.
@@ -44,6 +45,14 @@ class json_config : public CLI::Config {
 /// right after `detect`; options also given on the command line win (the
 /// file's value is dropped).
 std::vector<std::string> expand_config(const std::vector<std::string>& args, CLI::App& det);
+
+/// Parses the command line (argc, argv) with `app`, after expand_config()
+/// for its subcommand `detect`. Nothing when the parsed command is to be
+/// run; else the exit code: --help and --version (0), a usage error (2),
+/// shown on stderr unless `!report` (the message of an error that CLI11 does
+/// not report itself prefixed with "`name`: error: ").
+std::optional<int> parse_command_line(CLI::App& app, CLI::App& detect, int argc, char** argv, const std::string& name,
+                                      bool report = true);
 
 /// The check of every command before its work: no output is an input (the
 /// same file however spelled) and no two outputs are one file; a usage
@@ -90,6 +99,11 @@ class progress_bar {
   std::mutex m_mutex;
 };
 
+/// The input options of a subcommand: the positional INPUT (`what` is its
+/// help), --format and --columns. Returns INPUT's option (to require it).
+CLI::Option* add_input_options(CLI::App* cmd, std::string& input, const std::string& what, std::string& format,
+                               std::string& columns);
+/// The read options of --format and --columns; a usage error for an unknown format.
 ced::io::read_options make_read_options(const std::string& format, const std::string& columns);
 
 /// `e` (a modality needs a field that the cloud read from `path` with
@@ -103,47 +117,5 @@ ced::missing_field_error with_file_fields(const ced::missing_field_error& e, con
 /// Reads a cloud, drops its non-finite points, then voxel down-samples it when `voxel` > 0.
 ced::point_cloud read_finite(const std::string& path, const std::string& format, const std::string& columns,
                              double voxel = 0);
-
-// PCL's detectors, available when ced is built with its PCL component.
-extern const std::vector<std::string> pcl_detector_names;
-extern const char* const no_pcl_message;
-
-/// A detector of the evaluation: "random", a preset, one of PCL's, or
-/// modality specs joined by commas ("xyz:0.2,bands(nir):0.1,range=0..255"),
-/// among which the word "refine" asks for keypoint refinement.
-struct eval_detector {
-  enum class kind { ced, random, pcl };
-  std::string name;
-  kind type = kind::ced;
-  std::vector<ced::any_modality> modalities;
-  bool refine = false;  ///< a robust preset, or "refine" among the specs
-};
-
-eval_detector parse_detector(const std::string& text);
-/// A sweep: every setting of `text`'s brace lists, in order (the last list
-/// varies fastest): "xyz:{0.1,0.2},rgb:{0.1,0.5}" gives xyz:0.1,rgb:0.1,
-/// xyz:0.1,rgb:0.5, xyz:0.2,rgb:0.1, xyz:0.2,rgb:0.5. Text without braces is
-/// itself. std::invalid_argument for unbalanced or nested braces and empty
-/// values.
-std::vector<std::string> expand_sweep(const std::string& text);
-std::vector<eval_detector> parse_detectors(const std::vector<std::string>& names);
-
-/// What the evaluated detectors share: the detector parameters and the resolution.
-struct eval_setting {
-  ced::detect_params params;
-  double resolution = 0;
-};
-
-eval_setting make_setting(const ced::point_cloud& p, const std::string& name, double resolution, double radius,
-                          int min_neighbors, int threads);
-
-struct detection {
-  std::vector<std::uint32_t> keypoints;
-  double ms = 0;
-};
-
-/// Runs `d` on `cloud`. "random" picks `random_count` points.
-detection run_detector(const eval_detector& d, const ced::point_cloud& cloud, const eval_setting& s,
-                       std::size_t random_count, std::mt19937_64& rng);
 
 }  // namespace ced_cli

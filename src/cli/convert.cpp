@@ -39,10 +39,8 @@ int run_convert(const convert_options& o) {
 command add_convert_command(CLI::App& app) {
   auto o = std::make_shared<convert_options>();
   auto* conv = app.add_subcommand("convert", "Convert between formats (by extension), optionally voxel down-sampled");
-  conv->add_option("input", o->input, "Input point cloud")->required();
+  add_input_options(conv, o->input, "Input point cloud", o->format, o->columns)->required();
   conv->add_option("output", o->output, "Output: .ply, .pcd, .las or .csv")->required();
-  conv->add_option("--format", o->format, "Input format: ply, pcd, las, csv, auto");
-  conv->add_option("--columns", o->columns, "CSV column names");
   conv->add_option("--voxel", o->voxel, "Voxel size for down-sampling (metres)");
   return {conv, [o] { return run_convert(*o); }};
 }

@@ -204,28 +204,17 @@ int run_detect(const detect_options& o) {
   const auto t_start = clock_type::now();
   if (!o.plan.empty()) return run_detect_plan_tile(o);
   if (o.input.empty()) throw usage_error("give an input file (or --plan and --tile)");
+  if (wants_tiles(o)) return run_detect_tiled(o);
   detect_plan plan = make_plan(o);
-  if (wants_tiles(o)) check_outside_work_dir(o);
   detect_outputs out(o, input_paths(o));
-  if (wants_tiles(o)) {
-    try {
-      return run_detect_tiled(o, plan, out);
-    } catch (const ced::missing_field_error& e) {
-      throw with_file_fields(e, o.input, plan.read_opts);  // the file's fields, not those read
-    }
-  }
   progress_bar progress(!o.quiet);
   const detect_input in = read_input(o, plan.read_opts, progress);
   complete_plan(o, in.cloud, plan);
 
   progress.stage("detecting");
   plan.params.progress = progress.callback();
-  ced::detection_result r;
-  try {
-    r = ced::detect(in.cloud, plan.params, plan.modalities);
-  } catch (const ced::missing_field_error& e) {
-    throw with_file_fields(e, o.input, plan.read_opts);  // the file's fields, not those read
-  }
+  const ced::detection_result r =
+      naming_file_fields(o, plan, [&] { return ced::detect(in.cloud, plan.params, plan.modalities); });
   progress.stage("writing");
   write_outputs(o, plan, in, r, out);
   progress.done();
@@ -244,7 +233,19 @@ std::vector<ced::io::named_path> input_paths(const detect_options& o) {
   return in;
 }
 
-void add_refine_flags(CLI::App* cmd, detect_options& o) {
+void add_detector_options(CLI::App* cmd, detect_options& o, const std::string& radius_help) {
+  cmd->add_option("--preset", o.preset,
+                  "ced3d (xyz:0.2), ced6d (xyz:0.2 + rgb:0.1), robust3d (xyz:0.2,scale=1.75, refined) or "
+                  "robust6d (xyz:0.2,scale=2.25 + rgb:0.5, refined); radius 0.05 unless given")
+      ->check(CLI::IsMember(ced::preset_names()));
+  cmd->add_option(
+      "-m,--modality", o.modalities,
+      "Modality spec, repeatable: xyz:0.2, rgb:0.1, lab:0.1, intensity:0.05, bands(nir,red):0.1,range=0..255"
+      " (default: ced6d when the cloud has colour, else ced3d)");
+  add_plugin_option(cmd, o.plugins);
+  cmd->add_option("-r,--radius", o.radius, radius_help);
+  cmd->add_option("--nms-radius", o.nms_radius, "Non-maximum-suppression radius (default: the radius)");
+  cmd->add_option("-k,--min-neighbors", o.min_neighbors, "Minimum neighbours, the point included (default 5)");
   cmd->add_flag("--refine", o.refine,
                 "Move each keypoint to the point nearest the score-weighted centroid of its NMS neighbourhood "
                 "(more repeatable under noise; default with the robust presets)");
@@ -254,25 +255,11 @@ void add_refine_flags(CLI::App* cmd, detect_options& o) {
 command add_detect_command(CLI::App& app, std::function<int(const detect_options&)> run) {
   auto o = std::make_shared<detect_options>();
   auto* det = app.add_subcommand("detect", "Detect keypoints");
-  det->add_option("input", o->input, "Input cloud: .ply, .pcd, .las, .csv/.xyz/.txt/.pts");
-  det->add_option("--format", o->format, "Input format when the extension does not say: ply, pcd, las, csv, auto");
-  det->add_option("--columns", o->columns, "CSV column names, e.g. x,y,z,intensity (the file then has no header)");
-  det->add_option("--preset", o->preset,
-                  "ced3d (xyz:0.2), ced6d (xyz:0.2 + rgb:0.1), robust3d (xyz:0.2,scale=1.75, refined) or "
-                  "robust6d (xyz:0.2,scale=2.25 + rgb:0.5, refined); radius 0.05 unless given")
-      ->check(CLI::IsMember(ced::preset_names()));
-  det->add_option(
-      "-m,--modality", o->modalities,
-      "Modality spec, repeatable: xyz:0.2, rgb:0.1, lab:0.1, intensity:0.05, bands(nir,red):0.1,range=0..255"
-      " (default: ced6d when the cloud has colour, else ced3d)");
-  add_plugin_option(det, o->plugins);
-  det->add_option(
-      "-r,--radius", o->radius,
+  add_input_options(det, o->input, "Input cloud: .ply, .pcd, .las, .csv/.xyz/.txt/.pts", o->format, o->columns);
+  add_detector_options(
+      det, *o,
       "Neighbourhood radius in metres, or auto = factor x resolution (default: 0.05 with --preset, else auto)");
   det->add_option("--radius-factor", o->radius_factor, "For --radius auto: radius = factor x resolution (default 5)");
-  det->add_option("--nms-radius", o->nms_radius, "Non-maximum-suppression radius (default: the radius)");
-  det->add_option("-k,--min-neighbors", o->min_neighbors, "Minimum neighbours, the point included (default 5)");
-  add_refine_flags(det, *o);
   det->add_option("--voxel", o->voxel, "Down-sample first: average every channel per voxel of this size (metres)");
   det->add_option("-j,--threads", o->threads, "Threads (default 0 = all cores; the result does not depend on it)");
   det->add_option("--indices", o->indices, "Keypoint indices into the cloud the detector saw (0-based, ascending)");

@@ -44,8 +44,10 @@ struct detect_options {
   std::vector<std::string> given_plan_options;
 };
 
-/// --refine / --no-refine (keypoint refinement; default: the preset's).
-void add_refine_flags(CLI::App* cmd, detect_options& o);
+/// The detector's options of `ced detect` and `ced plan`: --preset,
+/// -m/--modality, --plugin, -r/--radius (`radius_help`: its help),
+/// --nms-radius, -k/--min-neighbors, --refine and --no-refine.
+void add_detector_options(CLI::App* cmd, detect_options& o, const std::string& radius_help);
 
 /// What the options ask for, checked before any file is read.
 struct detect_plan {
@@ -99,6 +101,17 @@ ced::point_cloud keypoint_cloud(ced::point_cloud kp, const std::vector<std::stri
 void write_keypoint_cloud(std::ostream& out, ced::point_cloud kp, const std::vector<std::string>& names,
                           const std::vector<std::vector<float>>& saliency, ced::io::file_format format);
 
+/// f(); a missing_field_error from it names the input file's fields
+/// (with_file_fields), not those read.
+template <class F>
+auto naming_file_fields(const detect_options& o, const detect_plan& plan, F&& f) -> decltype(f()) {
+  try {
+    return f();
+  } catch (const ced::missing_field_error& e) {
+    throw with_file_fields(e, o.input, plan.read_opts);
+  }
+}
+
 /// The files `ced detect` reads: the input and the plugins.
 std::vector<ced::io::named_path> input_paths(const detect_options& o);
 
@@ -109,7 +122,19 @@ std::string work_dir_of(const detect_options& o);
 /// A usage error when an output lies inside the work directory (ced empties
 /// that directory of its own files; outputs belong elsewhere).
 void check_outside_work_dir(const detect_options& o);
-int run_detect_tiled(const detect_options& o, detect_plan& plan, detect_outputs& out);
+/// What a tiled detection (`ced detect --tile-size`, ced-mpi) sets up before
+/// its work: the checked options (make_plan), its outputs (none inside the
+/// work directory) opened, its request, and the run options of its work
+/// directory (--work-dir, --resume).
+struct tiled_setup {
+  detect_plan plan;
+  std::unique_ptr<detect_outputs> out;
+  ced::tiled_request request;
+  ced::tiled_run_options run;
+};
+tiled_setup setup_tiled(const detect_options& o);
+/// `ced detect --tile-size/--memory-limit`: setup_tiled(), run_tiled(), the outputs.
+int run_detect_tiled(const detect_options& o);
 int run_detect_plan_tile(const detect_options& o);
 /// The tiled request of the options; usage errors for what tiles cannot do.
 ced::tiled_request request_from(const detect_options& o, detect_plan& plan);

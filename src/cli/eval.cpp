@@ -18,6 +18,7 @@
 #include "ced/io/io.hpp"
 #include "commands.hpp"
 #include "common.hpp"
+#include "detectors.hpp"
 
 namespace ced_cli {
 namespace {
@@ -199,13 +200,11 @@ CLI::App* add_eval_command(CLI::App& app) {
 command add_repeatability_command(CLI::App& eval) {
   auto o = std::make_shared<eval_options>();
   auto* rep = eval.add_subcommand("repeatability", "Relative repeatability under a random rigid transform and noise");
-  rep->add_option("input", o->input, "Input point cloud (or --source and --target)");
+  add_input_options(rep, o->input, "Input point cloud (or --source and --target)", o->format, o->columns);
   rep->add_option("--source", o->source, "A given pair instead of INPUT: the source cloud P");
   rep->add_option("--target", o->target, "A given pair instead of INPUT: the target cloud Q");
   rep->add_option("--transform", o->transform,
                   "4x4 row-major matrix file mapping P's coordinates into Q's (default: the identity)");
-  rep->add_option("--format", o->format, "Input format");
-  rep->add_option("--columns", o->columns, "CSV column names");
   rep->add_option(
       "-d,--detector", o->detectors,
       "Repeatable: ced6d, ced3d, random, iss3d, harris3d, harris6d, sift (PCL builds), or modality specs "

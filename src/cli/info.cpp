@@ -72,9 +72,7 @@ int run_info(const std::string& path, const std::string& format, const std::stri
 command add_info_command(CLI::App& app) {
   auto o = std::make_shared<info_options>();
   auto* info = app.add_subcommand("info", "Print a cloud's fields, point count, bounds and resolution");
-  info->add_option("input", o->input, "Input point cloud")->required();
-  info->add_option("--format", o->format, "Input format: ply, pcd, las, csv, auto");
-  info->add_option("--columns", o->columns, "CSV column names");
+  add_input_options(info, o->input, "Input point cloud", o->format, o->columns)->required();
   return {info, [o] { return run_info(o->input, o->format, o->columns); }};
 }
 

@@ -2,9 +2,9 @@
 // The `ced` command line: a thin shell over the library. Each subcommand is
 // in its own file (commands.hpp); this builds the app, parses and dispatches.
 #include <CLI/CLI.hpp>
-#include <algorithm>
 #include <exception>
 #include <iostream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -34,19 +34,7 @@ int main(int argc, char** argv) {
   const command view = add_view_command(app);
 
   ced::io::remove_temporaries_on_signals();  // an interrupted run leaves no partial output
-  std::vector<std::string> args(argv + 1, argv + argc);
-  try {
-    args = expand_config(args, *detect.app);
-  } catch (const std::exception& e) {
-    std::cerr << "ced: error: " << e.what() << "\n";
-    return exit_usage;
-  }
-  try {
-    std::reverse(args.begin(), args.end());  // CLI11 takes a reversed vector
-    app.parse(args);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? exit_ok : exit_usage;
-  }
+  if (const std::optional<int> rc = parse_command_line(app, *detect.app, argc, argv, "ced")) return *rc;
   try {
     for (const command* c :
          {&detect, &info, &repeatability, &registration, &convert, &modalities, &plan, &merge, &view})

@@ -20,6 +20,7 @@
 #include "ced/preprocess.hpp"
 #include "commands.hpp"
 #include "common.hpp"
+#include "detectors.hpp"
 #ifdef CED_HAS_PCL
 #include "pcl_bridge.hpp"
 #endif
@@ -310,7 +311,8 @@ command add_registration_command(CLI::App& eval) {
   auto o = std::make_shared<registration_options>();
   auto* reg = eval.add_subcommand(
       "registration", "Registration success: keypoints, FPFH/PFHRGB, mutual matching, RANSAC (needs a PCL build)");
-  reg->add_option("input", o->input, "Cloud to cut into two overlapping crops (or --source/--target, or --rgbd)");
+  add_input_options(reg, o->input, "Cloud to cut into two overlapping crops (or --source/--target, or --rgbd)",
+                    o->format, o->columns);
   reg->add_option("--source", o->source, "A given pair: the source cloud P");
   reg->add_option("--target", o->target, "A given pair: the target cloud Q");
   reg->add_option("--transform", o->transform, "4x4 row-major matrix file mapping P into Q (default: the identity)");
@@ -318,8 +320,6 @@ command add_registration_command(CLI::App& eval) {
                   "Open3D RGB-D folder (color/NNNNN.jpg, depth/NNNNN.png, odometry.log): consecutive frame pairs");
   reg->add_option("--intrinsics", o->intrinsics, "Camera JSON for --rgbd (default DIR/camera_primesense.json)");
   reg->add_option("--depth-max", o->depth_max, "For --rgbd: drop depths beyond this, metres (default 3; 0 = none)");
-  reg->add_option("--format", o->format, "Input format");
-  reg->add_option("--columns", o->columns, "CSV column names");
   reg->add_option("-d,--detector", o->detectors,
                   "Repeatable, as for repeatability (default: ced6d random ced3d iss3d harris3d harris6d sift)");
   reg->add_option("--descriptor", o->descriptor, "fpfh, pfhrgb, or auto = pfhrgb when both clouds have colour");

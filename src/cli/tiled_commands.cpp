@@ -230,12 +230,22 @@ ced::tiled_progress bar_progress(progress_bar& bar) {
 
 bool wants_tiles(const detect_options& o) { return !o.tile_size.empty() || !o.memory_limit.empty(); }
 
-int run_detect_tiled(const detect_options& o, detect_plan& plan, detect_outputs& out) {
+tiled_setup setup_tiled(const detect_options& o) {
+  tiled_setup s;
+  s.plan = make_plan(o);
+  check_outside_work_dir(o);
+  s.out = std::make_unique<detect_outputs>(o, input_paths(o));
+  s.request = request_from(o, s.plan);
+  s.run.work_dir = work_dir_of(o);
+  s.run.resume = o.resume;
+  return s;
+}
+
+int run_detect_tiled(const detect_options& o) {
+  tiled_setup s = setup_tiled(o);
+  const detect_plan& plan = s.plan;
   const auto t_start = clock_type::now();
-  const ced::tiled_request request = request_from(o, plan);
-  ced::tiled_run_options ro;
-  ro.work_dir = work_dir_of(o);
-  ro.resume = o.resume;
+  ced::tiled_run_options& ro = s.run;
   ro.threads = plan.params.threads;
   progress_bar bar(!o.quiet);
   ro.progress = bar_progress(bar);
@@ -257,7 +267,7 @@ int run_detect_tiled(const detect_options& o, detect_plan& plan, detect_outputs&
   ced::tile_plan p;
   ced::tiled_times times;
   ro.times = &times;
-  merged_writer writer(out, plan.out_format);
+  merged_writer writer(*s.out, plan.out_format);
   const ced::merge_sink sink = writer.sink();
   ro.sink = &sink;
   ro.tile_done = [&, tile_done = ro.tile_done](std::size_t done, std::size_t total, double ms) {
@@ -265,12 +275,13 @@ int run_detect_tiled(const detect_options& o, detect_plan& plan, detect_outputs&
     if (done == total) bar.stage("merging and writing");
   };
   ro.keep_work_dir = true;  // until the outputs are committed
-  ced::tile_part merged;
-  try {
-    merged = ced::run_tiled(request, ro, &p);
-  } catch (const ced::work_dir_error& e) {
-    throw usage_error(e.what());
-  }
+  const ced::tile_part merged = naming_file_fields(o, plan, [&] {
+    try {
+      return ced::run_tiled(s.request, ro, &p);
+    } catch (const ced::work_dir_error& e) {
+      throw usage_error(e.what());
+    }
+  });
   writer.finish(p, merged, ms_since(t_start));
   ced::remove_work_dir(ro.work_dir);  // ced's own files only, once the outputs are committed
   bar.done();
@@ -328,19 +339,12 @@ command add_plan_command(CLI::App& app) {
   auto o = std::make_shared<detect_options>();
   auto plan_path = std::make_shared<std::string>();
   auto* cmd = app.add_subcommand("plan", "Plan the tiles of a cloud for `ced detect --plan --tile` and `ced merge`");
-  cmd->add_option("input", o->input,
-                  "Input cloud: .las, .ply, .pcd, .csv (streamed; PLY ascii and PCD ascii or binary_compressed "
-                  "are read whole)")
+  add_input_options(cmd, o->input,
+                    "Input cloud: .las, .ply, .pcd, .csv (streamed; PLY ascii and PCD ascii or binary_compressed "
+                    "are read whole)",
+                    o->format, o->columns)
       ->required();
-  cmd->add_option("--format", o->format, "Input format when the extension does not say: ply, pcd, las, csv, auto");
-  cmd->add_option("--columns", o->columns, "CSV column names, e.g. x,y,z,intensity (the file then has no header)");
-  cmd->add_option("--preset", o->preset, "A preset (see `ced modalities`)")->check(CLI::IsMember(ced::preset_names()));
-  cmd->add_option("-m,--modality", o->modalities, "Modality spec, repeatable (see `ced detect --help`)");
-  add_plugin_option(cmd, o->plugins);
-  cmd->add_option("-r,--radius", o->radius, "Neighbourhood radius in metres (default 0.05)");
-  cmd->add_option("--nms-radius", o->nms_radius, "Non-maximum-suppression radius (default: the radius)");
-  cmd->add_option("-k,--min-neighbors", o->min_neighbors, "Minimum neighbours, the point included (default 5)");
-  add_refine_flags(cmd, *o);
+  add_detector_options(cmd, *o, "Neighbourhood radius in metres (default 0.05)");
   cmd->add_option("--tile-size", o->tile_size, "Edge of a tile's core, in metres");
   cmd->add_option("--memory-limit", o->memory_limit, "Or: the tile size chosen so that a tile fits, e.g. 4G");
   cmd->add_option("-o,--output", *plan_path, "The plan (JSON)")->required();

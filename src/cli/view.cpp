@@ -95,14 +95,12 @@ int run_view(const view_options& o) {
 command add_view_command(CLI::App& app) {
   auto o = std::make_shared<view_options>();
   auto* v = app.add_subcommand("view", "Interactive page (HTML) of a keypoint cloud (-o) or viewer cloud (--viewer)");
-  v->add_option("input", o->input, "A cloud written by ced detect -o or --viewer")->required();
+  add_input_options(v, o->input, "A cloud written by ced detect -o or --viewer", o->format, o->columns)->required();
   v->add_option("-o,--output", o->output, "The page: an .html file")->required();
   v->add_option("--threshold", o->thresholds,
                 "NAME=VALUE: a modality's threshold, to show its candidates (the cloud does not store it)");
   v->add_option("--max-points", o->max_points, "Draw at most this many points (default 2000000)");
   v->add_option("--title", o->title, "The page's title");
-  v->add_option("--format", o->format, "Input format: ply, pcd, las, csv, auto");
-  v->add_option("--columns", o->columns, "CSV column names");
   v->footer(
       "Examples:\n  ced detect scan.ply --preset ced6d --viewer all.ply\n  ced view all.ply -o view.html "
       "--threshold xyz=0.01 --threshold rgb=0.1");

@@ -61,8 +61,11 @@ char detect_delimiter(std::string_view line) noexcept {
   return ' ';
 }
 
-/// Parses a number. Sets is_int when the token is an integer literal that fits int64.
-bool parse_number(std::string_view tok, double& out, bool& is_int) noexcept {
+/// A CSV value: false (no exception) for text that is not a number; an
+/// optional '+'; infinities from overflow kept. Sets is_int when the token is
+/// an integer literal that fits int64 (the column's type comes from it). Not
+/// ced::parse_number, which parses option values and throws.
+bool parse_csv_number(std::string_view tok, double& out, bool& is_int) noexcept {
   const char* b = tok.data();
   const char* e = b + tok.size();
   if (b != e && *b == '+') ++b;
@@ -96,7 +99,7 @@ bool is_numeric_line(std::string_view line) {
   for (std::string_view w; words.next(w); ++tokens) {
     double v;
     bool is_int;
-    if (!parse_number(unquote(w), v, is_int)) return false;
+    if (!parse_csv_number(unquote(w), v, is_int)) return false;
   }
   return tokens > 0;
 }
@@ -232,7 +235,7 @@ preamble read_preamble(std::string_view text, const csv_options& opt, char delim
     // Only comments: a CloudCompare-style header with no points is still an (empty) cloud.
     bool named = false;
     for (const auto& c : pre.comments) named = named || names_xyz(header_names(c.second, delim_opt));
-    if (!named) fail(file, "the file is empty (no header and no data)");
+    if (!named) throw io_error(file, "the file is empty (no header and no data)");
   }
   return pre;
 }
@@ -294,8 +297,8 @@ std::vector<std::string> default_names(std::size_t values, std::size_t line_no, 
     case 7:
       return {"x", "y", "z", "intensity", "red", "green", "blue"};
     default:
-      fail(file, "line " + std::to_string(line_no) + ": " + std::to_string(values) +
-                     " values and no header: name the columns (--columns x,y,z,...)");
+      throw io_error(file, "line " + std::to_string(line_no) + ": " + std::to_string(values) +
+                               " values and no header: name the columns (--columns x,y,z,...)");
   }
 }
 
@@ -305,18 +308,18 @@ std::array<std::size_t, 3> check_names(const std::vector<std::string>& names, co
                                        const std::string& file) {
   constexpr std::size_t max_columns = max_values_per_point;  // scalar_io.hpp
   if (names.size() > max_columns)
-    fail(file, source + " names " + std::to_string(names.size()) + " columns (at most " + std::to_string(max_columns) +
-                   " are supported)");
+    throw io_error(file, source + " names " + std::to_string(names.size()) + " columns (at most " +
+                             std::to_string(max_columns) + " are supported)");
   std::set<std::string> seen;
   for (const auto& n : names) {
-    if (n.empty()) fail(file, source + " has an empty column name");
-    if (!seen.insert(n).second) fail(file, source + " names column '" + n + "' twice");
+    if (n.empty()) throw io_error(file, source + " has an empty column name");
+    if (!seen.insert(n).second) throw io_error(file, source + " names column '" + n + "' twice");
   }
   std::array<std::size_t, 3> axis{};
   for (std::size_t k = 0; k < 3; ++k) {
     const std::string a(1, static_cast<char>('x' + k));
     const auto it = std::find(names.begin(), names.end(), a);
-    if (it == names.end()) fail(file, source + " has no '" + a + "' column (columns: " + join(names) + ")");
+    if (it == names.end()) throw io_error(file, source + " has no '" + a + "' column (columns: " + join(names) + ")");
     axis[k] = static_cast<std::size_t>(it - names.begin());
   }
   return axis;
@@ -332,16 +335,16 @@ void parse_row(std::string_view line, std::size_t line_no, bool first, char deli
   const std::size_t ncols = names.size();
   split(line, delim, tok);
   if (tok.size() != ncols)
-    fail(file, "line " + std::to_string(line_no) + ": expected " + std::to_string(ncols) + " values (" + join(names) +
-                   "), found " + std::to_string(tok.size()));
+    throw io_error(file, "line " + std::to_string(line_no) + ": expected " + std::to_string(ncols) + " values (" +
+                             join(names) + "), found " + std::to_string(tok.size()));
   for (std::size_t j = 0; j < ncols; ++j) {
     double v = 0;
     bool is_int = false;
-    if (!parse_number(tok[j], v, is_int)) {
+    if (!parse_csv_number(tok[j], v, is_int)) {
       std::string msg = "line " + std::to_string(line_no) + ", column " + std::to_string(j + 1) + " ('" + names[j] +
                         "'): '" + printable(tok[j]) + "' is not a number";
       if (first && !opt.columns.empty() && !opt.skip_header) msg += " (a header line? set skip_header)";
-      fail(file, msg);
+      throw io_error(file, msg);
     }
     value(j, v, is_int);
   }

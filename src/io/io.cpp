@@ -74,8 +74,7 @@ point_cloud read_cloud(const std::string& path, const read_options& options, rea
     case file_format::las: {
       las_read_info info;
       c = read_las(path, &info, options.fields);
-      r.details = "LAS " + std::to_string(info.version_major) + "." + std::to_string(info.version_minor) +
-                  ", point format " + std::to_string(info.point_format);
+      r.details = detail::las_details(info);
       break;
     }
     case file_format::csv: {

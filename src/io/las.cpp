@@ -3,23 +3,21 @@
 
 #include <algorithm>
 #include <cctype>
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <ctime>
-#include <filesystem>
 #include <limits>
 #include <memory>
 #include <ostream>
 #include <sstream>
-#include <system_error>
 #include <type_traits>
 #include <vector>
 
 #include "ced/io/stream.hpp"
 #include "ced/version.hpp"
 #include "scalar_io.hpp"
+#include "stream_support.hpp"
 
 namespace ced::io {
 
@@ -95,8 +93,8 @@ struct extra_desc {
 
 std::vector<extra_desc> parse_extra_bytes(const unsigned char* p, std::size_t len, const std::string& file) {
   if (len % k_extra_bytes_descriptor_size != 0)
-    fail(file, "the extra-bytes VLR has " + std::to_string(len) + " bytes, not a multiple of the " +
-                   std::to_string(k_extra_bytes_descriptor_size) + "-byte descriptor size");
+    throw io_error(file, "the extra-bytes VLR has " + std::to_string(len) + " bytes, not a multiple of the " +
+                             std::to_string(k_extra_bytes_descriptor_size) + "-byte descriptor size");
   std::vector<extra_desc> out;
   for (std::size_t i = 0; i < len / k_extra_bytes_descriptor_size; ++i) {
     const unsigned char* d = p + i * k_extra_bytes_descriptor_size;
@@ -116,11 +114,12 @@ std::vector<extra_desc> parse_extra_bytes(const unsigned char* p, std::size_t le
         e.scale[k] = load_le<double>(d + 112 + 8 * k);
         e.offset_value[k] = load_le<double>(d + 136 + 8 * k);
         if ((e.options & 8) && (!std::isfinite(e.scale[k]) || e.scale[k] == 0))
-          fail(file, what + " has an invalid scale " + num(e.scale[k]) + " (it must be finite and non-zero)");
-        if ((e.options & 16) && !std::isfinite(e.offset_value[k])) fail(file, what + " has a non-finite offset");
+          throw io_error(file, what + " has an invalid scale " + num(e.scale[k]) + " (it must be finite and non-zero)");
+        if ((e.options & 16) && !std::isfinite(e.offset_value[k]))
+          throw io_error(file, what + " has a non-finite offset");
       }
     } else {
-      fail(file, what + " has unknown data type " + std::to_string(data_type) + " (LAS defines 0 to 30)");
+      throw io_error(file, what + " has unknown data type " + std::to_string(data_type) + " (LAS defines 0 to 30)");
     }
     out.push_back(std::move(e));
   }
@@ -190,8 +189,10 @@ void read_scale_and_offset(const unsigned char* d, las_header& h, const std::str
     h.scale[k] = load_le<double>(d + 131 + 8 * k);
     h.offset[k] = load_le<double>(d + 155 + 8 * k);
     if (!std::isfinite(h.scale[k]) || h.scale[k] == 0)
-      fail(file, "invalid " + axis + " scale factor " + num(h.scale[k]) + " (it must be finite and non-zero)");
-    if (!std::isfinite(h.offset[k])) fail(file, "invalid " + axis + " offset " + num(h.offset[k]) + " (not finite)");
+      throw io_error(file,
+                     "invalid " + axis + " scale factor " + num(h.scale[k]) + " (it must be finite and non-zero)");
+    if (!std::isfinite(h.offset[k]))
+      throw io_error(file, "invalid " + axis + " offset " + num(h.offset[k]) + " (not finite)");
   }
 }
 
@@ -199,45 +200,47 @@ void read_scale_and_offset(const unsigned char* d, las_header& h, const std::str
 /// point format and count are checked against the file.
 las_header read_header(const unsigned char* d, std::size_t size, const std::string& file) {
   if (size < 4 || std::memcmp(d, "LASF", 4) != 0)
-    fail(file, "not a LAS file (it does not start with the 'LASF' signature)");
+    throw io_error(file, "not a LAS file (it does not start with the 'LASF' signature)");
   if (size < 227)
-    fail(file, "truncated header: the file has " + std::to_string(size) + " bytes, a LAS header needs at least 227");
+    throw io_error(
+        file, "truncated header: the file has " + std::to_string(size) + " bytes, a LAS header needs at least 227");
   las_header h;
   h.major = d[24];
   h.minor = d[25];
   if (h.major != 1 || h.minor > 4)
-    fail(file, "unsupported LAS version " + std::to_string(h.major) + "." + std::to_string(h.minor) +
-                   " (this reader supports 1.0 to 1.4)");
+    throw io_error(file, "unsupported LAS version " + std::to_string(h.major) + "." + std::to_string(h.minor) +
+                             " (this reader supports 1.0 to 1.4)");
   const std::string version = std::to_string(h.major) + "." + std::to_string(h.minor);
   const std::size_t min_header = header_size_for(h.minor);
   if (size < min_header)
-    fail(file, "truncated header: the file has " + std::to_string(size) + " bytes, a LAS " + version +
-                   " header needs " + std::to_string(min_header));
+    throw io_error(file, "truncated header: the file has " + std::to_string(size) + " bytes, a LAS " + version +
+                             " header needs " + std::to_string(min_header));
   h.header_size = load_le<std::uint16_t>(d + 94);
   if (h.header_size < min_header)
-    fail(file, "header size " + std::to_string(h.header_size) + " is smaller than the " + std::to_string(min_header) +
-                   " bytes of a LAS " + version + " header");
+    throw io_error(file, "header size " + std::to_string(h.header_size) + " is smaller than the " +
+                             std::to_string(min_header) + " bytes of a LAS " + version + " header");
   h.point_offset = load_le<std::uint32_t>(d + 96);
   if (h.point_offset < h.header_size)
-    fail(file, "offset to point data (" + std::to_string(h.point_offset) + ") is smaller than the header size (" +
-                   std::to_string(h.header_size) + ")");
+    throw io_error(file, "offset to point data (" + std::to_string(h.point_offset) +
+                             ") is smaller than the header size (" + std::to_string(h.header_size) + ")");
   if (h.point_offset > size)
-    fail(file, "truncated: the point data should start at byte " + std::to_string(h.point_offset) +
-                   ", but the file has " + std::to_string(size) + " bytes");
+    throw io_error(file, "truncated: the point data should start at byte " + std::to_string(h.point_offset) +
+                             ", but the file has " + std::to_string(size) + " bytes");
   h.n_vlrs = load_le<std::uint32_t>(d + 100);
   const int format_byte = d[104];
   if (format_byte & 0xC0)
-    fail(file,
-         "the point data is LAZ-compressed (point format byte " + std::to_string(format_byte) +
-             "); decompress it first, e.g. with 'laszip -i in.laz -o out.las' or 'pdal translate in.laz out.las'");
+    throw io_error(
+        file, "the point data is LAZ-compressed (point format byte " + std::to_string(format_byte) +
+                  "); decompress it first, e.g. with 'laszip -i in.laz -o out.las' or 'pdal translate in.laz out.las'");
   h.format = format_byte;
   if (h.format > k_max_format)
-    fail(file, "unsupported point data record format " + std::to_string(h.format) + " (LAS defines 0 to 10)");
+    throw io_error(file, "unsupported point data record format " + std::to_string(h.format) + " (LAS defines 0 to 10)");
   h.layout = &k_formats[h.format];
   h.record_length = load_le<std::uint16_t>(d + 105);
   if (h.record_length < h.layout->min_size)
-    fail(file, "point record length " + std::to_string(h.record_length) + " is too small for point format " +
-                   std::to_string(h.format) + " (it needs at least " + std::to_string(h.layout->min_size) + " bytes)");
+    throw io_error(file, "point record length " + std::to_string(h.record_length) + " is too small for point format " +
+                             std::to_string(h.format) + " (it needs at least " + std::to_string(h.layout->min_size) +
+                             " bytes)");
   h.count = load_le<std::uint32_t>(d + 107);
   if (h.minor >= 4) {
     const auto count64 = load_le<std::uint64_t>(d + 247);
@@ -246,9 +249,10 @@ las_header read_header(const unsigned char* d, std::size_t size, const std::stri
   read_scale_and_offset(d, h, file);
   const std::uint64_t room = (size - h.point_offset) / h.record_length;
   if (h.count > room)
-    fail(file, "truncated: " + std::to_string(h.count) + " points declared, room for " + std::to_string(room) + " (" +
-                   std::to_string(h.record_length) + "-byte records from byte " + std::to_string(h.point_offset) +
-                   " in " + std::to_string(size) + " bytes)");
+    throw io_error(file, "truncated: " + std::to_string(h.count) + " points declared, room for " +
+                             std::to_string(room) + " (" + std::to_string(h.record_length) +
+                             "-byte records from byte " + std::to_string(h.point_offset) + " in " +
+                             std::to_string(size) + " bytes)");
   return h;
 }
 
@@ -261,15 +265,16 @@ std::vector<extra_desc> read_vlrs(const unsigned char* d, const las_header& h, c
   std::size_t pos = h.header_size;
   for (std::uint32_t i = 0; i < h.n_vlrs; ++i) {
     if (h.point_offset - pos < k_vlr_header_size)
-      fail(file, "VLR " + std::to_string(i) + " of " + std::to_string(h.n_vlrs) + " (at byte " + std::to_string(pos) +
-                     ") does not fit before the point data at byte " + std::to_string(h.point_offset));
+      throw io_error(file, "VLR " + std::to_string(i) + " of " + std::to_string(h.n_vlrs) + " (at byte " +
+                               std::to_string(pos) + ") does not fit before the point data at byte " +
+                               std::to_string(h.point_offset));
     const std::string user_id = fixed_string(d + pos + 2, 16);
     const int record_id = load_le<std::uint16_t>(d + pos + 18);
     const std::size_t len = load_le<std::uint16_t>(d + pos + 20);
     if (h.point_offset - pos - k_vlr_header_size < len)
-      fail(file, "VLR " + std::to_string(i) + " ('" + user_id + "' record " + std::to_string(record_id) + ", " +
-                     std::to_string(len) + " bytes) runs past the start of the point data at byte " +
-                     std::to_string(h.point_offset));
+      throw io_error(file, "VLR " + std::to_string(i) + " ('" + user_id + "' record " + std::to_string(record_id) +
+                               ", " + std::to_string(len) + " bytes) runs past the start of the point data at byte " +
+                               std::to_string(h.point_offset));
     if (user_id == "LASF_Spec" && record_id == 4 && !have_extras) {
       extras = parse_extra_bytes(d + pos + k_vlr_header_size, len, file);
       have_extras = true;
@@ -282,10 +287,10 @@ std::vector<extra_desc> read_vlrs(const unsigned char* d, const las_header& h, c
     extra_total += e.size;
   }
   if (h.layout->min_size + extra_total > h.record_length)
-    fail(file, "the extra bytes (" + std::to_string(extra_total) + " bytes in " + std::to_string(extras.size()) +
-                   " descriptors) do not fit in the " + std::to_string(h.record_length) +
-                   "-byte point record (point format " + std::to_string(h.format) + " uses " +
-                   std::to_string(h.layout->min_size) + " bytes)");
+    throw io_error(file, "the extra bytes (" + std::to_string(extra_total) + " bytes in " +
+                             std::to_string(extras.size()) + " descriptors) do not fit in the " +
+                             std::to_string(h.record_length) + "-byte point record (point format " +
+                             std::to_string(h.format) + " uses " + std::to_string(h.layout->min_size) + " bytes)");
   return extras;
 }
 
@@ -863,34 +868,32 @@ class las_piece_writer final : public piece_writer {
 std::unique_ptr<piece_writer> las_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n) {
   return std::make_unique<las_piece_writer>(out, layout, n);
 }
+
+std::string las_details(const las_read_info& info) {
+  return "LAS " + std::to_string(info.version_major) + "." + std::to_string(info.version_minor) + ", point format " +
+         std::to_string(info.point_format);
+}
 }  // namespace detail
 
 namespace {
 /// read_las(), chunk by chunk: the header and VLRs once, then the records.
 class las_stream final : public point_stream {
  public:
-  las_stream(const std::string& path, const field_selection& fields) : m_path(path), m_fields(fields) {
-    std::error_code ec;
-    if (std::filesystem::is_directory(path, ec)) fail(path, "is a directory, not a file");
-    m_file.reset(std::fopen(path.c_str(), "rb"));
-    if (!m_file) fail(path, std::string("cannot open: ") + std::strerror(errno));
-    const auto size = std::filesystem::file_size(path, ec);
-    if (ec) fail(path, "cannot read its size: " + ec.message());
+  las_stream(const std::string& path, const field_selection& fields) : m_file(path), m_fields(fields) {
     // The header's own checks need the file's size and its first bytes up
     // to the point data (or the whole file, when it is shorter than a header).
     std::string head;
-    read_at(0, static_cast<std::size_t>(std::min<std::uintmax_t>(size, 375)), head);
+    m_file.read_some(0, 375, head);
     if (head.size() >= 100) {
       const auto offset = load_le<std::uint32_t>(reinterpret_cast<const unsigned char*>(head.data()) + 96);
-      if (offset > head.size() && offset <= size) read_at(0, offset, head);
+      if (offset > head.size() && offset <= m_file.size()) m_file.read_some(0, offset, head);
     }
     const auto* d = reinterpret_cast<const unsigned char*>(head.data());
-    m_header = read_header(d, static_cast<std::size_t>(size), path);
+    m_header = read_header(d, static_cast<std::size_t>(m_file.size()), path);
     m_extras = read_vlrs(d, m_header, path);
     las_read_info info;
     fill_info(info, m_header, d);
-    m_details = "LAS " + std::to_string(info.version_major) + "." + std::to_string(info.version_minor) +
-                ", point format " + std::to_string(info.point_format);
+    m_details = las_details(info);
   }
 
   std::size_t read(std::size_t max, const std::array<double, 3>& origin, point_cloud& out) override {
@@ -906,7 +909,8 @@ class las_stream final : public point_stream {
       return 0;
     }
     const std::size_t stride = m_header.record_length;
-    read_at(m_header.point_offset + m_next * stride, n * stride, m_buffer);
+    if (m_buffer.size() < n * stride) m_buffer.resize(n * stride);  // reused: no new memory once it has grown
+    m_file.read_exact(m_header.point_offset + m_next * stride, n * stride, m_buffer.data());
     const auto* base = reinterpret_cast<const unsigned char*>(m_buffer.data());
     if (!m_first_pass_done) {
       raw_bounds(base, stride, n, m_lo, m_hi, m_next > 0);
@@ -939,22 +943,8 @@ class las_stream final : public point_stream {
   std::uint64_t declared_points() const noexcept override { return m_header.count; }
 
  private:
-  struct closer {
-    void operator()(std::FILE* f) const noexcept { std::fclose(f); }
-  };
-  /// Reads n bytes at `offset` into `buf` (reused: no new memory once it has grown).
-  void read_at(std::uint64_t offset, std::size_t n, std::string& buf) {
-    if (buf.size() < n) buf.resize(n);
-    if (n == 0) return;
-    if (fseeko(m_file.get(), static_cast<off_t>(offset), SEEK_SET) != 0 ||
-        std::fread(buf.data(), 1, n, m_file.get()) != n)
-      fail(m_path, "cannot read " + std::to_string(n) + " bytes at byte " + std::to_string(offset) +
-                       " (the file is unreadable or was truncated while being read)");
-  }
-
-  std::string m_path;
+  input_file m_file;
   field_selection m_fields;
-  std::unique_ptr<std::FILE, closer> m_file;
   las_header m_header;
   std::vector<extra_desc> m_extras;
   std::string m_details, m_buffer;

@@ -95,20 +95,20 @@ bool read_header_line(const std::vector<std::string_view>& w, std::string_view l
   const std::string_view kw = w[0];
   const auto where = [&] { return "header line " + std::to_string(line_no) + ": "; };
   const auto list = [&](bool& have, std::vector<std::string_view>& out) {
-    if (have) fail(file, where() + std::string(kw) + " is given twice");
-    if (w.size() < 2) fail(file, where() + std::string(kw) + " lists no values");
+    if (have) throw io_error(file, where() + std::string(kw) + " is given twice");
+    if (w.size() < 2) throw io_error(file, where() + std::string(kw) + " lists no values");
     have = true;
     out.assign(w.begin() + 1, w.end());
   };
   const auto number = [&](bool& have, std::uint64_t& out) {
-    if (have) fail(file, where() + std::string(kw) + " is given twice");
+    if (have) throw io_error(file, where() + std::string(kw) + " is given twice");
     if (w.size() != 2 || !parse_u64(w[1], out))
-      fail(file, where() + "invalid " + std::string(kw) + " line '" + printable(line) +
-                     "' (expected one non-negative integer)");
+      throw io_error(file, where() + "invalid " + std::string(kw) + " line '" + printable(line) +
+                               "' (expected one non-negative integer)");
     have = true;
   };
   if (kw == "VERSION") {
-    if (w.size() != 2) fail(file, where() + "malformed VERSION line '" + printable(line) + "'");
+    if (w.size() != 2) throw io_error(file, where() + "malformed VERSION line '" + printable(line) + "'");
   } else if (kw == "FIELDS" || kw == "COLUMNS") {
     list(l.have_fields, l.names);
   } else if (kw == "SIZE") {
@@ -124,9 +124,9 @@ bool read_header_line(const std::vector<std::string_view>& w, std::string_view l
   } else if (kw == "POINTS") {
     number(l.have_points, h.points);
   } else if (kw == "VIEWPOINT") {
-    if (w.size() != 8) fail(file, where() + "VIEWPOINT needs 7 values (tx ty tz qw qx qy qz)");
+    if (w.size() != 8) throw io_error(file, where() + "VIEWPOINT needs 7 values (tx ty tz qw qx qy qz)");
   } else if (kw == "DATA") {
-    if (w.size() != 2) fail(file, where() + "malformed DATA line '" + printable(line) + "'");
+    if (w.size() != 2) throw io_error(file, where() + "malformed DATA line '" + printable(line) + "'");
     if (w[1] == "ascii")
       h.format = pcd_format::ascii;
     else if (w[1] == "binary")
@@ -134,13 +134,13 @@ bool read_header_line(const std::vector<std::string_view>& w, std::string_view l
     else if (w[1] == "binary_compressed")
       h.format = pcd_format::binary_compressed;
     else
-      fail(file,
-           where() + "unknown DATA format '" + printable(w[1]) + "' (expected ascii, binary or binary_compressed)");
+      throw io_error(file, where() + "unknown DATA format '" + printable(w[1]) +
+                               "' (expected ascii, binary or binary_compressed)");
     h.data_name = std::string(w[1]);
     return true;
   } else {
-    if (!has_data_line(src)) fail(file, "the PCD header has no DATA line");
-    fail(file, where() + "unknown header keyword '" + printable(kw) + "'");
+    if (!has_data_line(src)) throw io_error(file, "the PCD header has no DATA line");
+    throw io_error(file, where() + "unknown header keyword '" + printable(kw) + "'");
   }
   return false;
 }
@@ -151,12 +151,12 @@ void read_header_lines(const header_source& src, const std::string& file, header
   bool first = true;
   for (bool done = false; !done;) {
     std::string_view line;
-    if (!src.next_line(pos, line)) fail(file, "the PCD header has no DATA line");
+    if (!src.next_line(pos, line)) throw io_error(file, "the PCD header has no DATA line");
     ++line_no;
     const auto w = split_words(line);
     if (w.empty() || w[0][0] == '#') continue;
     if (first && w[0] != "VERSION" && w[0] != "FIELDS" && w[0] != "COLUMNS")
-      fail(file, "not a PCD file (expected a VERSION or FIELDS line, found '" + printable(line) + "')");
+      throw io_error(file, "not a PCD file (expected a VERSION or FIELDS line, found '" + printable(line) + "')");
     first = false;
     done = read_header_line(w, line, line_no, src, file, l, h);
   }
@@ -167,12 +167,12 @@ void read_header_lines(const header_source& src, const std::string& file, header
 /// The fields of FIELDS, with their SIZE, TYPE and COUNT (each list, when
 /// given, as long as FIELDS).
 void make_fields(const header_lines& l, const std::string& file, pcd_header& h) {
-  if (!l.have_fields) fail(file, "the PCD header has no FIELDS line");
+  if (!l.have_fields) throw io_error(file, "the PCD header has no FIELDS line");
   const std::size_t nf = l.names.size();
   const auto check_length = [&](bool have, const std::vector<std::string_view>& v, const char* kw) {
     if (have && v.size() != nf)
-      fail(file, std::string(kw) + " lists " + std::to_string(v.size()) + " values but FIELDS names " +
-                     std::to_string(nf) + " fields");
+      throw io_error(file, std::string(kw) + " lists " + std::to_string(v.size()) + " values but FIELDS names " +
+                               std::to_string(nf) + " fields");
   };
   check_length(l.have_size, l.sizes, "SIZE");
   check_length(l.have_type, l.types, "TYPE");
@@ -186,26 +186,29 @@ void make_fields(const header_lines& l, const std::string& file, pcd_header& h) 
     f.padding = f.name == "_";
     std::uint64_t size = 4, count = 1;
     if (l.have_size && (!parse_u64(l.sizes[i], size) || size == 0))
-      fail(file, "invalid SIZE '" + printable(l.sizes[i]) + "' for field '" + f.name + "'");
+      throw io_error(file, "invalid SIZE '" + printable(l.sizes[i]) + "' for field '" + f.name + "'");
     if (l.have_type) {
-      if (l.types[i].size() != 1) fail(file, "invalid TYPE '" + printable(l.types[i]) + "' for field '" + f.name + "'");
+      if (l.types[i].size() != 1)
+        throw io_error(file, "invalid TYPE '" + printable(l.types[i]) + "' for field '" + f.name + "'");
       f.type = l.types[i][0];
     }
     if (l.have_count && (!parse_u64(l.counts[i], count) || count == 0))
-      fail(file, "invalid COUNT '" + printable(l.counts[i]) + "' for field '" + f.name + "'");
+      throw io_error(file, "invalid COUNT '" + printable(l.counts[i]) + "' for field '" + f.name + "'");
     if (count > max_values_per_point || (values += count) > max_values_per_point)
-      fail(file, "too many values per point (more than " + std::to_string(max_values_per_point) + ")");
+      throw io_error(file, "too many values per point (more than " + std::to_string(max_values_per_point) + ")");
     const auto t = pcd_type(f.type, size);
     if (!t) {
       if (f.type != 'I' && f.type != 'U' && f.type != 'F')
-        fail(file, "invalid TYPE '" + std::string(1, f.type) + "' for field '" + f.name + "' (expected I, U or F)");
-      fail(file,
-           "field '" + f.name + "': unsupported TYPE " + std::string(1, f.type) + " with SIZE " + std::to_string(size));
+        throw io_error(file,
+                       "invalid TYPE '" + std::string(1, f.type) + "' for field '" + f.name + "' (expected I, U or F)");
+      throw io_error(file, "field '" + f.name + "': unsupported TYPE " + std::string(1, f.type) + " with SIZE " +
+                               std::to_string(size));
     }
     f.stype = *t;
     f.size = static_cast<std::size_t>(size);
     f.count = static_cast<std::size_t>(count);
-    if (!f.padding && !seen.insert(l.names[i]).second) fail(file, "field '" + f.name + "' is declared twice in FIELDS");
+    if (!f.padding && !seen.insert(l.names[i]).second)
+      throw io_error(file, "field '" + f.name + "' is declared twice in FIELDS");
     h.fields.push_back(std::move(f));
   }
 }
@@ -213,20 +216,22 @@ void make_fields(const header_lines& l, const std::string& file, pcd_header& h) 
 /// WIDTH, HEIGHT and POINTS: either may stand for the other, and when both
 /// are given they must agree.
 void resolve_point_count(const header_lines& l, const std::string& file, pcd_header& h) {
-  if (!l.have_width && !l.have_points) fail(file, "the PCD header has neither WIDTH nor POINTS");
+  if (!l.have_width && !l.have_points) throw io_error(file, "the PCD header has neither WIDTH nor POINTS");
   if (!l.have_width) {
-    if (l.have_height && h.height != 1) fail(file, "the PCD header gives HEIGHT but no WIDTH");
+    if (l.have_height && h.height != 1) throw io_error(file, "the PCD header gives HEIGHT but no WIDTH");
     h.width = h.points;
     h.height = 1;
   }
   if (h.height != 0 && h.width > std::numeric_limits<std::uint64_t>::max() / h.height)
-    fail(file, "WIDTH × HEIGHT (" + std::to_string(h.width) + " × " + std::to_string(h.height) + ") overflows");
+    throw io_error(file,
+                   "WIDTH × HEIGHT (" + std::to_string(h.width) + " × " + std::to_string(h.height) + ") overflows");
   const std::uint64_t wh = h.width * h.height;
   if (!l.have_points)
     h.points = wh;
   else if (h.points != wh)
-    fail(file, "POINTS (" + std::to_string(h.points) + ") does not equal WIDTH × HEIGHT (" + std::to_string(h.width) +
-                   " × " + std::to_string(h.height) + " = " + std::to_string(wh) + ")");
+    throw io_error(file, "POINTS (" + std::to_string(h.points) + ") does not equal WIDTH × HEIGHT (" +
+                             std::to_string(h.width) + " × " + std::to_string(h.height) + " = " + std::to_string(wh) +
+                             ")");
 }
 
 /// Parses the header (from the whole file, or from its first bytes: see
@@ -289,8 +294,9 @@ std::size_t point_size_of(const pcd_header& h) noexcept {
 void check_binary_size(const pcd_header& h, std::uint64_t remaining, const std::string& file) {
   const std::size_t point_size = point_size_of(h);
   if (h.points > remaining / point_size)
-    fail(file, "truncated: POINTS declares " + std::to_string(h.points) + " points of " + std::to_string(point_size) +
-                   " bytes, but only " + std::to_string(remaining) + " bytes of binary data follow");
+    throw io_error(file, "truncated: POINTS declares " + std::to_string(h.points) + " points of " +
+                             std::to_string(point_size) + " bytes, but only " + std::to_string(remaining) +
+                             " bytes of binary data follow");
 }
 
 /// Decodes the n binary records at `body` into cols.
@@ -318,14 +324,15 @@ void read_compressed(std::string_view data, const pcd_header& h, const std::vect
   const auto n = static_cast<std::size_t>(h.points);
   if (remaining < 8) {
     if (n == 0) return;
-    fail(file, "truncated: the binary_compressed data has no size header (" + std::to_string(remaining) + " bytes)");
+    throw io_error(
+        file, "truncated: the binary_compressed data has no size header (" + std::to_string(remaining) + " bytes)");
   }
   const auto* body = reinterpret_cast<const unsigned char*>(data.data()) + h.body_offset;
   const std::uint32_t compressed = load_le<std::uint32_t>(body);
   const std::uint32_t uncompressed = load_le<std::uint32_t>(body + 4);
   if (compressed > remaining - 8)
-    fail(file, "truncated: the binary_compressed data declares " + std::to_string(compressed) +
-                   " compressed bytes, but only " + std::to_string(remaining - 8) + " follow");
+    throw io_error(file, "truncated: the binary_compressed data declares " + std::to_string(compressed) +
+                             " compressed bytes, but only " + std::to_string(remaining - 8) + " follow");
   std::size_t size_real = 0, size_all = 0;
   for (const auto& f : h.fields) {
     size_all += f.size * f.count;
@@ -339,15 +346,15 @@ void read_compressed(std::string_view data, const pcd_header& h, const std::vect
              uncompressed == n * size_all) {
     with_padding = true;
   } else {
-    fail(file, "the uncompressed size in the binary_compressed header (" + std::to_string(uncompressed) +
-                   " bytes) does not match POINTS × point size (" + std::to_string(h.points) + " × " +
-                   std::to_string(size_real) + " bytes)");
+    throw io_error(file, "the uncompressed size in the binary_compressed header (" + std::to_string(uncompressed) +
+                             " bytes) does not match POINTS × point size (" + std::to_string(h.points) + " × " +
+                             std::to_string(size_real) + " bytes)");
   }
   // LZF expands at most 88-fold (a 3-byte back-reference copies 264 bytes):
   // refuse more before allocating.
   if (static_cast<std::uint64_t>(uncompressed) > static_cast<std::uint64_t>(compressed) * 100 + 1024)
-    fail(file, "implausible binary_compressed sizes: " + std::to_string(compressed) +
-                   " compressed bytes cannot expand to " + std::to_string(uncompressed) + " bytes");
+    throw io_error(file, "implausible binary_compressed sizes: " + std::to_string(compressed) +
+                             " compressed bytes cannot expand to " + std::to_string(uncompressed) + " bytes");
   const std::string buf =
       lzf_decompress(std::string_view(reinterpret_cast<const char*>(body + 8), compressed), uncompressed, file);
   const auto* p = reinterpret_cast<const unsigned char*>(buf.data());
@@ -370,8 +377,9 @@ void read_ascii(std::string_view data, const pcd_header& h, const std::vector<st
   // A point takes at least 2 bytes per value (a digit and a separator).
   const std::size_t remaining = data.size() - h.body_offset;
   if (h.points > (remaining + 1) / (2 * values_real))
-    fail(file, "truncated: POINTS declares " + std::to_string(h.points) + " points of " + std::to_string(values_real) +
-                   " values, but only " + std::to_string(remaining) + " bytes of ascii data follow");
+    throw io_error(file, "truncated: POINTS declares " + std::to_string(h.points) + " points of " +
+                             std::to_string(values_real) + " values, but only " + std::to_string(remaining) +
+                             " bytes of ascii data follow");
   const auto n = static_cast<std::size_t>(h.points);
   for (auto& c : cols) c.resize(n);
 
@@ -384,7 +392,8 @@ void read_ascii(std::string_view data, const pcd_header& h, const std::vector<st
     // The next non-blank line, split into tokens.
     for (;;) {
       if (p >= end)
-        fail(file, "truncated: the file ends after " + std::to_string(i) + " of " + std::to_string(n) + " points");
+        throw io_error(file,
+                       "truncated: the file ends after " + std::to_string(i) + " of " + std::to_string(n) + " points");
       ++line_no;
       tok.clear();
       const auto* nl = static_cast<const char*>(std::memchr(p, '\n', static_cast<std::size_t>(end - p)));
@@ -396,8 +405,8 @@ void read_ascii(std::string_view data, const pcd_header& h, const std::vector<st
     }
     const bool with_padding = tok.size() == values_all;
     if (!with_padding && tok.size() != values_real)
-      fail(file, "line " + std::to_string(line_no) + ": expected " + std::to_string(values_real) + " values, found " +
-                     std::to_string(tok.size()));
+      throw io_error(file, "line " + std::to_string(line_no) + ": expected " + std::to_string(values_real) +
+                               " values, found " + std::to_string(tok.size()));
     std::size_t t = 0;
     for (std::size_t j = 0; j < h.fields.size(); ++j) {
       const pcd_field& f = h.fields[j];
@@ -427,8 +436,9 @@ std::array<std::size_t, 3> find_axes(const pcd_header& h, const std::string& fil
   for (int k = 0; k < 3; ++k) {
     const std::string name(1, static_cast<char>('x' + k));
     const auto it = std::find_if(h.fields.begin(), h.fields.end(), [&](const pcd_field& f) { return f.name == name; });
-    if (it == h.fields.end()) fail(file, "the PCD file has no '" + name + "' field");
-    if (it->count != 1) fail(file, "field '" + name + "' has COUNT " + std::to_string(it->count) + " (expected 1)");
+    if (it == h.fields.end()) throw io_error(file, "the PCD file has no '" + name + "' field");
+    if (it->count != 1)
+      throw io_error(file, "field '" + name + "' has COUNT " + std::to_string(it->count) + " (expected 1)");
     axis[static_cast<std::size_t>(k)] = static_cast<std::size_t>(it - h.fields.begin());
   }
   return axis;
@@ -456,7 +466,8 @@ std::vector<std::size_t> assign_columns(pcd_header& h, const std::string& file, 
       for (std::size_t c = 0; c < f.count; ++c) names.push_back(f.name + "_" + std::to_string(c));
     for (const auto& name : names)
       if (!out_names.insert(name).second)
-        fail(file, "two fields would be named '" + name + "' (field '" + f.name + "' clashes with another one)");
+        throw io_error(file,
+                       "two fields would be named '" + name + "' (field '" + f.name + "' clashes with another one)");
   }
   return col_of;
 }
@@ -719,106 +730,6 @@ void write_pcd_unchecked(std::ostream& out, const point_cloud& cloud, pcd_format
 }
 
 }  // namespace
-
-// ---------------------------------------------------------------------- LZF
-
-std::string lzf_compress(std::string_view input) {
-  const auto* in = reinterpret_cast<const unsigned char*>(input.data());
-  const std::size_t n = input.size();
-  std::string out;
-  out.reserve(n + n / 32 + 16);
-  constexpr unsigned hash_bits = 15;
-  std::vector<std::size_t> table(std::size_t(1) << hash_bits, 0);  // position + 1 of the last 3-byte sequence; 0: none
-  const auto hash = [in](std::size_t i) {
-    const std::uint32_t v = (std::uint32_t(in[i]) << 16) | (std::uint32_t(in[i + 1]) << 8) | in[i + 2];
-    return (v * 2654435761u) >> (32 - hash_bits);
-  };
-  std::size_t lit = 0;  // start of the pending literal run
-  const auto flush_literals = [&](std::size_t end) {
-    while (lit < end) {
-      const std::size_t k = std::min<std::size_t>(32, end - lit);
-      out.push_back(static_cast<char>(k - 1));
-      out.append(reinterpret_cast<const char*>(in + lit), k);
-      lit += k;
-    }
-  };
-  std::size_t i = 0;
-  while (i + 2 < n) {
-    const auto h = hash(i);
-    const std::size_t candidate = table[h];
-    table[h] = i + 1;
-    if (candidate != 0) {
-      const std::size_t c = candidate - 1;
-      const std::size_t distance = i - c;  // >= 1
-      if (distance <= 8192 && in[c] == in[i] && in[c + 1] == in[i + 1] && in[c + 2] == in[i + 2]) {
-        const std::size_t max_len = std::min<std::size_t>(264, n - i);
-        std::size_t len = 3;
-        while (len < max_len && in[c + len] == in[i + len]) ++len;
-        flush_literals(i);
-        const std::size_t l = len - 2, off = distance - 1;
-        if (l < 7) {
-          out.push_back(static_cast<char>((l << 5) | (off >> 8)));
-        } else {
-          out.push_back(static_cast<char>((7 << 5) | (off >> 8)));
-          out.push_back(static_cast<char>(l - 7));
-        }
-        out.push_back(static_cast<char>(off & 0xff));
-        const std::size_t next = i + len;
-        for (std::size_t k = i + 1; k < next && k + 2 < n; ++k) table[hash(k)] = k + 1;
-        i = lit = next;
-        continue;
-      }
-    }
-    ++i;
-  }
-  flush_literals(n);
-  return out;
-}
-
-std::string lzf_decompress(std::string_view input, std::size_t out_size, const std::string& name_for_errors) {
-  const auto corrupt = [&](const std::string& why) { fail(name_for_errors, "corrupt LZF data (" + why + ")"); };
-  const auto* in = reinterpret_cast<const unsigned char*>(input.data());
-  const std::size_t n = input.size();
-  std::string result(out_size, '\0');
-  auto* out = reinterpret_cast<unsigned char*>(result.data());
-  std::size_t ip = 0, op = 0;
-  while (ip < n) {
-    const std::size_t at = ip;
-    const unsigned ctrl = in[ip++];
-    if (ctrl < 32) {
-      const std::size_t run = ctrl + 1;
-      if (run > n - ip)
-        corrupt("a literal run of " + std::to_string(run) + " bytes at input offset " + std::to_string(at) +
-                " goes past the end of the input");
-      if (run > out_size - op) corrupt("the output would exceed the declared " + std::to_string(out_size) + " bytes");
-      std::memcpy(out + op, in + ip, run);
-      ip += run;
-      op += run;
-    } else {
-      std::size_t len = ctrl >> 5;
-      if (len == 7) {
-        if (ip >= n) corrupt("truncated back-reference at input offset " + std::to_string(at));
-        len += in[ip++];
-      }
-      if (ip >= n) corrupt("truncated back-reference at input offset " + std::to_string(at));
-      const std::size_t distance = ((ctrl & 0x1fu) << 8) + in[ip++] + 1;
-      if (distance > op)
-        corrupt("a back-reference at input offset " + std::to_string(at) + " points before the start of the output");
-      len += 2;
-      if (len > out_size - op) corrupt("the output would exceed the declared " + std::to_string(out_size) + " bytes");
-      const unsigned char* src = out + op - distance;
-      if (distance >= len) {
-        std::memcpy(out + op, src, len);
-      } else {
-        for (std::size_t k = 0; k < len; ++k) out[op + k] = src[k];  // overlapping: repeats a pattern
-      }
-      op += len;
-    }
-  }
-  if (op != out_size)
-    corrupt("it expands to " + std::to_string(op) + " bytes, not the declared " + std::to_string(out_size));
-  return result;
-}
 
 // ------------------------------------------------------------------- public
 

@@ -68,8 +68,8 @@ struct element_desc {
 /// Fails: the file ends after `read` of the `count` records of element e.
 [[noreturn]] void fail_truncated(const std::string& file, std::uint64_t read, std::uint64_t count,
                                  const element_desc& e) {
-  fail(file, "truncated: the file ends after " + std::to_string(read) + " of " + std::to_string(count) + " " +
-                 plural(e.name));
+  throw io_error(file, "truncated: the file ends after " + std::to_string(read) + " of " + std::to_string(count) + " " +
+                           plural(e.name));
 }
 
 struct ply_header {
@@ -103,7 +103,7 @@ struct header_line {
 /// "format ascii|binary_little_endian|binary_big_endian 1.0".
 void read_format_line(const header_line& l, const std::string& file, ply_header& h) {
   const auto& w = l.words;
-  if (w.size() != 3) fail(file, l.where() + "malformed format line '" + std::string(l.text) + "'");
+  if (w.size() != 3) throw io_error(file, l.where() + "malformed format line '" + std::string(l.text) + "'");
   if (w[1] == "ascii")
     h.format = ply_format::ascii;
   else if (w[1] == "binary_little_endian")
@@ -111,23 +111,25 @@ void read_format_line(const header_line& l, const std::string& file, ply_header&
   else if (w[1] == "binary_big_endian")
     h.format = ply_format::binary_big_endian;
   else
-    fail(file, l.where() + "unknown PLY format '" + std::string(w[1]) +
-                   "' (expected ascii, binary_little_endian or binary_big_endian)");
-  if (w[2] != "1.0" && w[2] != "1") fail(file, l.where() + "unsupported PLY version '" + std::string(w[2]) + "'");
+    throw io_error(file, l.where() + "unknown PLY format '" + std::string(w[1]) +
+                             "' (expected ascii, binary_little_endian or binary_big_endian)");
+  if (w[2] != "1.0" && w[2] != "1")
+    throw io_error(file, l.where() + "unsupported PLY version '" + std::string(w[2]) + "'");
 }
 
 /// "element NAME COUNT": a new element, named once.
 void read_element_line(const header_line& l, const std::string& file, ply_header& h) {
   const auto& w = l.words;
-  if (w.size() != 3) fail(file, l.where() + "malformed element line '" + std::string(l.text) + "'");
+  if (w.size() != 3) throw io_error(file, l.where() + "malformed element line '" + std::string(l.text) + "'");
   element_desc e;
   e.name = std::string(w[1]);
   const auto r = std::from_chars(w[2].data(), w[2].data() + w[2].size(), e.count);
   if (r.ec != std::errc() || r.ptr != w[2].data() + w[2].size())
-    fail(file, l.where() + "invalid count '" + std::string(w[2]) + "' for element '" + e.name + "'");
+    throw io_error(file, l.where() + "invalid count '" + std::string(w[2]) + "' for element '" + e.name + "'");
   if (h.elements.size() >= max_elements)
-    fail(file, l.where() + "too many elements (more than " + std::to_string(max_elements) + ")");
-  if (!h.element_names.insert(e.name).second) fail(file, l.where() + "element '" + e.name + "' is declared twice");
+    throw io_error(file, l.where() + "too many elements (more than " + std::to_string(max_elements) + ")");
+  if (!h.element_names.insert(e.name).second)
+    throw io_error(file, l.where() + "element '" + e.name + "' is declared twice");
   h.elements.push_back(std::move(e));
 }
 
@@ -135,11 +137,11 @@ void read_element_line(const header_line& l, const std::string& file, ply_header
 /// of the last element, named once in it.
 void read_property_line(const header_line& l, const std::string& file, ply_header& h) {
   const auto& w = l.words;
-  if (h.elements.empty()) fail(file, l.where() + "property before any element");
+  if (h.elements.empty()) throw io_error(file, l.where() + "property before any element");
   property_desc p;
   const auto type_of = [&](std::string_view s) {
     const auto t = parse_type(s);
-    if (!t) fail(file, l.where() + "unknown property type '" + std::string(s) + "'");
+    if (!t) throw io_error(file, l.where() + "unknown property type '" + std::string(s) + "'");
     return *t;
   };
   if (w.size() == 5 && w[1] == "list") {
@@ -148,19 +150,19 @@ void read_property_line(const header_line& l, const std::string& file, ply_heade
     p.type = type_of(w[3]);
     p.name = std::string(w[4]);
     if (!is_integer(p.count_type))
-      fail(file, l.where() + "list count type of property '" + p.name + "' must be an integer type");
+      throw io_error(file, l.where() + "list count type of property '" + p.name + "' must be an integer type");
   } else if (w.size() == 3 && w[1] != "list") {
     p.type = type_of(w[1]);
     p.name = std::string(w[2]);
   } else {
-    fail(file, l.where() + "malformed property line '" + std::string(l.text) + "'");
+    throw io_error(file, l.where() + "malformed property line '" + std::string(l.text) + "'");
   }
   auto& e = h.elements.back();
   if (e.props.size() >= max_properties)
-    fail(file, l.where() + "element '" + e.name + "' has too many properties (more than " +
-                   std::to_string(max_properties) + ")");
+    throw io_error(file, l.where() + "element '" + e.name + "' has too many properties (more than " +
+                             std::to_string(max_properties) + ")");
   if (!e.prop_names.insert(p.name).second)
-    fail(file, l.where() + "property '" + p.name + "' is declared twice in element '" + e.name + "'");
+    throw io_error(file, l.where() + "property '" + p.name + "' is declared twice in element '" + e.name + "'");
   e.props.push_back(std::move(p));
 }
 
@@ -175,15 +177,15 @@ ply_header parse_header(const header_source& src, const std::string& file) {
   else if (data.substr(0, 5) == "ply\r\n")
     pos = 5;
   else
-    fail(file, "not a PLY file (it does not start with the 'ply' magic line)");
-  if (!src.contains("end_header")) fail(file, "the PLY header has no end_header line");
+    throw io_error(file, "not a PLY file (it does not start with the 'ply' magic line)");
+  if (!src.contains("end_header")) throw io_error(file, "the PLY header has no end_header line");
 
   ply_header h;
   bool have_format = false;
   header_line l;
   l.number = 1;
   for (;;) {
-    if (!src.next_line(pos, l.text)) fail(file, "the PLY header has no end_header line");
+    if (!src.next_line(pos, l.text)) throw io_error(file, "the PLY header has no end_header line");
     ++l.number;
     l.words = split_words(l.text);
     if (l.words.empty()) continue;
@@ -198,10 +200,10 @@ ply_header parse_header(const header_source& src, const std::string& file) {
     } else if (kw == "property") {
       read_property_line(l, file, h);
     } else {
-      fail(file, l.where() + "unknown header keyword '" + std::string(kw) + "'");
+      throw io_error(file, l.where() + "unknown header keyword '" + std::string(kw) + "'");
     }
   }
-  if (!have_format) fail(file, "the PLY header has no format line");
+  if (!have_format) throw io_error(file, "the PLY header has no format line");
   h.body_offset = pos;
   return h;
 }
@@ -211,13 +213,13 @@ const element_desc& find_vertex(const ply_header& h, const std::string& file, st
   const element_desc* vertex = nullptr;
   for (const auto& e : h.elements)
     if (e.name == "vertex") vertex = &e;
-  if (!vertex) fail(file, "the PLY file has no 'vertex' element");
+  if (!vertex) throw io_error(file, "the PLY file has no 'vertex' element");
   for (int k = 0; k < 3; ++k) {
     const std::string name(1, static_cast<char>('x' + k));
     const auto it = std::find_if(vertex->props.begin(), vertex->props.end(),
                                  [&](const property_desc& p) { return p.name == name; });
-    if (it == vertex->props.end()) fail(file, "the vertex element has no '" + name + "' property");
-    if (it->is_list) fail(file, "the vertex property '" + name + "' is a list");
+    if (it == vertex->props.end()) throw io_error(file, "the vertex element has no '" + name + "' property");
+    if (it->is_list) throw io_error(file, "the vertex property '" + name + "' is a list");
     axis[k] = static_cast<std::size_t>(it - vertex->props.begin());
   }
   return *vertex;
@@ -254,9 +256,9 @@ void check_count(const element_desc& e, const record_size& r, std::uint64_t rema
   const std::uint64_t available = remaining / r.min;  // complete (minimal) records present
   if (e.count > available) {
     if (e.count / 2 > available + 8)
-      fail(file, "implausible element count: '" + e.name + "' declares " + std::to_string(e.count) +
-                     " records of at least " + std::to_string(r.min) + " bytes, but only " + std::to_string(remaining) +
-                     " bytes follow (corrupt header?)");
+      throw io_error(file, "implausible element count: '" + e.name + "' declares " + std::to_string(e.count) +
+                               " records of at least " + std::to_string(r.min) + " bytes, but only " +
+                               std::to_string(remaining) + " bytes follow (corrupt header?)");
     if (r.fixed) fail_truncated(file, available, e.count, e);
   }
 }
@@ -297,8 +299,8 @@ void read_record(Cursor& in, const element_desc& e, bool swap, std::size_t i, st
       if (in.left() < cs) fail_truncated(file, i, n, e);
       const double count = read_value(in.take(cs), prop.count_type, swap);
       if (count < 0)
-        fail(file, "element '" + e.name + "' " + std::to_string(i) + ", property '" + prop.name +
-                       "': negative list length " + std::to_string(static_cast<long long>(count)));
+        throw io_error(file, "element '" + e.name + "' " + std::to_string(i) + ", property '" + prop.name +
+                                 "': negative list length " + std::to_string(static_cast<long long>(count)));
       const std::size_t item = size_of(prop.type);
       if (count > static_cast<double>(static_cast<std::size_t>(in.left()) / item)) fail_truncated(file, i, n, e);
       in.skip(static_cast<std::size_t>(count) * item);
@@ -353,9 +355,9 @@ std::size_t read_ascii_element(std::string_view data, std::size_t pos, const ele
   const std::size_t remaining = data.size() - pos;
   const std::uint64_t available = (remaining + 1) / (2 * e.props.size());
   if (e.count / 2 > available + 8)
-    fail(file, "implausible element count: '" + e.name + "' declares " + std::to_string(e.count) + " records of " +
-                   std::to_string(e.props.size()) + " values, but only " + std::to_string(remaining) +
-                   " bytes follow (corrupt header?)");
+    throw io_error(file, "implausible element count: '" + e.name + "' declares " + std::to_string(e.count) +
+                             " records of " + std::to_string(e.props.size()) + " values, but only " +
+                             std::to_string(remaining) + " bytes follow (corrupt header?)");
   const auto n = static_cast<std::size_t>(e.count);
   if (cols)
     for (std::size_t j = 0; j < e.props.size(); ++j)
@@ -375,7 +377,7 @@ std::size_t read_ascii_element(std::string_view data, std::size_t pos, const ele
         std::uint64_t count = 0;
         const auto r = std::from_chars(tok.data(), tok.data() + tok.size(), count);
         if (r.ec != std::errc() || r.ptr != tok.data() + tok.size())
-          fail(file, where(i, prop) + "is not a valid list length");
+          throw io_error(file, where(i, prop) + "is not a valid list length");
         for (std::uint64_t k = 0; k < count; ++k)
           if (!tk.next(tok)) truncated(i);
       } else if (cols) {

@@ -85,9 +85,6 @@ std::unique_ptr<piece_writer> pcd_pieces(std::ostream& out, const point_cloud& l
 std::unique_ptr<piece_writer> las_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n);
 std::unique_ptr<piece_writer> csv_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n);
 
-/// Throws io_error("file: msg").
-[[noreturn]] inline void fail(const std::string& file, const std::string& msg) { throw io_error(file + ": " + msg); }
-
 // The text helpers of core, for the readers.
 using ced::detail::iequal;
 using ced::detail::is_space;
@@ -319,9 +316,9 @@ inline parse_status parse_ascii_value(std::string_view tok, scalar_type t, doubl
 /// `what` (which names the value), then why, for type t.
 [[noreturn]] inline void fail_value(const std::string& file, const std::string& what, parse_status s, scalar_type t) {
   const std::string type(name_of(t));
-  if (s == parse_status::not_a_number) fail(file, what + "is not a number (expected " + type + ")");
-  if (s == parse_status::not_an_integer) fail(file, what + "is not an integer (expected " + type + ")");
-  fail(file, what + "is out of range for " + type);
+  if (s == parse_status::not_a_number) throw io_error(file, what + "is not a number (expected " + type + ")");
+  if (s == parse_status::not_an_integer) throw io_error(file, what + "is not an integer (expected " + type + ")");
+  throw io_error(file, what + "is out of range for " + type);
 }
 
 }  // namespace ced::io::detail

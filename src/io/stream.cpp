@@ -20,19 +20,20 @@ namespace ced::io {
 namespace detail {
 
 input_file::input_file(const std::string& path) : m_path(path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw io_error("cannot read '" + path + "': it is a directory");
   m_file.reset(std::fopen(path.c_str(), "rb"));
   if (!m_file) throw io_error("cannot open '" + path + "': " + std::strerror(errno));
-  std::error_code ec;
   m_size = std::filesystem::file_size(path, ec);
-  if (ec) fail(path, "cannot read its size: " + ec.message());
+  if (ec) throw io_error(path, "cannot read its size: " + ec.message());
 }
 
 void input_file::read_exact(std::uint64_t offset, std::size_t n, char* out) {
   if (n == 0) return;
   if (offset > m_size || n > m_size - offset || fseeko(m_file.get(), static_cast<off_t>(offset), SEEK_SET) != 0 ||
       std::fread(out, 1, n, m_file.get()) != n)
-    fail(m_path, "cannot read " + std::to_string(n) + " bytes at byte " + std::to_string(offset) +
-                     " (the file is unreadable or was truncated while being read)");
+    throw io_error(m_path, "cannot read " + std::to_string(n) + " bytes at byte " + std::to_string(offset) +
+                               " (the file is unreadable or was truncated while being read)");
 }
 
 void input_file::read_some(std::uint64_t offset, std::size_t n, std::string& buf) {

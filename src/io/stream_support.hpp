@@ -15,6 +15,7 @@
 
 #include "ced/cloud.hpp"
 #include "ced/io/csv.hpp"
+#include "ced/io/las.hpp"
 #include "ced/io/pcd.hpp"
 #include "ced/io/stream.hpp"
 
@@ -62,7 +63,8 @@ struct header_source {
 /// A regular file read in pieces at given offsets, with bounded memory.
 class input_file {
  public:
-  /// Opens `path`; io_error naming it when it cannot be opened or its size read.
+  /// Opens `path`; io_error naming it when it is a directory, cannot be
+  /// opened or its size read.
   explicit input_file(const std::string& path);
   const std::string& path() const noexcept { return m_path; }
   std::uint64_t size() const noexcept { return m_size; }
@@ -171,6 +173,8 @@ class box_stream : public point_stream {
 
 /// read_report::details of a PCD file ("PCD binary, organized 640x480").
 std::string pcd_details(const pcd_read_info& info);
+/// read_report::details of a LAS file ("LAS 1.4, point format 6").
+std::string las_details(const las_read_info& info);
 
 /// Streaming readers of the other formats (defined with their whole-file
 /// readers). nullptr for the encodings that are not streamed (PLY ascii;

@@ -18,8 +18,10 @@
 #include <cstdlib>
 #include <exception>
 #include <filesystem>
+#include <functional>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -51,126 +53,134 @@ unsigned threads_per_rank(int asked) {
   return std::max(1u, cores < all ? cores : all / ranks);
 }
 
-int run_mpi(const detect_options& o, mpi::communicator& world) {
-  const bool root = world.rank() == 0;
-  const auto t_start = clock_type::now();
-  // Rank 0 checks the options, opens the outputs, plans and fills the cache;
-  // every rank learns whether that worked.
+/// What rank 0 makes before the tiles, and every rank learns: whether it
+/// worked (an exit code and a message), the plan and the work directory.
+struct prepared {
   int status = exit_ok;
   std::string message, plan_json, work_dir;
-  detect_plan dplan;
-  std::unique_ptr<detect_outputs> out;
-  if (root) {
-    try {
-      if (!o.plan.empty()) throw usage_error("ced-mpi plans itself: no --plan");
-      if (o.input.empty()) throw usage_error("give an input file");
-      if (!wants_tiles(o)) throw usage_error("ced-mpi needs --tile-size or --memory-limit");
-      dplan = make_plan(o);
-      check_outside_work_dir(o);
-      out = std::make_unique<detect_outputs>(o, input_paths(o));
-      const ced::tiled_request request = request_from(o, dplan);
-      ced::tiled_run_options ro;
-      ro.work_dir = work_dir = work_dir_of(o);
-      ro.resume = o.resume;
-      ro.planned = [&](const ced::tile_plan& p) { report_plan(p, o.quiet); };
-      try {
-        plan_json = ced::prepare_tiled(request, ro).to_json();
-      } catch (const ced::missing_field_error& e) {
-        throw with_file_fields(e, o.input, dplan.read_opts);  // the file's fields, not those read
-      }
-    } catch (const usage_error& e) {
-      status = exit_usage;
-      message = e.what();
-    } catch (const ced::work_dir_error& e) {
-      status = exit_usage;
-      message = e.what();
-    } catch (const std::exception& e) {
-      status = exit_failure;
-      message = e.what();
-    }
-  }
-  mpi::broadcast(world, status, 0);
-  if (status != exit_ok) {
-    if (root) std::cerr << "ced-mpi: error: " << message << "\n";
-    return status;
-  }
-  mpi::broadcast(world, plan_json, 0);
-  mpi::broadcast(world, work_dir, 0);
-  const unsigned threads = threads_per_rank(o.threads);
+  tiled_setup setup;  // rank 0's
+};
 
-  if (!root) {  // a worker: ask, detect, report, until told to stop
-    ced::tile_plan plan;
+/// Rank 0: checks the options, opens the outputs, plans and fills the cache.
+void prepare(const detect_options& o, prepared& r) {
+  try {
+    if (!o.plan.empty()) throw usage_error("ced-mpi plans itself: no --plan");
+    if (o.input.empty()) throw usage_error("give an input file");
+    if (!wants_tiles(o)) throw usage_error("ced-mpi needs --tile-size or --memory-limit");
+    r.setup = setup_tiled(o);
+    r.work_dir = r.setup.run.work_dir;
+    r.setup.run.planned = [&](const ced::tile_plan& p) { report_plan(p, o.quiet); };
+    r.plan_json =
+        naming_file_fields(o, r.setup.plan, [&] { return ced::prepare_tiled(r.setup.request, r.setup.run).to_json(); });
+  } catch (const usage_error& e) {
+    r.status = exit_usage;
+    r.message = e.what();
+  } catch (const ced::work_dir_error& e) {
+    r.status = exit_usage;
+    r.message = e.what();
+  } catch (const std::exception& e) {
+    r.status = exit_failure;
+    r.message = e.what();
+  }
+}
+
+/// A rank other than 0: asks for a tile, detects it, reports, until told to stop.
+int work(const detect_options& o, mpi::communicator& world, const prepared& r, unsigned threads) {
+  ced::tile_plan plan;
+  try {
+    load_plugins(o.plugins);  // rank 0 loaded them in make_plan(); the plan's modalities may need them
+    // Every rank reads the plan from the same text: the same digest in every part.
+    plan = ced::tile_plan::from_json(r.plan_json, r.work_dir + "/plan.json");
+  } catch (const std::exception& e) {
+    world.send(0, tag_ready);
+    long long id = -1;
+    world.recv(0, tag_tile, id);
+    world.send(0, tag_failed, "loading plugins or the plan: " + std::string(e.what()));
+    return exit_failure;
+  }
+  for (;;) {
+    world.send(0, tag_ready);
+    long long id = -1;
+    world.recv(0, tag_tile, id);
+    if (id < 0) return exit_ok;
     try {
-      load_plugins(o.plugins);  // rank 0 loaded them in make_plan(); the plan's modalities may need them
-      // Every rank reads the plan from the same text: the same digest in every part.
-      plan = ced::tile_plan::from_json(plan_json, work_dir + "/plan.json");
+      ced::detect_cached_tile(plan, r.work_dir, static_cast<std::uint64_t>(id), threads);
+      world.send(0, tag_done, id);
     } catch (const std::exception& e) {
-      world.send(0, tag_ready);
-      long long id = -1;
-      world.recv(0, tag_tile, id);
-      world.send(0, tag_failed, "loading plugins or the plan: " + std::string(e.what()));
-      return exit_failure;
-    }
-    for (;;) {
-      world.send(0, tag_ready);
-      long long id = -1;
-      world.recv(0, tag_tile, id);
-      if (id < 0) return exit_ok;
-      try {
-        ced::detect_cached_tile(plan, work_dir, static_cast<std::uint64_t>(id), threads);
-        world.send(0, tag_done, id);
-      } catch (const std::exception& e) {
-        world.send(0, tag_failed, "tile " + std::to_string(id) + ": " + e.what());
-        return exit_failure;  // rank 0 aborts the run
-      }
+      world.send(0, tag_failed, "tile " + std::to_string(id) + ": " + e.what());
+      return exit_failure;  // rank 0 aborts the run
     }
   }
+}
 
-  const ced::tile_plan plan = ced::tile_plan::from_json(plan_json, work_dir + "/plan.json");
-  // Rank 0: the queue, largest tiles first (their cost grows with density).
-  std::vector<ced::tile_entry> queue = plan.tiles;
-  std::stable_sort(queue.begin(), queue.end(),
-                   [](const ced::tile_entry& a, const ced::tile_entry& b) { return a.points > b.points; });
+/// Rank 0: hands out the tiles of `queue` to the other ranks (or, alone,
+/// detects them itself); report(done) after each tile. Aborts the run when
+/// a rank fails.
+void share_tiles(mpi::communicator& world, const ced::tile_plan& plan, const std::vector<ced::tile_entry>& queue,
+                 const std::string& work_dir, unsigned threads, const std::function<void(std::size_t)>& report) {
   std::size_t next = 0, done = 0;
   const std::size_t total = queue.size();
-  auto report = [&](std::size_t d) {
-    if (o.quiet || (d < total && d % std::max<std::size_t>(1, total / 20) != 0)) return;
-    const double ms = ms_since(t_start);
-    std::fprintf(stderr, "ced-mpi: tile %zu/%zu done; %.1f s elapsed\n", d, total, ms / 1000);
-  };
   if (world.size() == 1) {
     for (; next < total; ++next) {
       ced::detect_cached_tile(plan, work_dir, queue[next].id, threads);
       report(++done);
     }
-  } else {
-    int active = world.size() - 1;
-    while (active > 0) {
-      const mpi::status s = world.probe();
-      if (s.tag() == tag_ready) {
-        world.recv(s.source(), tag_ready);
-        const long long id = next < total ? static_cast<long long>(queue[next++].id) : -1;
-        world.send(s.source(), tag_tile, id);
-        if (id < 0) --active;
-      } else if (s.tag() == tag_done) {
-        long long id = 0;
-        world.recv(s.source(), tag_done, id);
-        report(++done);
-      } else {
-        std::string what;
-        world.recv(s.source(), tag_failed, what);
-        std::cerr << "ced-mpi: error: rank " << s.source() << " failed on " << what << "\n"
-                  << "ced-mpi: the finished tiles are kept in " << work_dir
-                  << ": run again with --resume to redo only the others\n";
-        world.abort(exit_failure);
-      }
+    return;
+  }
+  for (int active = world.size() - 1; active > 0;) {
+    const mpi::status s = world.probe();
+    if (s.tag() == tag_ready) {
+      world.recv(s.source(), tag_ready);
+      const long long id = next < total ? static_cast<long long>(queue[next++].id) : -1;
+      world.send(s.source(), tag_tile, id);
+      if (id < 0) --active;
+    } else if (s.tag() == tag_done) {
+      long long id = 0;
+      world.recv(s.source(), tag_done, id);
+      report(++done);
+    } else {
+      std::string what;
+      world.recv(s.source(), tag_failed, what);
+      std::cerr << "ced-mpi: error: rank " << s.source() << " failed on " << what << "\n"
+                << "ced-mpi: the finished tiles are kept in " << work_dir
+                << ": run again with --resume to redo only the others\n";
+      world.abort(exit_failure);
     }
   }
-  merged_writer writer(*out, dplan.out_format);
+}
+
+int run_mpi(const detect_options& o, mpi::communicator& world) {
+  const bool root = world.rank() == 0;
+  const auto t_start = clock_type::now();
+  // Rank 0 checks the options, opens the outputs, plans and fills the cache;
+  // every rank learns whether that worked.
+  prepared r;
+  if (root) prepare(o, r);
+  mpi::broadcast(world, r.status, 0);
+  if (r.status != exit_ok) {
+    if (root) std::cerr << "ced-mpi: error: " << r.message << "\n";
+    return r.status;
+  }
+  mpi::broadcast(world, r.plan_json, 0);
+  mpi::broadcast(world, r.work_dir, 0);
+  const unsigned threads = threads_per_rank(o.threads);
+  if (!root) return work(o, world, r, threads);
+
+  const ced::tile_plan plan = ced::tile_plan::from_json(r.plan_json, r.work_dir + "/plan.json");
+  // The queue, largest tiles first (their cost grows with density).
+  std::vector<ced::tile_entry> queue = plan.tiles;
+  std::stable_sort(queue.begin(), queue.end(),
+                   [](const ced::tile_entry& a, const ced::tile_entry& b) { return a.points > b.points; });
+  const std::size_t total = queue.size();
+  share_tiles(world, plan, queue, r.work_dir, threads, [&](std::size_t d) {
+    if (o.quiet || (d < total && d % std::max<std::size_t>(1, total / 20) != 0)) return;
+    std::fprintf(stderr, "ced-mpi: tile %zu/%zu done; %.1f s elapsed\n", d, total, ms_since(t_start) / 1000);
+  });
+  merged_writer writer(*r.setup.out, r.setup.plan.out_format);
   const ced::merge_sink sink = writer.sink();
-  const ced::tile_part totals = ced::finish_tiled(plan, work_dir, &sink, /*keep_work_dir=*/true);
+  const ced::tile_part totals = ced::finish_tiled(plan, r.work_dir, &sink, /*keep_work_dir=*/true);
   writer.finish(plan, totals, ms_since(t_start));
-  ced::remove_work_dir(work_dir);  // ced's own files only, once the outputs are committed
+  ced::remove_work_dir(r.work_dir);  // ced's own files only, once the outputs are committed
   if (!o.quiet)
     std::fprintf(stderr, "ced-mpi: %llu keypoints; %zu tiles on %d rank(s), %u thread(s) each; total %.1f ms\n",
                  static_cast<unsigned long long>(writer.keypoints()), total, world.size(), threads, ms_since(t_start));
@@ -190,18 +200,8 @@ int main(int argc, char** argv) {
       "Example: mpirun -np 4 ced-mpi detect big.las --preset ced6d --tile-size 50 --work-dir /shared/tmp -o kp.las\n"
       "--work-dir must be on storage every rank sees. Exit codes: 0 ok, 1 bad input data or I/O, 2 usage.");
   ced::io::remove_temporaries_on_signals();
-  std::vector<std::string> args(argv + 1, argv + argc);
-  try {
-    args = expand_config(args, *detect.app);
-    std::reverse(args.begin(), args.end());
-    app.parse(args);
-  } catch (const CLI::ParseError& e) {
-    if (world.rank() != 0) return exit_usage;
-    return app.exit(e) == 0 ? exit_ok : exit_usage;
-  } catch (const std::exception& e) {
-    if (world.rank() == 0) std::cerr << "ced-mpi: error: " << e.what() << "\n";
-    return exit_usage;
-  }
+  if (const std::optional<int> rc = parse_command_line(app, *detect.app, argc, argv, "ced-mpi", world.rank() == 0))
+    return *rc;  // the other ranks stay quiet
   try {
     const int rc = detect.run();
     if (world.rank() == 0) check_stdout();  // the indices, when no output file is given

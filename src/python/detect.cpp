@@ -159,9 +159,8 @@ std::vector<ced::any_modality> make_modalities(const ced::point_cloud& cloud, py
   return out;
 }
 
-}  // namespace
-
-void bind_detect(py::module_& m) {
+/// ced.Result.
+void bind_result(py::module_& m) {
   py::class_<result, std::shared_ptr<result>>(m, "Result", "What ced.detect found, and why.")
       .def_property_readonly(
           "keypoints", [](py::object self) { return view(self.cast<const result&>().r.keypoints, self); },
@@ -213,37 +212,44 @@ void bind_detect(py::module_& m) {
       .def_readonly("refine", &result::refine, "Whether the keypoints were refined (detect(refine=...)).")
       .def("__len__", [](const result& res) { return res.r.keypoints.size(); })
       .def("__repr__", &repr);
+}
 
-  m.def(
-      "_detect",
-      [](py::handle points, py::handle channels, py::handle modalities, py::handle radius, double radius_factor,
-         std::optional<double> nms_radius, long long min_neighbors, long long threads, py::handle refine) {
-        const cloud_ptr cloud = to_cloud(points, channels);
-        if (cloud->empty()) throw py::value_error("points: the cloud is empty");
-        ced::detect_params p = make_params(*cloud, radius, radius_factor, nms_radius, min_neighbors, threads);
-        p.refine = refine_of(modalities, refine);
-        const auto mods = make_modalities(*cloud, modalities);
-        auto res = std::make_shared<result>();
-        if (python_callbacks_running()) {
-          // Called from a python_modality's function (or from a thread it
-          // waits for): the outer detection's workers hold the task arena
-          // while they wait in Python, so this one runs here, on one thread,
-          // outside TBB (bindings.hpp). The result is the same for any
-          // thread count; Ctrl-C then stops the outer detection, after it.
-          p.threads = 1;
-          py::gil_scoped_release release;
-          res->r = ced::detect(*cloud, p, mods);
-        } else {
-          res->r = run_interruptible(*cloud, p, mods);
-        }
-        res->radius = p.radius;
-        res->nms_radius = p.nms_radius;
-        res->min_neighbors = p.min_neighbors;
-        res->refine = p.refine;
-        return res;
-      },
-      py::arg("points"), py::arg("channels"), py::arg("modalities"), py::arg("radius"), py::arg("radius_factor"),
-      py::arg("nms_radius"), py::arg("min_neighbors"), py::arg("threads"), py::arg("refine"));
+/// ced._detect (ced.detect's work, behind its Python signature).
+std::shared_ptr<result> detect_cloud(py::handle points, py::handle channels, py::handle modalities, py::handle radius,
+                                     double radius_factor, std::optional<double> nms_radius, long long min_neighbors,
+                                     long long threads, py::handle refine) {
+  const cloud_ptr cloud = to_cloud(points, channels);
+  if (cloud->empty()) throw py::value_error("points: the cloud is empty");
+  ced::detect_params p = make_params(*cloud, radius, radius_factor, nms_radius, min_neighbors, threads);
+  p.refine = refine_of(modalities, refine);
+  const auto mods = make_modalities(*cloud, modalities);
+  auto res = std::make_shared<result>();
+  if (python_callbacks_running()) {
+    // Called from a python_modality's function (or from a thread it
+    // waits for): the outer detection's workers hold the task arena
+    // while they wait in Python, so this one runs here, on one thread,
+    // outside TBB (bindings.hpp). The result is the same for any
+    // thread count; Ctrl-C then stops the outer detection, after it.
+    p.threads = 1;
+    py::gil_scoped_release release;
+    res->r = ced::detect(*cloud, p, mods);
+  } else {
+    res->r = run_interruptible(*cloud, p, mods);
+  }
+  res->radius = p.radius;
+  res->nms_radius = p.nms_radius;
+  res->min_neighbors = p.min_neighbors;
+  res->refine = p.refine;
+  return res;
+}
+
+}  // namespace
+
+void bind_detect(py::module_& m) {
+  bind_result(m);
+  m.def("_detect", &detect_cloud, py::arg("points"), py::arg("channels"), py::arg("modalities"), py::arg("radius"),
+        py::arg("radius_factor"), py::arg("nms_radius"), py::arg("min_neighbors"), py::arg("threads"),
+        py::arg("refine"));
   m.def("release_cached_memory", &ced::release_cached_memory,
         "Frees the up to 32 MiB that detections keep cached for the next one.");
 }

@@ -37,7 +37,7 @@ tile_points read_tile(const tile_plan& plan, std::uint64_t id) {
   std::uint64_t file_index = 0, index = 0, content = 0, core = 0;
   for_each_chunk(*s, plan.origin, [&](const point_cloud& c) {
     if (c.fields().size() != plan.fields.size())
-      fail(plan.request.input, "its fields differ from the plan's: make a new plan");
+      throw io::io_error(plan.request.input, "its fields differ from the plan's: make a new plan");
     if (!plan.content.empty()) content = hash_chunk(c, content);
     for (std::size_t i = 0; i < c.size(); ++i, ++file_index) {
       if (!finite3(c.position(i))) continue;
@@ -50,7 +50,7 @@ tile_points read_tile(const tile_plan& plan, std::uint64_t id) {
   });
   const tile_entry& e = plan.tile(id);
   auto changed = [&](const std::string& what) {
-    fail(plan.request.input, "the file changed since the plan was made (" + what + "): make a new plan");
+    throw io::io_error(plan.request.input, "the file changed since the plan was made (" + what + "): make a new plan");
   };
   if (file_index != plan.file_points || index != plan.finite_points)
     changed(std::to_string(file_index) + " points, " + std::to_string(index) + " finite; the plan says " +

@@ -62,9 +62,9 @@ std::uint64_t hash_chunk(const point_cloud& c, std::uint64_t h) {
 std::string fingerprint_of(const std::string& path, std::uint64_t& bytes) {
   std::error_code ec;
   bytes = fs::file_size(path, ec);
-  if (ec) fail(path, "cannot read its size: " + ec.message());
+  if (ec) throw io::io_error(path, "cannot read its size: " + ec.message());
   std::ifstream in(path, std::ios::binary);
-  if (!in) fail(path, "cannot open");
+  if (!in) throw io::io_error(path, "cannot open");
   std::string size_le;
   append_le(size_le, bytes);
   std::uint64_t h = detail::fnv1a(size_le);
@@ -74,7 +74,7 @@ std::string fingerprint_of(const std::string& path, std::uint64_t& bytes) {
     buf.resize(static_cast<std::size_t>(n));
     in.seekg(static_cast<std::streamoff>(at));
     in.read(buf.data(), static_cast<std::streamsize>(n));
-    if (!in) fail(path, "cannot read it");
+    if (!in) throw io::io_error(path, "cannot read it");
     h = detail::fnv1a(buf, h);
   };
   block(0, 65536);
@@ -89,9 +89,10 @@ void check_plan_input(const tile_plan& plan) {
   std::uint64_t bytes = 0;
   const std::string fp = fingerprint_of(plan.request.input, bytes);
   if (bytes != plan.input_bytes || fp != plan.fingerprint)
-    fail(plan.request.input, "this is not the file the plan was made for (" + std::to_string(bytes) + " bytes, " +
-                                 "fingerprint " + fp + "; the plan says " + std::to_string(plan.input_bytes) +
-                                 " bytes, fingerprint " + plan.fingerprint + "): make a new plan");
+    throw io::io_error(plan.request.input, "this is not the file the plan was made for (" + std::to_string(bytes) +
+                                               " bytes, " + "fingerprint " + fp + "; the plan says " +
+                                               std::to_string(plan.input_bytes) + " bytes, fingerprint " +
+                                               plan.fingerprint + "): make a new plan");
 }
 
 }  // namespace ced

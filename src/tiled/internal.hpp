@@ -18,6 +18,7 @@
 #include <utility>
 #include <vector>
 
+#include "ced/io/error.hpp"
 #include "ced/io/stream.hpp"
 #include "ced/modality.hpp"
 #include "ced/tiled.hpp"
@@ -26,7 +27,6 @@
 namespace ced::tiled_detail {
 
 namespace fs = std::filesystem;
-using io::detail::fail;
 
 // ------------------------------------------------------------------ chunks (planning, detect_tile, tile_cache)
 

@@ -25,7 +25,7 @@ namespace {
 void check_keypoint(const tile_plan& plan, const std::string& where, std::uint64_t tile, std::uint64_t index,
                     std::uint64_t file_index, const float* xyz, std::uint64_t& last) {
   auto bad = [&](const std::string& what) {
-    fail(where, "not a whole part of this plan: keypoint " + std::to_string(index) + " " + what);
+    throw io::io_error(where, "not a whole part of this plan: keypoint " + std::to_string(index) + " " + what);
   };
   if (index >= plan.finite_points || file_index >= plan.file_points)
     bad("is out of the input's range (" + std::to_string(plan.finite_points) + " finite points)");
@@ -82,8 +82,8 @@ void check_part(const tile_plan& plan, const tile_part& out, const tile_part& p)
   const std::size_t m = out.names.size();
   const std::string where = "the part of tile " + std::to_string(p.tile);
   if (p.plan != out.plan)
-    fail(where, "it belongs to another plan (plan digest " + (p.plan.empty() ? std::string("none") : p.plan) +
-                    ", expected " + out.plan + ")");
+    throw io::io_error(where, "it belongs to another plan (plan digest " +
+                                  (p.plan.empty() ? std::string("none") : p.plan) + ", expected " + out.plan + ")");
   const std::size_t n = p.index.size();
   bool whole = p.names == out.names && p.saliency.size() == m && p.candidates.size() == m && p.file_index.size() == n &&
                p.keypoints.size() == n && p.keypoints.fields().size() == plan.fields.size();
@@ -91,7 +91,7 @@ void check_part(const tile_plan& plan, const tile_part& out, const tile_part& p)
   for (std::size_t f = 0; whole && f < plan.fields.size(); ++f)
     whole =
         p.keypoints.fields()[f].name == plan.fields[f].name && p.keypoints.fields()[f].type() == plan.fields[f].type;
-  if (!whole) fail(where, "its modalities, fields or array sizes differ from the plan's");
+  if (!whole) throw io::io_error(where, "its modalities, fields or array sizes differ from the plan's");
   std::uint64_t last = std::numeric_limits<std::uint64_t>::max();
   for (std::size_t j = 0; j < n; ++j)
     check_keypoint(plan, where, p.tile, p.index[j], p.file_index[j], p.keypoints.position(j), last);
@@ -168,9 +168,9 @@ tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts) {
   std::sort(order.begin(), order.end());
   for (std::size_t q = 1; q < order.size(); ++q)
     if (order[q].first == order[q - 1].first)
-      fail("the parts of tiles " + std::to_string(parts[order[q - 1].second.first].tile) + " and " +
-               std::to_string(parts[order[q].second.first].tile),
-           "both have keypoint " + std::to_string(order[q].first) + ": not parts of one plan's run");
+      throw io::io_error("the parts of tiles " + std::to_string(parts[order[q - 1].second.first].tile) + " and " +
+                             std::to_string(parts[order[q].second.first].tile),
+                         "both have keypoint " + std::to_string(order[q].first) + ": not parts of one plan's run");
   out.keypoints = empty_cloud(plan, order.size());
   out.saliency.assign(m, std::vector<float>(order.size()));
   for (std::size_t q = 0; q < order.size(); ++q) {

@@ -54,24 +54,25 @@ void write_part_as(const std::string& path, const tile_plan& plan, const std::st
 
 part_reader::part_reader(const std::string& path, const tile_plan& plan, const std::string& digest) : m_path(path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) fail(path, std::string("cannot open: ") + std::strerror(errno));
+  if (!in) throw io::io_error(path, std::string("cannot open: ") + std::strerror(errno));
   std::error_code ec;
   const std::uint64_t size = fs::file_size(path, ec);
-  if (ec) fail(path, "cannot read its size: " + ec.message());
+  if (ec) throw io::io_error(path, "cannot read its size: " + ec.message());
   const auto modalities = modalities_of(plan.request.modalities);
   const std::size_t m = modalities.size();
   // header, digest, tile, keypoints, modalities, fields, candidates, any, ms
   const std::size_t head = tiled_header_bytes + digest.size() + 8 + 8 + 4 + 4 + 8 * m + 8 + 8;
   std::string b(std::min<std::uint64_t>(size, head), '\0');
   in.read(b.data(), static_cast<std::streamsize>(b.size()));
-  if (!in) fail(path, "cannot read it");
+  if (!in) throw io::io_error(path, "cannot read it");
   check_tiled_header(b.data(), b.size(), size, part_kind, path);
   std::size_t at = tiled_header_bytes;
-  if (b.size() < at + digest.size()) fail(path, "truncated tile part (" + std::to_string(size) + " bytes)");
+  if (b.size() < at + digest.size())
+    throw io::io_error(path, "truncated tile part (" + std::to_string(size) + " bytes)");
   if (b.compare(at, digest.size(), digest) != 0)
-    fail(path, "this part belongs to another plan (plan digest " + b.substr(at, digest.size()) + ", expected " +
-                   digest + ")");
-  if (b.size() < head) fail(path, "truncated tile part (" + std::to_string(size) + " bytes)");
+    throw io::io_error(path, "this part belongs to another plan (plan digest " + b.substr(at, digest.size()) +
+                                 ", expected " + digest + ")");
+  if (b.size() < head) throw io::io_error(path, "truncated tile part (" + std::to_string(size) + " bytes)");
   at += digest.size();
   auto get = [&](auto& v) {
     v = load_le<std::remove_reference_t<decltype(v)>>(b.data() + at);
@@ -83,7 +84,7 @@ part_reader::part_reader(const std::string& path, const tile_plan& plan, const s
   get(m_count);
   get(nm);
   get(nf);
-  if (nm != m || nf != plan.fields.size()) fail(path, "its modalities or fields differ from the plan's");
+  if (nm != m || nf != plan.fields.size()) throw io::io_error(path, "its modalities or fields differ from the plan's");
   name_modalities(plan, modalities, totals);
   totals.candidates.resize(m);
   for (auto& c : totals.candidates) get(c);
@@ -94,7 +95,7 @@ part_reader::part_reader(const std::string& path, const tile_plan& plan, const s
   m_record = record_size(plan) + 4 * m;
   m_offset = head;
   if (m_count > (size - head) / m_record || size - head != m_count * m_record)
-    fail(path, "truncated or oversized tile part: " + std::to_string(m_count) + " keypoints declared");
+    throw io::io_error(path, "truncated or oversized tile part: " + std::to_string(m_count) + " keypoints declared");
   m_left = m_count;
 }
 
@@ -106,7 +107,7 @@ const char* part_reader::next(std::size_t buffer) {
     std::ifstream in(m_path, std::ios::binary);
     in.seekg(static_cast<std::streamoff>(m_offset));
     in.read(m_buf.data(), static_cast<std::streamsize>(m_buf.size()));
-    if (!in) fail(m_path, "cannot read it (was it changed during the merge?)");
+    if (!in) throw io::io_error(m_path, "cannot read it (was it changed during the merge?)");
     m_offset += m_buf.size();
     m_left -= n;
     m_at = 0;

@@ -22,7 +22,7 @@ constexpr int plan_version = 1;
 scalar_type type_named(const std::string& name, const std::string& where) {
   for (int t = 0; t <= int(scalar_type::float64); ++t)
     if (name_of(scalar_type(t)) == name) return scalar_type(t);
-  fail(where, "unknown field type '" + name + "'");
+  throw io::io_error(where, "unknown field type '" + name + "'");
 }
 
 /// A whole number of a plan, within T's range (`what` names it): nlohmann's
@@ -97,7 +97,7 @@ void input_from_json(const nlohmann::json& in, tile_plan& p, const std::string& 
   p.streamed = in.at("streamed").get<bool>();
   if (p.finite_points == 0 || p.finite_points > p.file_points ||
       p.finite_points > std::numeric_limits<std::uint32_t>::max())
-    fail(name, "invalid tile plan: its point counts are inconsistent");
+    throw io::io_error(name, "invalid tile plan: its point counts are inconsistent");
 }
 
 /// The plan's "grid", its halo at least the one the request needs.
@@ -105,17 +105,18 @@ void grid_from_json(const nlohmann::json& g, tile_plan& p, const std::string& na
   p.grid.lo = point_of(g, "lo");
   p.grid.size = number_of(g, "size");
   const auto& dims = g.at("dims");
-  if (!dims.is_array() || dims.size() != 3) fail(name, "invalid tile plan: the grid's 'dims' must be 3 counts");
+  if (!dims.is_array() || dims.size() != 3)
+    throw io::io_error(name, "invalid tile plan: the grid's 'dims' must be 3 counts");
   for (std::size_t k = 0; k < 3; ++k) p.grid.dims[k] = whole_number<std::uint32_t>(dims.at(k), "the grid's dims");
   p.grid.halo = number_of(g, "halo");
   if (!(p.grid.size > 0) || !(p.grid.halo >= 0) ||
       p.grid.dims[0] * std::uint64_t(p.grid.dims[1]) * p.grid.dims[2] == 0 || p.grid.count() > (std::uint64_t(1) << 24))
-    fail(name, "the tile grid is invalid");
+    throw io::io_error(name, "the tile grid is invalid");
   // The halo makes the tiles exact: at least the one the request needs.
   const double needed = exact_halo(halo_params(p.request), 0);
   if (p.grid.halo < needed)
-    fail(name, "invalid tile plan: its halo " + std::to_string(p.grid.halo) + " is less than the " +
-                   std::to_string(needed) + " its radii and modalities need (tiles would not be exact)");
+    throw io::io_error(name, "invalid tile plan: its halo " + std::to_string(p.grid.halo) + " is less than the " +
+                                 std::to_string(needed) + " its radii and modalities need (tiles would not be exact)");
 }
 
 void fields_from_json(const nlohmann::json& fields, tile_plan& p, const std::string& name) {
@@ -125,7 +126,7 @@ void fields_from_json(const nlohmann::json& fields, tile_plan& p, const std::str
                         type_named(f.at("type").get<std::string>(), name),
                         {number_of(f, "lo"), number_of(f, "hi")}};
     if (pf.name.empty() || !names.insert(pf.name).second || !(pf.range.lo <= pf.range.hi))
-      fail(name, "invalid tile plan: field '" + pf.name + "' is unnamed, repeated or has lo > hi");
+      throw io::io_error(name, "invalid tile plan: field '" + pf.name + "' is unnamed, repeated or has lo > hi");
     p.fields.push_back(pf);
   }
 }
@@ -139,15 +140,15 @@ void tiles_from_json(const nlohmann::json& tiles, tile_plan& p, const std::strin
                        whole_number<std::uint64_t>(t.at(1), "a tile's count"),
                        whole_number<std::uint64_t>(t.at(2), "a tile's count")};
     if (e.id >= p.grid.count() || (!p.tiles.empty() && e.id <= p.tiles.back().id))
-      fail(name, "tile " + std::to_string(e.id) + " is out of the grid or out of order");
+      throw io::io_error(name, "tile " + std::to_string(e.id) + " is out of the grid or out of order");
     if (e.core_points == 0 || e.core_points > e.points || e.points > p.finite_points)
-      fail(name, "invalid tile plan: tile " + std::to_string(e.id) + "'s counts are inconsistent");
+      throw io::io_error(name, "invalid tile plan: tile " + std::to_string(e.id) + "'s counts are inconsistent");
     owned += e.core_points;
     p.tiles.push_back(e);
   }
   if (owned != p.finite_points)
-    fail(name, "invalid tile plan: its tiles own " + std::to_string(owned) + " points, its input has " +
-                   std::to_string(p.finite_points) + " finite points");
+    throw io::io_error(name, "invalid tile plan: its tiles own " + std::to_string(owned) + " points, its input has " +
+                                 std::to_string(p.finite_points) + " finite points");
 }
 
 }  // namespace
@@ -194,10 +195,11 @@ tile_plan tile_plan::from_json(const std::string& text, const std::string& name)
   tile_plan p;
   try {
     const auto j = nlohmann::json::parse(text);
-    if (!j.is_object() || !j.contains("ced_tile_plan")) fail(name, "not a ced tile plan (no 'ced_tile_plan' key)");
+    if (!j.is_object() || !j.contains("ced_tile_plan"))
+      throw io::io_error(name, "not a ced tile plan (no 'ced_tile_plan' key)");
     if (j.at("ced_tile_plan").get<int>() != plan_version)
-      fail(name, "tile plan version " + j.at("ced_tile_plan").dump() + ", this ced reads version " +
-                     std::to_string(plan_version));
+      throw io::io_error(name, "tile plan version " + j.at("ced_tile_plan").dump() + ", this ced reads version " +
+                                   std::to_string(plan_version));
     p.request = request_from_json(j.at("request"));
     input_from_json(j.at("input"), p, name);
     p.origin = point_of(j, "origin");
@@ -205,9 +207,9 @@ tile_plan tile_plan::from_json(const std::string& text, const std::string& name)
     fields_from_json(j.at("fields"), p, name);
     tiles_from_json(j.at("tiles"), p, name);
   } catch (const nlohmann::json::exception& e) {
-    fail(name, std::string("malformed tile plan: ") + e.what());
+    throw io::io_error(name, std::string("malformed tile plan: ") + e.what());
   } catch (const std::invalid_argument& e) {
-    fail(name, std::string("invalid tile plan: ") + e.what());
+    throw io::io_error(name, std::string("invalid tile plan: ") + e.what());
   }
   return p;
 }

@@ -94,11 +94,11 @@ scan_result scan_input(tile_plan& p, io::point_stream& s, const tiled_progress& 
   });
   p.file_points = scan.file_points;
   p.finite_points = scan.finite_points;
-  if (p.finite_points == 0) fail(p.request.input, "the cloud has no (finite) points");
+  if (p.finite_points == 0) throw io::io_error(p.request.input, "the cloud has no (finite) points");
   if (p.finite_points > std::numeric_limits<std::uint32_t>::max())
-    fail(p.request.input,
-         "more than 2^32-1 finite points: a tile plan indexes points with 32 bits in each tile, "
-         "but the whole file's indices must fit the outputs' too (split the file)");
+    throw io::io_error(p.request.input,
+                       "more than 2^32-1 finite points: a tile plan indexes points with 32 bits in each tile, "
+                       "but the whole file's indices must fit the outputs' too (split the file)");
   p.origin = s.origin();
   return scan;
 }

@@ -35,22 +35,23 @@ std::string tiled_header(const tiled_file_kind& kind) {
 void check_tiled_header(const char* p, std::size_t n, std::uint64_t size, const tiled_file_kind& kind,
                         const std::string& path) {
   const std::string what = kind.what;
-  if (n < 8) fail(path, "truncated " + what + " (" + std::to_string(size) + " bytes)");
+  if (n < 8) throw io::io_error(path, "truncated " + what + " (" + std::to_string(size) + " bytes)");
   // Version 1 of a part began "CEDPART1"; version 1 of a cache had no header.
   const bool v1_magic = !kind.v1_headerless && p[7] == '1';
   if (std::memcmp(p, kind.magic, 7) != 0 || (p[7] != '\0' && !v1_magic)) {
     std::string hint;
     if (kind.v1_headerless) hint = " (or one of format version 1, which had no header: " + std::string(kind.redo) + ")";
-    fail(path, "not a ced " + what + hint);
+    throw io::io_error(path, "not a ced " + what + hint);
   }
   std::uint32_t version = 1;
   if (!v1_magic) {
-    if (n < tiled_header_bytes) fail(path, "truncated " + what + " (" + std::to_string(size) + " bytes)");
+    if (n < tiled_header_bytes) throw io::io_error(path, "truncated " + what + " (" + std::to_string(size) + " bytes)");
     version = load_le<std::uint32_t>(p + 8);
   }
   if (version != tiled_file_version)
-    fail(path, what + " format version " + std::to_string(version) + ", this ced reads version " +
-                   std::to_string(tiled_file_version) + " (written by another ced version: " + kind.redo + ")");
+    throw io::io_error(path, what + " format version " + std::to_string(version) + ", this ced reads version " +
+                                 std::to_string(tiled_file_version) + " (written by another ced version: " + kind.redo +
+                                 ")");
 }
 
 std::size_t record_size(const tile_plan& p) {
@@ -110,7 +111,7 @@ tile_points points_from_records(const tile_plan& p, std::uint64_t id, const std:
                                 const std::string& name) {
   const std::size_t rs = record_size(p);
   if ((bytes.size() - offset) % rs != 0)
-    fail(name, "truncated tile cache (" + std::to_string(bytes.size()) + " bytes)");
+    throw io::io_error(name, "truncated tile cache (" + std::to_string(bytes.size()) + " bytes)");
   const std::size_t n = (bytes.size() - offset) / rs;
   tile_points t;
   t.tile = id;

@@ -29,13 +29,14 @@ std::string part_file(const std::string& work_dir, std::uint64_t id) {
 /// of the same request and input.
 tile_plan resumed_plan(const tiled_request& request, const tiled_run_options& o, const fs::path& plan_path) {
   if (!o.resume)
-    fail(o.work_dir, "holds the tiles of an unfinished run: pass --resume to finish it, or remove the directory");
+    throw io::io_error(o.work_dir,
+                       "holds the tiles of an unfinished run: pass --resume to finish it, or remove the directory");
   tile_plan plan = tile_plan::from_json(io::detail::read_whole_file(plan_path.string()), plan_path.string());
   tiled_request asked = request;
   if (asked.modalities.empty()) asked.modalities = plan.request.modalities;
   if (request_json(asked) != request_json(plan.request))
-    fail(o.work_dir, "holds the tiles of another run (" + request_json(plan.request).dump() +
-                         "): remove it or choose another work directory");
+    throw io::io_error(o.work_dir, "holds the tiles of another run (" + request_json(plan.request).dump() +
+                                       "): remove it or choose another work directory");
   check_plan_input(plan);
   return plan;
 }
@@ -110,7 +111,7 @@ tile_plan prepare_tiled(const tiled_request& request, const tiled_run_options& o
     }
   }
   fs::create_directories(parts, ec);
-  if (ec) fail(parts.string(), "cannot create the parts directory: " + ec.message());
+  if (ec) throw io::io_error(parts.string(), "cannot create the parts directory: " + ec.message());
   if (o.planned && !announced) o.planned(plan);
   return plan;
 }

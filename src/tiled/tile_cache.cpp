@@ -41,9 +41,9 @@ class cache_writer {
       if (b.empty()) continue;
       const std::string path = cache_file(m_work_dir, t);
       std::FILE* f = std::fopen(path.c_str(), "ab");
-      if (!f) fail(path, std::string("cannot write the tile cache: ") + std::strerror(errno));
+      if (!f) throw io::io_error(path, std::string("cannot write the tile cache: ") + std::strerror(errno));
       const bool ok = std::fwrite(b.data(), 1, b.size(), f) == b.size();
-      if (std::fclose(f) != 0 || !ok) fail(path, "cannot write the tile cache (disk full?)");
+      if (std::fclose(f) != 0 || !ok) throw io::io_error(path, "cannot write the tile cache (disk full?)");
       // Released, so that the buffers of many tiles never hold more than the
       // budget between them (their memory is reused, not faulted in anew:
       // keep_freed_memory()).
@@ -127,7 +127,7 @@ tile_plan build_cache(const tiled_request& request, const tiled_run_options& o, 
   const fs::path plan_path = dir / "plan.json", cache = dir / "cache";
   std::error_code ec;
   fs::create_directories(cache, ec);
-  if (ec) fail(cache.string(), "cannot create the tile cache directory: " + ec.message());
+  if (ec) throw io::io_error(cache.string(), "cannot create the tile cache directory: " + ec.message());
   auto s = io::open_point_stream(request.input, request.read);
   tile_plan plan = plan_grid(request, *s, o.progress);
   // Small tiles under a large halo: a point lands in many tiles, most of
@@ -158,7 +158,8 @@ tile_points load_cached(const tile_plan& plan, const std::string& work_dir, std:
   const std::string bytes = io::detail::read_whole_file(file);
   check_tiled_header(bytes.data(), bytes.size(), bytes.size(), cache_kind, file);
   tile_points pts = points_from_records(plan, id, bytes, tiled_header_bytes, file);
-  if (pts.cloud.size() != plan.tile(id).points) fail(file, "the tile cache does not hold the tile's points");
+  if (pts.cloud.size() != plan.tile(id).points)
+    throw io::io_error(file, "the tile cache does not hold the tile's points");
   return pts;
 }
 

@@ -86,7 +86,8 @@ void tiled_detail::claim_work_dir(const std::string& work_dir) {
     if (dir.has_parent_path() && !fs::is_directory(dir.parent_path(), ec))
       throw work_dir_error("work directory '" + work_dir + "': its parent directory does not exist");
     if (!fs::create_directory(dir, ec) || ec)
-      fail(work_dir, "cannot create the work directory: " + (ec ? ec.message() : std::string("it appeared meanwhile")));
+      throw io::io_error(
+          work_dir, "cannot create the work directory: " + (ec ? ec.message() : std::string("it appeared meanwhile")));
     created = true;
   } else if (!fs::is_directory(st)) {
     throw work_dir_error("work directory '" + work_dir + "' exists and is not a directory");

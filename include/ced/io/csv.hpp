@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "ced/cloud.hpp"
-#include "ced/io/output_file.hpp"
+#include "ced/io/error.hpp"
 
 namespace ced::io {
 

@@ -9,7 +9,7 @@
 #include <string_view>
 
 #include "ced/cloud.hpp"
-#include "ced/io/output_file.hpp"
+#include "ced/io/error.hpp"
 
 namespace ced::io {
 

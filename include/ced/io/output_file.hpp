@@ -8,12 +8,9 @@
 #include <string>
 #include <vector>
 
-namespace ced::io {
+#include "ced/io/error.hpp"
 
-/// Error reading or writing a file. The message names the file and the problem.
-struct io_error : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
+namespace ced::io {
 
 /// Writes a file atomically: the data goes to a temporary file in the same
 /// directory (".<name>.tmp.<pid>.<n>"), which commit() renames onto the final

@@ -8,7 +8,8 @@
 #include <string_view>
 
 #include "ced/cloud.hpp"
-#include "ced/io/output_file.hpp"
+#include "ced/io/error.hpp"
+#include "ced/io/lzf.hpp"
 
 namespace ced::io {
 
@@ -86,15 +87,5 @@ point_cloud read_pcd_buffer(std::string_view bytes, const std::string& name_for_
 void write_pcd(const std::string& path, const point_cloud& cloud, pcd_format fmt = pcd_format::binary);
 /// Same, to a stream (open it in binary mode for the binary formats).
 void write_pcd(std::ostream& out, const point_cloud& cloud, pcd_format fmt);
-
-/// LZF compression in the liblzf format used by PCD binary_compressed. Never
-/// fails; the output may be slightly larger than the input (at most
-/// size + size / 32 + 1 bytes) when the input does not compress.
-std::string lzf_compress(std::string_view in);
-/// Decompresses LZF data that must expand to exactly `out_size` bytes. Every
-/// read and write is bounds-checked: a truncated input, a back-reference
-/// before the start of the output, output past `out_size` or output shorter
-/// than `out_size` throw io_error "<name_for_errors>: corrupt LZF data (...)".
-std::string lzf_decompress(std::string_view in, std::size_t out_size, const std::string& name_for_errors);
 
 }  // namespace ced::io

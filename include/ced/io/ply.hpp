@@ -6,7 +6,7 @@
 #include <string>
 
 #include "ced/cloud.hpp"
-#include "ced/io/output_file.hpp"
+#include "ced/io/error.hpp"
 
 namespace ced::io {
 

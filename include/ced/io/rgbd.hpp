@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "ced/cloud.hpp"
-#include "ced/io/output_file.hpp"
+#include "ced/io/error.hpp"
 #include "ced/transform.hpp"
 
 namespace ced::io {

@@ -1,0 +1,59 @@
+// SPDX-License-Identifier: MIT
+// The detectors that `ced eval repeatability` and `ced eval registration`
+// compare: their names and sweeps (-d, --detector), their shared settings,
+// and one run of one of them.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "ced/ced.hpp"
+
+namespace ced_cli {
+
+// PCL's detectors, available when ced is built with its PCL component.
+extern const std::vector<std::string> pcl_detector_names;
+extern const char* const no_pcl_message;
+
+/// A detector of the evaluation: "random", a preset, one of PCL's, or
+/// modality specs joined by commas ("xyz:0.2,bands(nir):0.1,range=0..255"),
+/// among which the word "refine" asks for keypoint refinement.
+struct eval_detector {
+  enum class kind { ced, random, pcl };
+  std::string name;
+  kind type = kind::ced;
+  std::vector<ced::any_modality> modalities;
+  bool refine = false;  ///< a robust preset, or "refine" among the specs
+};
+
+eval_detector parse_detector(const std::string& text);
+/// A sweep: every setting of `text`'s brace lists, in order (the last list
+/// varies fastest): "xyz:{0.1,0.2},rgb:{0.1,0.5}" gives xyz:0.1,rgb:0.1,
+/// xyz:0.1,rgb:0.5, xyz:0.2,rgb:0.1, xyz:0.2,rgb:0.5. Text without braces is
+/// itself. std::invalid_argument for unbalanced or nested braces and empty
+/// values.
+std::vector<std::string> expand_sweep(const std::string& text);
+std::vector<eval_detector> parse_detectors(const std::vector<std::string>& names);
+
+/// What the evaluated detectors share: the detector parameters and the resolution.
+struct eval_setting {
+  ced::detect_params params;
+  double resolution = 0;
+};
+
+eval_setting make_setting(const ced::point_cloud& p, const std::string& name, double resolution, double radius,
+                          int min_neighbors, int threads);
+
+struct detection {
+  std::vector<std::uint32_t> keypoints;
+  double ms = 0;
+};
+
+/// Runs `d` on `cloud`. "random" picks `random_count` points.
+detection run_detector(const eval_detector& d, const ced::point_cloud& cloud, const eval_setting& s,
+                       std::size_t random_count, std::mt19937_64& rng);
+
+}  // namespace ced_cli
