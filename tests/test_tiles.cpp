@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// Exact tiles in memory (core/tiles.cpp): the union of the tiles' core
+// Exact tiles in memory (core/tile_geometry.cpp): the union of the tiles' core
 // keypoints is the whole cloud's result, index for index, whatever the tile
 // size. The tiled runs through files: test_tiled_*.cpp.
 #include <gtest/gtest.h>

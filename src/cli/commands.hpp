@@ -24,8 +24,8 @@ CLI::App* add_eval_command(CLI::App& app);          // eval.cpp: the `eval` grou
 command add_repeatability_command(CLI::App& eval);  // eval.cpp
 command add_registration_command(CLI::App& eval);   // registration.cpp
 command add_convert_command(CLI::App& app);         // convert.cpp
-command add_plan_command(CLI::App& app);            // tiled.cpp
-command add_merge_command(CLI::App& app);           // tiled.cpp
+command add_plan_command(CLI::App& app);            // tiled_commands.cpp
+command add_merge_command(CLI::App& app);           // tiled_commands.cpp
 command add_view_command(CLI::App& app);            // view.cpp
 
 }  // namespace ced_cli

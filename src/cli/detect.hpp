@@ -35,7 +35,7 @@ struct detect_options {
   bool png_top = false;
   bool refine = false, no_refine = false;  // default: the preset's (robust3d/6d refine)
   bool quiet = false;
-  // Tiles (tiled.cpp): one process with a tile cache, or one tile of a plan.
+  // Tiles (tiled_commands.cpp): one process with a tile cache, or one tile of a plan.
   std::string tile_size, memory_limit, work_dir, plan;
   bool resume = false;
   long long tile = -1;
@@ -115,7 +115,7 @@ auto naming_file_fields(const detect_options& o, const detect_plan& plan, F&& f)
 /// The files `ced detect` reads: the input and the plugins.
 std::vector<ced::io::named_path> input_paths(const detect_options& o);
 
-/// `ced detect --tile-size/--memory-limit` and `--plan --tile` (tiled.cpp).
+/// `ced detect --tile-size/--memory-limit` and `--plan --tile` (tiled_commands.cpp).
 bool wants_tiles(const detect_options& o);
 /// The work directory of a tiled run: --work-dir, or default_work_dir().
 std::string work_dir_of(const detect_options& o);
