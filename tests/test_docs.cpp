@@ -19,6 +19,7 @@
 
 #include "ced/ced.hpp"
 #include "core/nms.hpp"
+#include "file_support.hpp"
 
 namespace fs = std::filesystem;
 
@@ -26,17 +27,10 @@ namespace {
 
 const fs::path root = fs::path(CED_TEST_DATA_DIR).parent_path().parent_path();
 
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 /// A doc with its whitespace runs collapsed to one space: Markdown wraps
 /// sentences anywhere.
 std::string read_doc(const std::string& name) {
-  const std::string text = read_text(root / "docs" / name);
+  const std::string text = ced_test::read_bytes((root / "docs" / name).string());
   EXPECT_FALSE(text.empty()) << "docs/" << name << " is missing or empty";
   return std::regex_replace(text, std::regex("[ \t\r\n]+"), " ");
 }
@@ -117,7 +111,7 @@ TEST(Docs, Presets) {
 
 TEST(Docs, ArchitectureNamesEverySourceFile) {
   // The parts section: from "## The parts" to the next "## ".
-  const std::string text = read_text(root / "docs" / "ARCHITECTURE.md");
+  const std::string text = ced_test::read_bytes((root / "docs" / "ARCHITECTURE.md").string());
   const auto begin = text.find("## The parts");
   ASSERT_NE(begin, std::string::npos) << "docs/ARCHITECTURE.md has no \"## The parts\"";
   const auto end = text.find("\n## ", begin + 1);
@@ -205,7 +199,7 @@ TEST(Docs, CliDetectDefaults) {
   ASSERT_GT(help_line.size(), 10u) << "could not read `" CED_CLI_EXE " detect --help`";
 
   // CLI.md's rows: | `-k, --min-neighbors K` | meaning | 5 |
-  const std::string text = read_text(root / "docs" / "CLI.md");
+  const std::string text = ced_test::read_bytes((root / "docs" / "CLI.md").string());
   const auto begin = text.find("## `ced detect`");
   ASSERT_NE(begin, std::string::npos) << "docs/CLI.md has no \"## `ced detect`\"";
   const auto end = text.find("\n## ", begin + 1);
