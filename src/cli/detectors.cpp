@@ -30,6 +30,7 @@ eval_detector parse_detector(const std::string& text) {
   }
   if (std::find(pcl_detector_names.begin(), pcl_detector_names.end(), text) != pcl_detector_names.end()) {
 #ifdef CED_HAS_PCL
+    ced::pcl_bridge::require_pcl();  // a missing PCL module stops the command here, before any work
     d.type = eval_detector::kind::pcl;
     return d;
 #else

@@ -278,6 +278,7 @@ void print_registration_summary(const std::vector<eval_detector>& detectors,
 int run_registration(const registration_options& o) {
   const std::vector<eval_detector> detectors = parse_detectors(o.detectors);
   check_registration_numbers(o);
+  ced::pcl_bridge::require_pcl();  // registration is PCL's: a missing module stops here, before any work
   std::unique_ptr<ced::io::atomic_output_file> csv;
   if (!o.csv.empty()) csv = std::make_unique<ced::io::atomic_output_file>(o.csv);
   int repeats = 1;

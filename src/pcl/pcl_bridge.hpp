@@ -1,8 +1,11 @@
 // SPDX-License-Identifier: MIT
-// ced's optional PCL component (target ced_pcl): PCL's keypoint detectors
-// and the descriptor + RANSAC registration pipeline of the CED paper's
-// evaluation, on ced::point_cloud. Private to the ced tools: no PCL header is
-// included here, so callers need neither PCL's headers nor its flags.
+// ced's optional PCL component: PCL's keypoint detectors and the descriptor +
+// RANSAC registration pipeline of the CED paper's evaluation, on
+// ced::point_cloud. Private to the ced tools: no PCL header is included
+// here, so callers need neither PCL's headers nor its flags. Two builds of
+// it: the static library ced_pcl (tests, benchmarks) and, for the `ced`
+// tool, the module libced_pcl.so that the tool loads on first use
+// (pcl_module.hpp, pcl_loader.cpp).
 #pragma once
 
 #include <array>
@@ -19,7 +22,18 @@ namespace ced::pcl_bridge {
 enum class detector { iss3d, harris3d, harris6d, sift };
 
 /// "iss3d", "harris3d", "harris6d" or "sift"; nullopt for any other name.
-std::optional<detector> parse_detector(const std::string& name);
+inline std::optional<detector> parse_detector(const std::string& name) {
+  if (name == "iss3d") return detector::iss3d;
+  if (name == "harris3d") return detector::harris3d;
+  if (name == "harris6d") return detector::harris6d;
+  if (name == "sift") return detector::sift;
+  return std::nullopt;
+}
+
+/// Makes PCL's code available before a command starts its work. In the
+/// `ced` tool this loads the PCL module, and throws std::runtime_error naming
+/// the module when it is missing or broken; in ced_pcl it does nothing.
+void require_pcl();
 
 /// Parameters of PCL's detectors. Defaults: the CED paper's settings for a
 /// 0.01 m resolution (its config.yaml), SIFT on RGB intensity scaled to it.

@@ -43,13 +43,7 @@ pcl_cloud::Ptr to_pcl(const point_cloud& cloud) {
   return out;
 }
 
-std::optional<detector> parse_detector(const std::string& name) {
-  if (name == "iss3d") return detector::iss3d;
-  if (name == "harris3d") return detector::harris3d;
-  if (name == "harris6d") return detector::harris6d;
-  if (name == "sift") return detector::sift;
-  return std::nullopt;
-}
+void require_pcl() {}  // linked with PCL: nothing to load
 
 namespace {
 
