@@ -223,5 +223,21 @@ check "wide: no tiled output left" test ! -e "$T/wide_t.ply"
 "$CED" convert "$T/wide.ply" "$T/wide.csv"
 check "wide: 65,536 values convert" test $? = 0 -a -s "$T/wide.csv"
 
+# --- 11. --max-keypoints: a count, the N strongest; in a config file too ---
+expect_exit 2 "max-keypoints must be >= 0" "max-keypoints: negative" -- detect "$sample" --preset ced6d --max-keypoints -1 -q
+expect_exit 2 "max-keypoints" "max-keypoints: not a number" -- detect "$sample" --preset ced6d --max-keypoints ten -q
+"$CED" detect "$sample" --preset ced6d -q > "$T/all.txt"
+"$CED" detect "$sample" --preset ced6d --max-keypoints 17 --indices "$T/top17.txt" -q
+check "max-keypoints: 17 kept" test "$(wc -l < "$T/top17.txt")" = 17
+check "max-keypoints: a subset of the keypoints" bash -c "[ -z \"\$(comm -23 <(sort '$T/top17.txt') <(sort '$T/all.txt'))\" ]"
+"$CED" detect "$sample" --preset ced6d --max-keypoints 100000 --indices "$T/top_all.txt" -q
+check "max-keypoints: more than there are keeps all" cmp -s "$T/top_all.txt" "$T/all.txt"
+printf '{"preset": "ced6d", "max-keypoints": 17}\n' > "$T/top.json"
+"$CED" detect "$sample" --config "$T/top.json" --indices "$T/top17c.txt" -q
+check "max-keypoints: from --config" cmp -s "$T/top17c.txt" "$T/top17.txt"
+expect_exit 2 "max-keypoints is not available with --tile-size" "max-keypoints: tiles refused clearly" -- \
+  detect "$sample" --preset ced6d --max-keypoints 5 --tile-size 1 --indices "$T/top_t.txt" -q
+check "max-keypoints: no tiled output" test ! -e "$T/top_t.txt"
+
 echo "cli_edges: $pass passed, $fail failed"
 [ "$fail" = 0 ]

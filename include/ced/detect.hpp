@@ -48,6 +48,18 @@ struct detection_result {
 detection_result detect(const point_cloud& cloud, const detect_params& params,
                         const std::vector<any_modality>& modalities);
 
+/// The NMS score of point i: the product of its saliencies over the
+/// modalities, in float, in modality order (as detection ranks points).
+float keypoint_score(const detection_result& result, std::uint32_t i) noexcept;
+
+/// The `n` strongest of `keypoints` (scores[q] is the score of keypoints[q]):
+/// highest score first, ties to the smaller index, a NaN score lowest;
+/// returned ascending by index. All of them when n is 0 or at least their
+/// number. What detect_params::max_keypoints keeps, and what a tiled merge
+/// keeps from all tiles.
+std::vector<std::uint32_t> strongest(const std::vector<std::uint32_t>& keypoints, const std::vector<float>& scores,
+                                     std::size_t n);
+
 /// Frees the working memory that detections keep cached for the next one (at
 /// most 32 MiB: the NMS's chunks, which would otherwise be page-faulted in
 /// again at every detection). Thread-safe; a later detection simply starts

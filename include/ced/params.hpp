@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 
@@ -31,6 +32,12 @@ struct detect_params {
   /// Keypoints that land on the same point are kept once. Under noise the
   /// refined keypoints repeat far more (docs/EVALUATION.md#robust-presets).
   bool refine = false;
+  /// At most this many keypoints (0: no limit, the default): the ones with
+  /// the highest score, the product of their saliencies (the NMS score), ties
+  /// to the smaller index; still ascending by index. A refined keypoint is
+  /// ranked by its own score. The same keypoints in tiled runs (the merge
+  /// selects them from all tiles). See keypoint_score() and strongest().
+  std::size_t max_keypoints = 0;
   /// Optional: called with the fraction of the saliency stage done (0..1),
   /// from any worker thread, never concurrently; keep it cheap. It may throw
   /// to cancel the detection: detect() then stops its workers and rethrows

@@ -67,6 +67,9 @@ void check_numbers(const detect_options& o, detect_plan& plan) {
   params.threads = static_cast<unsigned>(o.threads);
   if (o.refine && o.no_refine) throw usage_error("give --refine or --no-refine, not both");
   params.refine = o.refine || (!o.no_refine && !o.preset.empty() && ced::preset_refines(o.preset));
+  if (o.max_keypoints < 0)
+    throw usage_error("--max-keypoints must be >= 0 (0: no limit), got " + std::to_string(o.max_keypoints));
+  params.max_keypoints = static_cast<std::size_t>(o.max_keypoints);
   ced::detect_params check = params;
   check.nms_radius = std::isnan(o.nms_radius) ? check.radius : o.nms_radius;
   try {
@@ -250,6 +253,9 @@ void add_detector_options(CLI::App* cmd, detect_options& o, const std::string& r
                 "Move each keypoint to the point nearest the score-weighted centroid of its NMS neighbourhood "
                 "(more repeatable under noise; default with the robust presets)");
   cmd->add_flag("--no-refine", o.no_refine, "Keep the NMS maxima themselves, as the paper (default with ced3d/ced6d)");
+  cmd->add_option("--max-keypoints", o.max_keypoints,
+                  "Keep at most N keypoints: the highest scores (product of saliencies), ties to the smaller index "
+                  "(default 0: no limit)");
 }
 
 command add_detect_command(CLI::App& app, std::function<int(const detect_options&)> run) {
@@ -309,8 +315,8 @@ command add_detect_command(CLI::App& app, std::function<int(const detect_options
   auto note_given = [det, o] {
     o->given_plan_options.clear();
     for (const char* name : {"--radius", "--preset", "--modality", "--nms-radius", "--min-neighbors", "--refine",
-                             "--no-refine", "--format", "--columns", "--voxel", "--radius-factor", "--tile-size",
-                             "--memory-limit", "--work-dir", "--resume"})
+                             "--no-refine", "--max-keypoints", "--format", "--columns", "--voxel", "--radius-factor",
+                             "--tile-size", "--memory-limit", "--work-dir", "--resume"})
       if (det->count(name) > 0) o->given_plan_options.push_back(name);
   };
   if (run)

@@ -29,6 +29,7 @@ struct detect_options {
   double voxel = 0;
   int min_neighbors = 5;
   int threads = 0;
+  long long max_keypoints = 0;  // 0: no limit
   std::string indices, indices_original, output, viewer, png, summary, html;
   long long html_max_points = 2000000;
   std::string view = "iso", png_size = "1280x960", png_color = "rgb";
@@ -46,7 +47,7 @@ struct detect_options {
 
 /// The detector's options of `ced detect` and `ced plan`: --preset,
 /// -m/--modality, --plugin, -r/--radius (`radius_help`: its help),
-/// --nms-radius, -k/--min-neighbors, --refine and --no-refine.
+/// --nms-radius, -k/--min-neighbors, --refine, --no-refine and --max-keypoints.
 void add_detector_options(CLI::App* cmd, detect_options& o, const std::string& radius_help);
 
 /// What the options ask for, checked before any file is read.

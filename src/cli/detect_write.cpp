@@ -149,6 +149,7 @@ nlohmann::json summary_json(const detect_options& o, const detect_plan& plan, co
                  {"nms_radius", params.nms_radius},
                  {"min_neighbors", params.min_neighbors},
                  {"refine", params.refine},
+                 {"max_keypoints", params.max_keypoints},
                  {"voxel", o.voxel},
                  {"threads", ced::resolve_threads(params.threads)}};
   auto& mods = j["modalities"] = nlohmann::json::array();
@@ -210,6 +211,7 @@ ced::html_options html_options_of(const detect_options& o, const detect_plan& pl
   h.info.push_back({"NMS radius", number(plan.params.nms_radius)});
   h.info.push_back({"min neighbours", std::to_string(plan.params.min_neighbors)});
   if (plan.params.refine) h.info.push_back({"refine", "on"});
+  if (plan.params.max_keypoints) h.info.push_back({"max keypoints", std::to_string(plan.params.max_keypoints)});
   h.info.push_back({"candidates", std::to_string(candidate_count(r))});
   h.info.push_back({"keypoints", std::to_string(r.keypoints.size())});
   char ms[32];
@@ -264,9 +266,11 @@ void print_report(const detect_options& o, const detect_plan& plan, const detect
   std::string mods;
   for (std::size_t m = 0; m < r.names.size(); ++m)
     mods += (m ? " + " : "") + r.names[m] + " (t=" + std::to_string(r.thresholds[m]) + ")";
-  std::fprintf(stderr, "ced: modalities %s; radius %g, nms radius %g, min neighbours %u%s, %u thread(s)\n",
+  const std::string limit =
+      params.max_keypoints ? ", the " + std::to_string(params.max_keypoints) + " strongest" : std::string();
+  std::fprintf(stderr, "ced: modalities %s; radius %g, nms radius %g, min neighbours %u%s%s, %u thread(s)\n",
                mods.c_str(), params.radius, params.nms_radius, params.min_neighbors, params.refine ? ", refined" : "",
-               ced::resolve_threads(params.threads));
+               limit.c_str(), ced::resolve_threads(params.threads));
   std::fprintf(stderr, "ced: %zu keypoints; detect %.1f ms (index %.1f, saliency %.1f, nms %.1f); total %.1f ms\n",
                r.keypoints.size(), r.times.total_ms(), r.times.index_ms, r.times.saliency_ms, r.times.nms_ms,
                ms_since(t_start));

@@ -2,8 +2,6 @@
 // Clouds larger than memory: `ced detect --tile-size/--memory-limit` (one
 // process, a tile cache), `ced plan`, `ced detect --plan --tile` and
 // `ced merge` (any scheduler runs the tiles). The work is ced/tiled.hpp's.
-#include "ced/tiled.hpp"
-
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -18,6 +16,7 @@
 #include "../core/hash.hpp"
 #include "ced/ced.hpp"
 #include "ced/io/io.hpp"
+#include "ced/tiled.hpp"
 #include "commands.hpp"
 #include "common.hpp"
 #include "detect.hpp"
@@ -71,6 +70,8 @@ ced::tiled_request request_from(const detect_options& o, detect_plan& plan) {
   if (!o.png.empty()) throw usage_error("--png draws the whole cloud: not with --tile-size or --memory-limit");
   if (!o.html.empty()) throw usage_error("--html shows the whole cloud: not with --tile-size or --memory-limit");
   if (o.voxel > 0) throw usage_error("--voxel is not available with --tile-size or --memory-limit");
+  if (o.max_keypoints != 0)
+    throw usage_error("--max-keypoints is not available with --tile-size or --memory-limit yet: run without tiles");
   if (plan.auto_radius)
     throw usage_error("--radius auto needs the whole cloud: give --radius (or --preset) with --tile-size");
   ced::tiled_request r;

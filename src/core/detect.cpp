@@ -4,8 +4,12 @@
 // saliencies) → candidates.cpp → nms.cpp → the result (here).
 #include "ced/detect.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
 #include <memory>
 #include <stdexcept>
+#include <string>
 #include <utility>
 
 #include "core/candidates.hpp"
@@ -59,11 +63,50 @@ detection_result detection_context::finish() {
                                    params.nms_radius, threads);
   m_impl->hits.clear();
   m_impl->hits.shrink_to_fit();
+  if (params.max_keypoints != 0 && r.keypoints.size() > params.max_keypoints) {
+    std::vector<float> scores(r.keypoints.size());
+    for (std::size_t q = 0; q < scores.size(); ++q) scores[q] = product[r.keypoints[q]];
+    r.keypoints = strongest(r.keypoints, scores, params.max_keypoints);
+  }
   r.times.nms_ms = ms_since(t0);
   return std::move(r);
 }
 
 }  // namespace detail
+
+float keypoint_score(const detection_result& result, std::uint32_t i) noexcept {
+  // As candidates_and_scores() computes it: the first column, then times each next.
+  float score = result.saliency.empty() ? 0.0f : result.saliency[0][i];
+  for (std::size_t m = 1; m < result.saliency.size(); ++m) score *= result.saliency[m][i];
+  return score;
+}
+
+std::vector<std::uint32_t> strongest(const std::vector<std::uint32_t>& keypoints, const std::vector<float>& scores,
+                                     std::size_t n) {
+  if (scores.size() != keypoints.size())
+    throw std::invalid_argument("strongest: one score per keypoint expected (" + std::to_string(scores.size()) +
+                                " scores, " + std::to_string(keypoints.size()) + " keypoints)");
+  std::vector<std::uint32_t> kept = keypoints;
+  if (n == 0 || n >= keypoints.size()) {
+    std::sort(kept.begin(), kept.end());
+    return kept;
+  }
+  std::vector<std::size_t> order(keypoints.size());
+  for (std::size_t q = 0; q < order.size(); ++q) order[q] = q;
+  auto key = [&](std::size_t q) { return std::isnan(scores[q]) ? -std::numeric_limits<float>::infinity() : scores[q]; };
+  // A strict total order: higher score first, then the smaller index (then the position, for repeated indices).
+  auto before = [&](std::size_t a, std::size_t b) {
+    const float ka = key(a), kb = key(b);
+    if (ka != kb) return ka > kb;
+    if (keypoints[a] != keypoints[b]) return keypoints[a] < keypoints[b];
+    return a < b;
+  };
+  std::nth_element(order.begin(), order.begin() + std::ptrdiff_t(n), order.end(), before);
+  kept.resize(n);
+  for (std::size_t q = 0; q < n; ++q) kept[q] = keypoints[order[q]];
+  std::sort(kept.begin(), kept.end());
+  return kept;
+}
 
 void release_cached_memory() noexcept { detail::chunk_arena::release_cache(); }
 

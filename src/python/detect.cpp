@@ -26,6 +26,7 @@ struct result {
   double radius = 0, nms_radius = 0;
   std::uint32_t min_neighbors = 0;
   bool refine = false;
+  std::size_t max_keypoints = 0;
 };
 
 /// Unique keys for the modalities (a name given twice gets "#2", ...).
@@ -210,6 +211,8 @@ void bind_result(py::module_& m) {
       .def_readonly("nms_radius", &result::nms_radius)
       .def_readonly("min_neighbors", &result::min_neighbors)
       .def_readonly("refine", &result::refine, "Whether the keypoints were refined (detect(refine=...)).")
+      .def_readonly("max_keypoints", &result::max_keypoints,
+                    "The limit on the keypoints' number (detect(max_keypoints=...)); 0: none.")
       .def("__len__", [](const result& res) { return res.r.keypoints.size(); })
       .def("__repr__", &repr);
 }
@@ -217,11 +220,14 @@ void bind_result(py::module_& m) {
 /// ced._detect (ced.detect's work, behind its Python signature).
 std::shared_ptr<result> detect_cloud(py::handle points, py::handle channels, py::handle modalities, py::handle radius,
                                      double radius_factor, std::optional<double> nms_radius, long long min_neighbors,
-                                     long long threads, py::handle refine) {
+                                     long long threads, py::handle refine, long long max_keypoints) {
   const cloud_ptr cloud = to_cloud(points, channels);
   if (cloud->empty()) throw py::value_error("points: the cloud is empty");
   ced::detect_params p = make_params(*cloud, radius, radius_factor, nms_radius, min_neighbors, threads);
   p.refine = refine_of(modalities, refine);
+  if (max_keypoints < 0)
+    throw py::value_error("max_keypoints: must be >= 0 (0: no limit), got " + std::to_string(max_keypoints));
+  p.max_keypoints = static_cast<std::size_t>(max_keypoints);
   const auto mods = make_modalities(*cloud, modalities);
   auto res = std::make_shared<result>();
   if (python_callbacks_running()) {
@@ -240,6 +246,7 @@ std::shared_ptr<result> detect_cloud(py::handle points, py::handle channels, py:
   res->nms_radius = p.nms_radius;
   res->min_neighbors = p.min_neighbors;
   res->refine = p.refine;
+  res->max_keypoints = p.max_keypoints;
   return res;
 }
 
@@ -249,7 +256,7 @@ void bind_detect(py::module_& m) {
   bind_result(m);
   m.def("_detect", &detect_cloud, py::arg("points"), py::arg("channels"), py::arg("modalities"), py::arg("radius"),
         py::arg("radius_factor"), py::arg("nms_radius"), py::arg("min_neighbors"), py::arg("threads"),
-        py::arg("refine"));
+        py::arg("refine"), py::arg("max_keypoints"));
   m.def("release_cached_memory", &ced::release_cached_memory,
         "Frees the up to 32 MiB that detections keep cached for the next one.");
 }

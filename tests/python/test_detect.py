@@ -42,6 +42,24 @@ def test_refine_follows_the_preset_and_can_be_set(cli, sample, sample_path):
         ced.detect(sample, refine="yes")
 
 
+def test_max_keypoints_keeps_the_strongest_as_the_cli(cli, sample, sample_path):
+    full = ced.detect(sample, modalities="ced6d")
+    assert len(full) > 100 and full.max_keypoints == 0
+    score = full.saliency["xyz"] * full.saliency["rgb"]  # float32, as the detector multiplies
+    ranked = sorted(full.keypoints, key=lambda k: (-score[k], k))
+    for n in (1, 64, len(full) - 1):
+        got = ced.detect(sample, modalities="ced6d", max_keypoints=n)
+        assert got.max_keypoints == n
+        np.testing.assert_array_equal(got.keypoints, np.sort(np.array(ranked[:n], dtype=np.uint32)), err_msg=str(n))
+        np.testing.assert_array_equal(cli_keypoints(cli, sample_path, "--preset", "ced6d", "--max-keypoints", str(n)),
+                                      got.keypoints)
+    np.testing.assert_array_equal(ced.detect(sample, modalities="ced6d", max_keypoints=10**9).keypoints, full.keypoints)
+    with pytest.raises(ValueError, match="max_keypoints"):
+        ced.detect(sample, modalities="ced6d", max_keypoints=-1)
+    with pytest.raises(TypeError, match="max_keypoints"):
+        ced.detect(sample, modalities="ced6d", max_keypoints=2.5)
+
+
 def test_auto_radius_matches_the_cli(cli, sample, sample_path):
     expected = cli_keypoints(cli, sample_path, "-m", "xyz:0.2", "-m", "rgb:0.1", "--radius", "auto")
     got = ced.detect(sample, modalities=["xyz:0.2", "rgb:0.1"], radius="auto")

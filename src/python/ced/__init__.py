@@ -168,7 +168,7 @@ def voxel_downsample(cloud, size):
 
 
 def detect(points, channels=None, modalities=None, radius=0.05, nms_radius=None, min_neighbors=5, threads=0,
-           radius_factor=5.0, refine=None):
+           radius_factor=5.0, refine=None, max_keypoints=0):
     """Detects keypoints.
 
     points: an (N, 3) float32/float64 array (any strides), a numpy structured array with X, Y, Z fields (PDAL's
@@ -182,6 +182,8 @@ def detect(points, channels=None, modalities=None, radius=0.05, nms_radius=None,
     nms_radius: None = radius. threads: 0 = all cores (the result does not depend on it).
     refine: move each keypoint to the point nearest the score-weighted centroid of its NMS neighbourhood (more
         repeatable under noise). None: the preset's (on for 'robust3d' and 'robust6d'), else off.
+    max_keypoints: keep at most this many keypoints, the ones with the highest score (the product of their
+        saliencies), ties to the smaller index; 0 (default): no limit.
 
     Returns a ced.Result. The GIL is released while detecting; Ctrl-C raises KeyboardInterrupt. Called while a
     ced.python_modality's function runs (from it, or from a thread it waits for), the detection runs on the calling
@@ -190,11 +192,11 @@ def detect(points, channels=None, modalities=None, radius=0.05, nms_radius=None,
     points, channels = _cloud_args(points, channels)
     if nms_radius is not None:
         nms_radius = float(nms_radius)
-    for name, value in (("min_neighbors", min_neighbors), ("threads", threads)):
+    for name, value in (("min_neighbors", min_neighbors), ("threads", threads), ("max_keypoints", max_keypoints)):
         if isinstance(value, bool) or not isinstance(value, int):
             raise TypeError(f"{name}: expected an int, got {type(value).__name__}")
     return _detect(points, channels, modalities, radius, float(radius_factor), nms_radius, min_neighbors, threads,
-                   refine)
+                   refine, max_keypoints)
 
 
 def write(path, cloud, channels=None, format=None):

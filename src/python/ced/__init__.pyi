@@ -80,6 +80,8 @@ class Result:
     def min_neighbors(self) -> int: ...
     @property
     def refine(self) -> bool: ...
+    @property
+    def max_keypoints(self) -> int: ...
     def __len__(self) -> int: ...
 
 PointsLike = Union[npt.ArrayLike, Cloud, Any]  # (N, 3) floats, a structured array, a Cloud, an Open3D cloud
@@ -98,6 +100,7 @@ def detect(
     threads: int = 0,
     radius_factor: float = 5.0,
     refine: Optional[bool] = None,
+    max_keypoints: int = 0,
 ) -> Result:
     """Detects keypoints (see docs/PYTHON.md). Releases the GIL; Ctrl-C raises KeyboardInterrupt."""
 

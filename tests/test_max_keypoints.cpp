@@ -1,0 +1,100 @@
+// SPDX-License-Identifier: MIT
+// detect_params::max_keypoints and ced::strongest(): the N keypoints with the
+// highest score (the product of the saliencies), ties to the smaller index.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <stdexcept>
+#include <vector>
+
+#include "ced/ced.hpp"
+#include "test_support.hpp"
+
+using ced_test::make_room;
+
+namespace {
+
+/// The reference: every keypoint of `all`, sorted by (score desc, index asc), the first n, ascending.
+std::vector<std::uint32_t> top_by_sorting(const ced::detection_result& all, std::size_t n) {
+  std::vector<std::uint32_t> k = all.keypoints;
+  std::stable_sort(k.begin(), k.end(), [&](std::uint32_t a, std::uint32_t b) {
+    const float sa = ced::keypoint_score(all, a), sb = ced::keypoint_score(all, b);
+    return sa != sb ? sa > sb : a < b;
+  });
+  k.resize(std::min(n, k.size()));
+  std::sort(k.begin(), k.end());
+  return k;
+}
+
+}  // namespace
+
+TEST(Strongest, HighestScoresTiesToTheSmallerIndexAscending) {
+  const std::vector<std::uint32_t> kp = {40, 10, 30, 20, 50};
+  const std::vector<float> score = {1.0f, 2.0f, 2.0f, 0.5f, 3.0f};
+  EXPECT_EQ(ced::strongest(kp, score, 1), (std::vector<std::uint32_t>{50}));
+  EXPECT_EQ(ced::strongest(kp, score, 2), (std::vector<std::uint32_t>{10, 50}));  // 10 beats 30 at 2.0
+  EXPECT_EQ(ced::strongest(kp, score, 3), (std::vector<std::uint32_t>{10, 30, 50}));
+  EXPECT_EQ(ced::strongest(kp, score, 4), (std::vector<std::uint32_t>{10, 30, 40, 50}));
+  // 0 or at least their number: all of them, ascending.
+  EXPECT_EQ(ced::strongest(kp, score, 0), (std::vector<std::uint32_t>{10, 20, 30, 40, 50}));
+  EXPECT_EQ(ced::strongest(kp, score, 99), (std::vector<std::uint32_t>{10, 20, 30, 40, 50}));
+}
+
+TEST(Strongest, NanScoresRankLowestInfinityHighest) {
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  const std::vector<std::uint32_t> kp = {1, 2, 3, 4};
+  const std::vector<float> score = {nan, 0.0f, inf, nan};
+  EXPECT_EQ(ced::strongest(kp, score, 1), (std::vector<std::uint32_t>{3}));
+  EXPECT_EQ(ced::strongest(kp, score, 2), (std::vector<std::uint32_t>{2, 3}));
+  EXPECT_EQ(ced::strongest(kp, score, 3), (std::vector<std::uint32_t>{1, 2, 3}));  // NaNs: the smaller index
+}
+
+TEST(Strongest, OneScorePerKeypoint) {
+  EXPECT_THROW(ced::strongest({1, 2, 3}, {1.0f, 2.0f}, 1), std::invalid_argument);
+}
+
+TEST(MaxKeypoints, KeepsTheStrongestOfTheFullResult) {
+  const auto c = make_room(20000, 21);
+  ced::detect_params p;
+  const auto all = ced::detect(c, p, ced::preset("ced6d"));
+  ASSERT_GT(all.keypoints.size(), 40u);
+  for (std::size_t n : {std::size_t(1), std::size_t(7), std::size_t(32), all.keypoints.size() - 1}) {
+    p.max_keypoints = n;
+    const auto r = ced::detect(c, p, ced::preset("ced6d"));
+    EXPECT_EQ(r.keypoints.size(), n);
+    EXPECT_EQ(r.keypoints, top_by_sorting(all, n)) << n;
+    EXPECT_EQ(r.saliency, all.saliency);  // only the keypoints change
+    EXPECT_EQ(r.candidate, all.candidate);
+  }
+  p.max_keypoints = all.keypoints.size();  // as many as there are, or more: all of them
+  EXPECT_EQ(ced::detect(c, p, ced::preset("ced6d")).keypoints, all.keypoints);
+  p.max_keypoints = all.keypoints.size() + 1000;
+  EXPECT_EQ(ced::detect(c, p, ced::preset("ced6d")).keypoints, all.keypoints);
+}
+
+TEST(MaxKeypoints, SameForAnyThreadCountAndBothCompositions) {
+  const auto c = make_room(20000, 22);
+  ced::detect_params p;
+  p.max_keypoints = 25;
+  p.threads = 1;
+  const auto ref = ced::detect(c, p, ced::xyz{0.2}, ced::rgb{0.1});
+  ASSERT_EQ(ref.keypoints.size(), 25u);
+  for (unsigned t : {2u, 3u, 8u}) {
+    p.threads = t;
+    EXPECT_EQ(ced::detect(c, p, ced::preset("ced6d")).keypoints, ref.keypoints) << t << " threads";
+  }
+}
+
+TEST(MaxKeypoints, RefinedKeypointsAreRankedByTheirOwnScore) {
+  const auto c = make_room(20000, 23);
+  ced::detect_params p;
+  p.refine = true;
+  const auto all = ced::detect(c, p, ced::preset("robust6d"));
+  ASSERT_GT(all.keypoints.size(), 20u);
+  p.max_keypoints = 20;
+  const auto r = ced::detect(c, p, ced::preset("robust6d"));
+  EXPECT_EQ(r.keypoints, top_by_sorting(all, 20));
+}
