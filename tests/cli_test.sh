@@ -187,6 +187,17 @@ check "sweep: higher thresholds, fewer keypoints" awk 'NR == 2 { a = $3 } NR == 
 expect_exit 2 "unbalanced braces" "sweep: unbalanced" -- eval repeatability "$sample" -d 'xyz:{0.1,0.2'
 expect_exit 2 "empty value" "sweep: empty value" -- eval repeatability "$sample" -d 'xyz:{0.1,}'
 expect_exit 2 "cannot be nested" "sweep: nested" -- eval repeatability "$sample" -d 'xyz:{0.1,{0.2}}'
+# --counts: every detector at fixed keypoint counts (the N strongest; random N points).
+"$CED" eval repeatability "$sample" -d ced6d -d random --counts 16,64 --trials 1 --noise 0.5 -q --csv "$T/counts.csv" \
+  > "$T/counts.txt"
+check "counts: detector@N rows in order" test "$(awk 'NR > 1 { printf "%s;", $1 }' "$T/counts.txt")" = \
+  "ced6d@16;ced6d@64;random@16;random@64;"
+check "counts: exactly N keypoints" awk 'NR > 1 { n = substr($1, index($1, "@") + 1); if ($3 != n ".0") exit 1 }' \
+  "$T/counts.txt"
+check "counts: csv names them" grep -q '^"ced6d@64",' "$T/counts.csv"
+expect_exit 2 "whole numbers from 1" "counts: zero" -- eval repeatability "$sample" --counts 0,64
+expect_exit 2 "whole numbers from 1" "counts: fraction" -- eval repeatability "$sample" --counts 6.5
+expect_exit 2 "counts" "counts: not a number" -- eval repeatability "$sample" --counts 64,x
 printf '# a quarter turn about z\n0 -1 0 1\n1 0 0 2\n0 0 1 3\n0 0 0 1\n' > "$T/T.txt"
 "$CED" eval repeatability --source "$sample" --target "$sample" --transform "$T/T.txt" -d ced6d --trials 1 -q > "$T/pair2.txt"
 check "pair: the transform is applied" grep -q "^ced6d .* 0.0[0-9][0-9] " "$T/pair2.txt"

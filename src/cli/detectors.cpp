@@ -2,6 +2,7 @@
 #include "detectors.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -23,7 +24,7 @@ const char* const no_pcl_message =
 
 eval_detector parse_detector(const std::string& text) {
   eval_detector d;
-  d.name = text;
+  d.name = d.text = text;
   if (text == "random") {
     d.type = eval_detector::kind::random;
     return d;
@@ -90,6 +91,50 @@ std::vector<eval_detector> parse_detectors(const std::vector<std::string>& names
   return out;
 }
 
+std::vector<std::size_t> parse_counts(const std::string& text) {
+  std::vector<std::size_t> counts;
+  try {
+    std::size_t at = 0;
+    for (;;) {
+      const std::size_t comma = text.find(',', at);
+      const double v = ced::parse_number(text.substr(at, comma == std::string::npos ? comma : comma - at),
+                                         "--counts '" + text + "'");
+      if (!(v >= 1 && v <= 1e9) || v != std::floor(v))
+        throw std::invalid_argument("--counts values must be whole numbers from 1 to 10^9, got '" + text + "'");
+      counts.push_back(static_cast<std::size_t>(v));
+      if (comma == std::string::npos) break;
+      at = comma + 1;
+    }
+  } catch (const std::invalid_argument& e) {
+    throw usage_error(e.what());
+  }
+  return counts;
+}
+
+std::vector<eval_detector> at_counts(const std::vector<eval_detector>& detectors,
+                                     const std::vector<std::size_t>& counts, std::vector<std::string>& natural) {
+  std::vector<eval_detector> out;
+  for (const auto& d : detectors) {
+#ifdef CED_HAS_PCL
+    if (d.type == eval_detector::kind::pcl &&
+        !ced::pcl_bridge::ranks_by_response(*ced::pcl_bridge::parse_detector(d.text))) {
+      natural.push_back(d.name);
+      out.push_back(d);
+      out.back().name += " (natural)";
+      continue;
+    }
+#else
+    (void)natural;
+#endif
+    for (std::size_t n : counts) {
+      out.push_back(d);
+      out.back().count = n;
+      out.back().name += "@" + std::to_string(n);
+    }
+  }
+  return out;
+}
+
 eval_setting make_setting(const ced::point_cloud& p, const std::string& name, double resolution, double radius,
                           int min_neighbors, int threads) {
   eval_setting s;
@@ -107,11 +152,12 @@ detection run_detector(const eval_detector& d, const ced::point_cloud& cloud, co
   detection out;
   switch (d.type) {
     case eval_detector::kind::random:
-      out.keypoints = ced::eval::random_keypoints(cloud.size(), random_count, rng);
+      out.keypoints = ced::eval::random_keypoints(cloud.size(), d.count ? d.count : random_count, rng);
       break;
     case eval_detector::kind::ced: {
       ced::detect_params params = s.params;
       params.refine = d.refine;
+      params.max_keypoints = d.count;
       const auto r = ced::detect(cloud, params, d.modalities);
       out.keypoints = r.keypoints;
       out.ms = r.times.total_ms();
@@ -125,7 +171,8 @@ detection run_detector(const eval_detector& d, const ced::point_cloud& cloud, co
       p.min_neighbors = static_cast<int>(s.params.min_neighbors);
       p.sift_min_scale = s.resolution;
       p.threads = ced::resolve_threads(s.params.threads);
-      out.keypoints = ced::pcl_bridge::detect(cloud, *ced::pcl_bridge::parse_detector(d.name), p);
+      p.max_keypoints = d.count;
+      out.keypoints = ced::pcl_bridge::detect(cloud, *ced::pcl_bridge::parse_detector(d.text), p);
 #endif
       break;
     }

@@ -23,10 +23,14 @@ extern const char* const no_pcl_message;
 /// among which the word "refine" asks for keypoint refinement.
 struct eval_detector {
   enum class kind { ced, random, pcl };
-  std::string name;
+  std::string name;  ///< as shown: the text given, "@N" added by at_counts()
+  std::string text;  ///< the text given (-d)
   kind type = kind::ced;
   std::vector<ced::any_modality> modalities;
   bool refine = false;  ///< a robust preset, or "refine" among the specs
+  /// At most this many keypoints, the strongest (--counts); 0: the detector's
+  /// natural count. Random picks exactly this many.
+  std::size_t count = 0;
 };
 
 eval_detector parse_detector(const std::string& text);
@@ -37,6 +41,14 @@ eval_detector parse_detector(const std::string& text);
 /// values.
 std::vector<std::string> expand_sweep(const std::string& text);
 std::vector<eval_detector> parse_detectors(const std::vector<std::string>& names);
+
+/// --counts: comma-separated keypoint counts, each 1..10^9 (usage_error otherwise).
+std::vector<std::size_t> parse_counts(const std::string& text);
+/// Every detector at every count, named "NAME@N"; a detector that cannot rank
+/// its keypoints (PCL's ISS3D and SIFT: no response) once, at its natural
+/// count, named "NAME (natural)", and its name is added to `natural`.
+std::vector<eval_detector> at_counts(const std::vector<eval_detector>& detectors,
+                                     const std::vector<std::size_t>& counts, std::vector<std::string>& natural);
 
 /// What the evaluated detectors share: the detector parameters and the resolution.
 struct eval_setting {

@@ -30,6 +30,7 @@ struct eval_options {
   int trials = 5;
   std::uint64_t seed = 1;
   std::string noise = "0,0.5";
+  std::string counts;  // --counts: every detector at these keypoint counts
   double epsilon = 2.0, resolution = 0, radius = 0, max_translation = 1.0;
   int min_neighbors = 5, threads = 0;
   std::string csv;
@@ -183,8 +184,19 @@ int run_eval_synthetic(const eval_options& o, const std::vector<eval_detector>& 
 }
 
 int run_eval(const eval_options& o, bool noise_given) {
-  const std::vector<eval_detector> detectors = parse_detectors(o.detectors);
+  std::vector<eval_detector> detectors = parse_detectors(o.detectors);
   check_eval_numbers(o);
+  if (!o.counts.empty()) {
+    std::vector<std::string> natural;
+    detectors = at_counts(detectors, parse_counts(o.counts), natural);
+    if (!natural.empty() && !o.quiet) {
+      std::string names;
+      for (const auto& n : natural) names += (names.empty() ? "" : ", ") + n;
+      std::fprintf(stderr,
+                   "ced eval: %s: PCL gives no response to rank by, so at the natural count (rows '(natural)')\n",
+                   names.c_str());
+    }
+  }
   if (user_pair_mode(o.input, o.source, o.target, o.transform)) return run_eval_pair(o, detectors, noise_given);
   return run_eval_synthetic(o, detectors);
 }
@@ -219,6 +231,9 @@ command add_repeatability_command(CLI::App& eval) {
   rep->add_option("-k,--min-neighbors", o->min_neighbors, "Minimum neighbours (default 5)");
   rep->add_option("--max-translation", o->max_translation, "Translations uniform in +-this, metres (default 1)");
   rep->add_option("-j,--threads", o->threads, "Threads");
+  rep->add_option("--counts", o->counts,
+                  "Every detector at these keypoint counts, e.g. 64,128,256,512: the N strongest (random: N points; "
+                  "Harris by its response; ISS3D and SIFT, which have none, at their natural count)");
   rep->add_option("--csv", o->csv, "Write one row per detector x noise x trial");
   rep->add_flag("-q,--quiet", o->quiet, "Print only the table");
   return {

@@ -48,7 +48,15 @@ struct detector_params {
   int sift_scales_per_octave = 2;
   float sift_min_contrast = 1.0f;  ///< on intensity 0.299 R + 0.587 G + 0.114 B in 0..255
   unsigned threads = 1;            ///< ISS / Harris worker threads
+  /// At most this many keypoints, the strongest by the detector's response,
+  /// for the detectors that have one (ranks_by_response); 0: no limit.
+  std::size_t max_keypoints = 0;
 };
+
+/// Whether PCL gives the detector's response at each keypoint, by which
+/// detector_params::max_keypoints ranks: Harris3D/6D do (their intensity);
+/// ISS3D and SIFT do not, and keep their natural count.
+inline bool ranks_by_response(detector d) { return d == detector::harris3d || d == detector::harris6d; }
 
 /// Runs a PCL detector on `cloud` (positions relative to its origin) and
 /// returns the keypoints as indices into `cloud`, ascending and distinct:

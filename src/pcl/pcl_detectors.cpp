@@ -11,7 +11,11 @@
 #include <cmath>
 #include <optional>
 #include <stdexcept>
+#include <tuple>
+#include <type_traits>
+#include <utility>
 
+#include "ced/detect.hpp"
 #include "ced/modalities/rgb.hpp"
 #include "pcl_bridge.hpp"
 #include "pcl_convert.hpp"
@@ -47,12 +51,14 @@ void require_pcl() {}  // linked with PCL: nothing to load
 
 namespace {
 
-/// Indices of the input points nearest to each finite output point, ascending, distinct.
+/// The input point nearest to each finite output point, with the output's
+/// response (0 without one).
 template <typename OutPoint>
-std::vector<std::uint32_t> nearest_inputs(const pcl_cloud::Ptr& input, const pcl::PointCloud<OutPoint>& output) {
+std::vector<std::pair<std::uint32_t, float>> nearest_with_response(const pcl_cloud::Ptr& input,
+                                                                   const pcl::PointCloud<OutPoint>& output) {
   pcl::KdTreeFLANN<pcl::PointXYZRGB> tree;
   tree.setInputCloud(input);
-  std::vector<std::uint32_t> out;
+  std::vector<std::pair<std::uint32_t, float>> out;
   pcl::Indices idx(1);
   std::vector<float> d2(1);
   for (const auto& q : output) {
@@ -61,10 +67,29 @@ std::vector<std::uint32_t> nearest_inputs(const pcl_cloud::Ptr& input, const pcl
     p.x = q.x;
     p.y = q.y;
     p.z = q.z;
-    if (tree.nearestKSearch(p, 1, idx, d2) == 1) out.push_back(static_cast<std::uint32_t>(idx[0]));
+    float response = 0;
+    if constexpr (std::is_same_v<OutPoint, pcl::PointXYZI>) response = q.intensity;
+    if (tree.nearestKSearch(p, 1, idx, d2) == 1) out.emplace_back(static_cast<std::uint32_t>(idx[0]), response);
   }
-  std::sort(out.begin(), out.end());
-  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+/// Indices of the input points nearest to each finite output point,
+/// ascending, distinct; with max_keypoints > 0, the strongest by response
+/// (a point several outputs map to keeps the highest).
+template <typename OutPoint>
+std::vector<std::uint32_t> nearest_inputs(const pcl_cloud::Ptr& input, const pcl::PointCloud<OutPoint>& output,
+                                          std::size_t max_keypoints = 0) {
+  auto found = nearest_with_response(input, output);
+  // By index, the highest response first among equal indices: unique keeps it.
+  std::sort(found.begin(), found.end(),
+            [](const auto& a, const auto& b) { return a.first != b.first ? a.first < b.first : a.second > b.second; });
+  found.erase(std::unique(found.begin(), found.end(), [](const auto& a, const auto& b) { return a.first == b.first; }),
+              found.end());
+  std::vector<std::uint32_t> out(found.size());
+  std::vector<float> response(found.size());
+  for (std::size_t q = 0; q < found.size(); ++q) std::tie(out[q], response[q]) = found[q];
+  if (max_keypoints) out = strongest(out, response, max_keypoints);
   return out;
 }
 
@@ -118,14 +143,14 @@ std::vector<std::uint32_t> detect(const point_cloud& cloud, detector d, const de
   const pcl_cloud::Ptr input = to_pcl(cloud);
   switch (d) {
     case detector::iss3d:
-      return nearest_inputs(input, run_iss(input, params));
+      return nearest_inputs(input, run_iss(input, params));  // no response: its natural count
     case detector::harris3d: {
       pcl::HarrisKeypoint3D<pcl::PointXYZRGB, pcl::PointXYZI> h;
-      return nearest_inputs(input, run_harris(h, input, params));
+      return nearest_inputs(input, run_harris(h, input, params), params.max_keypoints);
     }
     case detector::harris6d: {
       pcl::HarrisKeypoint6D<pcl::PointXYZRGB, pcl::PointXYZI> h;
-      return nearest_inputs(input, run_harris(h, input, params));
+      return nearest_inputs(input, run_harris(h, input, params), params.max_keypoints);
     }
     case detector::sift:
       return nearest_inputs(input, run_sift(input, params));

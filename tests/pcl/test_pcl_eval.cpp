@@ -3,6 +3,7 @@
 // registration pipeline on a small synthetic pair with a known transform.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 
 #include "ced/ced.hpp"
@@ -111,6 +112,33 @@ TEST(PclRegistration, RejectsBadInput) {
   // Too few keypoints: no hypothesis, not converged.
   rp.normal_radius = 0.03;
   EXPECT_FALSE(pb::register_keypoints(grey, {0, 1}, {0, 0, 0}, grey, {0, 1}, {0, 0, 0}, rp).converged);
+}
+
+// max_keypoints ranks Harris by its response: a subset of the natural
+// keypoints of that size, nested as N grows; ISS3D and SIFT keep their count.
+TEST(PclDetectors, MaxKeypointsRanksHarrisByResponse) {
+  const ced::point_cloud c = scene(5);
+  for (const auto d : {pb::detector::harris3d, pb::detector::harris6d}) {
+    ASSERT_TRUE(pb::ranks_by_response(d));
+    const auto all = pb::detect(c, d, pb::detector_params{});
+    ASSERT_GT(all.size(), 8u);
+    std::vector<std::uint32_t> previous;
+    for (std::size_t n : {std::size_t(2), std::size_t(5), all.size() - 1, all.size() + 10}) {
+      pb::detector_params p;
+      p.max_keypoints = n;
+      const auto k = pb::detect(c, d, p);
+      EXPECT_EQ(k.size(), std::min(n, all.size()));
+      EXPECT_TRUE(std::includes(all.begin(), all.end(), k.begin(), k.end()));
+      EXPECT_TRUE(std::includes(k.begin(), k.end(), previous.begin(), previous.end()));  // the strongest stay
+      previous = k;
+    }
+  }
+  for (const auto d : {pb::detector::iss3d, pb::detector::sift}) {
+    EXPECT_FALSE(pb::ranks_by_response(d));
+    pb::detector_params p;
+    p.max_keypoints = 2;
+    EXPECT_EQ(pb::detect(c, d, p), pb::detect(c, d, pb::detector_params{}));
+  }
 }
 
 TEST(PclDetectors, ReturnIndicesIntoTheCloud) {
