@@ -2,6 +2,7 @@
 #include "ced/eval.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <numeric>
@@ -74,6 +75,87 @@ repeatability measure(const point_cloud& p, const std::vector<std::uint32_t>& kp
     r.repeated += found;
   }
   return r;
+}
+
+namespace {
+
+/// Whether some point of `index` (over `xyz`) lies within epsilon (≤, in
+/// double) of `m`. The index's test is strict and in float: it is queried a
+/// little wider, and the decision made in double.
+bool any_within(const neighbor_index& index, const float* xyz, const std::array<double, 3>& m, double epsilon,
+                std::vector<std::uint32_t>& hits) {
+  const float c[3] = {float(m[0]), float(m[1]), float(m[2])};
+  index.radius_search(c, epsilon * 1.001 + 1e-9, hits);
+  for (std::uint32_t h : hits) {
+    double d2 = 0;
+    for (std::size_t k = 0; k < 3; ++k) d2 += (double(xyz[3 * h + k]) - m[k]) * (double(xyz[3 * h + k]) - m[k]);
+    if (d2 <= epsilon * epsilon) return true;
+  }
+  return false;
+}
+
+std::array<double, 3> image(const point_cloud& p, std::uint32_t i, const rigid_transform& t) {
+  const float* s = p.position(i);
+  return t.apply({s[0], s[1], s[2]});
+}
+
+}  // namespace
+
+real_pair::real_pair(const point_cloud& p, const point_cloud& q, const rigid_transform& t, double epsilon)
+    : m_p(p), m_q(q), m_t(t), m_epsilon(epsilon), m_in_overlap(p.size(), 0) {
+  if (!(epsilon > 0) || !std::isfinite(epsilon)) throw std::invalid_argument("epsilon must be a positive number");
+  if (q.empty()) return;
+  const neighbor_index index(q.positions().data(), q.size(), 8);
+  std::vector<std::uint32_t> hits;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    m_in_overlap[i] = any_within(index, q.positions().data(), image(p, std::uint32_t(i), t), epsilon, hits);
+    m_overlap += m_in_overlap[i];
+  }
+}
+
+real_pair::~real_pair() = default;
+
+std::size_t real_pair::overlap_points() const noexcept { return m_overlap; }
+
+overlap_repeatability real_pair::measure(const std::vector<std::uint32_t>& kp,
+                                         const std::vector<std::uint32_t>& kq) const {
+  overlap_repeatability r;
+  r.source_keypoints = kp.size();
+  r.target_keypoints = kq.size();
+  std::vector<float> xyz;
+  for (std::uint32_t j : kq) {
+    if (j >= m_q.size()) throw std::out_of_range("target keypoint index out of range");
+    xyz.insert(xyz.end(), m_q.position(j), m_q.position(j) + 3);
+  }
+  for (std::uint32_t i : kp)
+    if (i >= m_p.size()) throw std::out_of_range("source keypoint index out of range");
+  std::vector<std::uint32_t> hits;
+  if (kq.empty()) {
+    for (std::uint32_t i : kp) r.overlap_keypoints += m_in_overlap[i];
+    return r;
+  }
+  const neighbor_index index(xyz.data(), kq.size(), 8);
+  for (std::uint32_t i : kp) {
+    if (!m_in_overlap[i]) continue;
+    ++r.overlap_keypoints;
+    r.repeated += any_within(index, xyz.data(), image(m_p, i, m_t), m_epsilon, hits);
+  }
+  return r;
+}
+
+double real_pair::random_relative(std::size_t source_count, std::size_t target_count, std::size_t draws,
+                                  std::mt19937_64& rng) const {
+  // Pooled over the draws (repeated / overlap keypoints, each summed), so
+  // that draws with no keypoint in the overlap do not count as zeros.
+  std::size_t repeated = 0, overlap = 0;
+  for (std::size_t d = 0; d < draws; ++d) {
+    const auto kp = random_keypoints(m_p.size(), source_count, rng);
+    const auto kq = random_keypoints(m_q.size(), target_count, rng);
+    const auto r = measure(kp, kq);
+    repeated += r.repeated;
+    overlap += r.overlap_keypoints;
+  }
+  return overlap ? double(repeated) / double(overlap) : 0.0;
 }
 
 std::vector<std::uint32_t> random_keypoints(std::size_t n, std::size_t count, std::mt19937_64& rng) {

@@ -178,6 +178,29 @@ check "radius auto recorded" grep -q '"radius_auto": true' "$T/auto.json"
 "$CED" eval repeatability --source "$sample" --target "$sample" -d ced6d --trials 1 -q --csv "$T/pair.csv" > "$T/pair.txt"
 check "pair: identity gives full repeatability" grep -q "^ced6d .* 1.000 " "$T/pair.txt"
 check "pair: csv rows" test "$(wc -l < "$T/pair.csv")" = 2
+# The real-pair protocol: voxelised to 1 cm, overlap, lift; a detector that
+# cannot run on the clouds is "n/a" and the table goes on.
+"$CED" eval repeatability --source "$sample" --target "$sample" -d ced6d -d 'xyz:0.2,intensity:0.1' -d random \
+  --csv "$T/pair_na.csv" > "$T/pair_na.txt" 2> "$T/pair_na.err"
+check "pair: voxel 0.01 by default, epsilon 2 cm" grep -q "voxel 0.01, resolution 0.01, radius 0.05, epsilon 0.02" \
+  "$T/pair_na.err"
+check "pair: every point in the overlap" grep -q "(100%) lie in the overlap" "$T/pair_na.err"
+check "pair: lift column" grep -q "^detector .* lift " "$T/pair_na.txt"
+check "pair: n/a row" grep -q "^xyz:0.2,intensity:0.1 *pair *n/a" "$T/pair_na.txt"
+check "pair: n/a says why" grep -q "xyz:0.2,intensity:0.1 on pair: n/a: .*needs field 'intensity'" "$T/pair_na.err"
+check "pair: the table goes on" grep -q "^random " "$T/pair_na.txt"
+check "pair: ced6d far above random" awk '$1 == "ced6d" { exit !($8 > 3) }' "$T/pair_na.txt"
+check "pair: csv n/a row" grep -q '^"xyz:0.2,intensity:0.1","pair",,,,,n/a' "$T/pair_na.csv"
+"$CED" eval repeatability "$sample" -d 'xyz:0.2,intensity:0.1' -d ced6d --trials 1 --noise 0 > "$T/syn_na.txt" 2> "$T/syn_na.err"
+check "synthetic: n/a row" grep -q "^xyz:0.2,intensity:0.1 *0.00 *n/a" "$T/syn_na.txt"
+check "synthetic: the table goes on" grep -q "^ced6d *0.00 " "$T/syn_na.txt"
+"$CED" eval repeatability --source "$sample" --target "$sample" -d ced6d --epsilon 0.5 > /dev/null 2> "$T/eps.err"
+check "pair: epsilon below the ground truth's error warns" grep -q "below the ground truth's error" "$T/eps.err"
+"$CED" eval repeatability --source "$sample" --target "$sample" -d ced6d --counts 20 > /dev/null 2> "$T/few.err"
+check "pair: fewer than 50 in the overlap warns" grep -q "only 20 keypoints lie in the overlap" "$T/few.err"
+expect_exit 2 "apply to given pairs" "pair options without a pair" -- eval repeatability "$sample" --voxel 0.02
+expect_exit 2 "random-draws must be" "random draws" -- eval repeatability --source "$sample" --target "$sample" \
+  --random-draws 0
 # A sweep: one detector a setting, in order (the last list fastest).
 "$CED" eval repeatability "$sample" -d 'xyz:{0.1,0.3},rgb:{0.1,0.5}' --trials 1 --noise 0.5 -q > "$T/sweep.txt"
 check "sweep: four settings in order" test "$(awk 'NR > 1 { printf "%s;", $1 }' "$T/sweep.txt")" = \
@@ -212,7 +235,10 @@ expect_exit 1 "cannot open the transform file" "eval: missing matrix" -- \
   eval repeatability --source "$sample" --target "$sample" --transform "$T/none.txt"
 expect_exit 2 "--noise applies" "eval: noise with a pair" -- \
   eval repeatability --source "$sample" --target "$sample" --noise 0.5
-expect_exit 2 "either INPUT" "eval: INPUT and a pair" -- eval repeatability "$sample" --source "$sample" --target "$sample"
+expect_exit 2 "exactly one of INPUT" "eval: INPUT and a pair" -- eval repeatability "$sample" --source "$sample" --target "$sample"
+expect_exit 2 "exactly one of INPUT" "eval: INPUT and --rgbd" -- eval repeatability "$sample" --rgbd "$T"
+expect_exit 2 "go with --rgbd" "eval: --intrinsics without --rgbd" -- eval repeatability "$sample" --intrinsics "$T/k.json"
+expect_exit 1 "cannot open the intrinsics file" "eval: rgbd without intrinsics" -- eval repeatability --rgbd "$T"
 if "$CED" eval repeatability "$sample" -d iss3d --trials 1 --noise 0 -q > /dev/null 2> "$T/pcl.err"; then
   expect_exit 2 "exactly one of INPUT" "registration: two modes" -- \
     eval registration "$sample" --rgbd "$T"

@@ -23,7 +23,9 @@
 #include <vector>
 
 #include "ced/ced.hpp"
+#include "ced/eval.hpp"
 #include "ced/io/io.hpp"
+#include "ced/io/rgbd.hpp"
 #include "ced/io/stream.hpp"
 #include "ced/plugin.hpp"
 #include "ced/preprocess.hpp"
@@ -335,6 +337,27 @@ ced::point_cloud read_finite(const std::string& path, const std::string& format,
   if (c.empty()) throw ced::io::io_error(path + ": the cloud has no (finite) points");
   if (voxel > 0) c = ced::voxel_downsample(c, voxel).cloud;
   return c;
+}
+
+ced::eval::rigid_transform rgbd_frames::source_to_target(std::size_t i, std::size_t j) const {
+  return ced::eval::compose(ced::eval::inverse(poses.at(j)), poses.at(i));  // camera i -> world -> camera j
+}
+
+rgbd_frames load_rgbd_frames(const std::string& dir, const std::string& intrinsics, double depth_max, double voxel) {
+  const auto k = ced::io::read_intrinsics(intrinsics.empty() ? dir + "/camera_primesense.json" : intrinsics);
+  rgbd_frames f;
+  f.poses = ced::io::read_trajectory_log(dir + "/odometry.log");
+  ced::io::rgbd_options ro;
+  ro.depth_max = depth_max;
+  for (std::size_t i = 0; i < f.poses.size(); ++i) {
+    char stem[32];
+    std::snprintf(stem, sizeof stem, "%05zu", i);
+    ced::point_cloud c = ced::io::read_rgbd(dir + "/depth/" + stem + ".png", dir + "/color/" + stem + ".jpg", k, ro);
+    if (voxel > 0) c = ced::voxel_downsample(c, voxel).cloud;
+    f.clouds.push_back(std::move(c));
+  }
+  if (f.clouds.size() < 2) throw ced::io::io_error(dir + "/odometry.log: fewer than two frames");
+  return f;
 }
 
 }  // namespace ced_cli

@@ -15,6 +15,7 @@
 
 #include "../core/timing.hpp"
 #include "ced/ced.hpp"
+#include "ced/eval.hpp"
 #include "ced/io/io.hpp"
 #include "ced/io/output_file.hpp"
 
@@ -113,6 +114,19 @@ ced::io::read_options make_read_options(const std::string& format, const std::st
 /// cannot be read again.
 ced::missing_field_error with_file_fields(const ced::missing_field_error& e, const std::string& path,
                                           ced::io::read_options read_opts);
+
+/// The frames of an Open3D RGB-D folder: color/NNNNN.jpg, depth/NNNNN.png,
+/// odometry.log (camera-to-world poses) and the intrinsics (`intrinsics`,
+/// default DIR/camera_primesense.json); depths beyond `depth_max` dropped (0:
+/// none), each voxelised to `voxel` (0: as they are). io_error for fewer
+/// than two frames.
+struct rgbd_frames {
+  std::vector<ced::point_cloud> clouds;
+  std::vector<ced::eval::rigid_transform> poses;  ///< camera-to-world
+  /// Camera i to camera j (absolute frames; the camera centre is each frame's (0,0,0)).
+  ced::eval::rigid_transform source_to_target(std::size_t i, std::size_t j) const;
+};
+rgbd_frames load_rgbd_frames(const std::string& dir, const std::string& intrinsics, double depth_max, double voxel);
 
 /// Reads a cloud, drops its non-finite points, then voxel down-samples it when `voxel` > 0.
 ced::point_cloud read_finite(const std::string& path, const std::string& format, const std::string& columns,

@@ -124,35 +124,18 @@ registration_pair synthetic_pair(const ced::point_cloud& cloud, double overlap, 
   return pair;
 }
 
-/// Consecutive frames of an Open3D RGB-D folder: color/NNNNN.jpg,
-/// depth/NNNNN.png, odometry.log (camera-to-world poses) and the intrinsics.
+/// Consecutive frames of an Open3D RGB-D folder (load_rgbd_frames).
 std::vector<registration_pair> rgbd_pairs(const registration_options& o) {
-  const std::string dir = o.rgbd;
-  std::string intrinsics = o.intrinsics;
-  if (intrinsics.empty()) intrinsics = dir + "/camera_primesense.json";
-  const auto k = ced::io::read_intrinsics(intrinsics);
-  const auto poses = ced::io::read_trajectory_log(dir + "/odometry.log");
-  ced::io::rgbd_options ro;
-  ro.depth_max = o.depth_max;
-  std::vector<ced::point_cloud> frames;
-  for (std::size_t i = 0; i < poses.size(); ++i) {
-    char stem[32];
-    std::snprintf(stem, sizeof stem, "%05zu", i);
-    ced::point_cloud c = ced::io::read_rgbd(dir + "/depth/" + stem + ".png", dir + "/color/" + stem + ".jpg", k, ro);
-    if (o.voxel > 0) c = ced::voxel_downsample(c, o.voxel).cloud;
-    frames.push_back(std::move(c));
-  }
+  const rgbd_frames f = load_rgbd_frames(o.rgbd, o.intrinsics, o.depth_max, o.voxel);
   std::vector<registration_pair> pairs;
-  for (std::size_t i = 0; i + 1 < frames.size(); ++i) {
+  for (std::size_t i = 0; i + 1 < f.clouds.size(); ++i) {
     registration_pair p;
     p.name = "rgbd " + std::to_string(i) + "-" + std::to_string(i + 1);
-    p.source = frames[i];
-    p.target = frames[i + 1];
-    // camera i -> world -> camera i+1; the camera centre is each frame's (0,0,0)
-    p.truth = ced::eval::compose(ced::eval::inverse(poses[i + 1]), poses[i]);
+    p.source = f.clouds[i];
+    p.target = f.clouds[i + 1];
+    p.truth = f.source_to_target(i, i + 1);
     pairs.push_back(std::move(p));
   }
-  if (pairs.empty()) throw ced::io::io_error(dir + "/odometry.log: fewer than two frames");
   return pairs;
 }
 
