@@ -22,14 +22,20 @@ using namespace tiled_detail;
 
 namespace {
 
+/// A tile's records not yet written, and the coder of its next record.
+struct tile_buffer {
+  std::string b;
+  cache_coder coder;
+};
+
 /// Buffers of tile-cache records, written out to one file a tile when they
 /// hold more than `budget` bytes. Each file starts with its header.
 class cache_writer {
  public:
   cache_writer(std::string work_dir, std::size_t budget) : m_work_dir(std::move(work_dir)), m_budget(budget) {}
-  std::string& buffer(std::uint64_t t) {
+  tile_buffer& buffer(std::uint64_t t) {
     const auto [it, fresh] = m_buffers.try_emplace(t);
-    if (fresh) it->second = tiled_header(cache_kind);
+    if (fresh) it->second.b = tiled_header(cache_kind);
     return it->second;
   }
   void maybe_flush(std::size_t bytes_added) {
@@ -37,7 +43,8 @@ class cache_writer {
     if (m_held > m_budget) flush();
   }
   void flush() {
-    for (auto& [t, b] : m_buffers) {
+    for (auto& [t, tb] : m_buffers) {
+      std::string& b = tb.b;
       if (b.empty()) continue;
       const std::string path = cache_file(m_work_dir, t);
       std::FILE* f = std::fopen(path.c_str(), "ab");
@@ -55,7 +62,7 @@ class cache_writer {
  private:
   std::string m_work_dir;
   std::size_t m_budget, m_held = 0;
-  std::unordered_map<std::uint64_t, std::string> m_buffers;
+  std::unordered_map<std::uint64_t, tile_buffer> m_buffers;
 };
 
 /// About how many tiles read a point: the tile and its halo, per axis, at
@@ -89,9 +96,11 @@ struct cache_filler {
   cache_writer writer;
   std::uint64_t file_index = 0, index = 0;
 
+  std::vector<plan_field> tile_fields = tile_fields_of(plan);
+  std::vector<column> converted;
+
   void add(const point_cloud& c) {
-    const std::size_t rs = record_size(plan);
-    const field_bytes fields = bytes_of(c);
+    const field_bytes fields = conform_fields(c, tile_fields, converted);
     const tile_grid& g = plan.grid;
     for (std::size_t i = 0; i < c.size(); ++i, ++file_index) {
       const float* q = c.position(i);
@@ -106,8 +115,10 @@ struct cache_filler {
             const std::uint64_t t = (std::uint64_t(z) * g.dims[1] + std::uint64_t(y)) * g.dims[0] + std::uint64_t(x);
             counts.near(t);
             if (!owners.owns(t)) continue;
-            append_record(writer.buffer(t), rs, index, file_index, c.positions().data(), fields, i);
-            added += rs;
+            tile_buffer& tb = writer.buffer(t);
+            const std::size_t before = tb.b.size();
+            tb.coder.append(tb.b, index, file_index, c.positions().data(), fields, i);
+            added += tb.b.size() - before;
           }
       writer.maybe_flush(added);  // a point at a time: the buffers never hold much more than their budget
       ++index;
@@ -130,6 +141,14 @@ tile_plan build_cache(const tiled_request& request, const tiled_run_options& o, 
   if (ec) throw io::io_error(cache.string(), "cannot create the tile cache directory: " + ec.message());
   auto s = io::open_point_stream(request.input, request.read);
   tile_plan plan = plan_grid(request, *s, o.progress);
+  // The cache carries only what detection reads (the merge fetches the
+  // keypoints' records), read by a stream that decodes only that.
+  plan.tile_fields = detection_fields(plan);
+  if (plan.tile_fields) {
+    io::read_options slim = request.read;
+    slim.fields = field_selection::only(*plan.tile_fields);
+    s = io::open_point_stream(request.input, slim);
+  }
   // Small tiles under a large halo: a point lands in many tiles, most of
   // which may own none (the air above the ground). Then the tiles are
   // counted first (one more pass), the plan is reported before anything
@@ -142,7 +161,14 @@ tile_plan build_cache(const tiled_request& request, const tiled_run_options& o, 
     announced = true;
   }
   // Pass 2: every point into the cache file of each tile that reads it.
-  cache_filler fill{plan, owners, tile_counter(plan.grid.count()), cache_writer(dir.string(), std::size_t(64) << 20)};
+  cache_filler fill{plan,
+                    owners,
+                    tile_counter(plan.grid.count()),
+                    cache_writer(dir.string(), std::size_t(64) << 20),
+                    0,
+                    0,
+                    tile_fields_of(plan),
+                    {}};
   for_each_chunk(*s, plan.origin, [&](const point_cloud& c) {
     fill.add(c);
     if (o.progress) o.progress("reading (pass 2: tile cache)", double(fill.file_index) / double(plan.file_points));
@@ -157,10 +183,7 @@ tile_points load_cached(const tile_plan& plan, const std::string& work_dir, std:
   const std::string file = cache_file(work_dir, id);
   const std::string bytes = io::detail::read_whole_file(file);
   check_tiled_header(bytes.data(), bytes.size(), bytes.size(), cache_kind, file);
-  tile_points pts = points_from_records(plan, id, bytes, tiled_header_bytes, file);
-  if (pts.cloud.size() != plan.tile(id).points)
-    throw io::io_error(file, "the tile cache does not hold the tile's points");
-  return pts;
+  return points_from_cache(plan, id, static_cast<std::size_t>(plan.tile(id).points), bytes, tiled_header_bytes, file);
 }
 
 }  // namespace tiled_detail
