@@ -223,30 +223,36 @@ struct cache_coder {
     std::memcpy(&f, &b, 4);
     return f;
   }
-  static void put(std::string& out, std::uint64_t v) {
-    char b[10];
-    std::size_t n = 0;
-    for (; v >= 0x80; v >>= 7) b[n++] = char((v & 0x7f) | 0x80);
-    b[n++] = char(v);
-    out.append(b, n);
+  static char* put(char* p, std::uint64_t v) noexcept {
+    for (; v >= 0x80; v >>= 7) *p++ = char((v & 0x7f) | 0x80);
+    *p++ = char(v);
+    return p;
   }
   /// Appends point i (positions `xyz`, fields `fields`) with its indices.
   void append(std::string& out, std::uint64_t index, std::uint64_t file_index, const float* xyz,
               const field_bytes& fields, std::size_t i) {
+    char head[5 * 10], *p = head;
     const std::uint64_t g = file_index - index;
-    put(out, ((index - next_index) << 1) | (g != gap ? 1 : 0));
-    if (g != gap) put(out, g - gap);
+    p = put(p, ((index - next_index) << 1) | (g != gap ? 1 : 0));
+    if (g != gap) p = put(p, g - gap);
     next_index = index + 1;
     gap = g;
     for (std::size_t k = 0; k < 3; ++k) {
       const std::int64_t o = ordered(xyz[3 * i + k]), d = o - at[k];
       at[k] = o;
-      put(out, (std::uint64_t(d) << 1) ^ std::uint64_t(d >> 63));
+      p = put(p, (std::uint64_t(d) << 1) ^ std::uint64_t(d >> 63));
     }
+    std::size_t n = std::size_t(p - head);
+    for (const auto& f : fields) n += f.second;
+    const std::size_t at0 = out.size();
+    if (out.capacity() < at0 + n) out.reserve(std::max(2 * out.capacity(), at0 + n));
+    out.resize(at0 + n);
+    char* q = out.data() + at0;
+    std::memcpy(q, head, std::size_t(p - head));
+    q += p - head;
     for (const auto& [bytes, w] : fields) {
-      const std::size_t n = out.size();
-      out.resize(n + w);
-      copy_le(out.data() + n, reinterpret_cast<const char*>(bytes + w * i), w);
+      copy_le(q, reinterpret_cast<const char*>(bytes + w * i), w);
+      q += w;
     }
   }
 };
