@@ -11,6 +11,7 @@ ced_library(ced ced
   src/tiled/detect_tile.cpp
   src/tiled/part_file.cpp
   src/tiled/merge.cpp
+  src/tiled/fetch.cpp
   src/tiled/work_dir.cpp
   src/tiled/run.cpp
   src/render.cpp

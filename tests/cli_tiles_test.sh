@@ -56,6 +56,16 @@ for ext in ply pcd csv; do
   "$CED" detect "$T/mid.las" --preset ced6d --tile-size 1.5 -o "$T/mt.$ext" -q
   check "--tile-size: keypoint cloud as .$ext" cmp -s "$T/mid_whole.$ext" "$T/mt.$ext"
 done
+# A binary PLY input with every field of the LAS file (intensity, gps_time,
+# nir, ...): the tiles carry only the colour, and the merge fetches the
+# keypoints' records from the input; the outputs are the whole run's.
+"$CED" convert "$T/mid.las" "$T/mid.ply"
+for ext in ply las; do
+  "$CED" detect "$T/mid.ply" --preset ced6d -o "$T/pw.$ext" --indices-original "$T/pw_o.txt" -q
+  "$CED" detect "$T/mid.ply" --preset ced6d --tile-size 1.5 -o "$T/pt.$ext" --indices-original "$T/pt_o.txt" -q
+  check "PLY input with extra fields, tiled: keypoint cloud as .$ext" cmp -s "$T/pw.$ext" "$T/pt.$ext"
+  check "PLY input with extra fields, tiled: original indices" cmp -s "$T/pw_o.txt" "$T/pt_o.txt"
+done
 # Another format, and other modalities (PLY is read whole, then tiled).
 sample=$DATA/apartment_mesh_214.ply
 "$CED" detect "$sample" -m xyz:0.2 -m lab:0.1 --radius 0.05 --indices "$T/s.txt" -q

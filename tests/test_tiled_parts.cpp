@@ -91,7 +91,7 @@ TEST(TiledParts, APartFileIsTheDocumentedLittleEndianLayout) {
   const std::size_t m = w.part.saliency.size();
   ASSERT_EQ(m, 2u);
   EXPECT_EQ(b.substr(0, 8), std::string("CEDPART\0", 8));
-  EXPECT_EQ(le(b, 8, 4), 2u);  // the format version
+  EXPECT_EQ(le(b, 8, 4), 3u);  // the format version
   EXPECT_EQ(b.substr(12, 16), w.plan.digest());
   EXPECT_EQ(le(b, 28, 8), w.part.tile);
   EXPECT_EQ(le(b, 36, 8), w.part.index.size());
@@ -128,14 +128,15 @@ TEST(TiledParts, APartOfAnotherFormatVersionIsRefused) {
   // The version bumped (and its last byte corrupted): named with this ced's.
   using bump = std::pair<std::string, std::string>;  // the 4 bytes, the version they say
   for (const auto& [bytes, version] :
-       {bump{std::string("\x03\0\0\0", 4), "3"}, bump{std::string("\x02\0\0\x01", 4), "16777218"}}) {
+       {bump{std::string("\x04\0\0\0", 4), "4"}, bump{std::string("\x02\0\0\0", 4), "2"},
+        bump{std::string("\x03\0\0\x01", 4), "16777219"}}) {
     std::string bumped = b;
     bumped.replace(8, 4, bytes);
     const std::string path = ced_test::temp_file("parts_version_" + version + ".part");
     ced_test::write_bytes(path, bumped);
     const std::string what = read_error(path, w.plan);
     EXPECT_NE(what.find(path), std::string::npos) << what;
-    EXPECT_NE(what.find("tile part format version " + version + ", this ced reads version 2"), std::string::npos)
+    EXPECT_NE(what.find("tile part format version " + version + ", this ced reads version 3"), std::string::npos)
         << what;
     try {
       ced::merge_part_files(w.plan, {path}, {});
@@ -150,7 +151,7 @@ TEST(TiledParts, APartOfAnotherFormatVersionIsRefused) {
   const std::string path = ced_test::temp_file("parts_version_1.part");
   ced_test::write_bytes(path, v1);
   const std::string what = read_error(path, w.plan);
-  EXPECT_NE(what.find(path + ": tile part format version 1, this ced reads version 2"), std::string::npos) << what;
+  EXPECT_NE(what.find(path + ": tile part format version 1, this ced reads version 3"), std::string::npos) << what;
   // Not a part at all.
   std::string other = b;
   other[3] = 'X';

@@ -1,9 +1,13 @@
 // SPDX-License-Identifier: MIT
 // Tiled runs in a work directory (src/tiled/run.cpp, tile_cache.cpp): a failed
-// merge keeps the parts for --resume; a tile cache of another format version is refused.
+// merge keeps the parts for --resume; a tile cache of another format version is refused;
+// the keypoints' records are fetched from the input (its first and last point, non-finite
+// points, fields detection does not read), and an input changed before the merge is refused.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <stdexcept>
 #include <string>
@@ -52,7 +56,7 @@ TEST(TiledRun, ATileCacheOfAnotherFormatVersionIsRefused) {
       (std::filesystem::path(o.work_dir) / "cache" / ("t" + std::to_string(id) + ".bin")).string();
   const std::string bytes = ced_test::read_bytes(cache);
   ASSERT_GT(bytes.size(), 12u);
-  EXPECT_EQ(bytes.substr(0, 12), std::string("CEDTILE\0\x02\0\0\0", 12));  // magic, format version 2
+  EXPECT_EQ(bytes.substr(0, 12), std::string("CEDTILE\0\x03\0\0\0", 12));  // magic, format version 3
   std::string bumped = bytes;
   bumped[8] = 7;
   ced_test::write_bytes(cache, bumped);
@@ -60,7 +64,7 @@ TEST(TiledRun, ATileCacheOfAnotherFormatVersionIsRefused) {
     ced::detect_cached_tile(plan, o.work_dir, id);
     ADD_FAILURE() << "a tile cache of format version 7 was read";
   } catch (const ced::io::io_error& e) {
-    EXPECT_NE(std::string(e.what()).find(cache + ": tile cache format version 7, this ced reads version 2"),
+    EXPECT_NE(std::string(e.what()).find(cache + ": tile cache format version 7, this ced reads version 3"),
               std::string::npos)
         << e.what();
   }
@@ -78,4 +82,185 @@ TEST(TiledRun, ATileCacheOfAnotherFormatVersionIsRefused) {
   EXPECT_NO_THROW(ced::detect_cached_tile(plan, o.work_dir, id));
   ced::remove_work_dir(o.work_dir);
   EXPECT_FALSE(std::filesystem::exists(o.work_dir));
+}
+
+namespace {
+
+std::uint64_t le(const std::string& b, std::size_t at, std::size_t n) {
+  std::uint64_t v = 0;
+  for (std::size_t k = 0; k < n; ++k) v |= std::uint64_t(static_cast<unsigned char>(b[at + k])) << (8 * k);
+  return v;
+}
+
+/// `c` with the points `keep` says (positions and fields).
+ced::point_cloud subset(const ced::point_cloud& c, const std::vector<bool>& keep) {
+  ced::point_cloud out;
+  out.set_origin(c.origin());
+  std::vector<std::size_t> at;
+  for (std::size_t i = 0; i < c.size(); ++i)
+    if (keep[i]) at.push_back(i);
+  out.resize(at.size());
+  for (std::size_t j = 0; j < at.size(); ++j) std::copy_n(c.position(at[j]), 3, out.positions().data() + 3 * j);
+  for (const auto& f : c.fields()) {
+    std::vector<double> v(at.size());
+    for (std::size_t j = 0; j < at.size(); ++j) v[j] = f.values[at[j]];
+    out.add_field(f.name, f.type(), v);
+  }
+  return out;
+}
+
+/// The whole run's keypoints of the file (its finite points, as `ced detect`).
+std::vector<std::uint32_t> whole_keypoints(const std::string& path, const ced::detect_params& p,
+                                           const std::vector<std::string>& mods) {
+  ced::io::read_options all;
+  all.keep_nonfinite = true;
+  const ced::point_cloud c = ced::io::read_cloud(path, all);
+  std::vector<bool> finite(c.size());
+  for (std::size_t i = 0; i < c.size(); ++i)
+    finite[i] = std::isfinite(c.position(i)[0]) && std::isfinite(c.position(i)[1]) && std::isfinite(c.position(i)[2]);
+  return ced::detect(subset(c, finite), p, ced_test::specs(mods)).keypoints;
+}
+
+/// room16(n, seed) with more fields than detection reads (a float64, an
+/// int8), a non-finite point before each index of `nans` (PLY keeps them),
+/// and two of the whole run's keypoints moved to the first and the last
+/// point; written to `path`. Returns the whole run's keypoints.
+std::vector<std::uint32_t> write_edge_keypoints(const std::string& path, std::size_t n, std::uint32_t seed,
+                                                const std::vector<std::size_t>& nans, const ced::detect_params& p,
+                                                const std::vector<std::string>& mods) {
+  ced::point_cloud c = ced_test::room16(n, seed);
+  std::vector<double> q(n), label(n);
+  for (std::size_t i = 0; i < n; ++i) q[i] = 0.25 * double(i), label[i] = double(int(i % 7) - 3);
+  c.add_field("quality", ced::scalar_type::float64, q);
+  c.add_field("label", ced::scalar_type::int8, label);
+  auto swap_points = [&](std::size_t a, std::size_t b) {
+    for (std::size_t k = 0; k < 3; ++k) std::swap(c.positions()[3 * a + k], c.positions()[3 * b + k]);
+    for (auto& f : c.fields()) {
+      const double v = f.values[a];
+      f.values.set(a, f.values[b]);
+      f.values.set(b, v);
+    }
+  };
+  // With the non-finite points: a NaN point inserted before each of `nans`.
+  auto write = [&] {
+    std::vector<bool> keep(n + nans.size(), true);
+    ced::point_cloud with;
+    with.set_origin(c.origin());
+    with.resize(n + nans.size());
+    std::vector<std::size_t> from;
+    for (std::size_t i = 0, k = 0; i < n; ++i) {
+      while (k < nans.size() && nans[k] == i) from.push_back(n), ++k;  // n: a NaN point
+      from.push_back(i);
+    }
+    for (std::size_t j = 0; j < from.size(); ++j)
+      for (std::size_t k = 0; k < 3; ++k)
+        with.positions()[3 * j + k] = from[j] == n ? std::nanf("") : c.position(from[j])[k];
+    for (const auto& f : c.fields()) {
+      std::vector<double> v(from.size(), 1.0);
+      for (std::size_t j = 0; j < from.size(); ++j)
+        if (from[j] < n) v[j] = f.values[from[j]];
+      with.add_field(f.name, f.type(), v);
+    }
+    ced::io::write_cloud(path, with);
+    return whole_keypoints(path, p, mods);
+  };
+  // Keypoints of the whole cloud at its ends (the order can move a saliency's
+  // last bits: try pairs until both ends are keypoints).
+  const auto kp = write();
+  for (std::size_t t = 0; t + 1 < kp.size() && t < 20; ++t) {
+    const ced::point_cloud before = c;
+    swap_points(0, kp[t]);
+    swap_points(n - 1, kp[kp.size() - 1 - t]);
+    const auto moved = write();
+    if (!moved.empty() && moved.front() == 0 && moved.back() == n - 1) return moved;
+    c = before;
+  }
+  return write();
+}
+
+}  // namespace
+
+TEST(TiledRun, KeypointRecordsAreFetchedFromTheInput) {
+  for (const std::string ext : {"ply", "las"}) {
+    ced::tiled_request r = room_request(3000, 14, "fetch_seed." + ext, 0.2);
+    r.input = ced_test::temp_file("fetch." + ext);
+    r.read.keep_nonfinite = true;
+    // LAS holds no NaN positions: the PLY file has three non-finite points.
+    const std::vector<std::size_t> nans =
+        ext == "ply" ? std::vector<std::size_t>{1, 1500, 2900} : std::vector<std::size_t>{};
+    const auto whole = write_edge_keypoints(r.input, 3000, 14, nans, r.params, r.modalities);
+    ASSERT_GT(whole.size(), 5u);
+    ASSERT_EQ(whole.front(), 0u) << ext;
+    ASSERT_EQ(whole.back(), 2999u) << ext;
+    ced::io::read_options all;
+    all.keep_nonfinite = true;
+    const ced::point_cloud file = ced::io::read_cloud(r.input, all);
+    ced::tiled_run_options o;
+    o.work_dir = ced_test::temp_file("fetch_work_" + ext);
+    ced::tile_plan plan;
+    const ced::tile_part merged = ced::run_tiled(r, o, &plan);
+    // The tiles carried the colour only; the merge fetched every field.
+    ASSERT_TRUE(plan.tile_fields.has_value()) << ext;
+    EXPECT_EQ(*plan.tile_fields, (std::vector<std::string>{"red", "green", "blue"})) << ext;
+    EXPECT_EQ(merged.index, std::vector<std::uint64_t>(whole.begin(), whole.end())) << ext;
+    ASSERT_EQ(merged.keypoints.fields().size(), file.fields().size()) << ext;
+    for (std::size_t j = 0; j < merged.index.size(); ++j) {
+      const std::uint64_t fi = merged.file_index[j];
+      std::uint64_t before = 0;  // non-finite points before it: one before each of `nans`
+      for (std::size_t k : nans) before += k <= merged.index[j];
+      ASSERT_EQ(fi, merged.index[j] + before) << ext;
+      EXPECT_EQ(0, std::memcmp(merged.keypoints.position(j), file.position(fi), 12)) << ext << " keypoint " << j;
+      for (std::size_t f = 0; f < file.fields().size(); ++f) {
+        const auto& a = merged.keypoints.fields()[f];
+        const auto& b = file.fields()[f];
+        ASSERT_EQ(a.name, b.name);
+        ASSERT_EQ(a.type(), b.type());
+        const std::size_t w = ced::size_of(a.type());
+        EXPECT_EQ(0, std::memcmp(a.values.bytes() + w * j, b.values.bytes() + w * fi, w)) << ext << " " << a.name;
+      }
+    }
+    // Reading only what detection reads, there is nothing to fetch.
+    r.read.fields = ced::field_selection::only({"red", "green", "blue"});
+    o.work_dir = ced_test::temp_file("fetch_work_slim_" + ext);
+    const ced::tile_part slim = ced::run_tiled(r, o, &plan);
+    EXPECT_FALSE(plan.tile_fields.has_value()) << ext;
+    EXPECT_EQ(slim.index, merged.index) << ext;
+  }
+}
+
+TEST(TiledRun, AnInputChangedBeforeTheMergeIsRefused) {
+  const ced::tiled_request r = room_request(40000, 15, "changed.las", 0.2);
+  ced::tiled_run_options o;
+  o.work_dir = ced_test::temp_file("changed_work");
+  const ced::tile_plan plan = ced::prepare_tiled(r, o);
+  ASSERT_TRUE(plan.tile_fields.has_value());
+  std::vector<std::uint64_t> keypoints;
+  for (const auto& t : plan.tiles)
+    for (std::uint64_t fi : ced::detect_cached_tile(plan, o.work_dir, t.id).file_index) keypoints.push_back(fi);
+  // A keypoint's X changed where the input's fingerprint does not look (its
+  // first and last 64 KiB, 64 blocks of 4 KiB): only the merge can tell.
+  std::string bytes = ced_test::read_bytes(r.input);
+  const std::uint64_t size = bytes.size(), offset = le(bytes, 96, 4), record = le(bytes, 105, 2);
+  auto sampled = [&](std::uint64_t a, std::uint64_t b) {
+    if (a < 65536 || b + 65536 > size) return true;
+    for (std::uint64_t k = 1; k <= 64; ++k)
+      if (a < size / 65 * k + 4096 && size / 65 * k < b) return true;
+    return false;
+  };
+  std::uint64_t at = 0;
+  for (std::uint64_t fi : keypoints)
+    if (!sampled(offset + fi * record, offset + (fi + 1) * record)) at = offset + fi * record;
+  ASSERT_GT(at, 0u);
+  bytes[at] = char(bytes[at] + 1);
+  ced_test::write_bytes(r.input, bytes);
+  EXPECT_NO_THROW(ced::check_plan_input(plan));  // the fingerprint is blind to it
+  try {
+    ced::finish_tiled(plan, o.work_dir);
+    ADD_FAILURE() << "a changed input was merged";
+  } catch (const ced::io::io_error& e) {
+    EXPECT_NE(std::string(e.what()).find(r.input + ": the file changed since the plan was made (point "),
+              std::string::npos)
+        << e.what();
+  }
+  ced::remove_work_dir(o.work_dir);
 }

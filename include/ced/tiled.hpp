@@ -10,6 +10,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -64,6 +65,11 @@ struct tile_plan {
   std::array<double, 3> origin{0.0, 0.0, 0.0};
   tile_grid grid;
   std::vector<plan_field> fields;
+  /// The fields the tile cache and the parts carry, besides the positions:
+  /// unset, all of `fields`; set (by run_tiled() when the modalities read
+  /// fewer fields than the request), only these of `fields`, and the merge
+  /// fetches the keypoints' whole records from the input in a last pass.
+  std::optional<std::vector<std::string>> tile_fields;
   std::vector<tile_entry> tiles;  ///< ascending id
   bool streamed = true;           ///< false: the format is read whole (memory not bounded)
 

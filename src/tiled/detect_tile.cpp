@@ -35,14 +35,18 @@ tile_points read_tile(const tile_plan& plan, std::uint64_t id) {
   const auto coords = plan.grid.coords(id);
   std::string records;
   std::uint64_t file_index = 0, index = 0, content = 0, core = 0;
+  const std::vector<plan_field> tile_fields = tile_fields_of(plan);
+  const std::size_t rs = record_size(plan);
+  std::vector<column> converted;
   for_each_chunk(*s, plan.origin, [&](const point_cloud& c) {
     if (c.fields().size() != plan.fields.size())
       throw io::io_error(plan.request.input, "its fields differ from the plan's: make a new plan");
     if (!plan.content.empty()) content = hash_chunk(c, content);
+    const field_bytes fields = conform_fields(c, tile_fields, converted);
     for (std::size_t i = 0; i < c.size(); ++i, ++file_index) {
       if (!finite3(c.position(i))) continue;
       if (near_tile(plan.grid, coords, c.position(i))) {
-        append_record(records, index, file_index, c, i);
+        append_record(records, rs, index, file_index, c.positions().data(), fields, i);
         core += plan.grid.tile_of(c.position(i)) == id;
       }
       ++index;

@@ -12,7 +12,9 @@
 #include <cstring>
 #include <filesystem>
 #include <future>
+#include <memory>
 #include <nlohmann/json_fwd.hpp>
+#include <optional>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -116,7 +118,10 @@ std::vector<tile_entry> count_tiles(io::point_stream& s, const tile_plan& p, con
 
 /// The format of the tile cache and part files; a reader refuses any other.
 /// 1: parts began "CEDPART1", host byte order; caches had no header.
-constexpr std::uint32_t tiled_file_version = 2;
+/// 2: cache records of fixed size (u64 index, u64 file index, f32 x y z, every field).
+/// 3: cache records delta-coded (cache_coder), with only the tile fields;
+///    parts with only the tile fields.
+constexpr std::uint32_t tiled_file_version = 3;
 
 /// What a header names: a tile cache or a part.
 struct tiled_file_kind {
@@ -155,7 +160,10 @@ T load_le(const char* p) noexcept {
   return io::detail::load_le<T>(reinterpret_cast<const unsigned char*>(p));
 }
 
-/// Bytes of one record of the plan.
+/// The fields the tile cache and the parts carry (tile_plan::tile_fields).
+std::vector<plan_field> tile_fields_of(const tile_plan& p);
+
+/// Bytes of one record of a part of the plan (its tile fields).
 std::size_t record_size(const tile_plan& p);
 
 /// The fields of a chunk as (bytes, width) pairs, for append_record().
@@ -183,13 +191,86 @@ inline void append_record(std::string& out, std::size_t size, std::uint64_t inde
 void append_record(std::string& out, std::uint64_t index, std::uint64_t file_index, const point_cloud& c,
                    std::size_t i);
 
+/// The fields `want` of a chunk, as (bytes, width) pairs of their types:
+/// the chunk's own bytes when its field has that name and type, else
+/// converted into `keep` (a stream's chunks before its first complete pass
+/// may lack a LAS flag, 0 there, or hold a CSV column as float64).
+field_bytes conform_fields(const point_cloud& c, const std::vector<plan_field>& want, std::vector<column>& keep);
+
+/// The tile cache's records (format version 3), each coded against the one
+/// before it in its tile's file, in the input's order:
+///   varint  (index - next index) * 2 + g, where next index is the previous
+///           record's index + 1 (0 for the first), g = 1 when the count of
+///           non-finite points before it grew
+///   varint  by how much it grew (only when g = 1)
+///   3 varints  x, y, z: the zigzag of the difference of the float's bits,
+///           as an integer ordered like the floats, from the previous record's
+///   the tile fields, each a value of its type, little-endian
+/// So positions are the exact floats, and a point costs about 13 bytes with
+/// 16-bit RGB (the figures in docs/SCALE.md).
+struct cache_coder {
+  std::uint64_t next_index = 0, gap = 0;
+  std::int64_t at[3] = {0, 0, 0};
+
+  static std::int64_t ordered(float f) noexcept {
+    std::uint32_t b;
+    std::memcpy(&b, &f, 4);
+    return (b & 0x80000000u) ? -std::int64_t(b & 0x7fffffffu) - 1 : std::int64_t(b);
+  }
+  static float from_ordered(std::int64_t k) noexcept {
+    const std::uint32_t b = k >= 0 ? std::uint32_t(k) : (0x80000000u | std::uint32_t(-(k + 1)));
+    float f;
+    std::memcpy(&f, &b, 4);
+    return f;
+  }
+  static char* put(char* p, std::uint64_t v) noexcept {
+    for (; v >= 0x80; v >>= 7) *p++ = char((v & 0x7f) | 0x80);
+    *p++ = char(v);
+    return p;
+  }
+  /// Appends point i (positions `xyz`, fields `fields`) with its indices.
+  void append(std::string& out, std::uint64_t index, std::uint64_t file_index, const float* xyz,
+              const field_bytes& fields, std::size_t i) {
+    char head[5 * 10], *p = head;
+    const std::uint64_t g = file_index - index;
+    p = put(p, ((index - next_index) << 1) | (g != gap ? 1 : 0));
+    if (g != gap) p = put(p, g - gap);
+    next_index = index + 1;
+    gap = g;
+    for (std::size_t k = 0; k < 3; ++k) {
+      const std::int64_t o = ordered(xyz[3 * i + k]), d = o - at[k];
+      at[k] = o;
+      p = put(p, (std::uint64_t(d) << 1) ^ std::uint64_t(d >> 63));
+    }
+    std::size_t n = std::size_t(p - head);
+    for (const auto& f : fields) n += f.second;
+    const std::size_t at0 = out.size();
+    if (out.capacity() < at0 + n) out.reserve(std::max(2 * out.capacity(), at0 + n));
+    out.resize(at0 + n);
+    char* q = out.data() + at0;
+    std::memcpy(q, head, std::size_t(p - head));
+    q += p - head;
+    for (const auto& [bytes, w] : fields) {
+      copy_le(q, reinterpret_cast<const char*>(bytes + w * i), w);
+      q += w;
+    }
+  }
+};
+
+/// Tile id's points from its cache records (`bytes` from `offset` on, `n`
+/// records); io_error naming `name` when they are not n whole records.
+tile_points points_from_cache(const tile_plan& p, std::uint64_t id, std::size_t n, const std::string& bytes,
+                              std::size_t offset, const std::string& name);
+
 /// Decodes n records at `p` into points [at, at + n) of `c` and the index
 /// arrays; returns the end of the records.
 const char* decode_records(const char* p, std::size_t n, point_cloud& c, std::size_t at, std::uint64_t* index,
                            std::uint64_t* file_index);
 
-/// An empty cloud with the plan's origin and fields (whole ranges set), room for n points.
+/// An empty cloud with the plan's origin and tile fields (whole ranges set), room for n points.
 point_cloud empty_cloud(const tile_plan& p, std::size_t n);
+/// The same with every field of the plan: the input's records.
+point_cloud record_cloud(const tile_plan& p, std::size_t n);
 
 /// Points [i, i + n) of `from` (positions and field bytes) into [j, j + n)
 /// of `to`, a cloud with the same fields.
@@ -199,6 +280,46 @@ void copy_points(const point_cloud& from, std::size_t i, point_cloud& to, std::s
 /// naming `name` when they are not whole records.
 tile_points points_from_records(const tile_plan& p, std::uint64_t id, const std::string& bytes, std::size_t offset,
                                 const std::string& name);
+
+// ------------------------------------------------------------------ fetching records (fetch.cpp)
+
+/// The tile fields of a plan whose modalities read fewer fields than it
+/// has (what build_cache() sets as tile_plan::tile_fields); nullopt when
+/// they read them all, or a modality does not say which it reads.
+std::optional<std::vector<std::string>> detection_fields(const tile_plan& p);
+
+/// The last pass of a run whose parts carry only the tile fields: the
+/// keypoints' whole records, read from the input in one sequential pass (a
+/// merge join: the keypoints come in ascending file index). Every keypoint's
+/// index and position must be the input's, and the input's counts the
+/// plan's: else io_error, the input changed since the plan.
+class record_fetcher {
+ public:
+  explicit record_fetcher(const tile_plan& plan);
+  ~record_fetcher();
+  record_fetcher(const record_fetcher&) = delete;
+  record_fetcher& operator=(const record_fetcher&) = delete;
+  /// `c` with every field of the input; c's keypoints follow the previous call's.
+  void fetch(tile_part& c);
+  /// Reads the rest of the input and checks its counts.
+  void finish();
+
+ private:
+  bool advance();
+  void changed(const std::string& what) const;
+  const tile_plan& m_plan;
+  std::unique_ptr<io::point_stream> m_stream;
+  point_cloud m_chunk, m_next;
+  std::size_t m_next_size = 0;
+  std::future<void> m_reading;
+  std::uint64_t m_base = 0, m_finite_base = 0;  // of m_chunk's first point
+  std::size_t m_scan = 0;                       // m_chunk's points counted in m_finite
+  std::uint64_t m_finite = 0;                   // finite points before m_scan
+};
+
+/// A sink that hands `to` the chunks with their records fetched by `f`
+/// (and, at begin, totals whose keypoints have every field of the plan).
+merge_sink fetching_sink(const tile_plan& plan, record_fetcher& f, const merge_sink& to);
 
 // ------------------------------------------------------------------ tile cache (tile_cache.cpp)
 

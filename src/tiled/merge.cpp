@@ -85,22 +85,22 @@ void check_part(const tile_plan& plan, const tile_part& out, const tile_part& p)
     throw io::io_error(where, "it belongs to another plan (plan digest " +
                                   (p.plan.empty() ? std::string("none") : p.plan) + ", expected " + out.plan + ")");
   const std::size_t n = p.index.size();
+  const std::vector<plan_field> fields = tile_fields_of(plan);
   bool whole = p.names == out.names && p.saliency.size() == m && p.candidates.size() == m && p.file_index.size() == n &&
-               p.keypoints.size() == n && p.keypoints.fields().size() == plan.fields.size();
+               p.keypoints.size() == n && p.keypoints.fields().size() == fields.size();
   for (std::size_t k = 0; whole && k < m; ++k) whole = p.saliency[k].size() == n;
-  for (std::size_t f = 0; whole && f < plan.fields.size(); ++f)
-    whole =
-        p.keypoints.fields()[f].name == plan.fields[f].name && p.keypoints.fields()[f].type() == plan.fields[f].type;
+  for (std::size_t f = 0; whole && f < fields.size(); ++f)
+    whole = p.keypoints.fields()[f].name == fields[f].name && p.keypoints.fields()[f].type() == fields[f].type;
   if (!whole) throw io::io_error(where, "its modalities, fields or array sizes differ from the plan's");
   std::uint64_t last = std::numeric_limits<std::uint64_t>::max();
   for (std::size_t j = 0; j < n; ++j)
     check_keypoint(plan, where, p.tile, p.index[j], p.file_index[j], p.keypoints.position(j), last);
 }
 
-}  // namespace
-
-void merge_part_files(const tile_plan& plan, const std::vector<std::string>& paths, const merge_sink& sink,
-                      std::size_t memory) {
+/// merge_part_files() of parts that carry every field of the plan, or of
+/// the keypoints with their tile fields only (fetched after).
+void merge_records(const tile_plan& plan, const std::vector<std::string>& paths, const merge_sink& sink,
+                   std::size_t memory) {
   const std::string digest = plan.digest();
   std::vector<part_reader> readers;
   readers.reserve(paths.size());
@@ -150,6 +150,18 @@ void merge_part_files(const tile_plan& plan, const std::vector<std::string>& pat
     emitted += n;
     if (sink.chunk) sink.chunk(chunk);
   }
+}
+
+}  // namespace
+
+void merge_part_files(const tile_plan& plan, const std::vector<std::string>& paths, const merge_sink& sink,
+                      std::size_t memory) {
+  if (!plan.tile_fields) return merge_records(plan, paths, sink, memory);
+  // The parts carry the tile fields only: the keypoints' records come from
+  // the input, in one more pass over it.
+  record_fetcher fetch(plan);
+  merge_records(plan, paths, fetching_sink(plan, fetch, sink), memory);
+  fetch.finish();
 }
 
 tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts) {

@@ -6,7 +6,7 @@
 //   offset 0       8-byte magic "CEDPART\0"
 //   offset 8       u32 format version (tiled_file_version)
 //   offset 12      the plan's digest (16 hex characters)
-//   offset 28      u64 tile, u64 keypoints, u32 m, u32 fields
+//   offset 28      u64 tile, u64 keypoints, u32 m, u32 fields (the plan's tile fields)
 //   offset 52      u64 candidates per modality (m of them)
 //   offset 52+8m   u64 any_candidates, f64 detect_ms
 //   offset 68+8m   per keypoint, ascending index: its point record, then
@@ -39,7 +39,7 @@ void write_part_as(const std::string& path, const tile_plan& plan, const std::st
   append_le(out, part.tile);
   append_le(out, std::uint64_t(part.index.size()));
   append_le(out, std::uint32_t(part.saliency.size()));
-  append_le(out, std::uint32_t(plan.fields.size()));
+  append_le(out, std::uint32_t(tile_fields_of(plan).size()));
   for (std::uint64_t c : part.candidates) append_le(out, c);
   append_le(out, part.any_candidates);
   append_le(out, part.detect_ms);
@@ -84,7 +84,8 @@ part_reader::part_reader(const std::string& path, const tile_plan& plan, const s
   get(m_count);
   get(nm);
   get(nf);
-  if (nm != m || nf != plan.fields.size()) throw io::io_error(path, "its modalities or fields differ from the plan's");
+  if (nm != m || nf != tile_fields_of(plan).size())
+    throw io::io_error(path, "its modalities or fields differ from the plan's");
   name_modalities(plan, modalities, totals);
   totals.candidates.resize(m);
   for (auto& c : totals.candidates) get(c);

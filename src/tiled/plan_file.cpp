@@ -131,6 +131,18 @@ void fields_from_json(const nlohmann::json& fields, tile_plan& p, const std::str
   }
 }
 
+/// The plan's "tile_fields": some of its fields, each once, in their order.
+void tile_fields_from_json(const nlohmann::json& names, tile_plan& p, const std::string& name) {
+  p.tile_fields = names.get<std::vector<std::string>>();
+  std::size_t at = 0;
+  for (const auto& n : *p.tile_fields) {
+    while (at < p.fields.size() && p.fields[at].name != n) ++at;
+    if (at == p.fields.size())
+      throw io::io_error(name, "invalid tile plan: tile field '" + n + "' is not one of its fields, or out of order");
+    ++at;
+  }
+}
+
 /// The plan's tiles: in the grid, ascending, their counts consistent, and
 /// owning every finite point between them.
 void tiles_from_json(const nlohmann::json& tiles, tile_plan& p, const std::string& name) {
@@ -186,6 +198,7 @@ std::string tile_plan::to_json() const {
   auto& fl = j["fields"] = nlohmann::json::array();
   for (const auto& f : fields)
     fl.push_back({{"name", f.name}, {"type", std::string(name_of(f.type))}, {"lo", f.range.lo}, {"hi", f.range.hi}});
+  if (tile_fields) j["tile_fields"] = *tile_fields;
   auto& tl = j["tiles"] = nlohmann::json::array();
   for (const auto& t : tiles) tl.push_back({t.id, t.core_points, t.points});
   return j.dump(1) + "\n";
@@ -205,6 +218,7 @@ tile_plan tile_plan::from_json(const std::string& text, const std::string& name)
     p.origin = point_of(j, "origin");
     grid_from_json(j.at("grid"), p, name);
     fields_from_json(j.at("fields"), p, name);
+    if (j.contains("tile_fields")) tile_fields_from_json(j.at("tile_fields"), p, name);
     tiles_from_json(j.at("tiles"), p, name);
   } catch (const nlohmann::json::exception& e) {
     throw io::io_error(name, std::string("malformed tile plan: ") + e.what());

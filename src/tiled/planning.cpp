@@ -8,6 +8,7 @@
 #include <map>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 #include "ced/scaled.hpp"
 #include "tiled/internal.hpp"
@@ -26,10 +27,23 @@ struct scan_result {
 };
 
 /// The range of f's values over the finite points (`fin`); `any`: it has one.
-value_range finite_range(const field& f, const std::vector<std::uint8_t>& fin, bool& any) {
+value_range finite_range(const field& f, const std::vector<std::uint8_t>& fin, bool all_finite, bool& any) {
   value_range r{0, 0};
   any = false;
   f.values.visit([&](const auto* v, std::size_t n) {
+    using T = std::remove_const_t<std::remove_pointer_t<decltype(v)>>;
+    if constexpr (std::is_integral_v<T>) {
+      if (all_finite && n > 0) {  // the same range, in a loop the compiler vectorizes
+        T lo = v[0], hi = v[0];
+        for (std::size_t i = 1; i < n; ++i) {
+          lo = std::min(lo, v[i]);
+          hi = std::max(hi, v[i]);
+        }
+        r = {static_cast<double>(lo), static_cast<double>(hi)};
+        any = true;
+        return;
+      }
+    }
     for (std::size_t i = 0; i < n; ++i) {
       if (!fin[i]) continue;
       const double x = static_cast<double>(v[i]);
@@ -44,15 +58,17 @@ value_range finite_range(const field& f, const std::vector<std::uint8_t>& fin, b
 void scan_chunk(const point_cloud& c, scan_result& s) {
   s.file_points += c.size();
   std::vector<std::uint8_t> fin(c.size());
+  std::size_t finite = 0;
   for (std::size_t i = 0; i < c.size(); ++i) {
     fin[i] = finite3(c.position(i));
-    s.finite_points += fin[i];
+    finite += fin[i];
   }
+  s.finite_points += finite;
   std::map<std::string, bool> here;
   for (const field& f : c.fields()) {
     here[f.name] = true;
     bool any = false;
-    value_range r = finite_range(f, fin, any);
+    value_range r = finite_range(f, fin, finite == c.size(), any);
     auto it = s.ranges.find(f.name);
     if (it == s.ranges.end()) {
       // A field first seen after some chunks (a LAS flag): it was 0 there.

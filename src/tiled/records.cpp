@@ -5,17 +5,19 @@
 // Every value is little-endian whatever the host, so that a file written on
 // one machine reads on another (on x86 the bytes are the host's).
 //
-// A record (record_size() bytes):
+// A part's record (record_size() bytes):
 //   offset 0   u64 index        among the input's finite points
 //   offset 8   u64 file_index   among all the input's points
 //   offset 16  f32 x, y, z      relative to the plan's origin
-//   offset 28  the plan's fields, each a value of its type (1, 2, 4 or 8
-//              bytes), in the plan's order
+//   offset 28  the plan's tile fields (tile_fields_of()), each a value of
+//              its type (1, 2, 4 or 8 bytes), in the plan's order
+// The tile cache's records are delta-coded: cache_coder (internal.hpp).
 // A file's header (tiled_header_bytes):
 //   offset 0   8-byte magic: "CEDTILE\0" (a tile cache), "CEDPART\0" (a part)
 //   offset 8   u32 format version (tiled_file_version)
 // A tile cache (work_dir/cache/t<id>.bin): the header, then the records of
 // the points the tile reads, in the input's order. A part: part_file.cpp.
+#include <algorithm>
 #include <string>
 
 #include "tiled/internal.hpp"
@@ -54,10 +56,36 @@ void check_tiled_header(const char* p, std::size_t n, std::uint64_t size, const 
                                  ")");
 }
 
+std::vector<plan_field> tile_fields_of(const tile_plan& p) {
+  if (!p.tile_fields) return p.fields;
+  std::vector<plan_field> out;
+  for (const auto& f : p.fields)
+    if (std::find(p.tile_fields->begin(), p.tile_fields->end(), f.name) != p.tile_fields->end()) out.push_back(f);
+  return out;
+}
+
 std::size_t record_size(const tile_plan& p) {
   std::size_t s = 8 + 8 + 12;
-  for (const auto& f : p.fields) s += size_of(f.type);
+  for (const auto& f : tile_fields_of(p)) s += size_of(f.type);
   return s;
+}
+
+field_bytes conform_fields(const point_cloud& c, const std::vector<plan_field>& want, std::vector<column>& keep) {
+  field_bytes out;
+  keep.clear();
+  keep.reserve(want.size());
+  for (const auto& w : want) {
+    const field* f = c.find_field(w.name);
+    if (f && f->type() == w.type) {
+      out.push_back({f->values.bytes(), size_of(w.type)});
+      continue;
+    }
+    keep.emplace_back(w.type, c.size());  // zeros: a LAS flag no point of the chunk sets
+    if (f)
+      for (std::size_t i = 0; i < c.size(); ++i) keep.back().set(i, f->values[i]);
+    out.push_back({keep.back().bytes(), size_of(w.type)});
+  }
+  return out;
 }
 
 field_bytes bytes_of(const point_cloud& c) {
@@ -91,12 +119,73 @@ const char* decode_records(const char* p, std::size_t n, point_cloud& c, std::si
   return p;
 }
 
-point_cloud empty_cloud(const tile_plan& p, std::size_t n) {
+namespace {
+
+point_cloud cloud_with(const tile_plan& p, const std::vector<plan_field>& fields, std::size_t n) {
   point_cloud c;
   c.set_origin(p.origin);
   c.resize(n);
-  for (const auto& f : p.fields) c.add_field(f.name, column(f.type, n)).whole_range = f.range;
+  for (const auto& f : fields) c.add_field(f.name, column(f.type, n)).whole_range = f.range;
   return c;
+}
+
+/// Reads varints and bytes of a tile cache; io_error past its end.
+struct cache_reader {
+  const char *p, *end;
+  const std::string& name;
+  [[noreturn]] void truncated() const { throw io::io_error(name, "truncated or corrupt tile cache"); }
+  std::uint64_t get() {
+    std::uint64_t v = 0;
+    for (unsigned shift = 0; shift < 64; shift += 7) {
+      if (p == end) truncated();
+      const auto b = static_cast<unsigned char>(*p++);
+      v |= std::uint64_t(b & 0x7f) << shift;
+      if (!(b & 0x80)) return v;
+    }
+    truncated();
+  }
+  const char* take(std::size_t n) {
+    if (std::size_t(end - p) < n) truncated();
+    const char* q = p;
+    p += n;
+    return q;
+  }
+};
+
+}  // namespace
+
+point_cloud empty_cloud(const tile_plan& p, std::size_t n) { return cloud_with(p, tile_fields_of(p), n); }
+
+point_cloud record_cloud(const tile_plan& p, std::size_t n) { return cloud_with(p, p.fields, n); }
+
+tile_points points_from_cache(const tile_plan& p, std::uint64_t id, std::size_t n, const std::string& bytes,
+                              std::size_t offset, const std::string& name) {
+  tile_points t;
+  t.tile = id;
+  t.cloud = empty_cloud(p, n);
+  t.index.resize(n);
+  t.file_index.resize(n);
+  std::vector<std::pair<unsigned char*, std::size_t>> fields;
+  for (auto& f : t.cloud.fields()) fields.push_back({f.values.bytes(), size_of(f.type())});
+  float* xyz = t.cloud.positions().data();
+  cache_reader in{bytes.data() + offset, bytes.data() + bytes.size(), name};
+  std::uint64_t next = 0, gap = 0;
+  std::int64_t at[3] = {0, 0, 0};
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint64_t head = in.get();
+    if (head & 1) gap += in.get();
+    t.index[i] = next + (head >> 1);
+    t.file_index[i] = t.index[i] + gap;
+    next = t.index[i] + 1;
+    for (std::size_t k = 0; k < 3; ++k) {
+      const std::uint64_t z = in.get();
+      at[k] = std::int64_t(std::uint64_t(at[k]) + (std::uint64_t(z >> 1) ^ (0 - (z & 1))));  // wraps, never UB
+      xyz[3 * i + k] = cache_coder::from_ordered(at[k]);
+    }
+    for (auto& [to, w] : fields) copy_le(reinterpret_cast<char*>(to + w * i), in.take(w), w);
+  }
+  if (in.p != in.end) throw io::io_error(name, "the tile cache holds more than the tile's points");
+  return t;
 }
 
 void copy_points(const point_cloud& from, std::size_t i, point_cloud& to, std::size_t j, std::size_t n) {

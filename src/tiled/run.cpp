@@ -66,7 +66,10 @@ tile_part merge_work_dir(const tile_plan& plan, const std::string& work_dir, con
   merge_sink collect;
   collect.begin = [&](const tile_part& totals, std::uint64_t n) {
     out = totals;
-    if (!sink) resize_part(out, plan, static_cast<std::size_t>(n));
+    if (!sink) {
+      resize_part(out, plan, static_cast<std::size_t>(n));
+      out.keypoints = record_cloud(plan, static_cast<std::size_t>(n));  // the merge's chunks have every field
+    }
     if (sink && sink->begin) sink->begin(totals, n);
   };
   std::size_t at = 0;

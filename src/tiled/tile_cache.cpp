@@ -7,6 +7,8 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <exception>
+#include <future>
 #include <string>
 #include <system_error>
 #include <unordered_map>
@@ -22,14 +24,24 @@ using namespace tiled_detail;
 
 namespace {
 
+/// A tile's records not yet written, and the coder of its next record.
+struct tile_buffer {
+  std::string b;
+  cache_coder coder;
+};
+
 /// Buffers of tile-cache records, written out to one file a tile when they
-/// hold more than `budget` bytes. Each file starts with its header.
+/// hold more than `budget` bytes. Each file starts with its header. The
+/// tiles are shared between `shards` (tile id modulo shards), which may fill
+/// their buffers from as many threads.
 class cache_writer {
  public:
-  cache_writer(std::string work_dir, std::size_t budget) : m_work_dir(std::move(work_dir)), m_budget(budget) {}
-  std::string& buffer(std::uint64_t t) {
-    const auto [it, fresh] = m_buffers.try_emplace(t);
-    if (fresh) it->second = tiled_header(cache_kind);
+  cache_writer(std::string work_dir, std::size_t budget, unsigned shards)
+      : m_work_dir(std::move(work_dir)), m_budget(budget), m_buffers(shards) {}
+  unsigned shards() const noexcept { return unsigned(m_buffers.size()); }
+  tile_buffer& buffer(unsigned shard, std::uint64_t t) {
+    const auto [it, fresh] = m_buffers[shard].try_emplace(t);
+    if (fresh) it->second.b = tiled_header(cache_kind);
     return it->second;
   }
   void maybe_flush(std::size_t bytes_added) {
@@ -37,25 +49,32 @@ class cache_writer {
     if (m_held > m_budget) flush();
   }
   void flush() {
-    for (auto& [t, b] : m_buffers) {
-      if (b.empty()) continue;
-      const std::string path = cache_file(m_work_dir, t);
-      std::FILE* f = std::fopen(path.c_str(), "ab");
-      if (!f) throw io::io_error(path, std::string("cannot write the tile cache: ") + std::strerror(errno));
-      const bool ok = std::fwrite(b.data(), 1, b.size(), f) == b.size();
-      if (std::fclose(f) != 0 || !ok) throw io::io_error(path, "cannot write the tile cache (disk full?)");
-      // Released, so that the buffers of many tiles never hold more than the
-      // budget between them (their memory is reused, not faulted in anew:
-      // keep_freed_memory()).
-      std::string().swap(b);
-    }
+    std::size_t tiles = 0;
+    for (const auto& m : m_buffers) tiles += m.size();
+    for (auto& m : m_buffers)
+      for (auto& [t, tb] : m) write(t, tb.b, tiles);
     m_held = 0;
   }
 
  private:
+  void write(std::uint64_t t, std::string& b, std::size_t tiles) {
+    if (b.empty()) return;
+    const std::string path = cache_file(m_work_dir, t);
+    std::FILE* f = std::fopen(path.c_str(), "ab");
+    if (!f) throw io::io_error(path, std::string("cannot write the tile cache: ") + std::strerror(errno));
+    const bool ok = std::fwrite(b.data(), 1, b.size(), f) == b.size();
+    if (std::fclose(f) != 0 || !ok) throw io::io_error(path, "cannot write the tile cache (disk full?)");
+    // Kept for the next records while the buffers of all tiles fit the
+    // budget, else released, so that they never hold more than it between
+    // them (their memory is reused, not faulted in anew: keep_freed_memory()).
+    if (b.capacity() * tiles <= m_budget)
+      b.clear();
+    else
+      std::string().swap(b);
+  }
   std::string m_work_dir;
   std::size_t m_budget, m_held = 0;
-  std::unordered_map<std::uint64_t, std::string> m_buffers;
+  std::vector<std::unordered_map<std::uint64_t, tile_buffer>> m_buffers;
 };
 
 /// About how many tiles read a point: the tile and its halo, per axis, at
@@ -80,38 +99,109 @@ class tile_owners {
   std::vector<std::uint64_t> m_ids;
 };
 
+/// Where a point of a chunk lies in the grid: its own cell and the cells
+/// its halo box meets (c0 to c1); c0[0] < 0: not finite.
+struct located {
+  std::int32_t own[3], c0[3], c1[3];
+};
+
+/// Runs f(k) for k in [0, n) on n threads (this one included); rethrows the
+/// first exception once all are done.
+template <class F>
+void on_threads(unsigned n, F&& f) {
+  std::vector<std::future<void>> others;
+  for (unsigned k = 1; k < n; ++k) others.push_back(std::async(std::launch::async, [&f, k] { f(k); }));
+  std::exception_ptr error;
+  try {
+    f(0u);
+  } catch (...) {
+    error = std::current_exception();
+  }
+  for (auto& o : others) try {
+      o.get();
+    } catch (...) {
+      if (!error) error = std::current_exception();
+    }
+  if (error) std::rethrow_exception(error);
+}
+
 /// Pass 2: the points of each chunk into the cache of every tile (of
-/// `owners`) that reads them, counted per tile.
+/// `owners`) that reads them, counted per tile. The threads first locate
+/// a share of the chunk's points each, then code a shard of the writer's
+/// tiles each: a tile's records are those of one thread, in the input's
+/// order, so the files are the same for any number of threads.
 struct cache_filler {
   const tile_plan& plan;
   const tile_owners& owners;
   tile_counter counts;
   cache_writer writer;
   std::uint64_t file_index = 0, index = 0;
+  std::vector<plan_field> tile_fields = {};
+  std::vector<column> converted = {};
+  std::vector<located> where = {};
 
   void add(const point_cloud& c) {
-    const std::size_t rs = record_size(plan);
-    const field_bytes fields = bytes_of(c);
-    const tile_grid& g = plan.grid;
-    for (std::size_t i = 0; i < c.size(); ++i, ++file_index) {
+    const field_bytes fields = conform_fields(c, tile_fields, converted);
+    const unsigned shards = writer.shards();
+    where.resize(c.size());
+    on_threads(shards, [&](unsigned k) { locate(c, c.size() * k / shards, c.size() * (k + 1) / shards); });
+    std::vector<std::size_t> added(shards, 0);
+    std::uint64_t finite = 0;
+    on_threads(shards, [&](unsigned k) { added[k] = code(c, fields, k, k == 0 ? &finite : nullptr); });
+    file_index += c.size();
+    index += finite;
+    std::size_t sum = 0;
+    for (std::size_t a : added) sum += a;
+    writer.maybe_flush(sum);  // a chunk at a time: the buffers never hold much more than the budget and a chunk
+  }
+
+  void locate(const point_cloud& c, std::size_t from, std::size_t to) {
+    for (std::size_t i = from; i < to; ++i) {
       const float* q = c.position(i);
-      if (!finite3(q)) continue;
+      located& w = where[i];
+      if (!finite3(q)) {
+        w.c0[0] = -1;
+        continue;
+      }
       std::int64_t own[3], c0[3], c1[3];
-      g.locate(q, own, c0, c1);
-      counts.core((std::uint64_t(own[2]) * g.dims[1] + std::uint64_t(own[1])) * g.dims[0] + std::uint64_t(own[0]));
-      std::size_t added = 0;
-      for (std::int64_t z = c0[2]; z <= c1[2]; ++z)
-        for (std::int64_t y = c0[1]; y <= c1[1]; ++y)
-          for (std::int64_t x = c0[0]; x <= c1[0]; ++x) {
-            const std::uint64_t t = (std::uint64_t(z) * g.dims[1] + std::uint64_t(y)) * g.dims[0] + std::uint64_t(x);
-            counts.near(t);
-            if (!owners.owns(t)) continue;
-            append_record(writer.buffer(t), rs, index, file_index, c.positions().data(), fields, i);
-            added += rs;
-          }
-      writer.maybe_flush(added);  // a point at a time: the buffers never hold much more than their budget
-      ++index;
+      plan.grid.locate(q, own, c0, c1);
+      for (std::size_t k = 0; k < 3; ++k) {
+        w.own[k] = std::int32_t(own[k]);
+        w.c0[k] = std::int32_t(c0[k]);
+        w.c1[k] = std::int32_t(c1[k]);
+      }
     }
+  }
+
+  /// Shard k's records of chunk c; shard 0 also counts the tiles' points and
+  /// the chunk's finite points (`finite`). Returns the bytes it added.
+  std::size_t code(const point_cloud& c, const field_bytes& fields, unsigned k, std::uint64_t* finite) {
+    const tile_grid& g = plan.grid;
+    const unsigned shards = writer.shards();
+    auto id = [&](std::int64_t x, std::int64_t y, std::int64_t z) {
+      return (std::uint64_t(z) * g.dims[1] + std::uint64_t(y)) * g.dims[0] + std::uint64_t(x);
+    };
+    std::uint64_t fi = file_index, idx = index;
+    std::size_t added = 0;
+    for (std::size_t i = 0; i < c.size(); ++i, ++fi) {
+      const located& w = where[i];
+      if (w.c0[0] < 0) continue;
+      if (finite) counts.core(id(w.own[0], w.own[1], w.own[2]));
+      for (std::int64_t z = w.c0[2]; z <= w.c1[2]; ++z)
+        for (std::int64_t y = w.c0[1]; y <= w.c1[1]; ++y)
+          for (std::int64_t x = w.c0[0]; x <= w.c1[0]; ++x) {
+            const std::uint64_t t = id(x, y, z);
+            if (finite) counts.near(t);
+            if (t % shards != k || !owners.owns(t)) continue;
+            tile_buffer& tb = writer.buffer(k, t);
+            const std::size_t before = tb.b.size();
+            tb.coder.append(tb.b, idx, fi, c.positions().data(), fields, i);
+            added += tb.b.size() - before;
+          }
+      ++idx;
+    }
+    if (finite) *finite = idx - index;
+    return added;
   }
 };
 
@@ -130,6 +220,14 @@ tile_plan build_cache(const tiled_request& request, const tiled_run_options& o, 
   if (ec) throw io::io_error(cache.string(), "cannot create the tile cache directory: " + ec.message());
   auto s = io::open_point_stream(request.input, request.read);
   tile_plan plan = plan_grid(request, *s, o.progress);
+  // The cache carries only what detection reads (the merge fetches the
+  // keypoints' records), read by a stream that decodes only that.
+  plan.tile_fields = detection_fields(plan);
+  if (plan.tile_fields) {
+    io::read_options slim = request.read;
+    slim.fields = field_selection::only(*plan.tile_fields);
+    s = io::open_point_stream(request.input, slim);
+  }
   // Small tiles under a large halo: a point lands in many tiles, most of
   // which may own none (the air above the ground). Then the tiles are
   // counted first (one more pass), the plan is reported before anything
@@ -142,7 +240,12 @@ tile_plan build_cache(const tiled_request& request, const tiled_run_options& o, 
     announced = true;
   }
   // Pass 2: every point into the cache file of each tile that reads it.
-  cache_filler fill{plan, owners, tile_counter(plan.grid.count()), cache_writer(dir.string(), std::size_t(64) << 20)};
+  // The threads locate and code while the next chunk is read: as many as
+  // asked, at most 4 (each codes its shard from the whole chunk).
+  const unsigned shards = std::min(4u, resolve_threads(o.threads));
+  cache_filler fill{plan, owners, tile_counter(plan.grid.count()),
+                    cache_writer(dir.string(), std::size_t(64) << 20, shards)};
+  fill.tile_fields = tile_fields_of(plan);
   for_each_chunk(*s, plan.origin, [&](const point_cloud& c) {
     fill.add(c);
     if (o.progress) o.progress("reading (pass 2: tile cache)", double(fill.file_index) / double(plan.file_points));
@@ -157,10 +260,7 @@ tile_points load_cached(const tile_plan& plan, const std::string& work_dir, std:
   const std::string file = cache_file(work_dir, id);
   const std::string bytes = io::detail::read_whole_file(file);
   check_tiled_header(bytes.data(), bytes.size(), bytes.size(), cache_kind, file);
-  tile_points pts = points_from_records(plan, id, bytes, tiled_header_bytes, file);
-  if (pts.cloud.size() != plan.tile(id).points)
-    throw io::io_error(file, "the tile cache does not hold the tile's points");
-  return pts;
+  return points_from_cache(plan, id, static_cast<std::size_t>(plan.tile(id).points), bytes, tiled_header_bytes, file);
 }
 
 }  // namespace tiled_detail

@@ -1,0 +1,128 @@
+// SPDX-License-Identifier: MIT
+// Tiled runs: the keypoints' whole records, fetched from the input in a last
+// pass. The tile cache and the parts of a run carry only what detection
+// reads (tile_plan::tile_fields); the merge hands its chunks of keypoints,
+// in ascending index and so in ascending file index, to a record_fetcher,
+// which reads the input once, in order (a merge join), and copies each
+// keypoint's record: the same positions and fields a whole run reads.
+#include <algorithm>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "core/text.hpp"
+#include "tiled/internal.hpp"
+
+namespace ced::tiled_detail {
+
+std::optional<std::vector<std::string>> detection_fields(const tile_plan& p) {
+  std::vector<std::string> read;
+  const auto modalities = modalities_of(p.request.modalities);
+  for (const auto& m : modalities) {
+    const auto f = m.fields();
+    if (!f) return std::nullopt;  // a modality that does not say: every field
+    read.insert(read.end(), f->begin(), f->end());
+  }
+  tile_plan slim = p;
+  slim.tile_fields.emplace();
+  for (const auto& f : p.fields)
+    if (std::any_of(read.begin(), read.end(), [&](const std::string& n) { return detail::iequal(n, f.name); }))
+      slim.tile_fields->push_back(f.name);
+  if (slim.tile_fields->size() == p.fields.size()) return std::nullopt;
+  // The modalities must find their fields among these (they look them up
+  // by their own rules): else every field goes through the cache.
+  try {
+    const point_cloud one = empty_cloud(slim, 1);
+    for (const auto& m : modalities) m.bind(one, p.request.params);
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+  return slim.tile_fields;
+}
+
+record_fetcher::record_fetcher(const tile_plan& plan) : m_plan(plan) {
+  check_plan_input(plan);
+  m_stream = io::open_point_stream(plan.request.input, plan.request.read);
+  m_reading =
+      std::async(std::launch::async, [this] { m_next_size = m_stream->read(chunk_points, m_plan.origin, m_next); });
+}
+
+record_fetcher::~record_fetcher() {
+  if (m_reading.valid()) m_reading.wait();
+}
+
+void record_fetcher::changed(const std::string& what) const {
+  throw io::io_error(m_plan.request.input,
+                     "the file changed since the plan was made (" + what + "): run again without --resume");
+}
+
+/// The next chunk of the input; false at its end.
+bool record_fetcher::advance() {
+  for (; m_scan < m_chunk.size(); ++m_scan) m_finite += finite3(m_chunk.position(m_scan));
+  m_base += m_chunk.size();
+  m_chunk = point_cloud();
+  m_scan = 0;
+  if (!m_reading.valid()) return false;
+  m_reading.get();
+  if (m_next_size == 0) return false;
+  std::swap(m_chunk, m_next);
+  for (const auto& f : m_chunk.fields())
+    if (std::none_of(m_plan.fields.begin(), m_plan.fields.end(), [&](const plan_field& p) { return p.name == f.name; }))
+      changed("it has a field '" + f.name + "' the plan has not");
+  m_reading =
+      std::async(std::launch::async, [this] { m_next_size = m_stream->read(chunk_points, m_plan.origin, m_next); });
+  return true;
+}
+
+void record_fetcher::fetch(tile_part& c) {
+  point_cloud full = record_cloud(m_plan, c.index.size());
+  for (auto& f : full.fields()) f.whole_range.reset();
+  std::vector<column> keep;
+  field_bytes from;
+  std::vector<std::pair<unsigned char*, std::size_t>> to;
+  for (auto& f : full.fields()) to.push_back({f.values.bytes(), size_of(f.type())});
+  for (std::size_t j = 0; j < c.index.size(); ++j) {
+    const std::uint64_t fi = c.file_index[j];
+    if (fi < m_base + m_scan) changed("keypoints out of order");
+    while (fi >= m_base + m_chunk.size()) {
+      if (!advance()) changed("it has fewer points than the plan's " + std::to_string(m_plan.file_points));
+      from.clear();
+    }
+    const std::size_t i = static_cast<std::size_t>(fi - m_base);
+    for (; m_scan < i; ++m_scan) m_finite += finite3(m_chunk.position(m_scan));
+    const float* p = m_chunk.position(i);
+    if (!finite3(p) || m_finite != c.index[j] || std::memcmp(p, c.keypoints.position(j), 3 * sizeof(float)) != 0)
+      changed("point " + std::to_string(fi) + " is not the one detected as keypoint " + std::to_string(c.index[j]));
+    if (from.empty()) from = conform_fields(m_chunk, m_plan.fields, keep);
+    std::copy_n(p, 3, full.positions().data() + 3 * j);
+    for (std::size_t f = 0; f < to.size(); ++f)
+      std::memcpy(to[f].first + to[f].second * j, from[f].first + from[f].second * i, to[f].second);
+  }
+  c.keypoints = std::move(full);
+}
+
+void record_fetcher::finish() {
+  while (advance()) {
+  }
+  if (m_base != m_plan.file_points || m_finite != m_plan.finite_points)
+    changed(std::to_string(m_base) + " points, " + std::to_string(m_finite) + " finite; the plan says " +
+            std::to_string(m_plan.file_points) + ", " + std::to_string(m_plan.finite_points));
+}
+
+merge_sink fetching_sink(const tile_plan& plan, record_fetcher& f, const merge_sink& to) {
+  merge_sink s;
+  s.begin = [&plan, &to](const tile_part& totals, std::uint64_t n) {
+    tile_part t = totals;
+    t.keypoints = record_cloud(plan, 0);
+    for (auto& fl : t.keypoints.fields()) fl.whole_range.reset();
+    if (to.begin) to.begin(t, n);
+  };
+  s.chunk = [&f, &to](const tile_part& c) {
+    tile_part full = c;
+    f.fetch(full);
+    if (to.chunk) to.chunk(full);
+  };
+  return s;
+}
+
+}  // namespace ced::tiled_detail
