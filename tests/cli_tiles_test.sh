@@ -103,6 +103,28 @@ check "no part after a mismatch" test ! -e "$T/p.cedpart"
 printf '{"ced_tile_plan": 1, "request": {}}' > "$T/bad_plan.json"
 expect_exit 1 "malformed tile plan" "malformed plan" -- detect --plan "$T/bad_plan.json" --tile 0 -o "$T/p.cedpart"
 
+# --- The N strongest (--max-keypoints): tiles, plans and merge keep the whole run's ---
+"$CED" detect "$T/mid.las" --preset ced6d --max-keypoints 500 --indices "$T/top_whole.txt" \
+  --indices-original "$T/top_whole_o.txt" -o "$T/top_whole.las" -q
+check "max-keypoints: 500 kept" test "$(wc -l < "$T/top_whole.txt")" = 500
+"$CED" detect "$T/mid.las" --preset ced6d --max-keypoints 500 --tile-size 1 --indices "$T/top_t.txt" \
+  --indices-original "$T/top_t_o.txt" -o "$T/top_t.las" -q
+same_outputs "max-keypoints: tiles" "$T/top_t" top_whole
+"$CED" plan "$T/mid.las" --preset ced6d --max-keypoints 500 --tile-size 1 -o "$T/top_plan.json" -q
+check "max-keypoints: the plan records it" grep -q '"max_keypoints": *500' "$T/top_plan.json"
+mkdir -p "$T/top_parts"
+for id in $(tr -d ' \n' < "$T/top_plan.json" | grep -o '"tiles":\[.*\]' | grep -o '\[[0-9]*,' | tr -d '[,'); do
+  "$CED" detect --plan "$T/top_plan.json" --tile "$id" -o "$T/top_parts/$id.cedpart" -q || echo "tile $id failed"
+done
+"$CED" merge "$T/top_plan.json" "$T"/top_parts/*.cedpart --indices "$T/top_m.txt" --indices-original "$T/top_m_o.txt" \
+  -o "$T/top_m.las" -q
+same_outputs "max-keypoints: plan + tiles + merge" "$T/top_m" top_whole
+if [ -n "$MPI" ] && command -v mpirun > /dev/null; then
+  mpirun --allow-run-as-root --oversubscribe -np 2 "$MPI" detect "$T/mid.las" --preset ced6d --max-keypoints 500 \
+    --tile-size 1 --indices "$T/top_mpi.txt" --indices-original "$T/top_mpi_o.txt" -o "$T/top_mpi.las" -q
+  same_outputs "max-keypoints: ced-mpi -np 2" "$T/top_mpi" top_whole
+fi
+
 # --- A run killed mid-way, then resumed ---
 CED_TEST_KILL_AFTER_TILES=3 "$CED" detect "$T/mid.las" --preset ced6d --tile-size 1 --work-dir "$T/wd" \
   --indices "$T/r.txt" --indices-original "$T/r_o.txt" -o "$T/r.las" -q 2> /dev/null

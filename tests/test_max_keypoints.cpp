@@ -14,6 +14,7 @@
 #include "test_support.hpp"
 
 using ced_test::make_room;
+using ced_test::twin_rooms;
 
 namespace {
 
@@ -97,4 +98,25 @@ TEST(MaxKeypoints, RefinedKeypointsAreRankedByTheirOwnScore) {
   p.max_keypoints = 20;
   const auto r = ced::detect(c, p, ced::preset("robust6d"));
   EXPECT_EQ(r.keypoints, top_by_sorting(all, 20));
+}
+
+TEST(MaxKeypoints, ExactTiesGoToTheSmallerIndex) {
+  const std::size_t n = 6000;
+  const auto c = twin_rooms(n, 24);
+  ced::detect_params p;
+  const auto all = ced::detect(c, p, ced::preset("ced6d"));
+  ASSERT_GT(all.keypoints.size(), 40u);
+  // The twins tie: each keypoint of the first copy has its twin, with the same score.
+  std::size_t ties = 0;
+  for (std::uint32_t k : all.keypoints)
+    if (k < n && std::binary_search(all.keypoints.begin(), all.keypoints.end(), k + std::uint32_t(n)))
+      ties += ced::keypoint_score(all, k) == ced::keypoint_score(all, k + std::uint32_t(n));
+  ASSERT_GT(ties, 20u);
+  // An odd count splits a tied pair: the first copy's point is kept.
+  for (std::size_t limit : {std::size_t(1), std::size_t(9), all.keypoints.size() / 2 + 1}) {
+    p.max_keypoints = limit;
+    const auto r = ced::detect(c, p, ced::preset("ced6d"));
+    EXPECT_EQ(r.keypoints, top_by_sorting(all, limit)) << limit;
+    EXPECT_LT(r.keypoints.front(), n) << limit;
+  }
 }

@@ -86,6 +86,26 @@ inline ced::point_cloud make_room(std::size_t n, std::uint32_t seed, float noise
 }
 
 /// Five points: the origin, one on each axis at 1, 2 and 3, and (4, 4, 4).
+/// Two copies of a room, 4 m apart in x, positions on a 1/1024 m lattice:
+/// every difference and sum of the detection is exact, so each point of one
+/// copy has bitwise the saliencies of its twin in the other: exact ties.
+inline ced::point_cloud twin_rooms(std::size_t n, std::uint32_t seed) {
+  const ced::point_cloud base = make_room(n, seed);
+  ced::point_cloud c = base;
+  c.resize(2 * n);
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t a = 0; a < 3; ++a) {
+      const float v = std::round(base.position(i)[a] * 1024.0f) / 1024.0f;
+      c.positions()[3 * i + a] = v;
+      c.positions()[3 * (n + i) + a] = v + (a == 0 ? 4.0f : 0.0f);
+    }
+  for (auto& f : c.fields()) {
+    f.values.resize(2 * n);
+    for (std::size_t i = 0; i < n; ++i) f.values.set(n + i, f.values[i]);
+  }
+  return c;
+}
+
 inline ced::point_cloud five_points() {
   ced::point_cloud c;
   c.push_back(0, 0, 0);

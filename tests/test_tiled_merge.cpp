@@ -135,3 +135,71 @@ TEST(TiledMerge, PartsOfAnotherPlanOrTamperedAreRefusedInMemory) {
   EXPECT_THROW(ced::merge_parts(a, tampered([&](ced::tile_part& p) { p.index[0] = parts[other].index[0]; })),
                ced::io::io_error);
 }
+
+// ---------------------------------------------------------------- the N strongest (issue #28)
+
+namespace {
+/// merge_part_files() collected into one part.
+ced::tile_part streamed_merge(const ced::tile_plan& plan, const std::vector<std::string>& paths, std::size_t memory,
+                              std::uint64_t& announced) {
+  ced::tile_part got;
+  ced::merge_sink sink;
+  sink.begin = [&](const ced::tile_part& totals, std::uint64_t n) {
+    got = totals;
+    announced = n;
+  };
+  sink.chunk = [&](const ced::tile_part& chunk) {
+    got.index.insert(got.index.end(), chunk.index.begin(), chunk.index.end());
+    for (std::size_t k = 0; k < chunk.saliency.size(); ++k)
+      got.saliency[k].insert(got.saliency[k].end(), chunk.saliency[k].begin(), chunk.saliency[k].end());
+  };
+  ced::merge_part_files(plan, paths, sink, memory);
+  return got;
+}
+}  // namespace
+
+// A tiled run keeps the strongest keypoints of all tiles: the whole run's,
+// with exact ties between twins in different tiles going to the smaller index.
+TEST(TiledMerge, MaxKeypointsIsTheWholeRunsStrongest) {
+  const std::size_t n = 6000;
+  ced::tiled_request r;
+  r.input = ced_test::temp_file("twins.ply");
+  ced::io::write_cloud(r.input, ced_test::twin_rooms(n, 25));
+  r.tile_size = 0.15;
+  r.modalities = {"xyz:0.2", "rgb:0.1"};
+  const ced::point_cloud cloud = ced::io::read_cloud(r.input);
+  const auto all = ced::detect(cloud, r.params, specs(r.modalities));
+  ASSERT_GT(all.keypoints.size(), 40u);
+  for (std::size_t limit :
+       {std::size_t(1), std::size_t(9), all.keypoints.size() / 2 + 1, all.keypoints.size(), all.keypoints.size() + 7}) {
+    SCOPED_TRACE("max_keypoints " + std::to_string(limit));
+    ced::tiled_request rl = r;
+    rl.params.max_keypoints = limit;
+    const ced::tile_plan plan = ced::plan_tiles(rl);
+    ASSERT_GT(plan.tiles.size(), 4u);
+    ced::detect_params p = r.params;
+    p.max_keypoints = limit;
+    const auto whole = ced::detect(cloud, p, specs(r.modalities));
+    ASSERT_EQ(whole.keypoints.size(), std::min(limit, all.keypoints.size()));
+    const std::vector<std::uint64_t> expected(whole.keypoints.begin(), whole.keypoints.end());
+    std::vector<ced::tile_part> parts;
+    std::vector<std::string> paths;
+    for (const auto& t : plan.tiles) {
+      parts.push_back(ced::detect_tile(plan, ced::read_tile(plan, t.id), 1));
+      paths.push_back(ced_test::temp_file("twins_t" + std::to_string(t.id) + ".part"));
+      ced::write_part(paths.back(), plan, parts.back());
+    }
+    const ced::tile_part merged = ced::merge_parts(plan, parts);
+    EXPECT_EQ(merged.index, expected);
+    for (std::size_t k = 0; k < merged.saliency.size(); ++k)
+      for (std::size_t q = 0; q < merged.index.size(); ++q)
+        EXPECT_EQ(merged.saliency[k][q], whole.saliency[k][merged.index[q]]);
+    for (std::size_t memory : {std::size_t(1), std::size_t(64) << 20}) {
+      std::uint64_t announced = 0;
+      const ced::tile_part got = streamed_merge(plan, paths, memory, announced);
+      EXPECT_EQ(announced, expected.size()) << "memory " << memory;
+      EXPECT_EQ(got.index, expected) << "memory " << memory;
+      EXPECT_EQ(got.saliency, merged.saliency) << "memory " << memory;
+    }
+  }
+}

@@ -70,8 +70,6 @@ ced::tiled_request request_from(const detect_options& o, detect_plan& plan) {
   if (!o.png.empty()) throw usage_error("--png draws the whole cloud: not with --tile-size or --memory-limit");
   if (!o.html.empty()) throw usage_error("--html shows the whole cloud: not with --tile-size or --memory-limit");
   if (o.voxel > 0) throw usage_error("--voxel is not available with --tile-size or --memory-limit");
-  if (o.max_keypoints != 0)
-    throw usage_error("--max-keypoints is not available with --tile-size or --memory-limit yet: run without tiles");
   if (plan.auto_radius)
     throw usage_error("--radius auto needs the whole cloud: give --radius (or --preset) with --tile-size");
   ced::tiled_request r;
@@ -198,7 +196,8 @@ void merged_writer::finish(const ced::tile_plan& p, const ced::tile_part& m, dou
     j["params"] = {{"radius", p.request.params.radius},
                    {"nms_radius", p.request.params.nms_radius},
                    {"min_neighbors", p.request.params.min_neighbors},
-                   {"refine", p.request.params.refine}};
+                   {"refine", p.request.params.refine},
+                   {"max_keypoints", p.request.params.max_keypoints}};
     auto& mods = j["modalities"] = nlohmann::json::array();
     for (std::size_t k = 0; k < m.names.size(); ++k)
       mods.push_back({{"name", m.names[k]}, {"threshold", m.thresholds[k]}, {"candidates", m.candidates[k]}});
@@ -292,9 +291,12 @@ int run_detect_tiled(const detect_options& o) {
       mods += (m ? " + " : "") + merged.names[m] + " (t=" + std::to_string(merged.thresholds[m]) + ")";
     std::fprintf(stderr, "ced: %s: %llu points (%s)\n", o.input.c_str(), static_cast<unsigned long long>(p.file_points),
                  p.details.c_str());
-    std::fprintf(stderr, "ced: modalities %s; radius %g, nms radius %g, min neighbours %u%s, %u thread(s)\n",
+    const std::size_t limit = p.request.params.max_keypoints;
+    const std::string strongest = limit ? ", the " + std::to_string(limit) + " strongest" : std::string();
+    std::fprintf(stderr, "ced: modalities %s; radius %g, nms radius %g, min neighbours %u%s%s, %u thread(s)\n",
                  mods.c_str(), p.request.params.radius, p.request.params.nms_radius, p.request.params.min_neighbors,
-                 p.request.params.refine ? ", refined" : "", ced::resolve_threads(plan.params.threads));
+                 p.request.params.refine ? ", refined" : "", strongest.c_str(),
+                 ced::resolve_threads(plan.params.threads));
     std::fprintf(stderr,
                  "ced: %zu keypoints; %zu tiles; plan and tile cache %.1f ms, tiles %.1f ms (detection %.1f), "
                  "merge %.1f ms; total %.1f ms\n",

@@ -223,7 +223,7 @@ void bind_tiled(py::module_& m) {
       "plan_tiles",
       [](const std::string& input, py::object tile_size, py::object memory_limit, py::object modalities,
          py::object radius, py::object nms_radius, py::object min_neighbors, const std::string& format,
-         py::object refine) {
+         py::object refine, py::object max_keypoints) {
         ced::tiled_request r;
         r.input = input;
         r.read.format = ced::io::parse_format(format);
@@ -232,6 +232,7 @@ void bind_tiled(py::module_& m) {
         r.params.min_neighbors = std::uint32_t(int_arg(min_neighbors, "min_neighbors", UINT32_MAX));
         r.modalities = specs_of(modalities);
         r.params.refine = refine_of(modalities, refine);
+        r.params.max_keypoints = std::size_t(int_arg(max_keypoints, "max_keypoints", UINT32_MAX));
         if (tile_size.is_none() && memory_limit.is_none())
           throw py::value_error("give tile_size (metres) or memory_limit (bytes)");
         if (!tile_size.is_none() && !memory_limit.is_none())
@@ -260,9 +261,11 @@ void bind_tiled(py::module_& m) {
       py::arg("input"), py::arg("tile_size") = py::none(), py::arg("memory_limit") = py::none(),
       py::arg("modalities") = py::none(), py::arg("radius") = 0.05, py::arg("nms_radius") = py::none(),
       py::arg("min_neighbors") = 5, py::arg("format") = "auto", py::arg("refine") = py::none(),
+      py::arg("max_keypoints") = 0,
       "Plans the tiles of a cloud file (two passes over it), as `ced plan`. modalities: spec strings or a preset "
       "name (default: ced6d when the file has colour, else ced3d). refine: keypoint refinement (None: the "
-      "preset's, on for robust3d/robust6d).");
+      "preset's, on for robust3d/robust6d). max_keypoints: the merge keeps the strongest of all tiles' "
+      "keypoints, as detect(max_keypoints=...) (0: no limit).");
   m.def(
       "detect_tile",
       [](const ced::tile_plan& plan, const py::object& tile_arg, const py::object& part,

@@ -77,6 +77,7 @@ tile_part detect_tile(const tile_plan& plan, const tile_points& points, unsigned
   const auto modalities = modalities_of(plan.request.modalities);
   detect_params params = plan.request.params;
   params.threads = threads;
+  params.max_keypoints = 0;  // every keypoint of the core: the merge keeps the strongest of all tiles
   const std::size_t m = modalities.size();
   name_modalities(plan, modalities, part);
   part.saliency.assign(m, {});

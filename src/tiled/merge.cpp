@@ -3,9 +3,11 @@
 // in memory (merge_parts) or as a k-way merge of part files streamed into a
 // sink (merge_part_files). Each keypoint is checked as it is taken.
 #include <algorithm>
+#include <cmath>
 #include <functional>
 #include <limits>
 #include <map>
+#include <optional>
 #include <queue>
 #include <string>
 #include <utility>
@@ -97,6 +99,55 @@ void check_part(const tile_plan& plan, const tile_part& out, const tile_part& p)
     check_keypoint(plan, where, p.tile, p.index[j], p.file_index[j], p.keypoints.position(j), last);
 }
 
+/// How the merge ranks keypoints for plan.request.params.max_keypoints:
+/// the score (the product of the saliencies, in float, in modality order, as
+/// detection computes it), then the index; detect_params::max_keypoints and
+/// ced::strongest() choose the same.
+struct rank_key {
+  float score;
+  std::uint64_t index;
+};
+/// Whether `a` ranks before `b`: a higher score (NaN lowest), then the smaller index.
+bool stronger(const rank_key& a, const rank_key& b) {
+  const float inf = std::numeric_limits<float>::infinity();
+  const float sa = std::isnan(a.score) ? -inf : a.score, sb = std::isnan(b.score) ? -inf : b.score;
+  return sa != sb ? sa > sb : a.index < b.index;
+}
+
+/// The key of a part record (its index first, its m saliencies last).
+rank_key key_of_record(const char* r, std::size_t record_bytes, std::size_t m) {
+  const char* s = r + record_bytes - 4 * m;
+  float score = load_le<float>(s);
+  for (std::size_t k = 1; k < m; ++k) score *= load_le<float>(s + 4 * k);
+  return {score, load_le<std::uint64_t>(r)};
+}
+
+/// The weakest of the `n` strongest keypoints of the part files (one pass
+/// over their records, n keys held): a keypoint is among the n strongest
+/// when it does not rank after it. Nothing when there are at most n.
+std::optional<rank_key> strongest_cutoff(const tile_plan& plan, const std::vector<std::string>& paths,
+                                         const std::string& digest, std::size_t n, std::size_t buffer) {
+  auto weaker_first = [](const rank_key& a, const rank_key& b) { return stronger(a, b); };
+  std::priority_queue<rank_key, std::vector<rank_key>, decltype(weaker_first)> kept(weaker_first);
+  std::uint64_t total = 0;
+  for (const auto& path : paths) {
+    part_reader reader(path, plan, digest);
+    const std::size_t m = reader.totals.names.size();
+    while (const char* r = reader.next(buffer)) {
+      ++total;
+      const rank_key k = key_of_record(r, reader.record_bytes(), m);
+      if (kept.size() < n) {
+        kept.push(k);
+      } else if (stronger(k, kept.top())) {
+        kept.pop();
+        kept.push(k);
+      }
+    }
+  }
+  if (total <= n) return std::nullopt;
+  return kept.top();
+}
+
 /// merge_part_files() of parts that carry every field of the plan, or of
 /// the keypoints with their tile fields only (fetched after).
 void merge_records(const tile_plan& plan, const std::vector<std::string>& paths, const merge_sink& sink,
@@ -111,11 +162,18 @@ void merge_records(const tile_plan& plan, const std::vector<std::string>& paths,
   }
   check_complete(plan, tiles);
   tile_part totals = empty_merge(plan);
-  std::uint64_t count = 0;
+  std::uint64_t all = 0;
   for (const auto& r : readers) {
     add_counts(totals, r.totals);
-    count += r.count();
+    all += r.count();
   }
+  // --max-keypoints: the strongest of all tiles' keypoints, as a whole run keeps.
+  const std::size_t limit = plan.request.params.max_keypoints;
+  const std::size_t m = totals.names.size();
+  const std::optional<rank_key> cutoff =
+      limit ? strongest_cutoff(plan, paths, digest, limit, std::max<std::size_t>(std::size_t(1) << 16, memory / 4))
+            : std::nullopt;
+  const std::uint64_t count = cutoff ? limit : all;
   for (auto& f : totals.keypoints.fields()) f.whole_range.reset();
   if (sink.begin) sink.begin(totals, count);
   // A k-way merge by index (the parts' are ascending and disjoint): half the
@@ -138,14 +196,18 @@ void merge_records(const tile_plan& plan, const std::vector<std::string>& paths,
     const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(chunk_cap, count - emitted));
     resize_part(chunk, plan, n);
     for (auto& f : chunk.keypoints.fields()) f.whole_range.reset();
-    for (std::size_t j = 0; j < n; ++j) {
+    for (std::size_t j = 0; j < n;) {
+      if (heap.empty()) throw io::io_error("the parts changed while they were merged");
       const auto where = heap.top().second;
       heap.pop();
-      decode_part_record(where.second, chunk, j);
       const std::size_t r = where.first;
+      // Every record is checked; one weaker than the cutoff is then dropped.
+      const bool kept = !cutoff || !stronger(*cutoff, key_of_record(where.second, readers[r].record_bytes(), m));
+      decode_part_record(where.second, chunk, j);
       check_keypoint(plan, paths[r], readers[r].totals.tile, chunk.index[j], chunk.file_index[j],
                      chunk.keypoints.position(j), last);
       push(r);
+      j += kept;
     }
     emitted += n;
     if (sink.chunk) sink.chunk(chunk);
@@ -183,6 +245,23 @@ tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts) {
       throw io::io_error("the parts of tiles " + std::to_string(parts[order[q - 1].second.first].tile) + " and " +
                              std::to_string(parts[order[q].second.first].tile),
                          "both have keypoint " + std::to_string(order[q].first) + ": not parts of one plan's run");
+  const std::size_t limit = plan.request.params.max_keypoints;
+  if (limit && order.size() > limit) {  // the strongest of all tiles' keypoints, still by index
+    std::vector<rank_key> keys(order.size());
+    for (std::size_t q = 0; q < order.size(); ++q) {
+      const auto [i, j] = order[q].second;
+      float score = parts[i].saliency[0][j];
+      for (std::size_t k = 1; k < m; ++k) score *= parts[i].saliency[k][j];
+      keys[q] = {score, order[q].first};
+    }
+    std::vector<rank_key> sorted = keys;
+    std::nth_element(sorted.begin(), sorted.begin() + std::ptrdiff_t(limit - 1), sorted.end(), stronger);
+    const rank_key cutoff = sorted[limit - 1];
+    std::size_t kept = 0;
+    for (std::size_t q = 0; q < order.size(); ++q)
+      if (!stronger(cutoff, keys[q])) order[kept++] = order[q];
+    order.resize(kept);
+  }
   out.keypoints = empty_cloud(plan, order.size());
   out.saliency.assign(m, std::vector<float>(order.size()));
   for (std::size_t q = 0; q < order.size(); ++q) {

@@ -75,6 +75,8 @@ tiled_request request_from_json(const nlohmann::json& j) {
   if (j.contains("refine") && !j.at("refine").is_boolean())
     throw std::invalid_argument("'refine' must be true or false");
   r.params.refine = j.value("refine", false);  // plans written before refinement existed
+  // Written only when set, so that plans without a limit keep their digest.
+  if (j.contains("max_keypoints")) r.params.max_keypoints = count_of<std::size_t>(j, "max_keypoints");
   r.modalities = j.at("modalities").get<std::vector<std::string>>();
   r.tile_size = number_of(j, "tile_size");
   r.memory_limit = count_of<std::uint64_t>(j, "memory_limit");
@@ -178,6 +180,7 @@ nlohmann::json request_json(const tiled_request& r) {
   j["min_neighbors"] = r.params.min_neighbors;
   j["block_scale"] = r.params.block_scale;
   j["refine"] = r.params.refine;
+  if (r.params.max_keypoints) j["max_keypoints"] = r.params.max_keypoints;
   j["modalities"] = r.modalities;
   j["tile_size"] = r.tile_size;
   j["memory_limit"] = r.memory_limit;

@@ -52,6 +52,17 @@ def test_refined_tiles_give_the_whole_result(las, tmp_path):
     assert not np.array_equal(expected, whole.keypoints)
 
 
+def test_tiles_keep_the_strongest_as_the_whole_run(las, tmp_path):
+    for n in (1, 40, 10**6):
+        whole = ced.detect(ced.read(las), modalities="ced6d", max_keypoints=n)
+        plan = ced.plan_tiles(las, tile_size=0.8, modalities="ced6d", max_keypoints=n)
+        assert len(plan.tiles) > 3
+        merged = ced.merge_parts(plan, [ced.detect_tile(plan, t) for t, _, _ in plan.tiles])
+        assert np.array_equal(merged.keypoints, np.asarray(whole.keypoints, dtype=np.uint64)), n
+    with pytest.raises((ValueError, TypeError), match="max_keypoints"):
+        ced.plan_tiles(las, tile_size=0.8, max_keypoints=-1)
+
+
 def test_tiles_bad_input(las, tmp_path):
     with pytest.raises(ValueError, match="tile_size"):
         ced.plan_tiles(las)

@@ -231,7 +231,7 @@ class TilePart:
 def plan_tiles(input: str, tile_size: Optional[float] = None, memory_limit: Optional[float] = None,
                modalities: Union[None, str, Sequence[str]] = None, radius: float = 0.05,
                nms_radius: Optional[float] = None, min_neighbors: int = 5, format: str = "auto",
-               refine: Optional[bool] = None) -> TilePlan:
+               refine: Optional[bool] = None, max_keypoints: int = 0) -> TilePlan:
     """Plans the tiles of a cloud file (two passes over it), as `ced plan`. tile_size (metres, > 0) or
     memory_limit (bytes, 1 .. 1e18), not both."""
 
