@@ -44,3 +44,13 @@ if(CED_MPI)
 else()
   message(STATUS "ced: ced-mpi is not built (needs Boost.MPI and an MPI: libboost-mpi-dev openmpi-bin)")
 endif()
+
+# The tools' operator new: large blocks in transparent huge pages
+# (src/cli/huge_pages.cpp). Not under the sanitizers, which replace it.
+if(NOT (CED_SANITIZE OR CED_FUZZ OR CED_TSAN))
+  foreach(tool ced_cli ced_mpi)
+    if(TARGET ${tool})
+      target_sources(${tool} PRIVATE src/cli/huge_pages.cpp)
+    endif()
+  endforeach()
+endif()
