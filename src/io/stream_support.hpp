@@ -73,6 +73,8 @@ class input_file {
   void read_some(std::uint64_t offset, std::size_t n, std::string& buf);
   /// Exactly `n` bytes at `offset` into `out`; io_error naming the file otherwise.
   void read_exact(std::uint64_t offset, std::size_t n, char* out);
+  /// The same without moving the file's position: several threads may call it at once.
+  void read_at(std::uint64_t offset, std::size_t n, char* out) const;
   /// Whether the file holds `s` at or after byte `from` (read in blocks).
   bool contains(std::string_view s, std::uint64_t from);
   /// Parses the header at the start of the file with `parse(const
@@ -94,6 +96,7 @@ class input_file {
   }
 
  private:
+  [[noreturn]] void fail_read(std::uint64_t offset, std::size_t n) const;
   struct closer {
     void operator()(std::FILE* f) const noexcept { std::fclose(f); }
   };
