@@ -60,7 +60,7 @@ point_cloud read_cloud(const std::string& path, const read_options& options, rea
   point_cloud c;
   switch (f) {
     case file_format::ply: {
-      c = read_ply(path);
+      c = detail::read_ply_file(path, options.fields);
       r.details = "PLY";
       break;
     }

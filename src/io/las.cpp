@@ -538,6 +538,7 @@ point_cloud decode_records(const record_source& src, std::uint64_t count, const 
   cloud.set_origin(origin);
   cloud.resize(n);
   std::vector<column> cols;
+  cols.reserve(plan.size());  // dst keeps pointers to their bytes
   std::vector<unsigned char*> dst;
   for (const las_column& c : plan) dst.push_back(cols.emplace_back(c.type, n).bytes());
   float* xyz = cloud.positions().data();

@@ -1,15 +1,17 @@
 // SPDX-License-Identifier: MIT
 // Fixed-size point records decoded in parallel chunks, from memory or from a
-// file (private to src/io: the binary LAS, PLY and PCD readers, whole-file
-// and streaming, share it).
+// file, straight into typed columns (private to src/io: the binary LAS, PLY
+// and PCD readers, whole-file and streaming, share it; records.cpp).
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
 
+#include "ced/cloud.hpp"
 #include "core/parallel.hpp"
 #include "stream_support.hpp"
 
@@ -74,5 +76,43 @@ void for_each_chunk(const record_source& src, std::uint64_t n, Body&& body) {
     }
   });
 }
+
+/// One value of a record: its byte offset and type, its bytes reversed when
+/// `swap`; a column of that type, or with `shift` >= 0 the byte
+/// (v >> shift) & 0xff of a packed 32-bit colour (PCD rgb), a uint8 column.
+struct value_spec {
+  std::string name;  ///< of the column
+  std::size_t offset = 0;
+  scalar_type type = scalar_type::float32;
+  bool swap = false;
+  int shift = -1;
+  scalar_type stored() const noexcept { return shift >= 0 ? scalar_type::uint8 : type; }
+};
+
+/// The points of fixed-size records: positions from the values xyz (made
+/// double, then float relative to an origin), and columns.
+struct point_layout {
+  std::array<value_spec, 3> xyz;
+  std::vector<value_spec> columns;
+};
+
+/// What a first pass over the records learns: the box of the finite points
+/// (as choose_origin() takes it) and how many points of each chunk are finite.
+struct points_scan {
+  finite_box box;
+  std::vector<std::size_t> finite;  ///< by chunk
+  std::uint64_t total_finite = 0;
+};
+
+/// The first pass over the n records of `src`, chunks in parallel.
+points_scan scan_points(const record_source& src, std::uint64_t n, const point_layout& layout);
+
+/// The n records of `src` as a cloud: positions relative to `origin`, the
+/// layout's columns in its order. With `finite_only` (a scan of the same
+/// records), only the points with finite positions, in order. Chunks are
+/// decoded in parallel, each into its own points: the cloud is the same for
+/// any number of threads.
+point_cloud decode_points(const record_source& src, std::uint64_t n, const point_layout& layout,
+                          const std::array<double, 3>& origin, const points_scan* finite_only = nullptr);
 
 }  // namespace ced::io::detail
