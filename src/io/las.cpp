@@ -583,6 +583,7 @@ point_cloud parse_las(std::string_view bytes, const std::string& file, las_read_
 
 /// read_las() of a file: the header, then the records read in chunks.
 point_cloud read_las_file(const std::string& path, las_read_info* info, const field_selection& selection) {
+  if (!chunked_file(path)) return parse_las(read_whole_file(path), path, info, selection);
   input_file file(path);
   const std::string head = read_head(file);
   const auto* d = reinterpret_cast<const unsigned char*>(head.data());

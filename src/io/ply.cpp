@@ -471,12 +471,16 @@ std::uint64_t skip_element(input_file& file, std::uint64_t pos, const element_de
 /// parallel chunks straight from the file, the other elements only checked;
 /// anything else is read whole.
 point_cloud read_ply_path(const std::string& path, const field_selection& selection) {
+  if (!chunked_file(path)) return parse_ply(read_whole_file(path), path, selection);
   input_file file(path);
   const ply_header h = file.parse_header([&](const header_source& src) { return parse_header(src, path); });
   std::size_t axis[3] = {};
   const element_desc& vertex = find_vertex(h, path, axis);
   const record_size r = record_size_of(vertex);
-  if (h.format == ply_format::ascii || !r.fixed) return parse_ply(read_whole_file(path), path, selection);
+  if (h.format == ply_format::ascii || !r.fixed) {
+    const big_bytes data = read_all(file);
+    return parse_ply(std::string_view(data.data(), data.size()), path, selection);
+  }
   const bool swap = swapped(h.format);
   std::uint64_t pos = h.body_offset, vertex_pos = 0;
   for (const auto& e : h.elements) {

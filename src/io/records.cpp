@@ -28,10 +28,24 @@ void decode_as(const unsigned char* p, std::size_t stride, std::size_t m, unsign
   }
 }
 
-/// The m values of column `v` of the records at r into out (v.stored()).
-void decode_values(const value_spec& v, const unsigned char* r, std::size_t stride, std::size_t m,
-                   unsigned char* out) noexcept {
-  const unsigned char* p = r + v.offset;
+/// Where the values of `v` of a chunk of records are: the first one, and
+/// the bytes from one to the next.
+struct value_run {
+  const unsigned char* p;
+  std::size_t stride;
+};
+
+/// The values of `v` of the records from i0 on, at r (`stride` bytes apart).
+value_run run_of(const point_layout& layout, const value_spec& v, const unsigned char* r, std::size_t stride,
+                 std::uint64_t i0) noexcept {
+  if (v.stride == 0) return {r + v.offset, stride};
+  return {layout.base + v.offset + i0 * v.stride, v.stride};
+}
+
+/// The m values of `v` at `at` into out (v.stored()).
+void decode_values(const value_spec& v, value_run at, std::size_t m, unsigned char* out) noexcept {
+  const unsigned char* p = at.p;
+  const std::size_t stride = at.stride;
   if (v.shift >= 0) {
     for (std::size_t i = 0; i < m; ++i) {
       const auto bits = v.swap ? load<std::uint32_t, true>(p + i * stride) : load<std::uint32_t, false>(p + i * stride);
@@ -48,13 +62,21 @@ void decode_values(const value_spec& v, const unsigned char* r, std::size_t stri
   });
 }
 
-/// The x, y and z of the m records at r, as doubles: axes[k * m + i].
-void decode_axes(const point_layout& layout, const unsigned char* r, std::size_t stride, std::size_t m,
-                 std::vector<double>& axes) {
-  axes.resize(3 * m);
+/// A chunk of records: m of them from i0 on, at r (`stride` bytes apart).
+struct chunk_at {
+  const unsigned char* r;
+  std::size_t stride;
+  std::uint64_t i0;
+  std::size_t m;
+};
+
+/// The x, y and z of the records of chunk `c`, as doubles: axes[k * m + i].
+void decode_axes(const point_layout& layout, const chunk_at& c, std::vector<double>& axes) {
+  axes.resize(3 * c.m);
   for (std::size_t k = 0; k < 3; ++k) {
     const value_spec& a = layout.xyz[k];
-    decode_column(r + a.offset, stride, m, a.type, a.swap, axes.data() + k * m);
+    const value_run at = run_of(layout, a, c.r, c.stride, c.i0);
+    decode_column(at.p, at.stride, c.m, a.type, a.swap, axes.data() + k * c.m);
   }
 }
 
@@ -68,22 +90,23 @@ struct point_sink {
   std::vector<unsigned char*> columns;
 };
 
-/// Decodes the m records at r into the points from `o` on, all of them.
-void decode_chunk(const point_layout& layout, const unsigned char* r, std::size_t stride, std::size_t m,
-                  const double* axes, const std::array<double, 3>& origin, const point_sink& sink, std::size_t o) {
+/// Decodes the records of chunk c into the points from `o` on, all of them.
+void decode_chunk(const point_layout& layout, const chunk_at& c, const double* axes,
+                  const std::array<double, 3>& origin, const point_sink& sink, std::size_t o) {
+  const std::size_t m = c.m;
   float* p = sink.xyz + 3 * o;
   for (std::size_t i = 0; i < m; ++i)
     for (std::size_t k = 0; k < 3; ++k) p[3 * i + k] = static_cast<float>(axes[k * m + i] - origin[k]);
   for (std::size_t j = 0; j < layout.columns.size(); ++j) {
     const value_spec& v = layout.columns[j];
-    decode_values(v, r, stride, m, sink.columns[j] + o * size_of(v.stored()));
+    decode_values(v, run_of(layout, v, c.r, c.stride, c.i0), m, sink.columns[j] + o * size_of(v.stored()));
   }
 }
 
 /// The same, only the points with finite positions.
-void decode_finite_chunk(const point_layout& layout, const unsigned char* r, std::size_t stride, std::size_t m,
-                         const double* axes, const std::array<double, 3>& origin, const point_sink& sink,
-                         std::size_t o) {
+void decode_finite_chunk(const point_layout& layout, const chunk_at& c, const double* axes,
+                         const std::array<double, 3>& origin, const point_sink& sink, std::size_t o) {
+  const std::size_t m = c.m;
   std::size_t kept = 0;
   for (std::size_t i = 0; i < m; ++i) {
     if (!finite_point(axes, m, i)) continue;
@@ -96,7 +119,7 @@ void decode_finite_chunk(const point_layout& layout, const unsigned char* r, std
   for (std::size_t j = 0; j < layout.columns.size(); ++j) {
     const value_spec& v = layout.columns[j];
     const std::size_t w = size_of(v.stored());
-    decode_values(v, r, stride, m, tmp);
+    decode_values(v, run_of(layout, v, c.r, c.stride, c.i0), m, tmp);
     unsigned char* out = sink.columns[j] + o * w;
     for (std::size_t i = 0; i < m; ++i) {
       if (!finite_point(axes, m, i)) continue;
@@ -113,9 +136,9 @@ points_scan scan_points(const record_source& src, std::uint64_t n, const point_l
   std::vector<finite_box> boxes(chunks);
   points_scan scan;
   scan.finite.assign(chunks, 0);
-  for_each_chunk(src, n, [&](std::size_t c, std::uint64_t, std::size_t m, const unsigned char* r) {
+  for_each_chunk(src, n, [&](std::size_t c, std::uint64_t i0, std::size_t m, const unsigned char* r) {
     thread_local std::vector<double> axes;
-    decode_axes(layout, r, src.stride(), m, axes);
+    decode_axes(layout, {r, src.stride(), i0, m}, axes);
     const double* a = axes.data();
     for (std::size_t i = 0; i < m; ++i) boxes[c].add(a[i], a[m + i], a[2 * m + i]);
     std::size_t finite = 0;
@@ -144,13 +167,14 @@ point_cloud decode_points(const record_source& src, std::uint64_t n, const point
     for (std::size_t c = 0, o = 0; c < finite_only->finite.size(); o += finite_only->finite[c++]) start.push_back(o);
   for_each_chunk(src, n, [&](std::size_t c, std::uint64_t i0, std::size_t m, const unsigned char* r) {
     thread_local std::vector<double> axes;
-    decode_axes(layout, r, src.stride(), m, axes);
+    const chunk_at chunk{r, src.stride(), i0, m};
+    decode_axes(layout, chunk, axes);
     if (!finite_only)
-      decode_chunk(layout, r, src.stride(), m, axes.data(), origin, sink, static_cast<std::size_t>(i0));
+      decode_chunk(layout, chunk, axes.data(), origin, sink, static_cast<std::size_t>(i0));
     else if (finite_only->finite[c] == m)
-      decode_chunk(layout, r, src.stride(), m, axes.data(), origin, sink, start[c]);
+      decode_chunk(layout, chunk, axes.data(), origin, sink, start[c]);
     else
-      decode_finite_chunk(layout, r, src.stride(), m, axes.data(), origin, sink, start[c]);
+      decode_finite_chunk(layout, chunk, axes.data(), origin, sink, start[c]);
   });
   for (std::size_t j = 0; j < layout.columns.size(); ++j) cloud.add_field(layout.columns[j].name, std::move(cols[j]));
   return cloud;

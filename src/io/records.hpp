@@ -8,7 +8,9 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <filesystem>
 #include <string>
+#include <system_error>
 #include <vector>
 
 #include "ced/cloud.hpp"
@@ -16,6 +18,24 @@
 #include "stream_support.hpp"
 
 namespace ced::io::detail {
+
+/// Bytes in memory, backed by huge pages when large (a column's memory): a
+/// whole file, or what it uncompresses to.
+using big_bytes = std::vector<char, ced::detail::column_allocator<char>>;
+
+/// True when `path` is a regular file, which the readers read in chunks at
+/// offsets; anything else (a pipe) is read whole, front to back.
+inline bool chunked_file(const std::string& path) {
+  std::error_code ec;
+  return std::filesystem::is_regular_file(path, ec);
+}
+
+/// The whole of `file` (a regular file).
+inline big_bytes read_all(const input_file& file) {
+  big_bytes bytes(static_cast<std::size_t>(file.size()));
+  file.read_at(0, bytes.size(), bytes.data());
+  return bytes;
+}
 
 /// n records of `stride` bytes each, at `data` in memory or at byte `offset`
 /// of a file. A chunk of them is a pointer into the memory, or read into a
@@ -86,6 +106,10 @@ struct value_spec {
   scalar_type type = scalar_type::float32;
   bool swap = false;
   int shift = -1;
+  /// 0: the value is in the record. Else the values are stored field by
+  /// field (PCD binary_compressed): point i's at point_layout::base + offset
+  /// + i * stride.
+  std::size_t stride = 0;
   scalar_type stored() const noexcept { return shift >= 0 ? scalar_type::uint8 : type; }
 };
 
@@ -94,6 +118,7 @@ struct value_spec {
 struct point_layout {
   std::array<value_spec, 3> xyz;
   std::vector<value_spec> columns;
+  const unsigned char* base = nullptr;  ///< of the values stored field by field
 };
 
 /// What a first pass over the records learns: the box of the finite points

@@ -29,6 +29,9 @@ namespace ced::io::detail {
 /// cannot be opened or cannot be read. (Defined in output_file.cpp.)
 std::string read_whole_file(const std::string& path);
 
+/// lzf_decompress() into the out_size bytes at `out` (ced/io/lzf.hpp; lzf.cpp).
+void lzf_decompress_into(std::string_view in, char* out, std::size_t out_size, const std::string& name_for_errors);
+
 /// The most values per point, x, y and z included, that the PLY, PCD and CSV
 /// readers accept: the properties of a PLY element, the values of a PCD
 /// point (its COUNTs summed), the columns of a CSV file. Each becomes a cloud
