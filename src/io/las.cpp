@@ -510,6 +510,8 @@ void decode_las_column(const las_column& c, const unsigned char* p, std::size_t 
         if (c.offsetted) v += c.add;
         if (c.type == scalar_type::float64)
           store<double, false>(out + i * 8, v);
+        else if constexpr (std::is_same_v<T, float>)
+          store<T, false>(out + i * sizeof(T), through_double(load_le<T>(p + i * stride)));
         else
           store<T, false>(out + i * sizeof(T), convert<T>(v));
       }
@@ -667,8 +669,19 @@ struct out_column {
 };
 
 void encode_column(const out_column& c, std::size_t i0, std::size_t m, unsigned char* buf, std::size_t record) {
-  const auto value = [&](std::size_t i) { return (c.values ? (*c.values)[i0 + i] : c.constant) * c.factor; };
   unsigned char* p = buf + c.offset;
+  // Straight from the column when that stores the same bytes (not doubles:
+  // the product by the factor quiets a signalling NaN).
+  if (!c.bits && c.values && c.factor == 1 && c.type != scalar_type::float64 &&
+      encode_direct(*c.values, i0, m, c.type, !host_little_endian(), p, record))
+    return;
+  thread_local std::vector<double> values;
+  values.resize(m);
+  if (c.values)
+    copy_values(*c.values, i0, m, values.data());
+  else
+    std::fill(values.begin(), values.end(), c.constant);
+  const auto value = [&](std::size_t i) { return values[i] * c.factor; };
   if (!c.bits) return encode_values(c.type, !host_little_endian(), p, record, m, value);
   for (std::size_t i = 0; i < m; ++i) {
     const double v = value(i);
@@ -828,11 +841,15 @@ void add_stats(const point_cloud& cloud, const las_write_options& opt, const las
       s.qmax[k] = s.n + i == 0 ? q : std::max(s.qmax[k], q);
     }
   const unsigned max_return = plan.layout->extended ? 15 : 7;
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    const unsigned r =
-        plan.return_number ? std::min<unsigned>(convert<std::uint8_t>(plan.return_number->values[i]), max_return) : 1;
-    if (r >= 1 && r <= 15) ++s.by_return[r - 1];
-  }
+  if (!plan.return_number)
+    s.by_return[0] += cloud.size();
+  else
+    plan.return_number->values.visit([&](const auto* v, std::size_t n) {
+      for (std::size_t i = 0; i < n; ++i) {
+        const unsigned r = std::min<unsigned>(convert<std::uint8_t>(static_cast<double>(v[i])), max_return);
+        if (r >= 1 && r <= 15) ++s.by_return[r - 1];
+      }
+    });
   s.n += cloud.size();
 }
 
@@ -903,24 +920,23 @@ std::string make_header(const point_cloud& cloud, const las_write_options& opt, 
   return h;
 }
 
-/// The point records, in chunks.
+/// The point records, in chunks encoded in parallel (write_chunks()).
 void write_records(std::ostream& out, const point_cloud& cloud, const las_write_options& opt, const las_plan& plan) {
   const std::size_t n = cloud.size();
   const std::size_t record = plan.record;
   const float* xyz = cloud.positions().data();
   constexpr std::size_t chunk = 8192;
-  std::vector<unsigned char> buf(std::min(chunk, n) * record);
-  for (std::size_t i0 = 0; i0 < n; i0 += chunk) {
-    const std::size_t m = std::min(chunk, n - i0);
-    std::fill(buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(m * record), 0);
+  write_chunks(out, (n + chunk - 1) / chunk, [&](std::size_t k, std::string& bytes) {
+    const std::size_t i0 = k * chunk, m = std::min(chunk, n - i0);
+    bytes.assign(m * record, '\0');
+    auto* buf = reinterpret_cast<unsigned char*>(bytes.data());
     for (std::size_t i = 0; i < m; ++i)
-      for (std::size_t k = 0; k < 3; ++k) {
-        const double q = std::round(static_cast<double>(xyz[3 * (i0 + i) + k]) / opt.scale[k]);
-        store_le<std::int32_t>(buf.data() + i * record + 4 * k, static_cast<std::int32_t>(q));
+      for (std::size_t a = 0; a < 3; ++a) {
+        const double q = std::round(static_cast<double>(xyz[3 * (i0 + i) + a]) / opt.scale[a]);
+        store_le<std::int32_t>(buf + i * record + 4 * a, static_cast<std::int32_t>(q));
       }
-    for (const auto& c : plan.cols) encode_column(c, i0, m, buf.data(), record);
-    out.write(reinterpret_cast<const char*>(buf.data()), static_cast<std::streamsize>(m * record));
-  }
+    for (const auto& c : plan.cols) encode_column(c, i0, m, buf, record);
+  });
 }
 
 void write_las_unchecked(std::ostream& out, const point_cloud& cloud, const las_write_options& opt) {

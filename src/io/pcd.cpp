@@ -743,12 +743,11 @@ void column_values(const out_column& c, const point_cloud& cloud, std::size_t i0
     else
       for (std::size_t i = 0; i < m; ++i) v[i] = o + static_cast<double>(xyz[3 * (i0 + i) + k]);
   } else {
-    for (std::size_t i = 0; i < m; ++i) {
-      const std::uint32_t r = convert<std::uint8_t>((*c.rgb[0])[i0 + i]);
-      const std::uint32_t g = convert<std::uint8_t>((*c.rgb[1])[i0 + i]);
-      const std::uint32_t b = convert<std::uint8_t>((*c.rgb[2])[i0 + i]);
-      v[i] = static_cast<double>((r << 16) | (g << 8) | b);
-    }
+    // Packed only from uint8 fields (plan_columns()).
+    const std::uint8_t* rgb[3] = {c.rgb[0]->data<std::uint8_t>() + i0, c.rgb[1]->data<std::uint8_t>() + i0,
+                                  c.rgb[2]->data<std::uint8_t>() + i0};
+    for (std::size_t i = 0; i < m; ++i)
+      v[i] = static_cast<double>(std::uint32_t{rgb[0][i]} << 16 | std::uint32_t{rgb[1][i]} << 8 | rgb[2][i]);
   }
 }
 
@@ -789,9 +788,12 @@ void write_body(std::ostream& out, const point_cloud& cloud, const std::vector<o
   point_format pf;
   pf.text = fmt == pcd_format::ascii;
   pf.swap = !host_little_endian();
-  write_points(out, cloud.size(), types, pf, [&](std::size_t c, std::size_t i0, std::size_t m, double* v) {
-    column_values(cols[c], cloud, i0, m, v);
-  });
+  std::vector<const column*> direct;
+  for (const auto& c : cols) direct.push_back(c.values);
+  write_points(
+      out, cloud.size(), types, pf,
+      [&](std::size_t c, std::size_t i0, std::size_t m, double* v) { column_values(cols[c], cloud, i0, m, v); },
+      direct);
 }
 
 void write_pcd_unchecked(std::ostream& out, const point_cloud& cloud, pcd_format fmt) {

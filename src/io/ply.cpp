@@ -561,14 +561,19 @@ void write_vertices(std::ostream& out, const point_cloud& cloud, ply_format fmt,
   point_format pf;
   pf.text = fmt == ply_format::ascii;
   pf.swap = !pf.text && (fmt == ply_format::binary_little_endian) != host_little_endian();
-  write_points(out, cloud.size(), types, pf, [&](std::size_t c, std::size_t i0, std::size_t m, double* v) {
-    if (cols[c].values) {
-      copy_values(*cols[c].values, i0, m, v);
-    } else {
-      const auto k = static_cast<std::size_t>(cols[c].axis);
-      for (std::size_t i = 0; i < m; ++i) v[i] = origin[k] + static_cast<double>(xyz[3 * (i0 + i) + k]);
-    }
-  });
+  std::vector<const column*> direct;
+  for (const auto& c : cols) direct.push_back(c.values);
+  write_points(
+      out, cloud.size(), types, pf,
+      [&](std::size_t c, std::size_t i0, std::size_t m, double* v) {
+        if (cols[c].values) {
+          copy_values(*cols[c].values, i0, m, v);
+        } else {
+          const auto k = static_cast<std::size_t>(cols[c].axis);
+          for (std::size_t i = 0; i < m; ++i) v[i] = origin[k] + static_cast<double>(xyz[3 * (i0 + i) + k]);
+        }
+      },
+      direct);
 }
 
 /// Positions are written as double when the cloud has an origin.

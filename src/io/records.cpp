@@ -23,6 +23,8 @@ void decode_as(const unsigned char* p, std::size_t stride, std::size_t m, unsign
     const T v = load<T, Swap>(p + i * stride);
     if constexpr (std::is_integral_v<T> && sizeof(T) <= 4)
       o[i] = v;  // exact through double
+    else if constexpr (std::is_same_v<T, float>)
+      o[i] = through_double(v);
     else
       o[i] = convert<T>(static_cast<double>(v));
   }

@@ -4,7 +4,7 @@
 // file. The files are generated once, in a temporary directory removed at
 // exit: a LAS 1.2 point format 3 file of 2 M points (68 MB), and a cloud of
 // 2.5 M points with xyz, rgb and normals (about 68 MB) as binary PLY, binary
-// and binary_compressed PCD; a CSV file of 500 k points for the text path.
+// and binary_compressed PCD; 500 k of those points as CSV and ascii PLY.
 //
 //   build/bin/bench_io [benchmark flags, e.g. --benchmark_filter=LAS]
 #include <benchmark/benchmark.h>
@@ -116,14 +116,20 @@ const std::string& pcdc_file() {
     ced::io::write_pcd(p, rgbn_cloud(), ced::io::pcd_format::binary_compressed);
   });
 }
+/// Every fifth point of the xyz+rgb+normals cloud (500 k points), for the text formats.
+ced::point_cloud text_cloud() {
+  ced::point_cloud c = rgbn_cloud();
+  std::vector<std::uint8_t> keep(c.size(), 0);
+  for (std::size_t i = 0; i < keep.size(); i += 5) keep[i] = 1;
+  c.filter(keep);
+  return c;
+}
 const std::string& csv_file() {
-  return input("rgbn.csv", [](const std::string& p) {
-    ced::point_cloud c = rgbn_cloud();
-    std::vector<std::uint8_t> keep(c.size(), 0);
-    for (std::size_t i = 0; i < keep.size(); i += 5) keep[i] = 1;
-    c.filter(keep);
-    ced::io::write_csv(p, c);
-  });
+  return input("rgbn.csv", [](const std::string& p) { ced::io::write_csv(p, text_cloud()); });
+}
+const std::string& ascii_ply_file() {
+  return input("rgbn_ascii.ply",
+               [](const std::string& p) { ced::io::write_ply(p, text_cloud(), ced::io::ply_format::ascii); });
 }
 
 /// Reads `path` with read_cloud() on each iteration.
@@ -175,6 +181,7 @@ void BM_read_ply_xyz_rgb(benchmark::State& s) {
 void BM_read_pcd(benchmark::State& s) { read_file(s, pcd_file()); }
 void BM_read_pcd_compressed(benchmark::State& s) { read_file(s, pcdc_file()); }
 void BM_read_csv(benchmark::State& s) { read_file(s, csv_file()); }
+void BM_read_ply_ascii(benchmark::State& s) { read_file(s, ascii_ply_file()); }
 void BM_stream_las(benchmark::State& s) { stream_file(s, las_file()); }
 void BM_stream_ply(benchmark::State& s) { stream_file(s, ply_file()); }
 void BM_stream_pcd(benchmark::State& s) { stream_file(s, pcd_file()); }
@@ -211,6 +218,7 @@ BENCHMARK(BM_read_ply_xyz_rgb)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_read_pcd)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_read_pcd_compressed)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_read_csv)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_read_ply_ascii)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_stream_las)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_stream_ply)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_stream_pcd)->Unit(benchmark::kMillisecond)->UseRealTime();
