@@ -1029,9 +1029,7 @@ class las_stream final : public point_stream {
       return 0;
     }
     const std::size_t stride = m_header.record_length;
-    if (m_buffer.size() < n * stride) m_buffer.resize(n * stride);  // reused: no new memory once it has grown
-    m_file.read_exact(m_header.point_offset + m_next * stride, n * stride, m_buffer.data());
-    const record_source src(reinterpret_cast<const unsigned char*>(m_buffer.data()), stride);
+    const record_source src(m_file, m_header.point_offset + m_next * stride, stride);
     // During the first pass, the chunk's own flags decide its flag fields.
     const unsigned* flag_bits = m_scan.flags;
     record_scan chunk;
@@ -1067,7 +1065,7 @@ class las_stream final : public point_stream {
   field_selection m_fields;
   las_header m_header;
   std::vector<extra_desc> m_extras;
-  std::string m_details, m_buffer;
+  std::string m_details;
   std::uint64_t m_next = 0;
   bool m_first_pass_done = false;
   record_scan m_scan;  ///< of the points read in the first pass: the whole file's, once it is done
