@@ -304,3 +304,24 @@ TEST(Column, ViewReadsWithoutCopyingAndCopiesOnFirstWrite) {
   }
   EXPECT_TRUE(alive.expired());  // released with the last view
 }
+
+TEST(Column, LargeColumnsAreZeroedAlignedAndGrowKeepingTheirValues) {
+  // Columns from 1 MiB on take whole huge pages (detail::allocate_column):
+  // the same zeros, values and copies as small ones, aligned for any type.
+  for (const std::size_t n : {std::size_t(1000), std::size_t(300'000), std::size_t(1'500'000)}) {
+    ced::column c(ced::scalar_type::float64, n);
+    ASSERT_EQ(c.size(), n);
+    EXPECT_EQ(reinterpret_cast<std::uintptr_t>(c.bytes()) % alignof(std::max_align_t), 0u);
+    bool zeros = true;
+    for (std::size_t i = 0; i < n; ++i) zeros = zeros && c[i] == 0.0;
+    EXPECT_TRUE(zeros) << n;
+    c.set(n - 1, 7.5);
+    c.resize(2 * n);  // grows across the 1 MiB threshold for n = 300'000
+    EXPECT_EQ(c[n - 1], 7.5);
+    EXPECT_EQ(c[2 * n - 1], 0.0);
+    const ced::column copy = c;
+    EXPECT_EQ(copy, c);
+    c.resize(1);  // shrinks in place
+    EXPECT_EQ(c.size(), 1u);
+  }
+}

@@ -2,11 +2,14 @@
 // The same cloud in every format and encoding gives the same keypoints,
 // including georeferenced coordinates with large offsets.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <sstream>
 #include <string>
+#include <thread>
 
 #include "ced/ced.hpp"
 #include "ced/io/io.hpp"
@@ -118,4 +121,34 @@ TEST(Formats, WritersRefuseMoreValuesPerPointThanTheReadersAccept) {
     EXPECT_EQ(ced::io::read_cloud(path).fields().size(), 65533u) << name;
   }
   std::filesystem::remove_all(dir);
+}
+
+TEST(Formats, PipesAreReadWhole) {
+  // A pipe has no size and no offsets: the readers read it whole, front to
+  // back, and give the cloud of the regular file.
+  const ced::point_cloud cloud = georeferenced_room();
+  const auto dir = std::filesystem::path(::testing::TempDir()) / "ced_formats_pipe";
+  std::filesystem::create_directories(dir);
+  for (const char* name : {"room.las", "room.ply", "room.pcd"}) {
+    SCOPED_TRACE(name);
+    const std::string file = (dir / name).string(), pipe = (dir / (std::string("pipe_") + name)).string();
+    ced::io::write_cloud(file, cloud);
+    std::filesystem::remove(pipe);
+    ASSERT_EQ(mkfifo(pipe.c_str(), 0600), 0);
+    std::thread writer([&] {
+      std::ifstream in(file, std::ios::binary);
+      std::ofstream out(pipe, std::ios::binary);
+      out << in.rdbuf();
+    });
+    ced::io::read_options o;
+    o.format = ced::io::format_of(file);
+    const ced::point_cloud got = ced::io::read_cloud(pipe, o);
+    writer.join();
+    const ced::point_cloud want = ced::io::read_cloud(file);
+    ASSERT_EQ(got.size(), want.size());
+    EXPECT_EQ(got.origin(), want.origin());
+    EXPECT_EQ(got.positions(), want.positions());
+    ASSERT_EQ(got.fields().size(), want.fields().size());
+    for (std::size_t f = 0; f < got.fields().size(); ++f) EXPECT_EQ(got.fields()[f].values, want.fields()[f].values);
+  }
 }

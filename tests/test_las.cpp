@@ -13,6 +13,7 @@
 
 #include "ced/io/io.hpp"
 #include "ced/io/las.hpp"
+#include "ced/io/stream.hpp"
 #include "file_support.hpp"
 
 namespace fs = std::filesystem;
@@ -581,6 +582,75 @@ TEST(LasRead, ExtraBytesOfSeveralTypes) {
 }
 
 // ------------------------------------------------------------ malformed input
+
+TEST(LasRead, ChunksDecodedInParallelAreTheFilesPoints) {
+  // 40 000 records of 34 bytes: several chunks of records, decoded in
+  // parallel from the file (pread) and from memory. The withheld flag is set
+  // by the last point only: every chunk of read_las has the field, and so
+  // has every chunk of a stream after its first pass.
+  las_file file;
+  file.format = 3;
+  file.offset = {500000, 4000000, 0};
+  const std::size_t n = 40000;
+  for (std::size_t i = 0; i < n; ++i) {
+    las_point p;
+    p.x = static_cast<std::int32_t>(i * 7 % 100003) - 50000;
+    p.y = static_cast<std::int32_t>(i * 13 % 99991);
+    p.z = static_cast<std::int32_t>(i % 1000);
+    p.intensity = static_cast<std::uint16_t>(i);
+    p.classification = static_cast<int>(i % 32);
+    p.gps_time = 0.5 * static_cast<double>(i);
+    p.red = static_cast<std::uint16_t>(3 * i);
+    p.withheld = i + 1 == n;
+    file.points.push_back(p);
+  }
+  const std::string bytes = file.build();
+  const std::string path = temp_file("chunks.las");
+  write_bytes(path, bytes);
+  const point_cloud c = ced::io::read_las(path);
+  ced_test::expect_same_cloud(c, ced::io::read_las_buffer(bytes, "mem.las"));
+  ASSERT_EQ(c.size(), n);
+  ASSERT_NE(c.find_field("withheld"), nullptr);
+  for (std::size_t i = 0; i < n; i += 997) {
+    const las_point& p = file.points[i];
+    EXPECT_NEAR(absolute(c, i, 0), 500000 + p.x * 0.01, 0.01) << i;
+    EXPECT_EQ(values(c, "intensity")[i], p.intensity) << i;
+    EXPECT_EQ(values(c, "classification")[i], p.classification) << i;
+    EXPECT_EQ(values(c, "gps_time")[i], p.gps_time) << i;
+    EXPECT_EQ(values(c, "red")[i], p.red) << i;
+    EXPECT_EQ(values(c, "withheld")[i], 0.0) << i;
+  }
+  EXPECT_EQ(values(c, "withheld")[n - 1], 1.0);
+
+  // Only the selected fields, the same values.
+  const point_cloud some = ced::io::read_las(path, nullptr, ced::field_selection::only({"gps_time", "withheld"}));
+  ASSERT_EQ(some.fields().size(), 2u);
+  EXPECT_EQ(some.positions(), c.positions());
+  EXPECT_EQ(values(some, "gps_time"), values(c, "gps_time"));
+  EXPECT_EQ(values(some, "withheld"), values(c, "withheld"));
+
+  // The stream: the first chunk has no flag before its first pass, then the
+  // chunks are read_las's points.
+  auto s = ced::io::open_las_stream(path);
+  point_cloud chunk;
+  ASSERT_EQ(s->read(30000, {0, 0, 0}, chunk), 30000u);
+  EXPECT_EQ(chunk.find_field("withheld"), nullptr);
+  while (s->read(30000, {0, 0, 0}, chunk) > 0) {
+  }
+  EXPECT_EQ(s->origin(), c.origin());
+  s->rewind();
+  std::size_t at = 0;
+  while (s->read(12345, s->origin(), chunk) > 0) {
+    ASSERT_EQ(chunk.fields().size(), c.fields().size());
+    for (std::size_t i = 0; i < chunk.size(); ++i)
+      for (std::size_t k = 0; k < 3; ++k) ASSERT_EQ(chunk.position(i)[k], c.position(at + i)[k]);
+    for (std::size_t f = 0; f < c.fields().size(); ++f)
+      for (std::size_t i = 0; i < chunk.size(); ++i)
+        ASSERT_EQ(chunk.fields()[f].values[i], c.fields()[f].values[at + i]);
+    at += chunk.size();
+  }
+  EXPECT_EQ(at, n);
+}
 
 TEST(LasRead, OnlySelectedFieldsAreDecoded) {
   las_file file;

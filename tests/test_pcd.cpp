@@ -12,7 +12,9 @@
 #include <sstream>
 #include <utility>
 
+#include "ced/io/io.hpp"
 #include "ced/io/pcd.hpp"
+#include "ced/io/stream.hpp"
 #include "file_support.hpp"
 
 namespace fs = std::filesystem;
@@ -394,6 +396,81 @@ TEST(PcdRead, IntegerAndDoubleCoordinates) {
   EXPECT_EQ(c.position(1)[0], 0.5f);
   EXPECT_EQ(c.position(1)[1], 4.f);
   EXPECT_EQ(c.position(0)[2], 200.f);
+}
+
+TEST(PcdRead, ChunksDecodedInParallelEqualTheAsciiReader) {
+  // 60 000 points of 30 bytes: several chunks of records, decoded in
+  // parallel from a file, from memory and from binary_compressed data; NaN
+  // points in some chunks only, dropped (or kept) in order.
+  point_cloud c;
+  const std::size_t n = 60000;
+  std::vector<double> rgb[3], s16(n), f32(n), f64(n);
+  for (auto& v : rgb) v.resize(n);
+  std::size_t nan_points = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const bool nan = i % 1009 == 3 && i < 30000;
+    nan_points += nan;
+    c.push_back(nan ? std::numeric_limits<float>::quiet_NaN() : float(i % 317) * 0.25f, float(i % 101),
+                1e-3f * float(i));
+    for (std::size_t k = 0; k < 3; ++k) rgb[k][i] = double((i * (k + 1)) % 256);
+    s16[i] = double(i % 65536) - 32768;
+    f32[i] = i % 999 == 1 ? std::numeric_limits<double>::infinity() : double(i) * 0.125;
+    f64[i] = double(i) / 7;
+  }
+  c.add_field("red", scalar_type::uint8, rgb[0]);
+  c.add_field("green", scalar_type::uint8, rgb[1]);
+  c.add_field("blue", scalar_type::uint8, rgb[2]);
+  c.add_field("s16", scalar_type::int16, s16);
+  c.add_field("f32", scalar_type::float32, f32);
+  c.add_field("f64", scalar_type::float64, f64);
+  const std::string dir = temp_dir().string();
+  for (const auto& [name, fmt] : {std::pair<const char*, pcd_format>{"a.pcd", pcd_format::ascii},
+                                  {"b.pcd", pcd_format::binary},
+                                  {"c.pcd", pcd_format::binary_compressed}})
+    ced::io::write_pcd(dir + "/" + name, c, fmt);
+  pcd_read_info info;
+  const point_cloud ascii = ced::io::read_pcd(dir + "/a.pcd", &info);
+  EXPECT_EQ(info.nonfinite_removed, nan_points);
+  ASSERT_EQ(ascii.size(), n - nan_points);
+  for (const char* name : {"b.pcd", "c.pcd"}) {
+    SCOPED_TRACE(name);
+    pcd_read_info binary_info;
+    expect_same_cloud(ascii, ced::io::read_pcd(dir + "/" + name, &binary_info));
+    EXPECT_EQ(binary_info.nonfinite_removed, nan_points);
+    expect_same_cloud(ascii, ced::io::read_pcd_buffer(read_bytes(dir + "/" + name), name));
+    expect_same_cloud(ced::io::read_pcd(dir + "/a.pcd", nullptr, true),
+                      ced::io::read_pcd(dir + "/" + name, nullptr, true));
+  }
+  // Only the selected fields; the same values.
+  ced::io::read_options o;
+  o.fields = ced::field_selection::only({"f32", "green"});
+  const point_cloud some = ced::io::read_cloud(dir + "/c.pcd", o);
+  ASSERT_EQ(some.fields().size(), 2u);
+  EXPECT_EQ(some.fields()[0].name, "green");
+  EXPECT_EQ(some.fields()[0].values, ascii.get_field("green").values);
+  EXPECT_EQ(some.fields()[1].values, ascii.get_field("f32").values);
+  EXPECT_EQ(some.positions(), ascii.positions());
+
+  // The stream keeps the NaN points; after a first pass its chunks are the
+  // points read_pcd keeps them as.
+  const point_cloud kept = ced::io::read_pcd(dir + "/b.pcd", nullptr, true);
+  auto s = ced::io::open_point_stream(dir + "/b.pcd");
+  point_cloud chunk;
+  while (s->read(25000, {0, 0, 0}, chunk) > 0) {
+  }
+  EXPECT_EQ(s->origin(), kept.origin());
+  s->rewind();
+  std::size_t at = 0;
+  while (s->read(7777, s->origin(), chunk) > 0) {
+    point_cloud part = kept;
+    std::vector<std::uint8_t> keep(kept.size(), 0);
+    std::fill(keep.begin() + static_cast<std::ptrdiff_t>(at),
+              keep.begin() + static_cast<std::ptrdiff_t>(at + chunk.size()), 1);
+    part.filter(keep);
+    expect_same_cloud(part, chunk);
+    at += chunk.size();
+  }
+  EXPECT_EQ(at, n);
 }
 
 TEST(PcdWrite, PacksRgbLikePcl) {

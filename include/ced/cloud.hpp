@@ -113,6 +113,41 @@ T convert_value(double v) noexcept {
   }
 }
 
+namespace detail {
+/// Asks the system to back the `bytes` bytes at `p` with huge pages where it
+/// can (Linux transparent huge pages): faulting in a large new block then
+/// costs one fault per 2 MiB, not one per 4 KiB page. Only a hint.
+void advise_huge_pages(void* p, std::size_t bytes) noexcept;
+
+/// Grows `v`'s capacity to `n` values first, with huge pages, when that is
+/// at least 4 MiB: resize() then zeroes memory faulted in 2 MiB at a time.
+template <class Vector>
+void reserve_large(Vector& v, std::size_t n) {
+  constexpr std::size_t large = std::size_t(4) << 20;
+  if (n <= v.capacity() || n * sizeof(typename Vector::value_type) < large) return;
+  v.reserve(n);
+  advise_huge_pages(v.data(), n * sizeof(typename Vector::value_type));
+}
+
+/// The memory of a column: operator new's, or from 1 MiB on, whole 2 MiB
+/// pages advised to be huge (see advise_huge_pages()).
+void* allocate_column(std::size_t bytes);
+void deallocate_column(void* p, std::size_t bytes) noexcept;
+
+/// The allocator of a column's bytes (allocate_column()).
+template <class T>
+struct column_allocator {
+  using value_type = T;
+  column_allocator() = default;
+  template <class U>
+  column_allocator(const column_allocator<U>&) noexcept {}
+  T* allocate(std::size_t n) { return static_cast<T*>(allocate_column(n * sizeof(T))); }
+  void deallocate(T* p, std::size_t n) noexcept { deallocate_column(p, n * sizeof(T)); }
+  friend bool operator==(const column_allocator&, const column_allocator&) noexcept { return true; }
+  friend bool operator!=(const column_allocator&, const column_allocator&) noexcept { return false; }
+};
+}  // namespace detail
+
 /// One column of per-point values kept in their storage type (1 to 8 bytes a
 /// value), read as doubles or through a typed pointer.
 ///
@@ -257,8 +292,8 @@ class column {
 
   scalar_type m_type = scalar_type::float64;
   std::size_t m_size = 0;
-  std::vector<unsigned char> m_bytes;     // operator new's alignment: enough for any type
-  const unsigned char* m_view = nullptr;  // see view()
+  std::vector<unsigned char, detail::column_allocator<unsigned char>> m_bytes;  // aligned for any type
+  const unsigned char* m_view = nullptr;                                        // see view()
   std::shared_ptr<const void> m_owner;
 };
 
@@ -329,8 +364,14 @@ class point_cloud {
     m_xyz.push_back(y);
     m_xyz.push_back(z);
   }
-  void reserve(std::size_t n) { m_xyz.reserve(3 * n); }
-  void resize(std::size_t n) { m_xyz.resize(3 * n); }
+  void reserve(std::size_t n) {
+    detail::reserve_large(m_xyz, 3 * n);
+    m_xyz.reserve(3 * n);
+  }
+  void resize(std::size_t n) {
+    detail::reserve_large(m_xyz, 3 * n);
+    m_xyz.resize(3 * n);
+  }
 
   const std::array<double, 3>& origin() const noexcept { return m_origin; }
   void set_origin(const std::array<double, 3>& o) noexcept { m_origin = o; }

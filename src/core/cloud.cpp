@@ -3,11 +3,18 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstdlib>
 #include <limits>
+#include <new>
 #include <ostream>
 #include <type_traits>
 
 #include "core/text.hpp"
+
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
 
 namespace ced {
 
@@ -126,6 +133,42 @@ column::column(scalar_type type, const std::vector<double>& values) : m_type(typ
     using T = std::remove_cv_t<std::remove_pointer_t<decltype(p)>>;
     for (std::size_t i = 0; i < n; ++i) p[i] = convert_value<T>(values[i]);
   });
+}
+
+namespace {
+constexpr std::size_t k_huge_page = std::size_t(1) << 21;
+constexpr std::size_t k_large_column = std::size_t(1) << 20;
+}  // namespace
+
+void detail::advise_huge_pages(void* p, std::size_t bytes) noexcept {
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+  // Whole 2 MiB pages inside the block: the hint must not reach memory that
+  // the allocator keeps for other blocks.
+  constexpr std::uintptr_t huge = k_huge_page;
+  const auto begin = (reinterpret_cast<std::uintptr_t>(p) + huge - 1) & ~(huge - 1);
+  const auto end = (reinterpret_cast<std::uintptr_t>(p) + bytes) & ~(huge - 1);
+  if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
+#else
+  (void)p;
+  (void)bytes;
+#endif
+}
+
+void* detail::allocate_column(std::size_t bytes) {
+  if (bytes < k_large_column) return ::operator new(bytes);
+  // Whole huge pages: at most 1 MiB (and under half) more than asked for.
+  const std::size_t size = (bytes + k_huge_page - 1) / k_huge_page * k_huge_page;
+  void* p = std::aligned_alloc(k_huge_page, size);
+  if (!p) throw std::bad_alloc();
+  advise_huge_pages(p, size);
+  return p;
+}
+
+void detail::deallocate_column(void* p, std::size_t bytes) noexcept {
+  if (bytes < k_large_column)
+    ::operator delete(p);
+  else
+    std::free(p);
 }
 
 std::vector<double> column::to_doubles() const {

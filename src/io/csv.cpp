@@ -16,6 +16,7 @@
 #include <system_error>
 #include <type_traits>
 
+#include "records.hpp"
 #include "scalar_io.hpp"
 #include "stream_support.hpp"
 
@@ -526,8 +527,11 @@ point_cloud read_csv_buffer(std::string_view text, const std::string& name, cons
 }
 
 point_cloud read_csv(const std::string& path, const csv_options& options) {
-  const std::string data = detail::read_whole_file(path);
-  return parse_csv(data, path, options);
+  if (!chunked_file(path)) return parse_csv(detail::read_whole_file(path), path, options);
+  // A regular file: read into memory that faults in 2 MiB at a time.
+  const input_file file(path);
+  const big_bytes data = read_all(file);
+  return parse_csv(std::string_view(data.data(), data.size()), path, options);
 }
 
 void write_csv(std::ostream& out, const point_cloud& cloud) {

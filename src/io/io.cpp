@@ -60,13 +60,13 @@ point_cloud read_cloud(const std::string& path, const read_options& options, rea
   point_cloud c;
   switch (f) {
     case file_format::ply: {
-      c = read_ply(path);
+      c = detail::read_ply_file(path, options.fields);
       r.details = "PLY";
       break;
     }
     case file_format::pcd: {
       pcd_read_info info;
-      c = read_pcd(path, &info, options.keep_nonfinite);
+      c = detail::read_pcd_file(path, &info, options.keep_nonfinite, options.fields);
       r.nonfinite_removed = info.nonfinite_removed;
       r.details = detail::pcd_details(info);
       break;

@@ -16,6 +16,7 @@
 
 #include "ced/io/stream.hpp"
 #include "ced/version.hpp"
+#include "records.hpp"
 #include "scalar_io.hpp"
 #include "stream_support.hpp"
 
@@ -124,22 +125,6 @@ std::vector<extra_desc> parse_extra_bytes(const unsigned char* p, std::size_t le
     out.push_back(std::move(e));
   }
   return out;
-}
-
-/// Values of type T at p, p + stride, ... as a column of their own type.
-template <class T>
-column decode_typed(const unsigned char* p, std::size_t stride, std::size_t n) {
-  column c(scalar_type_of<T>(), n);
-  T* v = c.data<T>();
-  for (std::size_t i = 0; i < n; ++i) v[i] = load_le<T>(p + i * stride);
-  return c;
-}
-
-column decode_bits(const unsigned char* p, std::size_t stride, std::size_t n, int shift, unsigned mask) {
-  column c(scalar_type::uint8, n);
-  std::uint8_t* v = c.data<std::uint8_t>();
-  for (std::size_t i = 0; i < n; ++i) v[i] = static_cast<std::uint8_t>((p[i * stride] >> shift) & mask);
-  return c;
 }
 
 /// The bitwise OR of the byte at p + i * stride over all i < n.
@@ -331,65 +316,95 @@ std::array<double, 3> las_origin(const std::int32_t lo[3], const std::int32_t hi
   return choose_origin(a, b);
 }
 
-/// A cloud of the positions of the n point records (`stride` bytes apart from
-/// base), relative to `origin`.
-point_cloud decode_positions_at(const unsigned char* base, std::size_t stride, std::size_t n, const las_header& h,
-                                const std::array<double, 3>& origin) {
-  const auto& scale = h.scale;
-  const auto& offset = h.offset;
-  point_cloud cloud;
-  cloud.set_origin(origin);
-  cloud.resize(n);
-  float* out = cloud.positions().data();
-  const double shift[3] = {offset[0] - origin[0], offset[1] - origin[1], offset[2] - origin[2]};
-  for (std::size_t i = 0; i < n; ++i) {
-    const unsigned char* p = base + i * stride;
-    for (std::size_t k = 0; k < 3; ++k)
-      out[3 * i + k] = static_cast<float>(load_le<std::int32_t>(p + 4 * k) * scale[k] + shift[k]);
-  }
-  return cloud;
-}
-
-/// A cloud of the positions of the n point records: the origin from the
-/// bounding box of the raw integers, the positions relative to it.
-point_cloud decode_positions(const unsigned char* base, std::size_t stride, std::size_t n, const las_header& h) {
+/// What a pass over point records learns: the bounds of their raw integer
+/// coordinates and the OR of their bytes 14 and 15 (the flags some point sets).
+struct record_scan {
   std::int32_t lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
-  raw_bounds(base, stride, n, lo, hi, false);
-  return decode_positions_at(base, stride, n, h, n > 0 ? las_origin(lo, hi, h) : std::array<double, 3>{0, 0, 0});
+  unsigned flags[2] = {0, 0};
+  bool any = false;  ///< lo and hi hold some points'
+
+  /// Adds the n records (`stride` bytes apart from base).
+  void add(const unsigned char* base, std::size_t stride, std::size_t n) noexcept {
+    raw_bounds(base, stride, n, lo, hi, any);
+    any = any || n > 0;
+    flags[0] |= or_of_bytes(base + 14, stride, n);
+    flags[1] |= or_of_bytes(base + 15, stride, n);
+  }
+  /// Adds the records another scan saw.
+  void merge(const record_scan& o) noexcept {
+    for (std::size_t k = 0; o.any && k < 3; ++k) {
+      lo[k] = any ? std::min(lo[k], o.lo[k]) : o.lo[k];
+      hi[k] = any ? std::max(hi[k], o.hi[k]) : o.hi[k];
+    }
+    any = any || o.any;
+    flags[0] |= o.flags[0];
+    flags[1] |= o.flags[1];
+  }
+};
+
+/// The scan of the n records of `src`, chunks in parallel.
+record_scan scan_records(const record_source& src, std::uint64_t n) {
+  std::vector<record_scan> scans(chunk_count(n, src.stride()));
+  for_each_chunk(src, n, [&](std::size_t c, std::uint64_t, std::size_t m, const unsigned char* r) {
+    scans[c].add(r, src.stride(), m);
+  });
+  record_scan all;
+  for (const record_scan& s : scans) all.merge(s);
+  return all;
 }
 
-/// Adds fields of the n point records (`stride` bytes apart from base) to a
-/// cloud: only the selected ones are decoded.
-struct field_decoder {
-  point_cloud& cloud;
-  const field_selection& selection;
-  const unsigned char* base;
-  std::size_t stride;
-  std::size_t n;
-  std::vector<std::string> taken;  ///< every field's name so far, selected or not
-  /// When set: the OR of bytes 14 and 15 over the whole file, which decides
-  /// the flag fields (a chunk of a file must have the file's fields).
-  const unsigned* flag_bits = nullptr;
+/// One selected field: where its values are in a record and how they are decoded.
+struct las_column {
+  enum class kind { typed, bits, extra };
+  std::string name;
+  scalar_type type = scalar_type::uint8;  ///< the field's
+  std::size_t offset = 0;                 ///< in the record
+  kind how = kind::typed;
+  int shift = 0;      ///< bits: (byte >> shift) & mask
+  unsigned mask = 0;  ///<
+  scalar_type raw{};  ///< extra: the type in the record
+  double scale = 1;   ///< extra: applied when `scaled`
+  double add = 0;     ///< extra: applied when `offsetted`
+  bool scaled = false, offsetted = false;
+};
 
-  /// The field `name`, decode() when selected.
-  template <class Decode>
-  void add(const char* name, const Decode& decode) {
+/// The fields of a point format that a selection keeps, in the reader's order.
+struct column_planner {
+  const field_selection& selection;
+  /// The OR of bytes 14 and 15 over all the points read together, which
+  /// decides the flag fields (a chunk of a file must have the file's fields).
+  const unsigned* flag_bits;
+  std::vector<std::string> taken;  ///< every field's name so far, selected or not
+  std::vector<las_column> cols;
+
+  /// The field `name` (`c` says how it is decoded), when selected.
+  void add(const char* name, las_column c) {
     taken.push_back(name);
-    if (selection.wants(name)) cloud.add_field(name, decode());
+    if (!selection.wants(name)) return;
+    c.name = name;
+    cols.push_back(std::move(c));
   }
   /// A field of type T at byte `off` of each record.
   template <class T>
   void typed(const char* name, std::size_t off) {
-    add(name, [&] { return decode_typed<T>(base + off, stride, n); });
+    las_column c;
+    c.type = scalar_type_of<T>();
+    c.offset = off;
+    add(name, c);
   }
   /// A field of the bits (byte >> shift) & mask of byte `off` of each record.
   void bits(const char* name, std::size_t off, int shift, unsigned mask) {
-    add(name, [&] { return decode_bits(base + off, stride, n, shift, mask); });
+    las_column c;
+    c.how = las_column::kind::bits;
+    c.offset = off;
+    c.shift = shift;
+    c.mask = mask;
+    add(name, c);
   }
 };
 
 /// The flags of bytes 14 and 15: added only when some point sets them.
-void decode_flags(field_decoder& dec, bool extended) {
+void plan_flags(column_planner& plan, bool extended) {
   static constexpr flag_spec k_legacy_flags[] = {{"synthetic", 15, 5, 1},
                                                  {"key_point", 15, 6, 1},
                                                  {"withheld", 15, 7, 1},
@@ -399,11 +414,9 @@ void decode_flags(field_decoder& dec, bool extended) {
                                                    {"withheld", 15, 2, 1},           {"overlap", 15, 3, 1},
                                                    {"scanner_channel", 15, 4, 3},    {"scan_direction_flag", 15, 6, 1},
                                                    {"edge_of_flight_line", 15, 7, 1}};
-  const unsigned bits_set[2] = {dec.flag_bits ? dec.flag_bits[0] : or_of_bytes(dec.base + 14, dec.stride, dec.n),
-                                dec.flag_bits ? dec.flag_bits[1] : or_of_bytes(dec.base + 15, dec.stride, dec.n)};
   const auto add_flags = [&](const auto& table) {
     for (const flag_spec& fl : table)
-      if ((bits_set[fl.offset - 14] >> fl.shift) & fl.mask) dec.bits(fl.name, fl.offset, fl.shift, fl.mask);
+      if ((plan.flag_bits[fl.offset - 14] >> fl.shift) & fl.mask) plan.bits(fl.name, fl.offset, fl.shift, fl.mask);
   };
   if (extended)
     add_flags(k_extended_flags);
@@ -412,54 +425,153 @@ void decode_flags(field_decoder& dec, bool extended) {
 }
 
 /// The standard fields of the point format, then its flags.
-void decode_standard_fields(field_decoder& dec, const format_layout& layout) {
-  dec.typed<std::uint16_t>("intensity", 12);
+void plan_standard_fields(column_planner& plan, const format_layout& layout) {
+  plan.typed<std::uint16_t>("intensity", 12);
   if (layout.extended) {
-    dec.bits("return_number", 14, 0, 0x0F);
-    dec.bits("number_of_returns", 14, 4, 0x0F);
-    dec.typed<std::uint8_t>("classification", 16);
-    dec.typed<std::int16_t>("scan_angle", 18);
-    dec.typed<std::uint8_t>("user_data", 17);
-    dec.typed<std::uint16_t>("point_source_id", 20);
+    plan.bits("return_number", 14, 0, 0x0F);
+    plan.bits("number_of_returns", 14, 4, 0x0F);
+    plan.typed<std::uint8_t>("classification", 16);
+    plan.typed<std::int16_t>("scan_angle", 18);
+    plan.typed<std::uint8_t>("user_data", 17);
+    plan.typed<std::uint16_t>("point_source_id", 20);
   } else {
-    dec.bits("return_number", 14, 0, 0x07);
-    dec.bits("number_of_returns", 14, 3, 0x07);
-    dec.bits("classification", 15, 0, 0x1F);
-    dec.typed<std::int8_t>("scan_angle", 16);
-    dec.typed<std::uint8_t>("user_data", 17);
-    dec.typed<std::uint16_t>("point_source_id", 18);
+    plan.bits("return_number", 14, 0, 0x07);
+    plan.bits("number_of_returns", 14, 3, 0x07);
+    plan.bits("classification", 15, 0, 0x1F);
+    plan.typed<std::int8_t>("scan_angle", 16);
+    plan.typed<std::uint8_t>("user_data", 17);
+    plan.typed<std::uint16_t>("point_source_id", 18);
   }
-  if (layout.gps >= 0) dec.typed<double>("gps_time", static_cast<std::size_t>(layout.gps));
+  if (layout.gps >= 0) plan.typed<double>("gps_time", static_cast<std::size_t>(layout.gps));
   if (layout.rgb >= 0) {
     const char* names[3] = {"red", "green", "blue"};
     for (std::size_t c = 0; c < 3; ++c)
-      dec.typed<std::uint16_t>(names[c], static_cast<std::size_t>(layout.rgb) + 2 * c);
+      plan.typed<std::uint16_t>(names[c], static_cast<std::size_t>(layout.rgb) + 2 * c);
   }
-  if (layout.nir >= 0) dec.typed<std::uint16_t>("nir", static_cast<std::size_t>(layout.nir));
-  decode_flags(dec, layout.extended);
+  if (layout.nir >= 0) plan.typed<std::uint16_t>("nir", static_cast<std::size_t>(layout.nir));
+  plan_flags(plan, layout.extended);
 }
 
 /// The extra-bytes fields, scaled and offset as their descriptors say. Their
 /// names (made unique) do not depend on the selection.
-void decode_extra_fields(field_decoder& dec, const std::vector<extra_desc>& extras) {
+void plan_extra_fields(column_planner& plan, const std::vector<extra_desc>& extras) {
   for (std::size_t j = 0; j < extras.size(); ++j) {
     const extra_desc& e = extras[j];
     for (int k = 0; k < e.count; ++k) {
-      const std::size_t off = e.offset + size_of(e.type) * static_cast<std::size_t>(k);
       std::string name =
           e.count == 1 ? e.name : (e.name.empty() ? "extra_" + std::to_string(j) : e.name) + "_" + std::to_string(k);
-      name = unique_name(dec.taken, std::move(name), j);
-      if (!dec.selection.wants(name)) continue;
-      std::vector<double> v(dec.n);
-      decode_column(dec.base + off, dec.stride, dec.n, e.type, !host_little_endian(), v.data());
-      const bool scaled = (e.options & 8) != 0, offsetted = (e.options & 16) != 0;
-      if (scaled)
-        for (double& x : v) x *= e.scale[k];
-      if (offsetted)
-        for (double& x : v) x += e.offset_value[k];
-      dec.cloud.add_field(std::move(name), scaled || offsetted ? scalar_type::float64 : e.type, std::move(v));
+      name = unique_name(plan.taken, std::move(name), j);
+      if (!plan.selection.wants(name)) continue;
+      las_column c;
+      c.name = std::move(name);
+      c.how = las_column::kind::extra;
+      c.offset = e.offset + size_of(e.type) * static_cast<std::size_t>(k);
+      c.raw = e.type;
+      c.scaled = (e.options & 8) != 0;
+      c.offsetted = (e.options & 16) != 0;
+      c.scale = e.scale[k];
+      c.add = e.offset_value[k];
+      c.type = c.scaled || c.offsetted ? scalar_type::float64 : e.type;
+      plan.cols.push_back(std::move(c));
     }
   }
+}
+
+/// The selected fields of records of point format h.layout with `extras`,
+/// `flag_bits` the OR of bytes 14 and 15 over the points read together.
+std::vector<las_column> plan_columns(const las_header& h, const std::vector<extra_desc>& extras,
+                                     const field_selection& selection, const unsigned flag_bits[2]) {
+  column_planner plan{selection, flag_bits, {}, {}};
+  plan_standard_fields(plan, *h.layout);
+  plan_extra_fields(plan, extras);
+  return std::move(plan.cols);
+}
+
+/// The values of column c of the m records at p (`stride` bytes apart) into
+/// `out`, m values of c.type.
+void decode_las_column(const las_column& c, const unsigned char* p, std::size_t stride, std::size_t m,
+                       unsigned char* out) {
+  p += c.offset;
+  if (c.how == las_column::kind::bits) {
+    for (std::size_t i = 0; i < m; ++i) out[i] = static_cast<unsigned char>((p[i * stride] >> c.shift) & c.mask);
+  } else if (c.how == las_column::kind::typed) {
+    visit_type(c.type, [&](auto tag) {
+      using T = decltype(tag);
+      for (std::size_t i = 0; i < m; ++i) store<T, false>(out + i * sizeof(T), load_le<T>(p + i * stride));
+    });
+  } else {
+    // As doubles, scaled and offset, then in the field's type: the values
+    // (and NaN bits) of a conversion through double, as fields are made.
+    visit_type(c.raw, [&](auto tag) {
+      using T = decltype(tag);
+      for (std::size_t i = 0; i < m; ++i) {
+        double v = static_cast<double>(load_le<T>(p + i * stride));
+        if (c.scaled) v *= c.scale;
+        if (c.offsetted) v += c.add;
+        if (c.type == scalar_type::float64)
+          store<double, false>(out + i * 8, v);
+        else if constexpr (std::is_same_v<T, float>)
+          store<T, false>(out + i * sizeof(T), through_double(load_le<T>(p + i * stride)));
+        else
+          store<T, false>(out + i * sizeof(T), convert<T>(v));
+      }
+    });
+  }
+}
+
+/// The positions of the m records at p (`stride` bytes apart), relative to
+/// `origin`, into out[0, 3m).
+void decode_positions(const unsigned char* p, std::size_t stride, std::size_t m, const las_header& h,
+                      const std::array<double, 3>& origin, float* out) noexcept {
+  const auto& scale = h.scale;
+  const double shift[3] = {h.offset[0] - origin[0], h.offset[1] - origin[1], h.offset[2] - origin[2]};
+  for (std::size_t i = 0; i < m; ++i, p += stride)
+    for (std::size_t k = 0; k < 3; ++k)
+      out[3 * i + k] = static_cast<float>(load_le<std::int32_t>(p + 4 * k) * scale[k] + shift[k]);
+}
+
+/// A cloud of the n records of `src`: positions relative to `origin`, the
+/// fields of `plan`. Chunks of records are decoded in parallel, each into
+/// its own points: the cloud is the same for any number of threads.
+point_cloud decode_records(const record_source& src, std::uint64_t count, const las_header& h,
+                           const std::array<double, 3>& origin, const std::vector<las_column>& plan) {
+  const auto n = static_cast<std::size_t>(count);  // <= room: the allocation is bounded by the file size
+  point_cloud cloud;
+  cloud.set_origin(origin);
+  cloud.resize(n);
+  std::vector<column> cols;
+  cols.reserve(plan.size());  // dst keeps pointers to their bytes
+  std::vector<unsigned char*> dst;
+  for (const las_column& c : plan) dst.push_back(cols.emplace_back(c.type, n).bytes());
+  float* xyz = cloud.positions().data();
+  for_each_chunk(src, n, [&](std::size_t, std::uint64_t i0, std::size_t m, const unsigned char* r) {
+    decode_positions(r, src.stride(), m, h, origin, xyz + 3 * i0);
+    for (std::size_t k = 0; k < plan.size(); ++k)
+      decode_las_column(plan[k], r, src.stride(), m, dst[k] + i0 * size_of(plan[k].type));
+  });
+  for (std::size_t k = 0; k < plan.size(); ++k) cloud.add_field(plan[k].name, std::move(cols[k]));
+  return cloud;
+}
+
+/// The n records of `src` as a cloud, with the origin of their bounding box
+/// and the selected fields: a first pass learns the bounds and flags.
+point_cloud read_records(const record_source& src, const las_header& h, const std::vector<extra_desc>& extras,
+                         const field_selection& selection) {
+  const record_scan scan = scan_records(src, h.count);
+  const std::array<double, 3> origin = scan.any ? las_origin(scan.lo, scan.hi, h) : std::array<double, 3>{0, 0, 0};
+  return decode_records(src, h.count, h, origin, plan_columns(h, extras, selection, scan.flags));
+}
+
+/// The bytes of a LAS file up to its point data (all of it when shorter than
+/// a header), enough for read_header() and read_vlrs() with the file's size.
+std::string read_head(input_file& file) {
+  std::string head;
+  file.read_some(0, 375, head);
+  if (head.size() >= 100) {
+    const auto offset = load_le<std::uint32_t>(reinterpret_cast<const unsigned char*>(head.data()) + 96);
+    if (offset > head.size() && offset <= file.size()) file.read_some(0, offset, head);
+  }
+  return head;
 }
 
 point_cloud parse_las(std::string_view bytes, const std::string& file, las_read_info* info,
@@ -468,13 +580,19 @@ point_cloud parse_las(std::string_view bytes, const std::string& file, las_read_
   const las_header h = read_header(d, bytes.size(), file);
   const std::vector<extra_desc> extras = read_vlrs(d, h, file);
   if (info) fill_info(*info, h, d);
-  const auto n = static_cast<std::size_t>(h.count);  // <= room: the allocation is bounded by the file size
-  const unsigned char* base = d + h.point_offset;
-  point_cloud cloud = decode_positions(base, h.record_length, n, h);
-  field_decoder dec{cloud, selection, base, h.record_length, n, {}};
-  decode_standard_fields(dec, *h.layout);
-  decode_extra_fields(dec, extras);
-  return cloud;
+  return read_records(record_source(d + h.point_offset, h.record_length), h, extras, selection);
+}
+
+/// read_las() of a file: the header, then the records read in chunks.
+point_cloud read_las_file(const std::string& path, las_read_info* info, const field_selection& selection) {
+  if (!chunked_file(path)) return parse_las(read_whole_file(path), path, info, selection);
+  input_file file(path);
+  const std::string head = read_head(file);
+  const auto* d = reinterpret_cast<const unsigned char*>(head.data());
+  const las_header h = read_header(d, static_cast<std::size_t>(file.size()), path);
+  const std::vector<extra_desc> extras = read_vlrs(d, h, path);
+  if (info) fill_info(*info, h, d);
+  return read_records(record_source(file, h.point_offset, h.record_length), h, extras, selection);
 }
 
 // ------------------------------------------------------------------ writer
@@ -551,8 +669,19 @@ struct out_column {
 };
 
 void encode_column(const out_column& c, std::size_t i0, std::size_t m, unsigned char* buf, std::size_t record) {
-  const auto value = [&](std::size_t i) { return (c.values ? (*c.values)[i0 + i] : c.constant) * c.factor; };
   unsigned char* p = buf + c.offset;
+  // Straight from the column when that stores the same bytes (not doubles:
+  // the product by the factor quiets a signalling NaN).
+  if (!c.bits && c.values && c.factor == 1 && c.type != scalar_type::float64 &&
+      encode_direct(*c.values, i0, m, c.type, !host_little_endian(), p, record))
+    return;
+  thread_local std::vector<double> values;
+  values.resize(m);
+  if (c.values)
+    copy_values(*c.values, i0, m, values.data());
+  else
+    std::fill(values.begin(), values.end(), c.constant);
+  const auto value = [&](std::size_t i) { return values[i] * c.factor; };
   if (!c.bits) return encode_values(c.type, !host_little_endian(), p, record, m, value);
   for (std::size_t i = 0; i < m; ++i) {
     const double v = value(i);
@@ -712,11 +841,15 @@ void add_stats(const point_cloud& cloud, const las_write_options& opt, const las
       s.qmax[k] = s.n + i == 0 ? q : std::max(s.qmax[k], q);
     }
   const unsigned max_return = plan.layout->extended ? 15 : 7;
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    const unsigned r =
-        plan.return_number ? std::min<unsigned>(convert<std::uint8_t>(plan.return_number->values[i]), max_return) : 1;
-    if (r >= 1 && r <= 15) ++s.by_return[r - 1];
-  }
+  if (!plan.return_number)
+    s.by_return[0] += cloud.size();
+  else
+    plan.return_number->values.visit([&](const auto* v, std::size_t n) {
+      for (std::size_t i = 0; i < n; ++i) {
+        const unsigned r = std::min<unsigned>(convert<std::uint8_t>(static_cast<double>(v[i])), max_return);
+        if (r >= 1 && r <= 15) ++s.by_return[r - 1];
+      }
+    });
   s.n += cloud.size();
 }
 
@@ -787,24 +920,23 @@ std::string make_header(const point_cloud& cloud, const las_write_options& opt, 
   return h;
 }
 
-/// The point records, in chunks.
+/// The point records, in chunks encoded in parallel (write_chunks()).
 void write_records(std::ostream& out, const point_cloud& cloud, const las_write_options& opt, const las_plan& plan) {
   const std::size_t n = cloud.size();
   const std::size_t record = plan.record;
   const float* xyz = cloud.positions().data();
   constexpr std::size_t chunk = 8192;
-  std::vector<unsigned char> buf(std::min(chunk, n) * record);
-  for (std::size_t i0 = 0; i0 < n; i0 += chunk) {
-    const std::size_t m = std::min(chunk, n - i0);
-    std::fill(buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(m * record), 0);
+  write_chunks(out, (n + chunk - 1) / chunk, [&](std::size_t k, std::string& bytes) {
+    const std::size_t i0 = k * chunk, m = std::min(chunk, n - i0);
+    bytes.assign(m * record, '\0');
+    auto* buf = reinterpret_cast<unsigned char*>(bytes.data());
     for (std::size_t i = 0; i < m; ++i)
-      for (std::size_t k = 0; k < 3; ++k) {
-        const double q = std::round(static_cast<double>(xyz[3 * (i0 + i) + k]) / opt.scale[k]);
-        store_le<std::int32_t>(buf.data() + i * record + 4 * k, static_cast<std::int32_t>(q));
+      for (std::size_t a = 0; a < 3; ++a) {
+        const double q = std::round(static_cast<double>(xyz[3 * (i0 + i) + a]) / opt.scale[a]);
+        store_le<std::int32_t>(buf + i * record + 4 * a, static_cast<std::int32_t>(q));
       }
-    for (const auto& c : plan.cols) encode_column(c, i0, m, buf.data(), record);
-    out.write(reinterpret_cast<const char*>(buf.data()), static_cast<std::streamsize>(m * record));
-  }
+    for (const auto& c : plan.cols) encode_column(c, i0, m, buf, record);
+  });
 }
 
 void write_las_unchecked(std::ostream& out, const point_cloud& cloud, const las_write_options& opt) {
@@ -825,8 +957,7 @@ point_cloud read_las_buffer(std::string_view bytes, const std::string& name, las
 }
 
 point_cloud read_las(const std::string& path, las_read_info* info, const field_selection& fields) {
-  const std::string data = detail::read_whole_file(path);
-  return parse_las(data, path, info, fields);
+  return read_las_file(path, info, fields);
 }
 
 void write_las(std::ostream& out, const point_cloud& cloud, const las_write_options& options) {
@@ -880,14 +1011,7 @@ namespace {
 class las_stream final : public point_stream {
  public:
   las_stream(const std::string& path, const field_selection& fields) : m_file(path), m_fields(fields) {
-    // The header's own checks need the file's size and its first bytes up
-    // to the point data (or the whole file, when it is shorter than a header).
-    std::string head;
-    m_file.read_some(0, 375, head);
-    if (head.size() >= 100) {
-      const auto offset = load_le<std::uint32_t>(reinterpret_cast<const unsigned char*>(head.data()) + 96);
-      if (offset > head.size() && offset <= m_file.size()) m_file.read_some(0, offset, head);
-    }
+    const std::string head = read_head(m_file);
     const auto* d = reinterpret_cast<const unsigned char*>(head.data());
     m_header = read_header(d, static_cast<std::size_t>(m_file.size()), path);
     m_extras = read_vlrs(d, m_header, path);
@@ -901,39 +1025,33 @@ class las_stream final : public point_stream {
     const auto n = static_cast<std::size_t>(std::min<std::uint64_t>(left, max));
     out = point_cloud();
     if (n == 0) {
-      if (!m_first_pass_done) {
-        m_first_pass_done = true;
-        m_flag_bits[0] = m_or[0];
-        m_flag_bits[1] = m_or[1];
-      }
+      m_first_pass_done = true;
       return 0;
     }
     const std::size_t stride = m_header.record_length;
-    if (m_buffer.size() < n * stride) m_buffer.resize(n * stride);  // reused: no new memory once it has grown
-    m_file.read_exact(m_header.point_offset + m_next * stride, n * stride, m_buffer.data());
-    const auto* base = reinterpret_cast<const unsigned char*>(m_buffer.data());
+    const record_source src(m_file, m_header.point_offset + m_next * stride, stride);
+    // During the first pass, the chunk's own flags decide its flag fields.
+    const unsigned* flag_bits = m_scan.flags;
+    record_scan chunk;
     if (!m_first_pass_done) {
-      raw_bounds(base, stride, n, m_lo, m_hi, m_next > 0);
-      m_or[0] |= or_of_bytes(base + 14, stride, n);
-      m_or[1] |= or_of_bytes(base + 15, stride, n);
+      chunk = scan_records(src, n);
+      if (m_next == 0) m_scan.any = false;
+      m_scan.merge(chunk);
+      flag_bits = chunk.flags;
     }
-    out = decode_positions_at(base, stride, n, m_header, origin);
-    field_decoder dec{out, m_fields, base, stride, n, {}, m_first_pass_done ? m_flag_bits : nullptr};
-    decode_standard_fields(dec, *m_header.layout);
-    decode_extra_fields(dec, m_extras);
-    out.keep_fields(m_fields);
+    out = decode_records(src, n, m_header, origin, plan_columns(m_header, m_extras, m_fields, flag_bits));
     m_next += n;
     return n;
   }
   void rewind() override { m_next = 0; }
   std::array<double, 3> origin() const override {
     if (m_header.count == 0) return {0, 0, 0};
-    return las_origin(m_lo, m_hi, m_header);
+    return las_origin(m_scan.lo, m_scan.hi, m_header);
   }
   void bounds(double lo[3], double hi[3]) const override {
     for (std::size_t k = 0; k < 3; ++k) {
-      const double a = m_lo[k] * m_header.scale[k] + m_header.offset[k];
-      const double b = m_hi[k] * m_header.scale[k] + m_header.offset[k];
+      const double a = m_scan.lo[k] * m_header.scale[k] + m_header.offset[k];
+      const double b = m_scan.hi[k] * m_header.scale[k] + m_header.offset[k];
       lo[k] = std::min(a, b);
       hi[k] = std::max(a, b);
     }
@@ -947,11 +1065,10 @@ class las_stream final : public point_stream {
   field_selection m_fields;
   las_header m_header;
   std::vector<extra_desc> m_extras;
-  std::string m_details, m_buffer;
+  std::string m_details;
   std::uint64_t m_next = 0;
   bool m_first_pass_done = false;
-  std::int32_t m_lo[3] = {0, 0, 0}, m_hi[3] = {0, 0, 0};
-  unsigned m_or[2] = {0, 0}, m_flag_bits[2] = {0, 0};
+  record_scan m_scan;  ///< of the points read in the first pass: the whole file's, once it is done
 };
 }  // namespace
 

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "ced/io/error.hpp"
+#include "scalar_io.hpp"
 
 namespace ced::io {
 
@@ -65,13 +66,19 @@ std::string lzf_compress(std::string_view input) {
 }
 
 std::string lzf_decompress(std::string_view input, std::size_t out_size, const std::string& name_for_errors) {
+  std::string result(out_size, '\0');
+  detail::lzf_decompress_into(input, result.data(), out_size, name_for_errors);
+  return result;
+}
+
+void detail::lzf_decompress_into(std::string_view input, char* output, std::size_t out_size,
+                                 const std::string& name_for_errors) {
   const auto corrupt = [&](const std::string& why) {
     throw io_error(name_for_errors, "corrupt LZF data (" + why + ")");
   };
   const auto* in = reinterpret_cast<const unsigned char*>(input.data());
   const std::size_t n = input.size();
-  std::string result(out_size, '\0');
-  auto* out = reinterpret_cast<unsigned char*>(result.data());
+  auto* out = reinterpret_cast<unsigned char*>(output);
   std::size_t ip = 0, op = 0;
   while (ip < n) {
     const std::size_t at = ip;
@@ -108,7 +115,6 @@ std::string lzf_decompress(std::string_view input, std::size_t out_size, const s
   }
   if (op != out_size)
     corrupt("it expands to " + std::to_string(op) + " bytes, not the declared " + std::to_string(out_size));
-  return result;
 }
 
 }  // namespace ced::io

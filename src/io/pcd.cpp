@@ -19,6 +19,7 @@
 #include <type_traits>
 #include <unordered_set>
 
+#include "records.hpp"
 #include "scalar_io.hpp"
 #include "stream_support.hpp"
 
@@ -270,19 +271,6 @@ parse_status parse_packed_rgb(std::string_view tok, char type, double& out) noex
 
 using columns = std::vector<std::vector<double>>;
 
-/// Decodes the n values of each of the f.count values of field f (at p, then
-/// `stride` bytes apart) into cols[0, f.count), little-endian binary.
-void decode_field(const pcd_field& f, const unsigned char* p, std::size_t stride, std::size_t n,
-                  std::vector<double>* cols) {
-  for (std::size_t c = 0; c < f.count; ++c) {
-    cols[c].resize(n);
-    decode_column(p + c * f.size, stride, n, f.packed_rgb ? scalar_type::uint32 : f.stype, !host_little_endian(),
-                  cols[c].data());
-  }
-}
-
-/// Decodes the body into cols (one per value of each non-padding field, in
-/// order; col_of[f] is the first column of field f).
 /// The size of a point's binary record (padding included).
 std::size_t point_size_of(const pcd_header& h) noexcept {
   std::size_t point_size = 0;
@@ -299,31 +287,18 @@ void check_binary_size(const pcd_header& h, std::uint64_t remaining, const std::
                              " bytes of binary data follow");
 }
 
-/// Decodes the n binary records at `body` into cols.
-void decode_binary(const unsigned char* body, std::size_t n, const pcd_header& h,
-                   const std::vector<std::size_t>& col_of, columns& cols) {
-  const std::size_t point_size = point_size_of(h);
-  std::size_t offset = 0;
-  for (std::size_t j = 0; j < h.fields.size(); ++j) {
-    const pcd_field& f = h.fields[j];
-    if (!f.padding) decode_field(f, body + offset, point_size, n, &cols[col_of[j]]);
-    offset += f.size * f.count;
-  }
-}
+/// The body of a binary_compressed file, uncompressed: the values field by
+/// field, padding fields included when `with_padding`.
+struct uncompressed_body {
+  big_bytes bytes;
+  bool with_padding = false;
+};
 
-void read_binary(std::string_view data, const pcd_header& h, const std::vector<std::size_t>& col_of, columns& cols,
-                 const std::string& file) {
-  check_binary_size(h, data.size() - h.body_offset, file);
-  const auto n = static_cast<std::size_t>(h.points);
-  decode_binary(reinterpret_cast<const unsigned char*>(data.data()) + h.body_offset, n, h, col_of, cols);
-}
-
-void read_compressed(std::string_view data, const pcd_header& h, const std::vector<std::size_t>& col_of, columns& cols,
-                     const std::string& file) {
+uncompressed_body decompress_body(std::string_view data, const pcd_header& h, const std::string& file) {
   const std::size_t remaining = data.size() - h.body_offset;
   const auto n = static_cast<std::size_t>(h.points);
   if (remaining < 8) {
-    if (n == 0) return;
+    if (n == 0) return {};
     throw io_error(
         file, "truncated: the binary_compressed data has no size header (" + std::to_string(remaining) + " bytes)");
   }
@@ -355,16 +330,10 @@ void read_compressed(std::string_view data, const pcd_header& h, const std::vect
   if (static_cast<std::uint64_t>(uncompressed) > static_cast<std::uint64_t>(compressed) * 100 + 1024)
     throw io_error(file, "implausible binary_compressed sizes: " + std::to_string(compressed) +
                              " compressed bytes cannot expand to " + std::to_string(uncompressed) + " bytes");
-  const std::string buf =
-      lzf_decompress(std::string_view(reinterpret_cast<const char*>(body + 8), compressed), uncompressed, file);
-  const auto* p = reinterpret_cast<const unsigned char*>(buf.data());
-  std::size_t offset = 0;
-  for (std::size_t j = 0; j < h.fields.size(); ++j) {
-    const pcd_field& f = h.fields[j];
-    if (f.padding && !with_padding) continue;
-    if (!f.padding) decode_field(f, p + offset, f.size * f.count, n, &cols[col_of[j]]);
-    offset += n * f.size * f.count;
-  }
+  uncompressed_body out{big_bytes(uncompressed), with_padding};
+  lzf_decompress_into(std::string_view(reinterpret_cast<const char*>(body + 8), compressed), out.bytes.data(),
+                      uncompressed, file);
+  return out;
 }
 
 void read_ascii(std::string_view data, const pcd_header& h, const std::vector<std::size_t>& col_of, columns& cols,
@@ -472,23 +441,6 @@ std::vector<std::size_t> assign_columns(pcd_header& h, const std::string& file, 
   return col_of;
 }
 
-/// Decodes the body, whatever its DATA format, into `cols` (h.points values each).
-void read_body(std::string_view data, const pcd_header& h, const std::vector<std::size_t>& col_of, columns& cols,
-               const std::string& file) {
-  switch (h.format) {
-    case pcd_format::ascii:
-      read_ascii(data, h, col_of, cols, file);
-      break;
-    case pcd_format::binary:
-      read_binary(data, h, col_of, cols, file);
-      break;
-    case pcd_format::binary_compressed:
-      read_compressed(data, h, col_of, cols, file);
-      break;
-  }
-  for (auto& c : cols) c.resize(static_cast<std::size_t>(h.points));  // binary_compressed with 0 points
-}
-
 /// Drops, from every column, the points with a non-finite coordinate in
 /// x, y or z; returns the number of points kept.
 std::size_t drop_nonfinite(columns& cols, const std::vector<double>* const xyz[3], std::size_t declared) {
@@ -556,21 +508,147 @@ pcd_read_info info_of(const pcd_header& h) {
   return info;
 }
 
-point_cloud parse_pcd(std::string_view data, const std::string& file, pcd_read_info* info, bool keep_nonfinite) {
-  pcd_header h = parse_header(header_source{data}, file);
-  const std::array<std::size_t, 3> axis = find_axes(h, file);
+/// Adds to `layout` the values of field f at `offset` (`stride` as in
+/// value_spec): an axis when it is axis k (0 to 2), else the selected values.
+void add_values(point_layout& layout, const pcd_field& f, int k, std::size_t offset, std::size_t stride,
+                const field_selection& selection) {
+  const bool swap = !host_little_endian();  // PCD binary data is little-endian
+  const auto add = [&](std::string name, std::size_t at, scalar_type t, int shift) {
+    if (selection.wants(name)) layout.columns.push_back({std::move(name), at, t, swap, shift, stride});
+  };
+  if (k >= 0) {
+    layout.xyz[static_cast<std::size_t>(k)] = {f.name, offset, f.stype, swap, -1, stride};
+  } else if (f.packed_rgb) {
+    add("red", offset, scalar_type::uint32, 16);
+    add("green", offset, scalar_type::uint32, 8);
+    add("blue", offset, scalar_type::uint32, 0);
+  } else if (f.count == 1) {
+    add(f.name, offset, f.stype, -1);
+  } else {
+    for (std::size_t c = 0; c < f.count; ++c) add(f.name + "_" + std::to_string(c), offset + c * f.size, f.stype, -1);
+  }
+}
+
+/// The axis (0 to 2) that field j is, or -1.
+int axis_of(const std::array<std::size_t, 3>& axis, std::size_t j) noexcept {
+  for (int k = 0; k < 3; ++k)
+    if (axis[static_cast<std::size_t>(k)] == j) return k;
+  return -1;
+}
+
+/// The layout of binary records: x, y, z and the selected values, in the
+/// reader's order (a packed rgb as red, green, blue; COUNT c as name_0 ...).
+point_layout record_layout(const pcd_header& h, const std::array<std::size_t, 3>& axis,
+                           const field_selection& selection) {
+  point_layout layout;
+  std::size_t offset = 0;
+  for (std::size_t j = 0; j < h.fields.size(); ++j) {
+    const pcd_field& f = h.fields[j];
+    if (!f.padding) add_values(layout, f, axis_of(axis, j), offset, 0, selection);
+    offset += f.size * f.count;
+  }
+  return layout;
+}
+
+/// The same for an uncompressed binary_compressed body: each field's values
+/// one after the other, then the next field's.
+point_layout field_major_layout(const pcd_header& h, const std::array<std::size_t, 3>& axis,
+                                const field_selection& selection, const uncompressed_body& body) {
+  point_layout layout;
+  layout.base = reinterpret_cast<const unsigned char*>(body.bytes.data());
+  std::size_t offset = 0;
+  for (std::size_t j = 0; j < h.fields.size(); ++j) {
+    const pcd_field& f = h.fields[j];
+    if (f.padding && !body.with_padding) continue;
+    if (!f.padding) add_values(layout, f, axis_of(axis, j), offset, f.size * f.count, selection);
+    offset += static_cast<std::size_t>(h.points) * f.size * f.count;
+  }
+  return layout;
+}
+
+/// The n points of `src` (`layout`), in parallel chunks; the origin of the
+/// finite points; without the non-finite ones unless `keep_nonfinite`.
+point_cloud read_points(const record_source& src, std::uint64_t n, const point_layout& layout, bool keep_nonfinite) {
+  const points_scan scan = scan_points(src, n, layout);
+  return decode_points(src, n, layout, choose_origin(scan.box.lo, scan.box.hi), keep_nonfinite ? nullptr : &scan);
+}
+
+/// The ascii body as a cloud: without the non-finite points unless `keep_nonfinite`.
+point_cloud read_ascii_cloud(std::string_view data, const pcd_header& h, const std::array<std::size_t, 3>& axis,
+                             bool keep_nonfinite, const std::string& file) {
   std::size_t ncols = 0;
-  const std::vector<std::size_t> col_of = assign_columns(h, file, ncols);
+  pcd_header marked = h;
+  const std::vector<std::size_t> col_of = assign_columns(marked, file, ncols);
   columns cols(ncols);
-  read_body(data, h, col_of, cols, file);
+  read_ascii(data, h, col_of, cols, file);
   const std::vector<double>* xyz[3] = {&cols[col_of[axis[0]]], &cols[col_of[axis[1]]], &cols[col_of[axis[2]]]};
   const auto declared = static_cast<std::size_t>(h.points);
   const std::size_t n = keep_nonfinite ? declared : drop_nonfinite(cols, xyz, declared);
   point_cloud cloud = cloud_at(xyz[0]->data(), xyz[1]->data(), xyz[2]->data(), n);
   add_fields(cloud, h, axis, col_of, cols);
+  return cloud;
+}
+
+/// The body of the file `data` (header h, checked) as a cloud with the selected fields.
+point_cloud read_body(std::string_view data, const pcd_header& h, const std::array<std::size_t, 3>& axis,
+                      bool keep_nonfinite, const field_selection& selection, const std::string& file) {
+  const auto* d = reinterpret_cast<const unsigned char*>(data.data());
+  if (h.format == pcd_format::binary) {
+    check_binary_size(h, data.size() - h.body_offset, file);
+    return read_points(record_source(d + h.body_offset, point_size_of(h)), h.points, record_layout(h, axis, selection),
+                       keep_nonfinite);
+  }
+  if (h.format == pcd_format::binary_compressed) {
+    const uncompressed_body body = decompress_body(data, h, file);
+    const std::size_t stride = h.points == 0 ? 1 : body.bytes.size() / static_cast<std::size_t>(h.points);
+    return read_points(record_source(reinterpret_cast<const unsigned char*>(body.bytes.data()), stride), h.points,
+                       field_major_layout(h, axis, selection, body), keep_nonfinite);
+  }
+  point_cloud cloud = read_ascii_cloud(data, h, axis, keep_nonfinite, file);
+  cloud.keep_fields(selection);
+  return cloud;
+}
+
+/// The header of the file `data`, checked: its axes, and the fields marked
+/// (assign_columns()).
+pcd_header checked_header(const header_source& src, const std::string& file, std::array<std::size_t, 3>& axis) {
+  pcd_header h = parse_header(src, file);
+  axis = find_axes(h, file);
+  std::size_t ncols = 0;
+  assign_columns(h, file, ncols);
+  return h;
+}
+
+point_cloud parse_pcd(std::string_view data, const std::string& file, pcd_read_info* info, bool keep_nonfinite,
+                      const field_selection& selection) {
+  std::array<std::size_t, 3> axis{};
+  const pcd_header h = checked_header(header_source{data}, file, axis);
+  point_cloud cloud = read_body(data, h, axis, keep_nonfinite, selection, file);
   if (info) {
     *info = info_of(h);
-    info->nonfinite_removed = declared - n;
+    info->nonfinite_removed = static_cast<std::size_t>(h.points) - cloud.size();
+  }
+  return cloud;
+}
+
+/// read_pcd() of a file: binary records are read in parallel chunks straight
+/// from the file; the other encodings are read whole.
+point_cloud read_pcd_path(const std::string& path, pcd_read_info* info, bool keep_nonfinite,
+                          const field_selection& selection) {
+  if (!chunked_file(path)) return parse_pcd(read_whole_file(path), path, info, keep_nonfinite, selection);
+  input_file file(path);
+  std::array<std::size_t, 3> axis{};
+  const pcd_header h = file.parse_header([&](const header_source& src) { return checked_header(src, path, axis); });
+  if (h.format != pcd_format::binary) {
+    const big_bytes data = read_all(file);
+    return parse_pcd(std::string_view(data.data(), data.size()), path, info, keep_nonfinite, selection);
+  }
+  check_binary_size(h, file.size() - h.body_offset, path);
+  point_cloud cloud = read_points(record_source(file, h.body_offset, point_size_of(h)), h.points,
+                                  record_layout(h, axis, selection), keep_nonfinite);
+  if (info) {
+    *info = info_of(h);
+    info->nonfinite_removed = static_cast<std::size_t>(h.points) - cloud.size();
   }
   return cloud;
 }
@@ -665,12 +743,11 @@ void column_values(const out_column& c, const point_cloud& cloud, std::size_t i0
     else
       for (std::size_t i = 0; i < m; ++i) v[i] = o + static_cast<double>(xyz[3 * (i0 + i) + k]);
   } else {
-    for (std::size_t i = 0; i < m; ++i) {
-      const std::uint32_t r = convert<std::uint8_t>((*c.rgb[0])[i0 + i]);
-      const std::uint32_t g = convert<std::uint8_t>((*c.rgb[1])[i0 + i]);
-      const std::uint32_t b = convert<std::uint8_t>((*c.rgb[2])[i0 + i]);
-      v[i] = static_cast<double>((r << 16) | (g << 8) | b);
-    }
+    // Packed only from uint8 fields (plan_columns()).
+    const std::uint8_t* rgb[3] = {c.rgb[0]->data<std::uint8_t>() + i0, c.rgb[1]->data<std::uint8_t>() + i0,
+                                  c.rgb[2]->data<std::uint8_t>() + i0};
+    for (std::size_t i = 0; i < m; ++i)
+      v[i] = static_cast<double>(std::uint32_t{rgb[0][i]} << 16 | std::uint32_t{rgb[1][i]} << 8 | rgb[2][i]);
   }
 }
 
@@ -711,9 +788,12 @@ void write_body(std::ostream& out, const point_cloud& cloud, const std::vector<o
   point_format pf;
   pf.text = fmt == pcd_format::ascii;
   pf.swap = !host_little_endian();
-  write_points(out, cloud.size(), types, pf, [&](std::size_t c, std::size_t i0, std::size_t m, double* v) {
-    column_values(cols[c], cloud, i0, m, v);
-  });
+  std::vector<const column*> direct;
+  for (const auto& c : cols) direct.push_back(c.values);
+  write_points(
+      out, cloud.size(), types, pf,
+      [&](std::size_t c, std::size_t i0, std::size_t m, double* v) { column_values(cols[c], cloud, i0, m, v); },
+      direct);
 }
 
 void write_pcd_unchecked(std::ostream& out, const point_cloud& cloud, pcd_format fmt) {
@@ -735,12 +815,11 @@ void write_pcd_unchecked(std::ostream& out, const point_cloud& cloud, pcd_format
 
 point_cloud read_pcd_buffer(std::string_view bytes, const std::string& name_for_errors, pcd_read_info* info,
                             bool keep_nonfinite) {
-  return parse_pcd(bytes, name_for_errors, info, keep_nonfinite);
+  return parse_pcd(bytes, name_for_errors, info, keep_nonfinite, {});
 }
 
 point_cloud read_pcd(const std::string& path, pcd_read_info* info, bool keep_nonfinite) {
-  const std::string data = detail::read_whole_file(path);
-  return parse_pcd(data, path, info, keep_nonfinite);
+  return read_pcd_path(path, info, keep_nonfinite, {});
 }
 
 void write_pcd(std::ostream& out, const point_cloud& cloud, pcd_format fmt) {
@@ -757,13 +836,10 @@ namespace {
 class pcd_stream final : public box_stream {
  public:
   pcd_stream(std::unique_ptr<input_file> file, pcd_header h, const std::array<std::size_t, 3>& axis,
-             std::vector<std::size_t> col_of, std::size_t ncols, const field_selection& fields)
+             const field_selection& fields)
       : m_file(std::move(file)),
         m_h(std::move(h)),
-        m_axis(axis),
-        m_col_of(std::move(col_of)),
-        m_ncols(ncols),
-        m_fields(fields),
+        m_layout(record_layout(m_h, axis, fields)),
         m_point_size(point_size_of(m_h)) {
     check_binary_size(m_h, m_file->size() - m_h.body_offset, m_file->path());
   }
@@ -775,15 +851,9 @@ class pcd_stream final : public box_stream {
       if (m_next == m_h.points) m_first_pass_done = true;
       return 0;
     }
-    m_buffer.resize(n * m_point_size);
-    m_file->read_exact(m_h.body_offset + m_next * m_point_size, m_buffer.size(), m_buffer.data());
-    columns cols(m_ncols);
-    decode_binary(reinterpret_cast<const unsigned char*>(m_buffer.data()), n, m_h, m_col_of, cols);
-    const std::vector<double>* xyz[3] = {&cols[m_col_of[m_axis[0]]], &cols[m_col_of[m_axis[1]]],
-                                         &cols[m_col_of[m_axis[2]]]};
-    set_positions(out, xyz[0]->data(), xyz[1]->data(), xyz[2]->data(), n, origin);
-    add_fields(out, m_h, m_axis, m_col_of, cols);
-    out.keep_fields(m_fields);
+    const record_source src(*m_file, m_h.body_offset + m_next * m_point_size, m_point_size);
+    if (!m_first_pass_done) m_box.merge(scan_points(src, n, m_layout).box);
+    out = decode_points(src, n, m_layout, origin);
     m_next += n;
     return n;
   }
@@ -794,13 +864,9 @@ class pcd_stream final : public box_stream {
  private:
   std::unique_ptr<input_file> m_file;
   pcd_header m_h;
-  std::array<std::size_t, 3> m_axis;
-  std::vector<std::size_t> m_col_of;
-  std::size_t m_ncols;
-  field_selection m_fields;
+  point_layout m_layout;  // decoded as read_pcd() decodes binary records
   std::size_t m_point_size;
   std::uint64_t m_next = 0;
-  std::string m_buffer;
 };
 }  // namespace
 
@@ -830,12 +896,15 @@ std::string pcd_details(const pcd_read_info& info) {
 
 std::unique_ptr<point_stream> open_pcd_stream(const std::string& path, const field_selection& fields) {
   auto file = std::make_unique<input_file>(path);
-  pcd_header h = file->parse_header([&](const header_source& src) { return parse_header(src, path); });
-  const std::array<std::size_t, 3> axis = find_axes(h, path);
-  std::size_t ncols = 0;
-  std::vector<std::size_t> col_of = assign_columns(h, path, ncols);
+  std::array<std::size_t, 3> axis{};
+  pcd_header h = file->parse_header([&](const header_source& src) { return checked_header(src, path, axis); });
   if (h.format != pcd_format::binary) return nullptr;
-  return std::make_unique<pcd_stream>(std::move(file), std::move(h), axis, std::move(col_of), ncols, fields);
+  return std::make_unique<pcd_stream>(std::move(file), std::move(h), axis, fields);
+}
+
+point_cloud read_pcd_file(const std::string& path, pcd_read_info* info, bool keep_nonfinite,
+                          const field_selection& fields) {
+  return read_pcd_path(path, info, keep_nonfinite, fields);
 }
 }  // namespace detail
 

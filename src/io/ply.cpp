@@ -18,6 +18,7 @@
 #include <type_traits>
 #include <unordered_set>
 
+#include "records.hpp"
 #include "scalar_io.hpp"
 #include "stream_support.hpp"
 
@@ -393,28 +394,101 @@ std::size_t read_ascii_element(std::string_view data, std::size_t pos, const ele
 
 // ------------------------------------------------------------------ reader
 
-point_cloud parse_ply(std::string_view data, const std::string& file) {
+/// The layout of vertex records of fixed size: x, y, z and the selected
+/// scalar properties, in order.
+point_layout vertex_layout(const element_desc& v, const std::size_t axis[3], bool swap,
+                           const field_selection& selection) {
+  point_layout layout;
+  std::size_t offset = 0;
+  for (std::size_t j = 0; j < v.props.size(); ++j) {
+    const property_desc& p = v.props[j];
+    value_spec spec{p.name, offset, p.type, swap};
+    offset += size_of(p.type);
+    if (j == axis[0] || j == axis[1] || j == axis[2]) {
+      layout.xyz[j == axis[0] ? 0 : j == axis[1] ? 1 : 2] = spec;
+    } else if (selection.wants(p.name)) {
+      layout.columns.push_back(std::move(spec));
+    }
+  }
+  return layout;
+}
+
+/// The n fixed-size vertex records of `src` as a cloud (the origin of their
+/// finite box), in parallel chunks.
+point_cloud read_vertices(const record_source& src, std::uint64_t n, const point_layout& layout) {
+  const points_scan scan = scan_points(src, n, layout);
+  return decode_points(src, n, layout, choose_origin(scan.box.lo, scan.box.hi));
+}
+
+point_cloud parse_ply(std::string_view data, const std::string& file, const field_selection& selection) {
   const ply_header h = parse_header(header_source{data}, file);
   std::size_t axis[3] = {};
   const element_desc* vertex = &find_vertex(h, file, axis);
 
+  // Binary vertices of a fixed size are decoded in place, in parallel; the
+  // others as they are read.
+  const bool fixed = h.format != ply_format::ascii && record_size_of(*vertex).fixed;
   columns cols(vertex->props.size());
   const bool swap = swapped(h.format);
-  std::size_t pos = h.body_offset;
+  std::size_t pos = h.body_offset, vertex_pos = 0;
   for (const auto& e : h.elements) {
-    columns* target = &e == vertex ? &cols : nullptr;
+    if (&e == vertex) vertex_pos = pos;
+    columns* target = &e == vertex && !fixed ? &cols : nullptr;
     pos = h.format == ply_format::ascii ? read_ascii_element(data, pos, e, target, file)
                                         : read_binary_element(data, pos, e, swap, target, file);
+  }
+  if (fixed) {
+    const auto* records = reinterpret_cast<const unsigned char*>(data.data()) + vertex_pos;
+    return read_vertices(record_source(records, record_size_of(*vertex).min), vertex->count,
+                         vertex_layout(*vertex, axis, swap, selection));
   }
 
   const auto n = static_cast<std::size_t>(vertex->count);
   point_cloud cloud = cloud_at(cols[axis[0]].data(), cols[axis[1]].data(), cols[axis[2]].data(), n);
   for (std::size_t j = 0; j < vertex->props.size(); ++j) {
     const property_desc& p = vertex->props[j];
-    if (p.is_list || j == axis[0] || j == axis[1] || j == axis[2]) continue;
+    if (p.is_list || j == axis[0] || j == axis[1] || j == axis[2] || !selection.wants(p.name)) continue;
     cloud.add_field(p.name, p.type, std::move(cols[j]));
   }
   return cloud;
+}
+
+/// Skips element e at `pos` of `file` (checking it as parse_ply() does);
+/// returns the offset after it.
+std::uint64_t skip_element(input_file& file, std::uint64_t pos, const element_desc& e, bool swap) {
+  const record_size r = record_size_of(e);
+  if (e.count == 0 || r.min == 0) return pos;
+  check_count(e, r, file.size() - pos, file.path());
+  const auto n = static_cast<std::size_t>(e.count);
+  if (r.fixed) return pos + n * r.min;
+  sequential_reader reader(file, pos);
+  file_cursor in{reader};
+  for (std::size_t i = 0; i < n; ++i) read_record(in, e, swap, i, n, file.path(), [](std::size_t, double) {});
+  return reader.offset();
+}
+
+/// read_ply() of a file: binary vertices of a fixed size are read in
+/// parallel chunks straight from the file, the other elements only checked;
+/// anything else is read whole.
+point_cloud read_ply_path(const std::string& path, const field_selection& selection) {
+  if (!chunked_file(path)) return parse_ply(read_whole_file(path), path, selection);
+  input_file file(path);
+  const ply_header h = file.parse_header([&](const header_source& src) { return parse_header(src, path); });
+  std::size_t axis[3] = {};
+  const element_desc& vertex = find_vertex(h, path, axis);
+  const record_size r = record_size_of(vertex);
+  if (h.format == ply_format::ascii || !r.fixed) {
+    const big_bytes data = read_all(file);
+    return parse_ply(std::string_view(data.data(), data.size()), path, selection);
+  }
+  const bool swap = swapped(h.format);
+  std::uint64_t pos = h.body_offset, vertex_pos = 0;
+  for (const auto& e : h.elements) {
+    if (&e == &vertex) vertex_pos = pos;
+    pos = skip_element(file, pos, e, swap);
+  }
+  return read_vertices(record_source(file, vertex_pos, r.min), vertex.count,
+                       vertex_layout(vertex, axis, swap, selection));
 }
 
 // ------------------------------------------------------------------ writer
@@ -487,14 +561,19 @@ void write_vertices(std::ostream& out, const point_cloud& cloud, ply_format fmt,
   point_format pf;
   pf.text = fmt == ply_format::ascii;
   pf.swap = !pf.text && (fmt == ply_format::binary_little_endian) != host_little_endian();
-  write_points(out, cloud.size(), types, pf, [&](std::size_t c, std::size_t i0, std::size_t m, double* v) {
-    if (cols[c].values) {
-      copy_values(*cols[c].values, i0, m, v);
-    } else {
-      const auto k = static_cast<std::size_t>(cols[c].axis);
-      for (std::size_t i = 0; i < m; ++i) v[i] = origin[k] + static_cast<double>(xyz[3 * (i0 + i) + k]);
-    }
-  });
+  std::vector<const column*> direct;
+  for (const auto& c : cols) direct.push_back(c.values);
+  write_points(
+      out, cloud.size(), types, pf,
+      [&](std::size_t c, std::size_t i0, std::size_t m, double* v) {
+        if (cols[c].values) {
+          copy_values(*cols[c].values, i0, m, v);
+        } else {
+          const auto k = static_cast<std::size_t>(cols[c].axis);
+          for (std::size_t i = 0; i < m; ++i) v[i] = origin[k] + static_cast<double>(xyz[3 * (i0 + i) + k]);
+        }
+      },
+      direct);
 }
 
 /// Positions are written as double when the cloud has an origin.
@@ -527,17 +606,14 @@ void write_ply_unchecked(std::ostream& out, const point_cloud& cloud, ply_format
 
 }  // namespace
 
-point_cloud read_ply(const std::string& path) {
-  const std::string data = detail::read_whole_file(path);
-  return parse_ply(data, path);
-}
+point_cloud read_ply(const std::string& path) { return read_ply_path(path, {}); }
 
 point_cloud read_ply(std::istream& in, const std::string& name_for_errors) {
   std::string data;
   char buf[1 << 16];
   while (in.read(buf, sizeof(buf)) || in.gcount() > 0) data.append(buf, static_cast<std::size_t>(in.gcount()));
   if (in.bad()) throw io_error(name_for_errors + ": read error");
-  return parse_ply(data, name_for_errors);
+  return parse_ply(data, name_for_errors, {});
 }
 
 void write_ply(std::ostream& out, const point_cloud& cloud, ply_format fmt) {
@@ -559,13 +635,14 @@ class ply_stream final : public box_stream {
     std::copy_n(axis, 3, m_axis);
     std::uint64_t pos = m_h.body_offset;
     for (m_vertex = 0; m_h.elements[m_vertex].name != "vertex"; ++m_vertex)
-      pos = skip_element(pos, m_h.elements[m_vertex]);
+      pos = skip_element(*m_file, pos, m_h.elements[m_vertex], m_swap);
     const element_desc& v = m_h.elements[m_vertex];
     m_record = record_size_of(v);
     if (v.count != 0) check_count(v, m_record, m_file->size() - pos, m_file->path());
     m_start = pos;
     m_in.seek(m_start);
     m_cols.resize(v.props.size());
+    if (m_record.fixed) m_layout = vertex_layout(v, m_axis, m_swap, m_fields);
   }
 
   std::size_t read(std::size_t max, const std::array<double, 3>& origin, point_cloud& out) override {
@@ -579,29 +656,12 @@ class ply_stream final : public box_stream {
       }
       return 0;
     }
-    for (std::size_t j = 0; j < v.props.size(); ++j)
-      if (!v.props[j].is_list) m_cols[j].resize(n);
     if (m_record.fixed) {
-      m_buffer.resize(n * m_record.min);
-      m_file->read_exact(m_start + m_next * m_record.min, m_buffer.size(), m_buffer.data());
-      const auto* p = reinterpret_cast<const unsigned char*>(m_buffer.data());
-      std::size_t offset = 0;
-      for (std::size_t j = 0; j < v.props.size(); ++j) {
-        decode_column(p + offset, m_record.min, n, v.props[j].type, m_swap, m_cols[j].data());
-        offset += size_of(v.props[j].type);
-      }
+      const record_source src(*m_file, m_start + m_next * m_record.min, m_record.min);
+      if (!m_first_pass_done) m_box.merge(scan_points(src, n, m_layout).box);
+      out = decode_points(src, n, m_layout, origin);
     } else {
-      file_cursor in{m_in};
-      const auto count = static_cast<std::size_t>(v.count);
-      for (std::size_t i = 0; i < n; ++i)
-        read_record(in, v, m_swap, static_cast<std::size_t>(m_next) + i, count, m_file->path(),
-                    [&](std::size_t j, double value) { m_cols[j][i] = value; });
-    }
-    set_positions(out, m_cols[m_axis[0]].data(), m_cols[m_axis[1]].data(), m_cols[m_axis[2]].data(), n, origin);
-    for (std::size_t j = 0; j < v.props.size(); ++j) {
-      const property_desc& p = v.props[j];
-      if (p.is_list || j == m_axis[0] || j == m_axis[1] || j == m_axis[2] || !m_fields.wants(p.name)) continue;
-      out.add_field(p.name, p.type, m_cols[j]);
+      read_listed(n, origin, out);
     }
     m_next += n;
     return n;
@@ -614,23 +674,29 @@ class ply_stream final : public box_stream {
   std::uint64_t declared_points() const noexcept override { return m_h.elements[m_vertex].count; }
 
  private:
-  /// Skips element e at `pos` (checking it as read_ply() does); returns the offset after it.
-  std::uint64_t skip_element(std::uint64_t pos, const element_desc& e) {
-    const record_size r = record_size_of(e);
-    if (e.count == 0 || r.min == 0) return pos;
-    check_count(e, r, m_file->size() - pos, m_file->path());
-    const auto n = static_cast<std::size_t>(e.count);
-    if (r.fixed) return pos + n * r.min;
-    sequential_reader reader(*m_file, pos);
-    file_cursor in{reader};
-    for (std::size_t i = 0; i < n; ++i) read_record(in, e, m_swap, i, n, m_file->path(), [](std::size_t, double) {});
-    return reader.offset();
+  /// The next n vertices, records with lists: read front to back.
+  void read_listed(std::size_t n, const std::array<double, 3>& origin, point_cloud& out) {
+    const element_desc& v = m_h.elements[m_vertex];
+    for (std::size_t j = 0; j < v.props.size(); ++j)
+      if (!v.props[j].is_list) m_cols[j].resize(n);
+    file_cursor in{m_in};
+    const auto count = static_cast<std::size_t>(v.count);
+    for (std::size_t i = 0; i < n; ++i)
+      read_record(in, v, m_swap, static_cast<std::size_t>(m_next) + i, count, m_file->path(),
+                  [&](std::size_t j, double value) { m_cols[j][i] = value; });
+    set_positions(out, m_cols[m_axis[0]].data(), m_cols[m_axis[1]].data(), m_cols[m_axis[2]].data(), n, origin);
+    for (std::size_t j = 0; j < v.props.size(); ++j) {
+      const property_desc& p = v.props[j];
+      if (p.is_list || j == m_axis[0] || j == m_axis[1] || j == m_axis[2] || !m_fields.wants(p.name)) continue;
+      out.add_field(p.name, p.type, m_cols[j]);
+    }
   }
   /// After the vertices: the elements that follow them must be whole too.
   void check_following_elements() {
     const element_desc& v = m_h.elements[m_vertex];
     std::uint64_t pos = m_record.fixed ? m_start + v.count * m_record.min : m_in.offset();
-    for (std::size_t e = m_vertex + 1; e < m_h.elements.size(); ++e) pos = skip_element(pos, m_h.elements[e]);
+    for (std::size_t e = m_vertex + 1; e < m_h.elements.size(); ++e)
+      pos = skip_element(*m_file, pos, m_h.elements[e], m_swap);
   }
 
   std::unique_ptr<input_file> m_file;
@@ -642,8 +708,8 @@ class ply_stream final : public box_stream {
   std::size_t m_vertex = 0;  // the vertex element's index
   record_size m_record;      // of a vertex
   std::uint64_t m_start = 0, m_next = 0;
-  std::string m_buffer;
-  columns m_cols;  // the chunk's values, by vertex property
+  point_layout m_layout;  // fixed-size records: decoded as read_ply() decodes them
+  columns m_cols;         // records with lists: the chunk's values, by vertex property
 };
 }  // namespace
 
@@ -661,6 +727,10 @@ class ply_piece_writer final : public piece_writer {
   }
 };
 }  // namespace
+
+point_cloud read_ply_file(const std::string& path, const field_selection& fields) {
+  return read_ply_path(path, fields);
+}
 
 std::unique_ptr<piece_writer> ply_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n) {
   return std::make_unique<ply_piece_writer>(out, layout, n);

@@ -21,6 +21,7 @@
 
 #include "ced/cloud.hpp"
 #include "ced/io/output_file.hpp"
+#include "core/parallel.hpp"
 #include "core/text.hpp"
 
 namespace ced::io::detail {
@@ -28,6 +29,9 @@ namespace ced::io::detail {
 /// The whole file at `path`; io_error naming it when it is a directory,
 /// cannot be opened or cannot be read. (Defined in output_file.cpp.)
 std::string read_whole_file(const std::string& path);
+
+/// lzf_decompress() into the out_size bytes at `out` (ced/io/lzf.hpp; lzf.cpp).
+void lzf_decompress_into(std::string_view in, char* out, std::size_t out_size, const std::string& name_for_errors);
 
 /// The most values per point, x, y and z included, that the PLY, PCD and CSV
 /// readers accept: the properties of a PLY element, the values of a PCD
@@ -168,6 +172,43 @@ void encode_values(scalar_type t, bool swap, unsigned char* p, std::size_t strid
   });
 }
 
+/// `f` as a conversion to double and back leaves it: a signalling NaN
+/// quieted. (Compilers assume there are no signalling NaNs and fold the
+/// round trip itself away.)
+inline float through_double(float f) noexcept {
+  if (f == f) return f;
+  std::uint32_t bits = 0;
+  std::memcpy(&bits, &f, 4);
+  bits |= 0x00400000u;  // the quiet bit
+  std::memcpy(&f, &bits, 4);
+  return f;
+}
+
+/// What encode_values() stores for the m values of `values` from i0 on,
+/// encoded as their own type t, stored straight from the column: true when
+/// it could (the column's type is t, not a 64-bit integer, which a double
+/// may round), false otherwise, nothing stored. Floats go through double as
+/// there (a signalling NaN is quieted).
+inline bool can_encode_direct(const column* values, scalar_type t) noexcept {
+  return values && values->type() == t && t != scalar_type::int64 && t != scalar_type::uint64;
+}
+inline bool encode_direct(const column& values, std::size_t i0, std::size_t m, scalar_type t, bool swap,
+                          unsigned char* p, std::size_t stride) {
+  if (!can_encode_direct(&values, t)) return false;
+  values.visit([&](const auto* src, std::size_t) {
+    using T = std::remove_const_t<std::remove_pointer_t<decltype(src)>>;
+    const auto value = [&](std::size_t i) {
+      if constexpr (std::is_same_v<T, float>) return through_double(src[i0 + i]);
+      return src[i0 + i];
+    };
+    if (swap)
+      for (std::size_t i = 0; i < m; ++i) store<T, true>(p + i * stride, value(i));
+    else
+      for (std::size_t i = 0; i < m; ++i) store<T, false>(p + i * stride, value(i));
+  });
+  return true;
+}
+
 /// Writes at p the shortest text that reads back as convert<T>(v), T the type
 /// that stores t; returns the end of the text.
 inline char* format_value(char* p, char* end, double v, scalar_type t) noexcept {
@@ -195,46 +236,80 @@ struct point_format {
   bool swap = false;
 };
 
-/// Writes n points whose value c has type types[c], in chunks:
-/// fill(c, i0, m, v) sets v[i] to value c of point i0 + i, for i < m.
-template <class Fill>
-void write_points(std::ostream& out, std::size_t n, const std::vector<scalar_type>& types, point_format fmt,
-                  Fill&& fill) {
+/// Writes `chunks` pieces in order, the bytes of piece k made by
+/// encode(k, bytes) (`bytes` to be overwritten): batches of pieces are made in
+/// parallel, then written one after the other, so the output is the same for
+/// any number of threads. `encode` must only read what it shares.
+template <class Encode>
+void write_chunks(std::ostream& out, std::size_t chunks, Encode&& encode) {
+  constexpr std::size_t batch = 32;
+  std::vector<std::string> bytes(std::min(batch, chunks));
+  for (std::size_t b0 = 0; b0 < chunks; b0 += batch) {
+    const std::size_t nb = std::min(batch, chunks - b0);
+    ced::detail::parallel_for(nb, 0, 1, [&](std::size_t b, std::size_t e) {
+      for (std::size_t k = b; k < e; ++k) encode(b0 + k, bytes[k]);
+    });
+    for (std::size_t k = 0; k < nb; ++k) out.write(bytes[k].data(), static_cast<std::streamsize>(bytes[k].size()));
+  }
+}
+
+/// The text or binary bytes of m points (values column-major: value c of
+/// point i at vals[c * stride + i]; in binary, value c from direct[c] when
+/// encode_direct() can: points i0 to i0 + m - 1) into `buf`; write_points()
+/// writes them.
+inline void encode_points(const std::vector<scalar_type>& types, point_format fmt, const double* vals,
+                          std::size_t stride, const std::vector<const column*>& direct, std::size_t i0, std::size_t m,
+                          std::string& buf) {
   const std::size_t nc = types.size();
+  if (fmt.text) {
+    buf.resize(m * nc * 32);
+    char* p = buf.data();
+    char* const end = p + buf.size();
+    for (std::size_t i = 0; i < m; ++i)
+      for (std::size_t c = 0; c < nc; ++c) {
+        p = format_value(p, end, vals[c * stride + i], types[c]);
+        *p++ = c + 1 == nc ? '\n' : fmt.separator;
+      }
+    buf.resize(static_cast<std::size_t>(p - buf.data()));
+    return;
+  }
   std::size_t record = 0;
   for (scalar_type t : types) record += size_of(t);
+  buf.resize(m * record);
+  auto* base = reinterpret_cast<unsigned char*>(buf.data());
+  std::size_t offset = 0;
+  for (std::size_t c = 0; c < nc; ++c) {
+    const double* v = vals + c * stride;
+    if (direct.empty() || !direct[c] || !encode_direct(*direct[c], i0, m, types[c], fmt.swap, base + offset, record))
+      encode_values(types[c], fmt.swap, base + offset, record, m, [v](std::size_t i) { return v[i]; });
+    offset += size_of(types[c]);
+  }
+}
+
+/// Writes n points whose value c has type types[c], in chunks encoded in
+/// parallel (write_chunks()): fill(c, i0, m, v) sets v[i] to value c of point
+/// i0 + i, for i < m, and may be called from several threads at once. In
+/// binary, value c is taken from the column direct[c] instead when it is set
+/// and encode_direct() can (the same bytes, faster).
+template <class Fill>
+void write_points(std::ostream& out, std::size_t n, const std::vector<scalar_type>& types, point_format fmt,
+                  Fill&& fill, const std::vector<const column*>& direct = {}) {
+  const std::size_t nc = types.size();
   // Up to 4096 points a chunk, fewer when there are many values per point:
-  // the buffer holds at most ~2^20 values (8 MiB), not 4096 x 65536 (2 GiB).
-  // The bytes written do not depend on the chunk size.
+  // a chunk's values take at most ~2^20 doubles (8 MiB), not 4096 x 65536
+  // (2 GiB). The bytes written do not depend on the chunk size.
   const std::size_t chunk =
       std::clamp<std::size_t>(std::min<std::size_t>(n, (std::size_t{1} << 20) / std::max<std::size_t>(nc, 1)), 1, 4096);
-  std::vector<double> vals(chunk * nc);  // column-major: value c of point i0 + i at vals[c * chunk + i]
-  std::string buf;
-  for (std::size_t i0 = 0; i0 < n; i0 += chunk) {
-    const std::size_t m = std::min(chunk, n - i0);
-    for (std::size_t c = 0; c < nc; ++c) fill(c, i0, m, vals.data() + c * chunk);
-    if (fmt.text) {
-      buf.resize(m * nc * 32);
-      char* p = buf.data();
-      char* const end = p + buf.size();
-      for (std::size_t i = 0; i < m; ++i)
-        for (std::size_t c = 0; c < nc; ++c) {
-          p = format_value(p, end, vals[c * chunk + i], types[c]);
-          *p++ = c + 1 == nc ? '\n' : fmt.separator;
-        }
-      out.write(buf.data(), p - buf.data());
-    } else {
-      buf.resize(m * record);
-      auto* base = reinterpret_cast<unsigned char*>(buf.data());
-      std::size_t offset = 0;
-      for (std::size_t c = 0; c < nc; ++c) {
-        const double* v = vals.data() + c * chunk;
-        encode_values(types[c], fmt.swap, base + offset, record, m, [v](std::size_t i) { return v[i]; });
-        offset += size_of(types[c]);
-      }
-      out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
-    }
-  }
+  const std::vector<const column*> none;
+  write_chunks(out, (n + chunk - 1) / chunk, [&](std::size_t k, std::string& buf) {
+    thread_local std::vector<double> vals;  // column-major: value c of point i0 + i at vals[c * chunk + i]
+    vals.resize(chunk * nc);
+    const std::size_t i0 = k * chunk, m = std::min(chunk, n - i0);
+    const std::vector<const column*>& from = fmt.text ? none : direct;
+    for (std::size_t c = 0; c < nc; ++c)
+      if (from.empty() || !can_encode_direct(from[c], types[c])) fill(c, i0, m, vals.data() + c * chunk);
+    encode_points(types, fmt, vals.data(), chunk, from, i0, m, buf);
+  });
 }
 
 /// Throws std::invalid_argument unless field f has a value for each of n points.

@@ -4,6 +4,8 @@
 // is not a regular file) are read whole and served in chunks.
 #include "ced/io/stream.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
@@ -32,8 +34,23 @@ void input_file::read_exact(std::uint64_t offset, std::size_t n, char* out) {
   if (n == 0) return;
   if (offset > m_size || n > m_size - offset || fseeko(m_file.get(), static_cast<off_t>(offset), SEEK_SET) != 0 ||
       std::fread(out, 1, n, m_file.get()) != n)
-    throw io_error(m_path, "cannot read " + std::to_string(n) + " bytes at byte " + std::to_string(offset) +
-                               " (the file is unreadable or was truncated while being read)");
+    fail_read(offset, n);
+}
+
+void input_file::read_at(std::uint64_t offset, std::size_t n, char* out) const {
+  if (offset > m_size || n > m_size - offset) fail_read(offset, n);
+  const int fd = fileno(m_file.get());
+  for (std::size_t done = 0; done < n;) {
+    const ssize_t got = pread(fd, out + done, n - done, static_cast<off_t>(offset + done));
+    if (got < 0 && errno == EINTR) continue;
+    if (got <= 0) fail_read(offset, n);
+    done += static_cast<std::size_t>(got);
+  }
+}
+
+void input_file::fail_read(std::uint64_t offset, std::size_t n) const {
+  throw io_error(m_path, "cannot read " + std::to_string(n) + " bytes at byte " + std::to_string(offset) +
+                             " (the file is unreadable or was truncated while being read)");
 }
 
 void input_file::read_some(std::uint64_t offset, std::size_t n, std::string& buf) {

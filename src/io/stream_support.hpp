@@ -73,6 +73,8 @@ class input_file {
   void read_some(std::uint64_t offset, std::size_t n, std::string& buf);
   /// Exactly `n` bytes at `offset` into `out`; io_error naming the file otherwise.
   void read_exact(std::uint64_t offset, std::size_t n, char* out);
+  /// The same without moving the file's position: several threads may call it at once.
+  void read_at(std::uint64_t offset, std::size_t n, char* out) const;
   /// Whether the file holds `s` at or after byte `from` (read in blocks).
   bool contains(std::string_view s, std::uint64_t from);
   /// Parses the header at the start of the file with `parse(const
@@ -94,6 +96,7 @@ class input_file {
   }
 
  private:
+  [[noreturn]] void fail_read(std::uint64_t offset, std::size_t n) const;
   struct closer {
     void operator()(std::FILE* f) const noexcept { std::fclose(f); }
   };
@@ -145,6 +148,16 @@ struct finite_box {
     }
     any = true;
   }
+  /// Adds the points of another box (the boxes of the chunks of a file,
+  /// merged in order, are the box of the file).
+  void merge(const finite_box& o) noexcept {
+    if (!o.any) return;
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = any ? std::min(lo[k], o.lo[k]) : o.lo[k];
+      hi[k] = any ? std::max(hi[k], o.hi[k]) : o.hi[k];
+    }
+    any = true;
+  }
 };
 
 /// What the streaming readers of PLY, PCD and CSV share: the first pass
@@ -175,6 +188,11 @@ class box_stream : public point_stream {
 std::string pcd_details(const pcd_read_info& info);
 /// read_report::details of a LAS file ("LAS 1.4, point format 6").
 std::string las_details(const las_read_info& info);
+
+/// read_ply() and read_pcd() decoding only the selected fields (read_cloud()).
+point_cloud read_ply_file(const std::string& path, const field_selection& fields);
+point_cloud read_pcd_file(const std::string& path, pcd_read_info* info, bool keep_nonfinite,
+                          const field_selection& fields);
 
 /// Streaming readers of the other formats (defined with their whole-file
 /// readers). nullptr for the encodings that are not streamed (PLY ascii;
