@@ -127,9 +127,8 @@ TEST(TiledParts, APartOfAnotherFormatVersionIsRefused) {
   ASSERT_NO_THROW(ced::read_part(w.path, w.plan));
   // The version bumped (and its last byte corrupted): named with this ced's.
   using bump = std::pair<std::string, std::string>;  // the 4 bytes, the version they say
-  for (const auto& [bytes, version] :
-       {bump{std::string("\x04\0\0\0", 4), "4"}, bump{std::string("\x02\0\0\0", 4), "2"},
-        bump{std::string("\x03\0\0\x01", 4), "16777219"}}) {
+  for (const auto& [bytes, version] : {bump{std::string("\x04\0\0\0", 4), "4"}, bump{std::string("\x02\0\0\0", 4), "2"},
+                                       bump{std::string("\x03\0\0\x01", 4), "16777219"}}) {
     std::string bumped = b;
     bumped.replace(8, 4, bytes);
     const std::string path = ced_test::temp_file("parts_version_" + version + ".part");

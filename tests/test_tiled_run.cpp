@@ -264,3 +264,27 @@ TEST(TiledRun, AnInputChangedBeforeTheMergeIsRefused) {
   }
   ced::remove_work_dir(o.work_dir);
 }
+
+TEST(TiledRun, ATruncatedOrOversizedTileCacheIsRefused) {
+  const ced::tiled_request r = room_request(3000, 16, "cache_cut.las", 0.2);
+  ced::tiled_run_options o;
+  o.work_dir = ced_test::temp_file("cache_cut_work");
+  const ced::tile_plan plan = ced::prepare_tiled(r, o);
+  const std::uint64_t id = plan.tiles.front().id;
+  const std::string cache =
+      (std::filesystem::path(o.work_dir) / "cache" / ("t" + std::to_string(id) + ".bin")).string();
+  const std::string bytes = ced_test::read_bytes(cache);
+  for (const auto& [changed, says] :
+       {std::pair<std::string, std::string>{bytes.substr(0, bytes.size() - 3), "truncated or corrupt tile cache"},
+        {bytes.substr(0, 13), "truncated or corrupt tile cache"},
+        {bytes + std::string(5, '\x01'), "the tile cache holds more than the tile's points"}}) {
+    ced_test::write_bytes(cache, changed);
+    try {
+      ced::detect_cached_tile(plan, o.work_dir, id);
+      ADD_FAILURE() << "a tile cache of " << changed.size() << " bytes was read";
+    } catch (const ced::io::io_error& e) {
+      EXPECT_NE(std::string(e.what()).find(cache + ": " + says), std::string::npos) << e.what();
+    }
+  }
+  ced::remove_work_dir(o.work_dir);
+}

@@ -137,7 +137,9 @@ void write_part(const std::string& path, const tile_plan& plan, const tile_part&
 /// of another format version (written by another ced version).
 tile_part read_part(const std::string& path, const tile_plan& plan);
 
-/// Every tile's part merged: tile_part of the whole cloud. Throws io_error
+/// Every tile's part merged: tile_part of the whole cloud (with a plan's
+/// tile_fields, the keypoints have only those: merge_part_files() and
+/// run_tiled() fetch the whole records from the input). Throws io_error
 /// naming the missing tiles when a tile that owns points has no part, for a
 /// tile given twice, and for a part that is not of this plan or not whole
 /// (its digest, its arrays' sizes, indices out of range, out of order,
@@ -156,7 +158,9 @@ struct merge_sink {
 
 /// merge_parts() of part files (write_part), streamed into `sink`: a k-way
 /// merge that holds about `memory` bytes, however many keypoints there are.
-/// The same checks and errors as read_part() and merge_parts().
+/// The same checks and errors as read_part() and merge_parts(). With a
+/// plan's tile_fields, each chunk's keypoints get every field of the input
+/// by one more pass over it (io_error when it changed since the plan).
 void merge_part_files(const tile_plan& plan, const std::vector<std::string>& paths, const merge_sink& sink,
                       std::size_t memory = std::size_t(64) << 20);
 

@@ -12,15 +12,8 @@
 namespace ced {
 
 namespace {
-/// floor((x - lo) / size), clamped to the grid. `inv` is 1 / size: the
-/// product is within a few ulps of the quotient, so its floor is the
-/// quotient's unless it lies within 1e-6 of a whole number (below 2^24,
-/// where an ulp is at most 2^-28): only then is the division done (a point
-/// of a tile cache is located for every tile, and a division costs).
-std::int64_t cell_index(double x, double lo, double size, double inv, std::uint32_t dims) noexcept {
-  const double q = (x - lo) * inv;
-  double c = std::floor(q);
-  if (!(q - c > 1e-6 && q - c < 1 - 1e-6 && std::fabs(q) < 16777216.0)) c = std::floor((x - lo) / size);
+std::int64_t cell_index(double x, double lo, double size, std::uint32_t dims) noexcept {
+  const double c = std::floor((x - lo) / size);
   if (!(c > 0)) return 0;  // also NaN
   return static_cast<std::int64_t>(std::min(c, double(dims - 1)));
 }
@@ -32,19 +25,17 @@ std::array<std::uint32_t, 3> tile_grid::coords(std::uint64_t t) const noexcept {
 }
 
 void tile_grid::locate(const float p[3], std::int64_t own[3], std::int64_t c0[3], std::int64_t c1[3]) const noexcept {
-  const double inv = 1.0 / size;
   for (std::size_t k = 0; k < 3; ++k) {
-    own[k] = cell_index(double(p[k]), lo[k], size, inv, dims[k]);
-    c0[k] = cell_index(double(p[k]) - halo, lo[k], size, inv, dims[k]);
-    c1[k] = cell_index(double(p[k]) + halo, lo[k], size, inv, dims[k]);
+    own[k] = cell_index(double(p[k]), lo[k], size, dims[k]);
+    c0[k] = cell_index(double(p[k]) - halo, lo[k], size, dims[k]);
+    c1[k] = cell_index(double(p[k]) + halo, lo[k], size, dims[k]);
   }
 }
 
 std::uint64_t tile_grid::tile_of(const float p[3]) const noexcept {
   std::uint64_t c[3];
-  const double inv = 1.0 / size;
   for (int k = 0; k < 3; ++k)
-    c[k] = std::uint64_t(cell_index(double(p[k]), lo[std::size_t(k)], size, inv, dims[std::size_t(k)]));
+    c[k] = std::uint64_t(cell_index(double(p[k]), lo[std::size_t(k)], size, dims[std::size_t(k)]));
   return (c[2] * dims[1] + c[1]) * dims[0] + c[0];
 }
 

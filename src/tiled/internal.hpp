@@ -144,10 +144,26 @@ void check_tiled_header(const char* p, std::size_t n, std::uint64_t size, const 
 /// A value of w bytes (1, 2, 4 or 8) from `from` to `to`, turned from host
 /// to little-endian byte order or back (the same swap).
 inline void copy_le(char* to, const char* from, std::size_t w) noexcept {
-  if (io::detail::host_little_endian())
-    std::memcpy(to, from, w);
-  else
+  if (!io::detail::host_little_endian()) {
     std::reverse_copy(from, from + w, to);
+    return;
+  }
+  switch (w) {  // copies of a constant size, not calls to memcpy: records hold a few small values
+    case 1:
+      *to = *from;
+      break;
+    case 2:
+      std::memcpy(to, from, 2);
+      break;
+    case 4:
+      std::memcpy(to, from, 4);
+      break;
+    case 8:
+      std::memcpy(to, from, 8);
+      break;
+    default:
+      std::memcpy(to, from, w);
+  }
 }
 template <class T>
 void append_le(std::string& out, T v) {
@@ -224,14 +240,27 @@ struct cache_coder {
     return f;
   }
   static char* put(char* p, std::uint64_t v) noexcept {
+    if (v < 0x80) {  // most deltas: one or two bytes
+      *p = char(v);
+      return p + 1;
+    }
+    if (v < 0x4000) {
+      p[0] = char((v & 0x7f) | 0x80);
+      p[1] = char(v >> 7);
+      return p + 2;
+    }
     for (; v >= 0x80; v >>= 7) *p++ = char((v & 0x7f) | 0x80);
     *p++ = char(v);
     return p;
   }
-  /// Appends point i (positions `xyz`, fields `fields`) with its indices.
+  /// Appends point i (positions `xyz`, fields `fields` of `field_width`
+  /// bytes in all) with its indices.
   void append(std::string& out, std::uint64_t index, std::uint64_t file_index, const float* xyz,
-              const field_bytes& fields, std::size_t i) {
-    char head[5 * 10], *p = head;
+              const field_bytes& fields, std::size_t field_width, std::size_t i) {
+    char small[128];
+    std::string large;
+    char* const rec = 5 * 10 + field_width <= sizeof small ? small : (large.resize(5 * 10 + field_width), large.data());
+    char* p = rec;
     const std::uint64_t g = file_index - index;
     p = put(p, ((index - next_index) << 1) | (g != gap ? 1 : 0));
     if (g != gap) p = put(p, g - gap);
@@ -242,18 +271,11 @@ struct cache_coder {
       at[k] = o;
       p = put(p, (std::uint64_t(d) << 1) ^ std::uint64_t(d >> 63));
     }
-    std::size_t n = std::size_t(p - head);
-    for (const auto& f : fields) n += f.second;
-    const std::size_t at0 = out.size();
-    if (out.capacity() < at0 + n) out.reserve(std::max(2 * out.capacity(), at0 + n));
-    out.resize(at0 + n);
-    char* q = out.data() + at0;
-    std::memcpy(q, head, std::size_t(p - head));
-    q += p - head;
     for (const auto& [bytes, w] : fields) {
-      copy_le(q, reinterpret_cast<const char*>(bytes + w * i), w);
-      q += w;
+      copy_le(p, reinterpret_cast<const char*>(bytes + w * i), w);
+      p += w;
     }
+    out.append(rec, std::size_t(p - rec));
   }
 };
 

@@ -135,6 +135,17 @@ struct cache_reader {
   const std::string& name;
   [[noreturn]] void truncated() const { throw io::io_error(name, "truncated or corrupt tile cache"); }
   std::uint64_t get() {
+    if (end - p >= 2) {  // most values: one or two bytes
+      const auto b0 = static_cast<unsigned char>(p[0]), b1 = static_cast<unsigned char>(p[1]);
+      if (!(b0 & 0x80)) {
+        p += 1;
+        return b0;
+      }
+      if (!(b1 & 0x80)) {
+        p += 2;
+        return std::uint64_t(b0 & 0x7f) | std::uint64_t(b1) << 7;
+      }
+    }
     std::uint64_t v = 0;
     for (unsigned shift = 0; shift < 64; shift += 7) {
       if (p == end) truncated();

@@ -182,7 +182,8 @@ struct cache_filler {
       return (std::uint64_t(z) * g.dims[1] + std::uint64_t(y)) * g.dims[0] + std::uint64_t(x);
     };
     std::uint64_t fi = file_index, idx = index;
-    std::size_t added = 0;
+    std::size_t added = 0, width = 0;
+    for (const auto& f : fields) width += f.second;
     for (std::size_t i = 0; i < c.size(); ++i, ++fi) {
       const located& w = where[i];
       if (w.c0[0] < 0) continue;
@@ -195,7 +196,7 @@ struct cache_filler {
             if (t % shards != k || !owners.owns(t)) continue;
             tile_buffer& tb = writer.buffer(k, t);
             const std::size_t before = tb.b.size();
-            tb.coder.append(tb.b, idx, fi, c.positions().data(), fields, i);
+            tb.coder.append(tb.b, idx, fi, c.positions().data(), fields, width, i);
             added += tb.b.size() - before;
           }
       ++idx;
