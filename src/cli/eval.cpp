@@ -279,6 +279,9 @@ int run_eval_pairs(const eval_options& o, const std::vector<eval_detector>& dete
   if (!o.csv.empty()) csv = std::make_unique<ced::io::atomic_output_file>(o.csv);
   const double voxel = o.voxel < 0 ? 0.01 : o.voxel;
   const std::vector<pair_input> pairs = real_pairs(o, voxel);
+  for (const pair_input& in : pairs)  // before any output
+    if (in.p.empty() || in.q.empty())
+      throw ced::io::io_error(in.name + ": a cloud of the pair has no points (after --depth-max and --voxel)");
   if (csv) csv->stream() << pair_csv_header;
   std::printf("%-28s %-10s %7s %7s %8s %8s %8s %6s %8s\n", "detector", "pair", "kp(P)", "overlap", "repeated",
               "rel.rep.", "random", "lift", "ms");
