@@ -5,8 +5,6 @@
 #include "ced/detect.hpp"
 
 #include <algorithm>
-#include <cmath>
-#include <limits>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -15,6 +13,7 @@
 #include "core/candidates.hpp"
 #include "core/detection.hpp"
 #include "core/parallel.hpp"
+#include "core/ranking.hpp"
 #include "core/raw_vector.hpp"
 #include "core/validate.hpp"
 
@@ -75,10 +74,7 @@ detection_result detection_context::finish() {
 }  // namespace detail
 
 float keypoint_score(const detection_result& result, std::uint32_t i) noexcept {
-  // As candidates_and_scores() computes it: the first column, then times each next.
-  float score = result.saliency.empty() ? 0.0f : result.saliency[0][i];
-  for (std::size_t m = 1; m < result.saliency.size(); ++m) score *= result.saliency[m][i];
-  return score;
+  return detail::score_of(result.saliency.size(), [&](std::size_t m) { return result.saliency[m][i]; });
 }
 
 std::vector<std::uint32_t> strongest(const std::vector<std::uint32_t>& keypoints, const std::vector<float>& scores,
@@ -87,23 +83,14 @@ std::vector<std::uint32_t> strongest(const std::vector<std::uint32_t>& keypoints
     throw std::invalid_argument("strongest: one score per keypoint expected (" + std::to_string(scores.size()) +
                                 " scores, " + std::to_string(keypoints.size()) + " keypoints)");
   std::vector<std::uint32_t> kept = keypoints;
-  if (n == 0 || n >= keypoints.size()) {
-    std::sort(kept.begin(), kept.end());
-    return kept;
+  if (n != 0 && n < keypoints.size()) {
+    std::vector<detail::rank_key> keys(keypoints.size());
+    for (std::size_t q = 0; q < keys.size(); ++q) keys[q] = {scores[q], keypoints[q]};
+    // Keys that tie are the same index twice: either copy gives the same list.
+    std::nth_element(keys.begin(), keys.begin() + std::ptrdiff_t(n), keys.end(), detail::stronger);
+    kept.resize(n);
+    for (std::size_t q = 0; q < n; ++q) kept[q] = static_cast<std::uint32_t>(keys[q].index);
   }
-  std::vector<std::size_t> order(keypoints.size());
-  for (std::size_t q = 0; q < order.size(); ++q) order[q] = q;
-  auto key = [&](std::size_t q) { return std::isnan(scores[q]) ? -std::numeric_limits<float>::infinity() : scores[q]; };
-  // A strict total order: higher score first, then the smaller index (then the position, for repeated indices).
-  auto before = [&](std::size_t a, std::size_t b) {
-    const float ka = key(a), kb = key(b);
-    if (ka != kb) return ka > kb;
-    if (keypoints[a] != keypoints[b]) return keypoints[a] < keypoints[b];
-    return a < b;
-  };
-  std::nth_element(order.begin(), order.begin() + std::ptrdiff_t(n), order.end(), before);
-  kept.resize(n);
-  for (std::size_t q = 0; q < n; ++q) kept[q] = keypoints[order[q]];
   std::sort(kept.begin(), kept.end());
   return kept;
 }

@@ -3,7 +3,6 @@
 // in memory (merge_parts) or as a k-way merge of part files streamed into a
 // sink (merge_part_files). Each keypoint is checked as it is taken.
 #include <algorithm>
-#include <cmath>
 #include <functional>
 #include <limits>
 #include <map>
@@ -13,11 +12,15 @@
 #include <utility>
 #include <vector>
 
+#include "core/ranking.hpp"
 #include "tiled/internal.hpp"
 
 namespace ced {
 
 using namespace tiled_detail;
+using detail::rank_key;
+using detail::score_of;
+using detail::stronger;
 
 namespace {
 
@@ -99,27 +102,10 @@ void check_part(const tile_plan& plan, const tile_part& out, const tile_part& p)
     check_keypoint(plan, where, p.tile, p.index[j], p.file_index[j], p.keypoints.position(j), last);
 }
 
-/// How the merge ranks keypoints for plan.request.params.max_keypoints:
-/// the score (the product of the saliencies, in float, in modality order, as
-/// detection computes it), then the index; detect_params::max_keypoints and
-/// ced::strongest() choose the same.
-struct rank_key {
-  float score;
-  std::uint64_t index;
-};
-/// Whether `a` ranks before `b`: a higher score (NaN lowest), then the smaller index.
-bool stronger(const rank_key& a, const rank_key& b) {
-  const float inf = std::numeric_limits<float>::infinity();
-  const float sa = std::isnan(a.score) ? -inf : a.score, sb = std::isnan(b.score) ? -inf : b.score;
-  return sa != sb ? sa > sb : a.index < b.index;
-}
-
 /// The key of a part record (its index first, its m saliencies last).
 rank_key key_of_record(const char* r, std::size_t record_bytes, std::size_t m) {
   const char* s = r + record_bytes - 4 * m;
-  float score = load_le<float>(s);
-  for (std::size_t k = 1; k < m; ++k) score *= load_le<float>(s + 4 * k);
-  return {score, load_le<std::uint64_t>(r)};
+  return {score_of(m, [&](std::size_t k) { return load_le<float>(s + 4 * k); }), load_le<std::uint64_t>(r)};
 }
 
 /// The weakest of the `n` strongest keypoints of the part files (one pass
@@ -127,8 +113,7 @@ rank_key key_of_record(const char* r, std::size_t record_bytes, std::size_t m) {
 /// when it does not rank after it. Nothing when there are at most n.
 std::optional<rank_key> strongest_cutoff(const tile_plan& plan, const std::vector<std::string>& paths,
                                          const std::string& digest, std::size_t n, std::size_t buffer) {
-  auto weaker_first = [](const rank_key& a, const rank_key& b) { return stronger(a, b); };
-  std::priority_queue<rank_key, std::vector<rank_key>, decltype(weaker_first)> kept(weaker_first);
+  std::priority_queue<rank_key, std::vector<rank_key>, decltype(&stronger)> kept(&stronger);  // top: the weakest
   std::uint64_t total = 0;
   for (const auto& path : paths) {
     part_reader reader(path, plan, digest);
@@ -250,9 +235,7 @@ tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts) {
     std::vector<rank_key> keys(order.size());
     for (std::size_t q = 0; q < order.size(); ++q) {
       const auto [i, j] = order[q].second;
-      float score = parts[i].saliency[0][j];
-      for (std::size_t k = 1; k < m; ++k) score *= parts[i].saliency[k][j];
-      keys[q] = {score, order[q].first};
+      keys[q] = {score_of(m, [&](std::size_t k) { return parts[i].saliency[k][j]; }), order[q].first};
     }
     std::vector<rank_key> sorted = keys;
     std::nth_element(sorted.begin(), sorted.begin() + std::ptrdiff_t(limit - 1), sorted.end(), stronger);
