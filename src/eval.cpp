@@ -45,38 +45,6 @@ point_cloud transform(const point_cloud& cloud, const rigid_transform& t, double
   return out;
 }
 
-repeatability measure(const point_cloud& p, const std::vector<std::uint32_t>& kp, const point_cloud& q,
-                      const std::vector<std::uint32_t>& kq, const rigid_transform& t, double epsilon) {
-  repeatability r;
-  r.source_keypoints = kp.size();
-  r.target_keypoints = kq.size();
-  if (kp.empty() || kq.empty()) return r;
-  std::vector<float> xyz;
-  for (std::uint32_t j : kq) {
-    if (j >= q.size()) throw std::out_of_range("target keypoint index out of range");
-    xyz.insert(xyz.end(), q.position(j), q.position(j) + 3);
-  }
-  const neighbor_index index(xyz.data(), kq.size(), 8);
-  std::vector<std::uint32_t> hits;
-  for (std::uint32_t i : kp) {
-    if (i >= p.size()) throw std::out_of_range("source keypoint index out of range");
-    const float* s = p.position(i);
-    const auto m = t.apply({s[0], s[1], s[2]});
-    const float c[3] = {float(m[0]), float(m[1]), float(m[2])};
-    // The index's test is strict and in float: query a little wider, then
-    // decide "within epsilon" (inclusive) in double.
-    index.radius_search(c, epsilon * 1.001 + 1e-9, hits);
-    bool found = false;
-    for (std::uint32_t h : hits) {
-      double d2 = 0;
-      for (std::size_t k = 0; k < 3; ++k) d2 += (double(xyz[3 * h + k]) - m[k]) * (double(xyz[3 * h + k]) - m[k]);
-      found = found || d2 <= epsilon * epsilon;
-    }
-    r.repeated += found;
-  }
-  return r;
-}
-
 namespace {
 
 /// Whether some point of `index` (over `xyz`) lies within epsilon (≤, in
@@ -94,12 +62,39 @@ bool any_within(const neighbor_index& index, const float* xyz, const std::array<
   return false;
 }
 
+/// The positions of `q`'s keypoints `kq`, x y z after x y z.
+std::vector<float> keypoint_positions(const point_cloud& q, const std::vector<std::uint32_t>& kq) {
+  std::vector<float> xyz;
+  xyz.reserve(3 * kq.size());
+  for (std::uint32_t j : kq) {
+    if (j >= q.size()) throw std::out_of_range("target keypoint index out of range");
+    xyz.insert(xyz.end(), q.position(j), q.position(j) + 3);
+  }
+  return xyz;
+}
+
 std::array<double, 3> image(const point_cloud& p, std::uint32_t i, const rigid_transform& t) {
   const float* s = p.position(i);
   return t.apply({s[0], s[1], s[2]});
 }
 
 }  // namespace
+
+repeatability measure(const point_cloud& p, const std::vector<std::uint32_t>& kp, const point_cloud& q,
+                      const std::vector<std::uint32_t>& kq, const rigid_transform& t, double epsilon) {
+  repeatability r;
+  r.source_keypoints = kp.size();
+  r.target_keypoints = kq.size();
+  if (kp.empty() || kq.empty()) return r;
+  const std::vector<float> xyz = keypoint_positions(q, kq);
+  const neighbor_index index(xyz.data(), kq.size(), 8);
+  std::vector<std::uint32_t> hits;
+  for (std::uint32_t i : kp) {
+    if (i >= p.size()) throw std::out_of_range("source keypoint index out of range");
+    r.repeated += any_within(index, xyz.data(), image(p, i, t), epsilon, hits);
+  }
+  return r;
+}
 
 real_pair::real_pair(const point_cloud& p, const point_cloud& q, const rigid_transform& t, double epsilon)
     : m_p(p), m_q(q), m_t(t), m_epsilon(epsilon), m_in_overlap(p.size(), 0) {
@@ -122,11 +117,7 @@ overlap_repeatability real_pair::measure(const std::vector<std::uint32_t>& kp,
   overlap_repeatability r;
   r.source_keypoints = kp.size();
   r.target_keypoints = kq.size();
-  std::vector<float> xyz;
-  for (std::uint32_t j : kq) {
-    if (j >= m_q.size()) throw std::out_of_range("target keypoint index out of range");
-    xyz.insert(xyz.end(), m_q.position(j), m_q.position(j) + 3);
-  }
+  const std::vector<float> xyz = keypoint_positions(m_q, kq);
   for (std::uint32_t i : kp)
     if (i >= m_p.size()) throw std::out_of_range("source keypoint index out of range");
   std::vector<std::uint32_t> hits;
