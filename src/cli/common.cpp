@@ -237,6 +237,25 @@ std::optional<int> parse_command_line(CLI::App& app, CLI::App& detect, int argc,
   return std::nullopt;
 }
 
+std::vector<double> parse_number_list(const std::string& text, const std::string& option,
+                                      const std::function<void(double)>& check) {
+  std::vector<double> values;
+  try {
+    std::size_t at = 0;
+    for (;;) {  // every value between commas, the empty ones too
+      const std::size_t comma = text.find(',', at);
+      values.push_back(ced::parse_number(text.substr(at, comma == std::string::npos ? comma : comma - at),
+                                         option + " '" + text + "'"));
+      check(values.back());
+      if (comma == std::string::npos) break;
+      at = comma + 1;
+    }
+  } catch (const std::invalid_argument& e) {
+    throw usage_error(e.what());
+  }
+  return values;
+}
+
 void check_length(double v, const std::string& option, const std::string& zero) {
   if (std::isfinite(v) && v >= 0) return;
   std::ostringstream got;

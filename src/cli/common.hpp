@@ -72,6 +72,12 @@ void load_plugins(const std::vector<std::string>& plugins);
 
 /// Throws usage_error naming `option` unless `v` is a finite number >= 0;
 /// `zero`, when given, says what 0 means (for the message).
+/// A comma-separated list of numbers (OPTION 'TEXT'): every value between
+/// commas, the empty ones too, parsed with ced::parse_number, then passed to
+/// `check`, which throws std::invalid_argument for a value out of range.
+/// usage_error on the first problem.
+std::vector<double> parse_number_list(const std::string& text, const std::string& option,
+                                      const std::function<void(double)>& check);
 void check_length(double v, const std::string& option, const std::string& zero = {});
 /// The evaluations' -k,--min-neighbors and -j,--threads: usage_error unless >= 0.
 void check_counts(int min_neighbors, int threads);

@@ -92,23 +92,11 @@ std::vector<eval_detector> parse_detectors(const std::vector<std::string>& names
 }
 
 std::vector<std::size_t> parse_counts(const std::string& text) {
-  std::vector<std::size_t> counts;
-  try {
-    std::size_t at = 0;
-    for (;;) {
-      const std::size_t comma = text.find(',', at);
-      const double v = ced::parse_number(text.substr(at, comma == std::string::npos ? comma : comma - at),
-                                         "--counts '" + text + "'");
-      if (!(v >= 1 && v <= 1e9) || v != std::floor(v))
-        throw std::invalid_argument("--counts values must be whole numbers from 1 to 10^9, got '" + text + "'");
-      counts.push_back(static_cast<std::size_t>(v));
-      if (comma == std::string::npos) break;
-      at = comma + 1;
-    }
-  } catch (const std::invalid_argument& e) {
-    throw usage_error(e.what());
-  }
-  return counts;
+  const std::vector<double> values = parse_number_list(text, "--counts", [&](double v) {
+    if (!(v >= 1 && v <= 1e9) || v != std::floor(v))
+      throw std::invalid_argument("--counts values must be whole numbers from 1 to 10^9, got '" + text + "'");
+  });
+  return std::vector<std::size_t>(values.begin(), values.end());
 }
 
 std::vector<eval_detector> at_counts(const std::vector<eval_detector>& detectors,

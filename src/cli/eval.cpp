@@ -310,21 +310,9 @@ int run_eval_pairs(const eval_options& o, const std::vector<eval_detector>& dete
 
 /// --noise: comma-separated levels, each a finite number >= 0; at least one.
 std::vector<double> parse_noise(const std::string& text) {
-  std::vector<double> noise;
-  try {
-    std::size_t at = 0;
-    for (;;) {  // every value between commas, the empty ones too
-      const std::size_t comma = text.find(',', at);
-      noise.push_back(ced::parse_number(text.substr(at, comma == std::string::npos ? comma : comma - at),
-                                        "--noise '" + text + "'"));
-      if (noise.back() < 0) throw std::invalid_argument("--noise values must be >= 0, got '" + text + "'");
-      if (comma == std::string::npos) break;
-      at = comma + 1;
-    }
-  } catch (const std::invalid_argument& e) {
-    throw usage_error(e.what());
-  }
-  return noise;
+  return parse_number_list(text, "--noise", [&](double v) {
+    if (v < 0) throw std::invalid_argument("--noise values must be >= 0, got '" + text + "'");
+  });
 }
 
 /// `ced eval repeatability INPUT`: INPUT against randomly moved, noisy copies of itself.
