@@ -129,8 +129,13 @@ void reserve_large(Vector& v, std::size_t n) {
   advise_huge_pages(v.data(), n * sizeof(typename Vector::value_type));
 }
 
-/// The memory of a column: operator new's, or from 1 MiB on, whole 2 MiB
-/// pages advised to be huge (see advise_huge_pages()).
+/// At least `bytes` bytes in whole 2 MiB pages, 2 MiB-aligned and advised
+/// to be huge (advise_huge_pages()); nullptr when there is no memory.
+/// Released with std::free.
+void* allocate_huge_pages(std::size_t bytes) noexcept;
+
+/// The memory of a column: operator new's, or from 1 MiB on,
+/// allocate_huge_pages()'.
 void* allocate_column(std::size_t bytes);
 void deallocate_column(void* p, std::size_t bytes) noexcept;
 

@@ -10,26 +10,19 @@
 // and kept sweeps on a 105k-point scan fault in about 1,800 pages, which
 // was about a third of a whole `ced detect` process (docs/BENCHMARKS.md).
 // One 2 MiB page takes one fault.
-#include <sys/mman.h>
-
 #include <cstddef>
 #include <cstdlib>
 #include <new>
 
+#include "ced/cloud.hpp"
+
 namespace {
 
-constexpr std::size_t huge_page = std::size_t(2) << 20;
 constexpr std::size_t large_block = std::size_t(1) << 20;
 
 void* allocate(std::size_t n) noexcept {
   if (n < large_block) return std::malloc(n ? n : 1);
-  // Whole huge pages: at most 1 MiB (and under half) more than asked for.
-  const std::size_t size = (n + huge_page - 1) / huge_page * huge_page;
-  void* p = std::aligned_alloc(huge_page, size);
-#if defined(MADV_HUGEPAGE)
-  if (p) madvise(p, size, MADV_HUGEPAGE);
-#endif
-  return p;
+  return ced::detail::allocate_huge_pages(n);  // at most 1 MiB (and under half) more than asked for
 }
 
 void* allocate_or_throw(std::size_t n) {

@@ -154,13 +154,18 @@ void detail::advise_huge_pages(void* p, std::size_t bytes) noexcept {
 #endif
 }
 
+void* detail::allocate_huge_pages(std::size_t bytes) noexcept {
+  const std::size_t size = (bytes + k_huge_page - 1) / k_huge_page * k_huge_page;
+  void* p = std::aligned_alloc(k_huge_page, size);
+  if (p) advise_huge_pages(p, size);
+  return p;
+}
+
 void* detail::allocate_column(std::size_t bytes) {
   if (bytes < k_large_column) return ::operator new(bytes);
   // Whole huge pages: at most 1 MiB (and under half) more than asked for.
-  const std::size_t size = (bytes + k_huge_page - 1) / k_huge_page * k_huge_page;
-  void* p = std::aligned_alloc(k_huge_page, size);
+  void* p = allocate_huge_pages(bytes);
   if (!p) throw std::bad_alloc();
-  advise_huge_pages(p, size);
   return p;
 }
 
