@@ -239,6 +239,20 @@ expect_exit 2 "exactly one of INPUT" "eval: INPUT and a pair" -- eval repeatabil
 expect_exit 2 "exactly one of INPUT" "eval: INPUT and --rgbd" -- eval repeatability "$sample" --rgbd "$T"
 expect_exit 2 "go with --rgbd" "eval: --intrinsics without --rgbd" -- eval repeatability "$sample" --intrinsics "$T/k.json"
 expect_exit 1 "cannot open the intrinsics file" "eval: rgbd without intrinsics" -- eval repeatability --rgbd "$T"
+# --csv never over a file an --rgbd folder holds (checked before any file is read).
+mkdir -p "$T/rg/color" "$T/rg/depth"
+printf 'log\n' > "$T/rg/odometry.log"
+printf 'jpg\n' > "$T/rg/color/00000.jpg"
+printf 'png\n' > "$T/rg/depth/00000.png"
+printf '{}\n' > "$T/rg/camera_primesense.json"
+for c in repeatability registration; do
+  for f in odometry.log color/00000.jpg depth/00000.png camera_primesense.json; do
+    expect_exit 2 "never writes over a file it reads" "eval $c: --csv over --rgbd's $f" -- \
+      eval "$c" --rgbd "$T/rg" -d random --csv "$T/rg/$f" -q
+  done
+done
+check "eval: the --rgbd folder is intact" test "$(cat "$T/rg/odometry.log" "$T/rg/color/00000.jpg" "$T/rg/depth/00000.png" \
+  "$T/rg/camera_primesense.json")" = "$(printf 'log\njpg\npng\n{}')"
 if "$CED" eval repeatability "$sample" -d iss3d --trials 1 --noise 0 -q > /dev/null 2> "$T/pcl.err"; then
   expect_exit 2 "exactly one of INPUT" "registration: two modes" -- \
     eval registration "$sample" --rgbd "$T"

@@ -362,6 +362,18 @@ ced::eval::rigid_transform rgbd_frames::source_to_target(std::size_t i, std::siz
   return ced::eval::compose(ced::eval::inverse(poses.at(j)), poses.at(i));  // camera i -> world -> camera j
 }
 
+std::vector<ced::io::named_path> rgbd_input_paths(const std::string& dir, const std::string& intrinsics) {
+  std::vector<ced::io::named_path> in{
+      {"--rgbd's odometry.log", dir + "/odometry.log"},
+      {"--intrinsics", intrinsics.empty() ? dir + "/camera_primesense.json" : intrinsics}};
+  for (const char* sub : {"/color", "/depth"}) {
+    std::error_code ec;
+    for (std::filesystem::directory_iterator it(dir + sub, ec), end; !ec && it != end; it.increment(ec))
+      in.push_back({"an --rgbd frame", it->path().string()});
+  }
+  return in;
+}
+
 rgbd_frames load_rgbd_frames(const std::string& dir, const std::string& intrinsics, double depth_max, double voxel) {
   const auto k = ced::io::read_intrinsics(intrinsics.empty() ? dir + "/camera_primesense.json" : intrinsics);
   rgbd_frames f;

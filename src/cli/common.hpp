@@ -133,6 +133,9 @@ struct rgbd_frames {
   ced::eval::rigid_transform source_to_target(std::size_t i, std::size_t j) const;
 };
 rgbd_frames load_rgbd_frames(const std::string& dir, const std::string& intrinsics, double depth_max, double voxel);
+/// What load_rgbd_frames() reads, for check_paths(): odometry.log, the
+/// intrinsics file (given or the default), and every file in color/ and depth/.
+std::vector<ced::io::named_path> rgbd_input_paths(const std::string& dir, const std::string& intrinsics);
 
 /// Reads a cloud, drops its non-finite points, then voxel down-samples it when `voxel` > 0.
 ced::point_cloud read_finite(const std::string& path, const std::string& format, const std::string& columns,

@@ -333,7 +333,8 @@ command add_registration_command(CLI::App& eval) {
                                                     {"--target", o->target},
                                                     {"--transform", o->transform},
                                                     {"--intrinsics", o->intrinsics}};
-            if (!o->rgbd.empty()) inputs.push_back({"--rgbd's odometry.log", o->rgbd + "/odometry.log"});
+            if (!o->rgbd.empty())
+              for (auto& p : rgbd_input_paths(o->rgbd, o->intrinsics)) inputs.push_back(std::move(p));
             check_paths(inputs, {{"--csv", o->csv}});
             return run_registration(*o);
           }};
