@@ -5,6 +5,8 @@
 #include <atomic>
 #include <cstddef>
 #include <memory>
+#include <mutex>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -95,5 +97,31 @@ TEST(Parallel, WithThreadsRunsTheFunctionOnce) {
     ced::detail::with_threads(threads, [&] { ++calls; });
     EXPECT_EQ(calls, 1) << threads;
     EXPECT_THROW(ced::detail::with_threads(threads, [] { throw boom(0); }), boom);
+  }
+}
+
+TEST(Parallel, WithThreadsLimitsParallelForWithoutAThreadCount) {
+  // threads = 0 inside with_threads(t) means t, on this thread; an explicit
+  // count still wins, and the limit ends with the call.
+  const auto threads_used = [](unsigned threads) {
+    std::mutex m;
+    std::set<std::thread::id> ids;
+    ced::detail::parallel_for(20000, threads, 1, [&](std::size_t b, std::size_t e) {
+      volatile double x = 0;
+      for (std::size_t i = b; i < e; ++i)
+        for (int k = 0; k < 2000; ++k) x = x + double(k);
+      std::lock_guard<std::mutex> lock(m);
+      ids.insert(std::this_thread::get_id());
+    });
+    return ids.size();
+  };
+  ced::detail::with_threads(1, [&] {
+    EXPECT_EQ(threads_used(0), 1u);
+    ced::detail::with_threads(0, [&] { EXPECT_EQ(threads_used(0), 1u) << "0 keeps the enclosing limit"; });
+  });
+  if (ced::resolve_threads(0) >= 2) {
+    // Nested limits and explicit counts (several threads may, not must, be used).
+    ced::detail::with_threads(2, [&] { EXPECT_LE(threads_used(0), 2u); });
+    ced::detail::with_threads(1, [&] { EXPECT_LE(threads_used(2), 2u); });
   }
 }

@@ -159,6 +159,7 @@ detect_plan make_plan(const detect_options& o) {
   // Non-finite points are dropped below (and by tiles), after their file
   // indices are known: --indices-original counts every point of the file.
   plan.read_opts.keep_nonfinite = true;
+  plan.read_opts.threads = static_cast<unsigned>(o.threads);
   return plan;
 }
 

@@ -25,6 +25,17 @@ unsigned resolve_threads(unsigned threads) noexcept {
 
 namespace ced::detail {
 
+namespace {
+/// The limit with_threads() set on this thread (0: none): what threads = 0
+/// means to parallel_for() there.
+thread_local unsigned t_limit = 0;
+
+unsigned current_threads(unsigned threads) noexcept {
+  if (threads != 0) return threads;
+  return t_limit != 0 ? t_limit : resolve_threads(0);
+}
+}  // namespace
+
 #ifdef CED_HAS_TBB
 namespace {
 /// One arena per concurrency, made on first use and kept: making an arena
@@ -45,7 +56,7 @@ void parallel_for(std::size_t n, unsigned threads, std::size_t grain,
                   const std::function<void(std::size_t, std::size_t)>& body) {
   if (n == 0) return;
   grain = std::max<std::size_t>(grain, 1);
-  const unsigned t = resolve_threads(threads);
+  const unsigned t = current_threads(threads);
   if (n <= grain) {
     body(0, n);
     return;
@@ -90,12 +101,19 @@ void parallel_for(std::size_t n, unsigned threads, std::size_t grain,
 }
 
 void with_threads(unsigned threads, const std::function<void()>& f) {
+  const unsigned t = std::min(current_threads(threads), resolve_threads(0));
+  struct restore {
+    unsigned old;
+    ~restore() { t_limit = old; }
+  } restore_limit{t_limit};
+  t_limit = t;
 #ifdef CED_HAS_TBB
-  arena_for(std::min(resolve_threads(threads), resolve_threads(0))).execute(f);
-#else
-  (void)threads;
-  f();
+  if (t > 1) {
+    arena_for(t).execute(f);
+    return;
+  }
 #endif
+  f();  // one thread: no arena (nor TBB's start-up) is needed
 }
 
 }  // namespace ced::detail

@@ -11,15 +11,18 @@ namespace ced::detail {
 using ::ced::resolve_threads;  // ced/params.hpp
 
 /// Calls `body(begin, end)` on disjoint chunks covering [0, n), on up to
-/// `threads` threads (0 = all cores), and returns when all are done. Chunks
+/// `threads` threads (0 = all cores, or the limit of an enclosing
+/// with_threads() on this thread), and returns when all are done. Chunks
 /// hold at least `grain` items. Exceptions thrown by `body` are rethrown.
 /// Which thread runs a chunk is unspecified, so `body` must write only to
 /// locations owned by its items for the result to be deterministic.
 void parallel_for(std::size_t n, unsigned threads, std::size_t grain,
                   const std::function<void(std::size_t, std::size_t)>& body);
 
-/// Runs `f` where parallel algorithms it calls (TBB, CGAL's Parallel_tag)
-/// use up to `threads` threads (0 = all cores); without TBB, just runs it.
+/// Runs `f` where parallel_for() with threads = 0 on this thread uses up to
+/// `threads` threads (0 = all cores, or an enclosing with_threads()' limit),
+/// and so do TBB algorithms it calls directly (CGAL's Parallel_tag) when that
+/// is more than one. With one thread `f` just runs, and TBB is not started.
 void with_threads(unsigned threads, const std::function<void()>& f);
 
 }  // namespace ced::detail

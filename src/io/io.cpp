@@ -3,6 +3,7 @@
 
 #include <stdexcept>
 
+#include "core/parallel.hpp"
 #include "core/text.hpp"
 #include "scalar_io.hpp"
 #include "stream_support.hpp"
@@ -53,7 +54,8 @@ file_format format_of(const std::string& path) {
   }
 }
 
-point_cloud read_cloud(const std::string& path, const read_options& options, read_report* report) {
+namespace {
+point_cloud read_cloud_here(const std::string& path, const read_options& options, read_report* report) {
   const file_format f = options.format == file_format::automatic ? format_of(path) : options.format;
   read_report r;
   r.format = f;
@@ -87,6 +89,13 @@ point_cloud read_cloud(const std::string& path, const read_options& options, rea
   }
   c.keep_fields(options.fields);
   if (report) *report = r;
+  return c;
+}
+}  // namespace
+
+point_cloud read_cloud(const std::string& path, const read_options& options, read_report* report) {
+  point_cloud c;
+  ced::detail::with_threads(options.threads, [&] { c = read_cloud_here(path, options, report); });
   return c;
 }
 

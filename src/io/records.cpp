@@ -72,14 +72,17 @@ struct chunk_at {
   std::size_t m;
 };
 
-/// The x, y and z of the records of chunk `c`, as doubles: axes[k * m + i].
-void decode_axes(const point_layout& layout, const chunk_at& c, std::vector<double>& axes) {
+/// The x, y and z of the records of chunk `c`, as doubles: axes[k * m + i],
+/// in a buffer of this thread's (valid until its next call).
+const double* decode_axes(const point_layout& layout, const chunk_at& c) {
+  thread_local std::vector<double> axes;  // one per thread: its pages are faulted in once
   axes.resize(3 * c.m);
   for (std::size_t k = 0; k < 3; ++k) {
     const value_spec& a = layout.xyz[k];
     const value_run at = run_of(layout, a, c.r, c.stride, c.i0);
     decode_column(at.p, at.stride, c.m, a.type, a.swap, axes.data() + k * c.m);
   }
+  return axes.data();
 }
 
 bool finite_point(const double* axes, std::size_t m, std::size_t i) noexcept {
@@ -139,9 +142,7 @@ points_scan scan_points(const record_source& src, std::uint64_t n, const point_l
   points_scan scan;
   scan.finite.assign(chunks, 0);
   for_each_chunk(src, n, [&](std::size_t c, std::uint64_t i0, std::size_t m, const unsigned char* r) {
-    thread_local std::vector<double> axes;
-    decode_axes(layout, {r, src.stride(), i0, m}, axes);
-    const double* a = axes.data();
+    const double* a = decode_axes(layout, {r, src.stride(), i0, m});
     for (std::size_t i = 0; i < m; ++i) boxes[c].add(a[i], a[m + i], a[2 * m + i]);
     std::size_t finite = 0;
     for (std::size_t i = 0; i < m; ++i) finite += finite_point(a, m, i);
@@ -168,15 +169,14 @@ point_cloud decode_points(const record_source& src, std::uint64_t n, const point
   if (finite_only)
     for (std::size_t c = 0, o = 0; c < finite_only->finite.size(); o += finite_only->finite[c++]) start.push_back(o);
   for_each_chunk(src, n, [&](std::size_t c, std::uint64_t i0, std::size_t m, const unsigned char* r) {
-    thread_local std::vector<double> axes;
     const chunk_at chunk{r, src.stride(), i0, m};
-    decode_axes(layout, chunk, axes);
+    const double* axes = decode_axes(layout, chunk);
     if (!finite_only)
-      decode_chunk(layout, chunk, axes.data(), origin, sink, static_cast<std::size_t>(i0));
+      decode_chunk(layout, chunk, axes, origin, sink, static_cast<std::size_t>(i0));
     else if (finite_only->finite[c] == m)
-      decode_chunk(layout, chunk, axes.data(), origin, sink, start[c]);
+      decode_chunk(layout, chunk, axes, origin, sink, start[c]);
     else
-      decode_finite_chunk(layout, chunk, axes.data(), origin, sink, start[c]);
+      decode_finite_chunk(layout, chunk, axes, origin, sink, start[c]);
   });
   for (std::size_t j = 0; j < layout.columns.size(); ++j) cloud.add_field(layout.columns[j].name, std::move(cols[j]));
   return cloud;

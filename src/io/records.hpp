@@ -63,9 +63,11 @@ class record_source {
   std::size_t m_stride;
 };
 
-/// Bytes of records a chunk holds (at least one record): small enough for a
-/// core's L2 cache, large enough that a chunk's read and task cost nothing.
-constexpr std::size_t k_chunk_bytes = std::size_t(1) << 19;
+/// Bytes of records a chunk holds (at least one record): small enough that a
+/// thread's buffers (the chunk, its positions as doubles) stay in its L2
+/// cache and a small file faults in few pages, large enough that a chunk's
+/// read and task cost nothing.
+constexpr std::size_t k_chunk_bytes = std::size_t(1) << 17;
 
 /// Records per chunk of records of `stride` bytes.
 inline std::size_t chunk_records(std::size_t stride) noexcept {

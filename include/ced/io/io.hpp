@@ -39,6 +39,9 @@ struct read_options {
   /// them, as organized clouds mark empty pixels so), so that point i is the
   /// file's point i. Other formats always keep them.
   bool keep_nonfinite = false;
+  /// Threads that decode binary records in parallel (0 = all cores). The
+  /// cloud is the same for any number.
+  unsigned threads = 0;
 };
 
 /// What reading found besides the points.
