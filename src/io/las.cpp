@@ -823,23 +823,50 @@ struct las_stats {
 };
 
 /// Adds `cloud`'s points to `s`; std::invalid_argument when a position is
-/// not finite or does not fit (points numbered from s.n).
+/// not finite or does not fit (points numbered from s.n; the first such
+/// point). Chunks of points are checked in parallel and merged in order: the
+/// same bounds and error as one pass.
 void add_stats(const point_cloud& cloud, const las_write_options& opt, const las_plan& plan, las_stats& s) {
   const float* xyz = cloud.positions().data();
-  for (std::size_t i = 0; i < cloud.size(); ++i)
-    for (std::size_t k = 0; k < 3; ++k) {
-      const float p = xyz[3 * i + k];
-      if (!std::isfinite(p))
-        throw std::invalid_argument("point " + std::to_string(s.n + i) +
-                                    " has a non-finite coordinate; LAS cannot store it");
-      const double q = std::round(static_cast<double>(p) / opt.scale[k]);
-      if (q < std::numeric_limits<std::int32_t>::min() || q > std::numeric_limits<std::int32_t>::max())
-        throw std::invalid_argument("point " + std::to_string(s.n + i) + ": coordinate " + num(p) +
-                                    " (relative to the origin) does not fit a 32-bit LAS integer at scale " +
-                                    num(opt.scale[k]) + " (choose a coarser scale)");
-      s.qmin[k] = s.n + i == 0 ? q : std::min(s.qmin[k], q);
-      s.qmax[k] = s.n + i == 0 ? q : std::max(s.qmax[k], q);
+  constexpr std::size_t chunk = 65536;
+  const std::size_t chunks = (cloud.size() + chunk - 1) / chunk;
+  struct chunk_stats {
+    double qmin[3], qmax[3];
+    std::string error;  ///< its first point's that cannot be stored
+  };
+  std::vector<chunk_stats> part(chunks);
+  ced::detail::parallel_for(chunks, 0, 1, [&](std::size_t c0, std::size_t c1) {
+    for (std::size_t c = c0; c < c1; ++c) {
+      const std::size_t b = c * chunk, e = std::min(cloud.size(), b + chunk);
+      double qmin[3], qmax[3];  // here, not in part[c]: chunks side by side share cache lines
+      for (std::size_t i = b; i < e; ++i)
+        for (std::size_t k = 0; k < 3; ++k) {
+          const float p = xyz[3 * i + k];
+          if (!std::isfinite(p)) {
+            part[c].error = "point " + std::to_string(s.n + i) + " has a non-finite coordinate; LAS cannot store it";
+            return;
+          }
+          const double q = ced::detail::round_half_away(static_cast<double>(p) / opt.scale[k]);
+          if (q < std::numeric_limits<std::int32_t>::min() || q > std::numeric_limits<std::int32_t>::max()) {
+            part[c].error = "point " + std::to_string(s.n + i) + ": coordinate " + num(p) +
+                            " (relative to the origin) does not fit a 32-bit LAS integer at scale " +
+                            num(opt.scale[k]) + " (choose a coarser scale)";
+            return;
+          }
+          qmin[k] = i == b ? q : std::min(qmin[k], q);
+          qmax[k] = i == b ? q : std::max(qmax[k], q);
+        }
+      std::copy_n(qmin, 3, part[c].qmin);
+      std::copy_n(qmax, 3, part[c].qmax);
     }
+  });
+  for (std::size_t c = 0; c < chunks; ++c) {
+    if (!part[c].error.empty()) throw std::invalid_argument(part[c].error);
+    for (std::size_t k = 0; k < 3; ++k) {
+      s.qmin[k] = s.n == 0 && c == 0 ? part[c].qmin[k] : std::min(s.qmin[k], part[c].qmin[k]);
+      s.qmax[k] = s.n == 0 && c == 0 ? part[c].qmax[k] : std::max(s.qmax[k], part[c].qmax[k]);
+    }
+  }
   const unsigned max_return = plan.layout->extended ? 15 : 7;
   if (!plan.return_number)
     s.by_return[0] += cloud.size();
@@ -932,7 +959,7 @@ void write_records(std::ostream& out, const point_cloud& cloud, const las_write_
     auto* buf = reinterpret_cast<unsigned char*>(bytes.data());
     for (std::size_t i = 0; i < m; ++i)
       for (std::size_t a = 0; a < 3; ++a) {
-        const double q = std::round(static_cast<double>(xyz[3 * (i0 + i) + a]) / opt.scale[a]);
+        const double q = ced::detail::round_half_away(static_cast<double>(xyz[3 * (i0 + i) + a]) / opt.scale[a]);
         store_le<std::int32_t>(buf + i * record + 4 * a, static_cast<std::int32_t>(q));
       }
     for (const auto& c : plan.cols) encode_column(c, i0, m, buf, record);
