@@ -119,9 +119,14 @@ TEST(Parallel, WithThreadsLimitsParallelForWithoutAThreadCount) {
     EXPECT_EQ(threads_used(0), 1u);
     ced::detail::with_threads(0, [&] { EXPECT_EQ(threads_used(0), 1u) << "0 keeps the enclosing limit"; });
   });
+  ced::detail::with_thread_limit(1, [&] {
+    EXPECT_EQ(threads_used(0), 1u);
+    ced::detail::with_threads(0, [&] { EXPECT_EQ(threads_used(0), 1u) << "0 keeps the enclosing limit"; });
+  });
   if (ced::resolve_threads(0) >= 2) {
     // Nested limits and explicit counts (several threads may, not must, be used).
     ced::detail::with_threads(2, [&] { EXPECT_LE(threads_used(0), 2u); });
+    ced::detail::with_thread_limit(2, [&] { EXPECT_LE(threads_used(0), 2u); });
     ced::detail::with_threads(1, [&] { EXPECT_LE(threads_used(2), 2u); });
   }
 }

@@ -100,20 +100,36 @@ void parallel_for(std::size_t n, unsigned threads, std::size_t grain,
 #endif
 }
 
+namespace {
+/// Sets this thread's limit for as long as it lives.
+class scoped_limit {
+ public:
+  explicit scoped_limit(unsigned threads) noexcept : m_old(t_limit) {
+    t_limit = std::min(current_threads(threads), resolve_threads(0));
+  }
+  ~scoped_limit() { t_limit = m_old; }
+  scoped_limit(const scoped_limit&) = delete;
+  scoped_limit& operator=(const scoped_limit&) = delete;
+
+ private:
+  unsigned m_old;
+};
+}  // namespace
+
 void with_threads(unsigned threads, const std::function<void()>& f) {
-  const unsigned t = std::min(current_threads(threads), resolve_threads(0));
-  struct restore {
-    unsigned old;
-    ~restore() { t_limit = old; }
-  } restore_limit{t_limit};
-  t_limit = t;
+  const scoped_limit limit(threads);
 #ifdef CED_HAS_TBB
-  if (t > 1) {
-    arena_for(t).execute(f);
+  if (t_limit > 1) {
+    arena_for(t_limit).execute(f);
     return;
   }
 #endif
   f();  // one thread: no arena (nor TBB's start-up) is needed
+}
+
+void with_thread_limit(unsigned threads, const std::function<void()>& f) {
+  const scoped_limit limit(threads);
+  f();
 }
 
 }  // namespace ced::detail

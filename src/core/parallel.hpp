@@ -25,4 +25,9 @@ void parallel_for(std::size_t n, unsigned threads, std::size_t grain,
 /// is more than one. With one thread `f` just runs, and TBB is not started.
 void with_threads(unsigned threads, const std::function<void()>& f);
 
+/// Runs `f` where parallel_for() with threads = 0 on this thread uses up to
+/// `threads` threads, and nothing else: unlike with_threads(), no TBB arena is
+/// entered (nor TBB started) unless a parallel_for() goes parallel.
+void with_thread_limit(unsigned threads, const std::function<void()>& f);
+
 }  // namespace ced::detail

@@ -95,7 +95,7 @@ point_cloud read_cloud_here(const std::string& path, const read_options& options
 
 point_cloud read_cloud(const std::string& path, const read_options& options, read_report* report) {
   point_cloud c;
-  ced::detail::with_threads(options.threads, [&] { c = read_cloud_here(path, options, report); });
+  ced::detail::with_thread_limit(options.threads, [&] { c = read_cloud_here(path, options, report); });
   return c;
 }
 
