@@ -6,8 +6,6 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
-#include <cstring>
-#include <limits>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -326,56 +324,4 @@ TEST(Column, LargeColumnsAreZeroedAlignedAndGrowKeepingTheirValues) {
     c.resize(1);  // shrinks in place
     EXPECT_EQ(c.size(), 1u);
   }
-}
-
-TEST(Column, RoundHalfAwayIsStdRoundForEveryKindOfDouble) {
-  // Bit for bit, signs of zero included: halves, values next to halves,
-  // both sides of 2^52 and 2^63, infinities, NaN, and random bit patterns.
-  const auto same = [](double v) {
-    const double want = std::round(v), got = ced::detail::round_half_away(v);
-    std::uint64_t a = 0, b = 0;
-    std::memcpy(&a, &want, 8);
-    std::memcpy(&b, &got, 8);
-    if (std::isnan(want)) return std::isnan(got);
-    return a == b;
-  };
-  std::vector<double> values = {0.0,
-                                -0.0,
-                                0.5,
-                                -0.5,
-                                1.5,
-                                -1.5,
-                                2.5,
-                                -2.5,
-                                0.49999999999999994,
-                                -0.49999999999999994,
-                                4503599627370495.5,
-                                -4503599627370495.5,
-                                4503599627370496.0,
-                                9007199254740993.0,
-                                9.3e18,
-                                -9.3e18,
-                                1e300,
-                                -1e300,
-                                std::numeric_limits<double>::infinity(),
-                                -std::numeric_limits<double>::infinity(),
-                                std::numeric_limits<double>::quiet_NaN(),
-                                std::numeric_limits<double>::denorm_min(),
-                                -std::numeric_limits<double>::denorm_min()};
-  for (double h = 0.5; h < 1e16; h = h * 3 + 0.5)
-    for (const double v : {h, std::nextafter(h, 0.0), std::nextafter(h, 1e300)}) {
-      values.push_back(v);
-      values.push_back(-v);
-    }
-  std::uint64_t x = 88172645463325252ull;
-  for (int i = 0; i < 200000; ++i) {
-    x ^= x << 13;
-    x ^= x >> 7;
-    x ^= x << 17;
-    double v = 0;
-    std::memcpy(&v, &x, 8);
-    values.push_back(v);
-    values.push_back(double(std::int64_t(x % 2000001) - 1000000) / 8.0);  // many exact halves
-  }
-  for (const double v : values) EXPECT_TRUE(same(v)) << std::hexfloat << v;
 }

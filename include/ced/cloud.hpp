@@ -92,18 +92,6 @@ decltype(auto) visit_type(scalar_type t, F&& f) {
   return f(double{});
 }
 
-namespace detail {
-/// std::round(v), halves away from zero, for every double (NaN, ±inf and ±0
-/// included), without the libm call that std::round compiles to.
-inline double round_half_away(double v) noexcept {
-  if (!(std::fabs(v) < 4503599627370496.0)) return v;                  // from 2^52 on: whole already (or NaN, inf)
-  const double t = static_cast<double>(static_cast<std::int64_t>(v));  // towards zero, exact here
-  const double f = v - t;                                              // exact
-  // Without branches: fractions of real data are random, and mispredicted.
-  return std::copysign(t + double(f >= 0.5) - double(f <= -0.5), v);
-}
-}  // namespace detail
-
 /// `v` converted to storage type T, as fields store values given as double
 /// and as writers encode them: integers rounded to nearest and clamped to
 /// T's range, NaN to 0; floats by a cast (beyond the float range: ±inf).
@@ -118,7 +106,7 @@ T convert_value(double v) noexcept {
   } else {
     if (!(v == v)) return T(0);
     constexpr double lo = double(std::numeric_limits<T>::min()), hi = double(std::numeric_limits<T>::max());
-    v = detail::round_half_away(v);
+    v = std::round(v);
     if (v <= lo) return std::numeric_limits<T>::min();
     if (v >= hi) return std::numeric_limits<T>::max();
     return static_cast<T>(v);

@@ -846,7 +846,7 @@ void add_stats(const point_cloud& cloud, const las_write_options& opt, const las
             part[c].error = "point " + std::to_string(s.n + i) + " has a non-finite coordinate; LAS cannot store it";
             return;
           }
-          const double q = ced::detail::round_half_away(static_cast<double>(p) / opt.scale[k]);
+          const double q = std::round(static_cast<double>(p) / opt.scale[k]);
           if (q < std::numeric_limits<std::int32_t>::min() || q > std::numeric_limits<std::int32_t>::max()) {
             part[c].error = "point " + std::to_string(s.n + i) + ": coordinate " + num(p) +
                             " (relative to the origin) does not fit a 32-bit LAS integer at scale " +
@@ -959,7 +959,7 @@ void write_records(std::ostream& out, const point_cloud& cloud, const las_write_
     auto* buf = reinterpret_cast<unsigned char*>(bytes.data());
     for (std::size_t i = 0; i < m; ++i)
       for (std::size_t a = 0; a < 3; ++a) {
-        const double q = ced::detail::round_half_away(static_cast<double>(xyz[3 * (i0 + i) + a]) / opt.scale[a]);
+        const double q = std::round(static_cast<double>(xyz[3 * (i0 + i) + a]) / opt.scale[a]);
         store_le<std::int32_t>(buf + i * record + 4 * a, static_cast<std::int32_t>(q));
       }
     for (const auto& c : plan.cols) encode_column(c, i0, m, buf, record);
