@@ -2,7 +2,9 @@
 // The tools' global operator new (ced and ced-mpi only; the libraries do not
 // replace it): blocks of 1 MiB and more are allocated in whole 2 MiB pages
 // and advised as transparent huge pages (MADV_HUGEPAGE), smaller ones come
-// from malloc as before. Everything is released with free().
+// from malloc, whose main heap is made ready before main() (heap_setup
+// below: its first 32 MiB advised as huge pages, freed memory kept).
+// Everything is released with free().
 //
 // Why: where transparent huge pages are used only when advised (Debian's
 // default, "madvise"), every fresh 4 KiB page costs a page fault, about
