@@ -66,6 +66,9 @@ class block_view {
   const double* sums(std::size_t k, std::size_t slot) const noexcept {
     return m_sums + m_sum_stride * k + m_slot_offsets[slot];
   }
+  /// Σ_{j ∈ N(i)} (p_j − p_i) at point k (3 values), in double: every pass
+  /// makes them (the distance test itself), whatever the modalities' channels.
+  const double* position_sums(std::size_t k) const noexcept { return m_sums + m_sum_stride * k; }
   /// Point k's neighbourhood as a list (the block's lists are built on first
   /// use, so a modality that never asks costs nothing).
   neighborhood operator[](std::size_t k) const { return m_list(m_block, k); }

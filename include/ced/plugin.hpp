@@ -29,7 +29,9 @@
 /// Raised whenever a public type's layout or a virtual interface that
 /// plugins see changes (any_modality, bound_modality, block_view, point_cloud,
 /// field, modality_spec, detect_params...).
-#define CED_PLUGIN_ABI_VERSION 4  // 2: column views (ced::column::view); 3: field::whole_range; 4: detect_params::max_keypoints
+// 2: column views (ced::column::view); 3: field::whole_range;
+// 4: detect_params::max_keypoints; 5: precomputed_saliency (the centroid shift).
+#define CED_PLUGIN_ABI_VERSION 5
 
 #define CED_PLUGIN_STR_(x) #x
 #define CED_PLUGIN_STR(x) CED_PLUGIN_STR_(x)

@@ -12,8 +12,18 @@
 // spec option `scale=2` (`xyz:0.2,scale=2`) at run time. Its threshold is the
 // base's at K × radius (xyz: ratio × K × radius). The saliencies come from a
 // neighbour pass of their own at K × radius, made when the modality is bound.
+//
+// Centroid shift (`inner=J`, 0 < J < K; positions only): the distance between
+// the centroids at two scales, not from the point itself,
+//
+//     s_i = || mean_{N_{Kr}(i)} p − mean_{N_{Jr}(i)} p ||,  threshold at K·r
+//
+// (0 with fewer than min_neighbors neighbours at either scale). A point's
+// own noise enters both means with weight 1/n only, so a noisier cloud does
+// not raise every point's saliency: the robust presets use it (J = 1).
 #pragma once
 
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -26,17 +36,52 @@ namespace ced {
 /// Deterministic for any thread count.
 std::vector<float> saliency_of(const point_cloud& cloud, const detect_params& params, const any_modality& m);
 
-/// The evaluator of a scaled modality: the saliencies computed at bind time.
+/// Every point's centroid shift (see the top of this file) of positions
+/// modality `m` (xyz) between factor × and inner × params.radius; two
+/// neighbour passes without NMS. Deterministic for any thread count.
+std::vector<float> centroid_shift_of(const point_cloud& cloud, const detect_params& params, double factor, double inner,
+                                     const any_modality& m);
+
+/// The evaluator of a scaled modality: the saliencies computed at bind time,
+/// or (centroid_shift(), inner = 1) each point's centroid offset at K·r,
+/// taken against its offset at r from the detection's own pass, which makes
+/// those position sums anyway: one neighbour pass fewer.
 class precomputed_saliency {
  public:
   explicit precomputed_saliency(std::vector<float> s) : m_saliency(std::move(s)) {}
+  /// `outer_offsets`: mean_{N_{Kr}(i)} p − p_i, 3 floats a point (NaN: too
+  /// few neighbours), as centroid_shift_of makes them.
+  static precomputed_saliency centroid_shift(std::vector<float> outer_offsets) {
+    precomputed_saliency e({});
+    e.m_outer = std::move(outer_offsets);
+    return e;
+  }
   void evaluate(const block_view& block, float* out) const {
-    for (std::size_t k = 0; k < block.size(); ++k) out[k] = m_saliency[block.point(k)];
+    if (m_outer.empty()) {
+      for (std::size_t k = 0; k < block.size(); ++k) out[k] = m_saliency[block.point(k)];
+      return;
+    }
+    for (std::size_t k = 0; k < block.size(); ++k) {
+      const float* o = m_outer.data() + 3 * std::size_t(block.point(k));
+      const double* sum = block.position_sums(k);
+      const double n = double(block.count(k));
+      double d2 = 0;
+      for (std::size_t a = 0; a < 3; ++a) {
+        const double d = double(o[a]) - double(static_cast<float>(sum[a] / n));  // as centroid_shift_of rounds
+        d2 += d * d;
+      }
+      out[k] = std::isfinite(d2) ? static_cast<float>(std::sqrt(d2)) : 0.0f;  // (gated at r by the caller)
+    }
   }
 
  private:
   std::vector<float> m_saliency;
+  std::vector<float> m_outer;
 };
+
+/// The centroid offsets mean_{N(i)} p − p_i of positions modality `m` with
+/// `params`, 3 floats a point (NaN with fewer than min_neighbors neighbours).
+std::vector<float> centroid_offsets_of(const point_cloud& cloud, const detect_params& params, const any_modality& m);
 
 /// `params` with the radius K times larger (the NMS radius too).
 detect_params scaled_params(const detect_params& params, double factor);
@@ -47,8 +92,12 @@ template <class M>
 struct scaled {
   M base;
   double factor = 2;  ///< K > 0
+  double inner = 0;   ///< J in (0, K): the centroid shift between J·r and K·r (xyz only); 0: none
 
-  std::string name() const { return std::string(base.name()) + ",scale=" + format_scale_factor(factor); }
+  std::string name() const {
+    return std::string(base.name()) + ",scale=" + format_scale_factor(factor) +
+           (inner > 0 ? ",inner=" + format_scale_factor(inner) : "");
+  }
   double threshold(const detect_params& p) const { return base.threshold(scaled_params(p, factor)); }
   std::vector<std::string> fields() const {
     if constexpr (detail::declares_fields<M>::value)
@@ -57,14 +106,19 @@ struct scaled {
       return {};
   }
   precomputed_saliency bind(const point_cloud& cloud, const detect_params& p) const {
+    if (inner == 1)
+      return precomputed_saliency::centroid_shift(
+          centroid_offsets_of(cloud, scaled_params(p, factor), any_modality(base)));
+    if (inner > 0) return precomputed_saliency(centroid_shift_of(cloud, p, factor, inner, any_modality(base)));
     return precomputed_saliency(saliency_of(cloud, scaled_params(p, factor), any_modality(base)));
   }
 };
 
 /// `base` measured over `factor` × radius, for modalities made at run time
-/// (make_modality, plugins). Throws std::invalid_argument unless
-/// 0 < factor <= 16.
-any_modality scaled_modality(any_modality base, double factor);
+/// (make_modality, plugins); with `inner` > 0, its centroid shift between
+/// inner × and factor × radius. Throws std::invalid_argument unless
+/// 0 < factor <= 16 and inner is 0 or in (0, factor).
+any_modality scaled_modality(any_modality base, double factor, double inner = 0);
 
 /// The largest scale factor among `modalities` (1 when none is scaled): a
 /// tile's halo grows with it.

@@ -223,9 +223,13 @@ any_modality make_modality(std::string_view text) {
     factory = it->second.first;
   }
   any_modality m = factory(spec);
-  // Any modality may be measured at another scale.
-  if (auto scale = spec.take("scale"))
-    m = scaled_modality(std::move(m), parse_number(*scale, "scale= in '" + spec.text() + "'"));
+  // Any modality may be measured at another scale; positions also as the
+  // shift between two scales' centroids (inner=).
+  if (auto scale = spec.take("scale")) {
+    double inner = 0;
+    if (auto in = spec.take("inner")) inner = parse_number(*in, "inner= in '" + spec.text() + "'");
+    m = scaled_modality(std::move(m), parse_number(*scale, "scale= in '" + spec.text() + "'"), inner);
+  }
   if (spec.args_unused())
     throw std::invalid_argument("modality '" + spec.name() + "' takes no field list (in '" + spec.text() + "')");
   const auto unused = spec.unused_options();
@@ -240,16 +244,16 @@ std::vector<any_modality> preset(std::string_view name) {
   if (name == "ced6d") return {xyz{}, rgb{}};
   // Chosen on apartment_mesh_214 alone (docs/EVALUATION.md): geometry at 1.75 or 2.25 × the radius,
   // colour at 0.5; both refine their keypoints (preset_refines).
-  if (name == "robust3d") return {scaled<xyz>{xyz{}, 1.75}};
-  if (name == "robust6d") return {scaled<xyz>{xyz{}, 2.25}, rgb{0.5}};
+  if (name == "robust3d") return {scaled<xyz>{xyz{}, 1.75, 1}};
+  if (name == "robust6d") return {scaled<xyz>{xyz{}, 2.25, 1}, rgb{0.5}};
   throw std::invalid_argument("unknown preset '" + std::string(name) + "' (known: ced3d, ced6d, robust3d, robust6d)");
 }
 
 std::vector<std::string> preset_specs(std::string_view name) {
   if (name == "ced3d") return {"xyz:0.2"};
   if (name == "ced6d") return {"xyz:0.2", "rgb:0.1"};
-  if (name == "robust3d") return {"xyz:0.2,scale=1.75"};
-  if (name == "robust6d") return {"xyz:0.2,scale=2.25", "rgb:0.5"};
+  if (name == "robust3d") return {"xyz:0.2,scale=1.75,inner=1"};
+  if (name == "robust6d") return {"xyz:0.2,scale=2.25,inner=1", "rgb:0.5"};
   throw std::invalid_argument("unknown preset '" + std::string(name) + "' (known: ced3d, ced6d, robust3d, robust6d)");
 }
 

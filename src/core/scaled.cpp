@@ -4,8 +4,11 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -36,6 +39,46 @@ detect_params scaled_params(const detect_params& params, double factor) {
   return p;
 }
 
+std::vector<float> centroid_offsets_of(const point_cloud& cloud, const detect_params& params, const any_modality& m) {
+  std::vector<float> off(3 * cloud.size(), std::numeric_limits<float>::quiet_NaN());
+  detail::detection_context ctx(cloud, params, {m.name()}, {std::numeric_limits<double>::max()});
+  {
+    const std::unique_ptr<bound_modality> bound = m.bind(cloud, params);
+    if (!bound->channels().positions)
+      throw std::invalid_argument("inner= needs a modality of positions (xyz), not '" + m.name() + "'");
+    ctx.without_neighbor_lists();
+    // Blocks hold disjoint points: each writes only its own offsets.
+    ctx.compute_saliency({bound->channels()}, [&](const block_view& block, float* const* columns) {
+      for (std::size_t k = 0; k < block.size(); ++k) {
+        columns[0][k] = 0;
+        const std::uint32_t n = block.count(k);
+        if (n < params.min_neighbors) continue;
+        const double* sum = block.sums(k, 0);  // Σ (p_j − p_i)
+        float* o = off.data() + 3 * std::size_t(block.point(k));
+        for (std::size_t a = 0; a < 3; ++a) o[a] = static_cast<float>(sum[a] / n);
+      }
+    });
+  }
+  ctx.finish();
+  return off;
+}
+
+std::vector<float> centroid_shift_of(const point_cloud& cloud, const detect_params& params, double factor, double inner,
+                                     const any_modality& m) {
+  const std::vector<float> outer = centroid_offsets_of(cloud, scaled_params(params, factor), m);
+  const std::vector<float> in = centroid_offsets_of(cloud, scaled_params(params, inner), m);
+  std::vector<float> s(cloud.size(), 0.0f);
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    double d2 = 0;
+    for (std::size_t a = 0; a < 3; ++a) {
+      const double d = double(outer[3 * i + a]) - double(in[3 * i + a]);  // mean at K·r − mean at inner·r
+      d2 += d * d;
+    }
+    if (std::isfinite(d2)) s[i] = static_cast<float>(std::sqrt(d2));  // NaN: too few neighbours at a scale
+  }
+  return s;
+}
+
 std::string format_scale_factor(double v) {
   char buf[32];
   const auto r = std::to_chars(buf, buf + sizeof buf, v);
@@ -43,25 +86,33 @@ std::string format_scale_factor(double v) {
 }
 
 namespace {
-std::string scale_suffix(double factor) { return ",scale=" + format_scale_factor(factor); }
+std::string scale_suffix(double factor, double inner) {
+  return ",scale=" + format_scale_factor(factor) + (inner > 0 ? ",inner=" + format_scale_factor(inner) : "");
+}
 
 struct scaled_any {
   any_modality base;
   double factor;
+  double inner;
 
-  std::string name() const { return base.name() + scale_suffix(factor); }
+  std::string name() const { return base.name() + scale_suffix(factor, inner); }
   double threshold(const detect_params& p) const { return base.threshold(scaled_params(p, factor)); }
   precomputed_saliency bind(const point_cloud& cloud, const detect_params& p) const {
+    if (inner == 1)
+      return precomputed_saliency::centroid_shift(centroid_offsets_of(cloud, scaled_params(p, factor), base));
+    if (inner > 0) return precomputed_saliency(centroid_shift_of(cloud, p, factor, inner, base));
     return precomputed_saliency(saliency_of(cloud, scaled_params(p, factor), base));
   }
 };
 }  // namespace
 
-any_modality scaled_modality(any_modality base, double factor) {
+any_modality scaled_modality(any_modality base, double factor, double inner) {
   if (!(factor > 0 && factor <= 16))
     throw std::invalid_argument("scale must be a factor of the radius in (0, 16], got " + std::to_string(factor));
+  if (!(inner == 0 || (inner > 0 && inner < factor)))
+    throw std::invalid_argument("inner must be a factor of the radius in (0, scale), got " + std::to_string(inner));
   if (!base) throw std::invalid_argument("scaled_modality: no modality");
-  return scaled_any{std::move(base), factor};
+  return scaled_any{std::move(base), factor, inner};
 }
 
 double max_scale_factor(const std::vector<any_modality>& modalities) {

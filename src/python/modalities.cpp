@@ -158,8 +158,10 @@ void bind_modalities(py::module_& m) {
       "preset_names", [] { return ced::preset_names(); }, "The presets' names: ced3d, ced6d, robust3d, robust6d.");
   m.def(
       "preset", [](const std::string& name) { return ced::preset(name); }, py::arg("name"),
-      "The modalities of a preset: 'ced3d' (xyz:0.2), 'ced6d' (xyz:0.2, rgb:0.1), 'robust3d' (xyz:0.2,scale=1.75) or "
-      "'robust6d' (xyz:0.2,scale=2.25, rgb:0.5). The robust presets also refine their keypoints (preset_refines).");
+      "The modalities of a preset: 'ced3d' (xyz:0.2), 'ced6d' (xyz:0.2, rgb:0.1), 'robust3d' "
+      "(xyz:0.2,scale=1.75,inner=1) or "
+      "'robust6d' (xyz:0.2,scale=2.25,inner=1, rgb:0.5). The robust presets also refine their keypoints "
+      "(preset_refines).");
   m.def("preset_refines", &ced::preset_refines, py::arg("name"),
         "Whether a preset refines its keypoints (detect(refine=...)): the robust presets do, ced3d and ced6d not.");
   m.def("_split_modality_specs", &ced::split_modality_specs, py::arg("text"),

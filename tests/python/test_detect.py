@@ -27,7 +27,7 @@ def test_refine_follows_the_preset_and_can_be_set(cli, sample, sample_path):
     assert ced.preset_refines("robust6d") and not ced.preset_refines("ced6d")
     robust = ced.detect(sample, modalities="robust6d")
     assert robust.refine
-    specs = ["xyz:0.2,scale=2.25", "rgb:0.5"]
+    specs = ["xyz:0.2,scale=2.25,inner=1", "rgb:0.5"]
     plain = ced.detect(sample, modalities=specs)  # a list of specs: no refinement unless asked
     assert not plain.refine
     np.testing.assert_array_equal(ced.detect(sample, modalities="robust6d", refine=False).keypoints, plain.keypoints)
