@@ -75,17 +75,29 @@ ced_test::oracle_result robust6d_oracle(const ced::point_cloud& c, double r, std
   return out;
 }
 
-}  // namespace
-
-TEST(Scaled, HandComputedLine) {
-  // Three points 4 cm apart, r = 5 cm: at r, A sees B; at 2r, A sees B and C.
+/// A at 0, B at 4 cm, C at 8 cm on the x axis.
+ced::point_cloud three_point_line() {
   ced::point_cloud c;
   c.push_back(0, 0, 0);
   c.push_back(0.04f, 0, 0);
   c.push_back(0.08f, 0, 0);
+  return c;
+}
+
+/// r = 5 cm, every point counted.
+ced::detect_params line_params() {
   ced::detect_params p;
   p.radius = p.nms_radius = 0.05;
   p.min_neighbors = 1;
+  return p;
+}
+
+}  // namespace
+
+TEST(Scaled, HandComputedLine) {
+  // Three points 4 cm apart, r = 5 cm: at r, A sees B; at 2r, A sees B and C.
+  const ced::point_cloud c = three_point_line();
+  ced::detect_params p = line_params();
   const auto plain = ced::detect(c, p, specs({"xyz:0.2"}));
   const auto twice = ced::detect(c, p, specs({"xyz:0.2,scale=2"}));
   EXPECT_NEAR(plain.saliency[0][0], 0.02, 1e-7);  // mean of A, B: x = 0.02
@@ -167,13 +179,8 @@ TEST(Scaled, TilesStayExact) {
 TEST(Scaled, CentroidShiftHandComputedAndAgainstTheOracle) {
   // A at 0, B at 4 cm, C at 8 cm, r = 5 cm, K = 2, J = 1: A's centroid at r
   // is 2 cm, at 2r 4 cm: a shift of 2 cm; B's: 4 and 4, no shift.
-  ced::point_cloud line;
-  line.push_back(0, 0, 0);
-  line.push_back(0.04f, 0, 0);
-  line.push_back(0.08f, 0, 0);
-  ced::detect_params p;
-  p.radius = p.nms_radius = 0.05;
-  p.min_neighbors = 1;
+  const ced::point_cloud line = three_point_line();
+  ced::detect_params p = line_params();
   const auto shift = ced::detect(line, p, specs({"xyz:0.2,scale=2,inner=1"}));
   EXPECT_EQ(shift.names[0], "xyz,scale=2,inner=1");
   EXPECT_NEAR(shift.saliency[0][0], 0.02, 1e-7);
