@@ -362,10 +362,15 @@ ced::eval::rigid_transform rgbd_frames::source_to_target(std::size_t i, std::siz
   return ced::eval::compose(ced::eval::inverse(poses.at(j)), poses.at(i));  // camera i -> world -> camera j
 }
 
+namespace {
+/// --intrinsics, or the camera file of the --rgbd folder.
+std::string intrinsics_path(const std::string& dir, const std::string& intrinsics) {
+  return intrinsics.empty() ? dir + "/camera_primesense.json" : intrinsics;
+}
+
 std::vector<ced::io::named_path> rgbd_input_paths(const std::string& dir, const std::string& intrinsics) {
-  std::vector<ced::io::named_path> in{
-      {"--rgbd's odometry.log", dir + "/odometry.log"},
-      {"--intrinsics", intrinsics.empty() ? dir + "/camera_primesense.json" : intrinsics}};
+  std::vector<ced::io::named_path> in{{"--rgbd's odometry.log", dir + "/odometry.log"},
+                                      {"--intrinsics", intrinsics_path(dir, intrinsics)}};
   for (const char* sub : {"/color", "/depth"}) {
     std::error_code ec;
     for (std::filesystem::directory_iterator it(dir + sub, ec), end; !ec && it != end; it.increment(ec))
@@ -373,9 +378,23 @@ std::vector<ced::io::named_path> rgbd_input_paths(const std::string& dir, const 
   }
   return in;
 }
+}  // namespace
+
+std::vector<ced::io::named_path> eval_input_paths(const std::string& input, const std::string& source,
+                                                  const std::string& target, const std::string& transform,
+                                                  const std::string& rgbd, const std::string& intrinsics) {
+  std::vector<ced::io::named_path> in{{"the input", input},
+                                      {"--source", source},
+                                      {"--target", target},
+                                      {"--transform", transform},
+                                      {"--intrinsics", intrinsics}};
+  if (!rgbd.empty())
+    for (auto& p : rgbd_input_paths(rgbd, intrinsics)) in.push_back(std::move(p));
+  return in;
+}
 
 rgbd_frames load_rgbd_frames(const std::string& dir, const std::string& intrinsics, double depth_max, double voxel) {
-  const auto k = ced::io::read_intrinsics(intrinsics.empty() ? dir + "/camera_primesense.json" : intrinsics);
+  const auto k = ced::io::read_intrinsics(intrinsics_path(dir, intrinsics));
   rgbd_frames f;
   f.poses = ced::io::read_trajectory_log(dir + "/odometry.log");
   ced::io::rgbd_options ro;

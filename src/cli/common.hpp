@@ -70,14 +70,14 @@ void add_plugin_option(CLI::App* app, std::vector<std::string>& plugins);
 /// ced::plugin_error (exit code 1) naming the file and why.
 void load_plugins(const std::vector<std::string>& plugins);
 
-/// Throws usage_error naming `option` unless `v` is a finite number >= 0;
-/// `zero`, when given, says what 0 means (for the message).
 /// A comma-separated list of numbers (OPTION 'TEXT'): every value between
 /// commas, the empty ones too, parsed with ced::parse_number, then passed to
 /// `check`, which throws std::invalid_argument for a value out of range.
 /// usage_error on the first problem.
 std::vector<double> parse_number_list(const std::string& text, const std::string& option,
                                       const std::function<void(double)>& check);
+/// Throws usage_error naming `option` unless `v` is a finite number >= 0;
+/// `zero`, when given, says what 0 means (for the message).
 void check_length(double v, const std::string& option, const std::string& zero = {});
 /// The evaluations' -k,--min-neighbors and -j,--threads: usage_error unless >= 0.
 void check_counts(int min_neighbors, int threads);
@@ -133,9 +133,13 @@ struct rgbd_frames {
   ced::eval::rigid_transform source_to_target(std::size_t i, std::size_t j) const;
 };
 rgbd_frames load_rgbd_frames(const std::string& dir, const std::string& intrinsics, double depth_max, double voxel);
-/// What load_rgbd_frames() reads, for check_paths(): odometry.log, the
-/// intrinsics file (given or the default), and every file in color/ and depth/.
-std::vector<ced::io::named_path> rgbd_input_paths(const std::string& dir, const std::string& intrinsics);
+/// What the two `ced eval` commands read, for check_paths(): INPUT,
+/// --source, --target, --transform, --intrinsics and, with --rgbd DIR, what
+/// load_rgbd_frames() reads: odometry.log, the intrinsics file (given or the
+/// default), and every file in color/ and depth/.
+std::vector<ced::io::named_path> eval_input_paths(const std::string& input, const std::string& source,
+                                                  const std::string& target, const std::string& transform,
+                                                  const std::string& rgbd, const std::string& intrinsics);
 
 /// Reads a cloud, drops its non-finite points, then voxel down-samples it when `voxel` > 0.
 ced::point_cloud read_finite(const std::string& path, const std::string& format, const std::string& columns,

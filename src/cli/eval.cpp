@@ -421,14 +421,8 @@ command add_repeatability_command(CLI::App& eval) {
   rep->add_option("--csv", o->csv, "Write one row per detector x noise x trial");
   rep->add_flag("-q,--quiet", o->quiet, "Print only the table");
   return {rep, [o, noise_opt, epsilon_opt, voxel_opt, gt_opt, draws_opt, depth_opt] {
-            std::vector<ced::io::named_path> inputs{{"the input", o->input},
-                                                    {"--source", o->source},
-                                                    {"--target", o->target},
-                                                    {"--transform", o->transform},
-                                                    {"--intrinsics", o->intrinsics}};
-            if (!o->rgbd.empty())
-              for (auto& p : rgbd_input_paths(o->rgbd, o->intrinsics)) inputs.push_back(std::move(p));
-            check_paths(inputs, {{"--csv", o->csv}});
+            check_paths(eval_input_paths(o->input, o->source, o->target, o->transform, o->rgbd, o->intrinsics),
+                        {{"--csv", o->csv}});
             o->noise_given = noise_opt->count() > 0;
             o->epsilon_given = epsilon_opt->count() > 0;
             o->pair_options_given = voxel_opt->count() + gt_opt->count() + draws_opt->count() > 0;

@@ -328,14 +328,8 @@ command add_registration_command(CLI::App& eval) {
   reg->add_option("--csv", o->csv, "Write one row per detector x pair x trial");
   reg->add_flag("-q,--quiet", o->quiet, "Print only the tables");
   return {reg, [o] {
-            std::vector<ced::io::named_path> inputs{{"the input", o->input},
-                                                    {"--source", o->source},
-                                                    {"--target", o->target},
-                                                    {"--transform", o->transform},
-                                                    {"--intrinsics", o->intrinsics}};
-            if (!o->rgbd.empty())
-              for (auto& p : rgbd_input_paths(o->rgbd, o->intrinsics)) inputs.push_back(std::move(p));
-            check_paths(inputs, {{"--csv", o->csv}});
+            check_paths(eval_input_paths(o->input, o->source, o->target, o->transform, o->rgbd, o->intrinsics),
+                        {{"--csv", o->csv}});
             return run_registration(*o);
           }};
 }
