@@ -42,6 +42,19 @@ std::vector<float> saliency_of(const point_cloud& cloud, const detect_params& pa
 std::vector<float> centroid_shift_of(const point_cloud& cloud, const detect_params& params, double factor, double inner,
                                      const any_modality& m);
 
+namespace detail {
+/// || outer − inner || of two centroid offsets (3 floats each), in double;
+/// 0 when either is NaN (too few neighbours at its scale).
+inline float centroid_shift_norm(const float* outer, const float* inner) noexcept {
+  double d2 = 0;
+  for (std::size_t a = 0; a < 3; ++a) {
+    const double d = double(outer[a]) - double(inner[a]);
+    d2 += d * d;
+  }
+  return std::isfinite(d2) ? static_cast<float>(std::sqrt(d2)) : 0.0f;
+}
+}  // namespace detail
+
 /// The evaluator of a scaled modality: the saliencies computed at bind time,
 /// or (centroid_shift(), inner = 1) each point's centroid offset at K·r,
 /// taken against its offset at r from the detection's own pass, which makes
@@ -61,16 +74,12 @@ class precomputed_saliency {
       for (std::size_t k = 0; k < block.size(); ++k) out[k] = m_saliency[block.point(k)];
       return;
     }
-    for (std::size_t k = 0; k < block.size(); ++k) {
-      const float* o = m_outer.data() + 3 * std::size_t(block.point(k));
+    for (std::size_t k = 0; k < block.size(); ++k) {  // (gated at r by the caller)
       const double* sum = block.position_sums(k);
       const double n = double(block.count(k));
-      double d2 = 0;
-      for (std::size_t a = 0; a < 3; ++a) {
-        const double d = double(o[a]) - double(static_cast<float>(sum[a] / n));  // as centroid_shift_of rounds
-        d2 += d * d;
-      }
-      out[k] = std::isfinite(d2) ? static_cast<float>(std::sqrt(d2)) : 0.0f;  // (gated at r by the caller)
+      const float inner[3] = {static_cast<float>(sum[0] / n), static_cast<float>(sum[1] / n),
+                              static_cast<float>(sum[2] / n)};  // as centroid_offsets_of rounds them
+      out[k] = detail::centroid_shift_norm(m_outer.data() + 3 * std::size_t(block.point(k)), inner);
     }
   }
 
@@ -83,9 +92,17 @@ class precomputed_saliency {
 /// `params`, 3 floats a point (NaN with fewer than min_neighbors neighbours).
 std::vector<float> centroid_offsets_of(const point_cloud& cloud, const detect_params& params, const any_modality& m);
 
+/// The evaluator of `base` at `factor` × radius, or of its centroid shift
+/// between inner × and factor × radius when `inner` > 0 (scaled<M> and
+/// scaled_modality bind through it).
+precomputed_saliency bind_scaled(const point_cloud& cloud, const detect_params& params, double factor, double inner,
+                                 const any_modality& base);
+
 /// `params` with the radius K times larger (the NMS radius too).
 detect_params scaled_params(const detect_params& params, double factor);
 std::string format_scale_factor(double factor);
+/// The end of a scaled modality's name: ",scale=K", then ",inner=J" when J > 0.
+std::string scale_suffix(double factor, double inner = 0);
 
 /// Modality M measured over K × radius (see the top of this file).
 template <class M>
@@ -94,10 +111,7 @@ struct scaled {
   double factor = 2;  ///< K > 0
   double inner = 0;   ///< J in (0, K): the centroid shift between J·r and K·r (xyz only); 0: none
 
-  std::string name() const {
-    return std::string(base.name()) + ",scale=" + format_scale_factor(factor) +
-           (inner > 0 ? ",inner=" + format_scale_factor(inner) : "");
-  }
+  std::string name() const { return std::string(base.name()) + scale_suffix(factor, inner); }
   double threshold(const detect_params& p) const { return base.threshold(scaled_params(p, factor)); }
   std::vector<std::string> fields() const {
     if constexpr (detail::declares_fields<M>::value)
@@ -106,11 +120,7 @@ struct scaled {
       return {};
   }
   precomputed_saliency bind(const point_cloud& cloud, const detect_params& p) const {
-    if (inner == 1)
-      return precomputed_saliency::centroid_shift(
-          centroid_offsets_of(cloud, scaled_params(p, factor), any_modality(base)));
-    if (inner > 0) return precomputed_saliency(centroid_shift_of(cloud, p, factor, inner, any_modality(base)));
-    return precomputed_saliency(saliency_of(cloud, scaled_params(p, factor), any_modality(base)));
+    return bind_scaled(cloud, p, factor, inner, any_modality(base));
   }
 };
 

@@ -12,8 +12,9 @@ using ::ced::resolve_threads;  // ced/params.hpp
 
 /// Calls `body(begin, end)` on disjoint chunks covering [0, n), on up to
 /// `threads` threads (0 = all cores, or the limit of an enclosing
-/// with_threads() on this thread), and returns when all are done. Chunks
-/// hold at least `grain` items. Exceptions thrown by `body` are rethrown.
+/// with_threads() or with_thread_limit() on this thread), and returns when
+/// all are done. Chunks hold at least `grain` items. Exceptions thrown by
+/// `body` are rethrown.
 /// Which thread runs a chunk is unspecified, so `body` must write only to
 /// locations owned by its items for the result to be deterministic.
 void parallel_for(std::size_t n, unsigned threads, std::size_t grain,

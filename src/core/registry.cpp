@@ -242,8 +242,9 @@ any_modality make_modality(std::string_view text) {
 std::vector<any_modality> preset(std::string_view name) {
   if (name == "ced3d") return {xyz{}};
   if (name == "ced6d") return {xyz{}, rgb{}};
-  // Chosen on apartment_mesh_214 alone (docs/EVALUATION.md): geometry at 1.75 or 2.25 × the radius,
-  // colour at 0.5; both refine their keypoints (preset_refines).
+  // docs/EVALUATION.md: scale, colour threshold and refinement chosen on apartment_mesh_214, the
+  // centroid shift (inner=1) also on the Open3D RGB-D frames and PCL's PrimeSense pair; geometry at
+  // 1.75 or 2.25 × the radius, colour at 0.5; both refine their keypoints (preset_refines).
   if (name == "robust3d") return {scaled<xyz>{xyz{}, 1.75, 1}};
   if (name == "robust6d") return {scaled<xyz>{xyz{}, 2.25, 1}, rgb{0.5}};
   throw std::invalid_argument("unknown preset '" + std::string(name) + "' (known: ced3d, ced6d, robust3d, robust6d)");

@@ -44,11 +44,12 @@ std::vector<float> centroid_offsets_of(const point_cloud& cloud, const detect_pa
   detail::detection_context ctx(cloud, params, {m.name()}, {std::numeric_limits<double>::max()});
   {
     const std::unique_ptr<bound_modality> bound = m.bind(cloud, params);
-    if (!bound->channels().positions)
+    const channel_source src = bound->channels();
+    if (!src.positions)
       throw std::invalid_argument("inner= needs a modality of positions (xyz), not '" + m.name() + "'");
     ctx.without_neighbor_lists();
     // Blocks hold disjoint points: each writes only its own offsets.
-    ctx.compute_saliency({bound->channels()}, [&](const block_view& block, float* const* columns) {
+    ctx.compute_saliency({src}, [&](const block_view& block, float* const* columns) {
       for (std::size_t k = 0; k < block.size(); ++k) {
         columns[0][k] = 0;
         const std::uint32_t n = block.count(k);
@@ -67,16 +68,17 @@ std::vector<float> centroid_shift_of(const point_cloud& cloud, const detect_para
                                      const any_modality& m) {
   const std::vector<float> outer = centroid_offsets_of(cloud, scaled_params(params, factor), m);
   const std::vector<float> in = centroid_offsets_of(cloud, scaled_params(params, inner), m);
-  std::vector<float> s(cloud.size(), 0.0f);
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    double d2 = 0;
-    for (std::size_t a = 0; a < 3; ++a) {
-      const double d = double(outer[3 * i + a]) - double(in[3 * i + a]);  // mean at K·r − mean at inner·r
-      d2 += d * d;
-    }
-    if (std::isfinite(d2)) s[i] = static_cast<float>(std::sqrt(d2));  // NaN: too few neighbours at a scale
-  }
+  std::vector<float> s(cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i) s[i] = detail::centroid_shift_norm(&outer[3 * i], &in[3 * i]);
   return s;
+}
+
+precomputed_saliency bind_scaled(const point_cloud& cloud, const detect_params& params, double factor, double inner,
+                                 const any_modality& base) {
+  if (inner == 1)  // the inner centroid is the detection's own
+    return precomputed_saliency::centroid_shift(centroid_offsets_of(cloud, scaled_params(params, factor), base));
+  if (inner > 0) return precomputed_saliency(centroid_shift_of(cloud, params, factor, inner, base));
+  return precomputed_saliency(saliency_of(cloud, scaled_params(params, factor), base));
 }
 
 std::string format_scale_factor(double v) {
@@ -85,10 +87,11 @@ std::string format_scale_factor(double v) {
   return std::string(buf, r.ptr);
 }
 
-namespace {
 std::string scale_suffix(double factor, double inner) {
   return ",scale=" + format_scale_factor(factor) + (inner > 0 ? ",inner=" + format_scale_factor(inner) : "");
 }
+
+namespace {
 
 struct scaled_any {
   any_modality base;
@@ -98,10 +101,7 @@ struct scaled_any {
   std::string name() const { return base.name() + scale_suffix(factor, inner); }
   double threshold(const detect_params& p) const { return base.threshold(scaled_params(p, factor)); }
   precomputed_saliency bind(const point_cloud& cloud, const detect_params& p) const {
-    if (inner == 1)
-      return precomputed_saliency::centroid_shift(centroid_offsets_of(cloud, scaled_params(p, factor), base));
-    if (inner > 0) return precomputed_saliency(centroid_shift_of(cloud, p, factor, inner, base));
-    return precomputed_saliency(saliency_of(cloud, scaled_params(p, factor), base));
+    return bind_scaled(cloud, p, factor, inner, base);
   }
 };
 }  // namespace
