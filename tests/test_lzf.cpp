@@ -10,6 +10,7 @@
 #include "ced/io/error.hpp"
 #include "ced/io/lzf.hpp"
 #include "file_support.hpp"
+#include "io/scalar_io.hpp"
 
 using ced::io::io_error;
 
@@ -57,6 +58,43 @@ TEST(Lzf, RandomAndRepetitiveDataRoundTrip) {
     EXPECT_EQ(ced::io::lzf_decompress(packed, in.size(), "lzf"), in) << "size " << in.size();
   }
   EXPECT_LT(ced::io::lzf_compress(std::string(1 << 20, '\0')).size(), (1u << 20) / 80);
+}
+
+TEST(Lzf, SegmentsOnThreadsGiveTheBytesOfOneParse) {
+  // Segments parsed apart (and joined where a match runs over a boundary)
+  // must give exactly the bytes of one parse from the start.
+  std::mt19937 rng(11);
+  std::vector<std::string> inputs;
+  for (std::size_t size : {0u, 1u, 2u, 3u, 40u, 5000u, 60000u}) {
+    std::string s(size, '\0');
+    for (auto& ch : s) ch = static_cast<char>(rng());
+    inputs.push_back(s);
+    for (auto& ch : s) ch = static_cast<char>(rng() % 3);  // short matches everywhere
+    inputs.push_back(s);
+  }
+  std::string copies;  // long matches over many boundaries, at distances up to 8192
+  while (copies.size() < 120000)
+    copies += copies.size() > 9000 && rng() % 4 ? copies.substr(copies.size() - 1 - rng() % 8000, 1 + rng() % 600)
+                                                : std::string(1, static_cast<char>(rng()));
+  inputs.push_back(copies);
+  inputs.push_back(std::string(50000, 'z'));
+  std::string floats;  // like a PCD column: slowly varying floats
+  for (int i = 0; i < 20000; ++i) {
+    const float f = static_cast<float>(i % 700) * 0.01f + static_cast<float>(rng() % 50) * 1e-4f;
+    floats.append(reinterpret_cast<const char*>(&f), sizeof f);
+  }
+  inputs.push_back(floats);
+  for (const std::string& in : inputs) {
+    const std::string whole = ced::io::detail::lzf_compress_segmented(in, in.size() + 1, 1);
+    EXPECT_EQ(whole, ced::io::lzf_compress(in));
+    ASSERT_EQ(ced::io::lzf_decompress(whole, in.size(), "lzf"), in);
+    for (std::size_t segment : {1u, 2u, 7u, 64u, 1000u, 8192u, 8193u, 30000u}) {
+      if (segment < 64 && in.size() > 5000) continue;  // each segment seeds 8 KiB: too slow
+      for (unsigned threads : {2u, 3u})
+        EXPECT_EQ(ced::io::detail::lzf_compress_segmented(in, segment, threads), whole)
+            << "size " << in.size() << ", segments of " << segment << ", " << threads << " threads";
+    }
+  }
 }
 
 TEST(Lzf, CorruptDataIsDetected) {

@@ -36,6 +36,8 @@ unsigned current_threads(unsigned threads) noexcept {
 }
 }  // namespace
 
+unsigned effective_threads(unsigned threads) noexcept { return current_threads(threads); }
+
 #ifdef CED_HAS_TBB
 namespace {
 /// One arena per concurrency, made on first use and kept: making an arena

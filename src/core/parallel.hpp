@@ -20,6 +20,10 @@ using ::ced::resolve_threads;  // ced/params.hpp
 void parallel_for(std::size_t n, unsigned threads, std::size_t grain,
                   const std::function<void(std::size_t, std::size_t)>& body);
 
+/// How many threads parallel_for() with `threads` would use on this thread
+/// at most: `threads`, or for 0 the enclosing limit, else all cores.
+unsigned effective_threads(unsigned threads) noexcept;
+
 /// Runs `f` where parallel_for() with threads = 0 on this thread uses up to
 /// `threads` threads (0 = all cores, or an enclosing with_threads()' limit),
 /// and so do TBB algorithms it calls directly (CGAL's Parallel_tag) when that

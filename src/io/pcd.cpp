@@ -758,8 +758,8 @@ void write_compressed(std::ostream& out, const point_cloud& cloud, const std::ve
   const std::size_t n = cloud.size();
   constexpr std::size_t chunk = 4096;
   std::vector<double> vals(chunk);
-  std::string block(n * record, '\0');  // field-major
-  auto* base = reinterpret_cast<unsigned char*>(block.data());
+  ced::detail::raw_vector<unsigned char> block(n * record);  // field-major; every byte is written below
+  unsigned char* const base = block.data();
   std::size_t offset = 0;
   for (const auto& c : cols) {
     for (std::size_t i0 = 0; i0 < n; i0 += chunk) {
@@ -771,14 +771,16 @@ void write_compressed(std::ostream& out, const point_cloud& cloud, const std::ve
     }
     offset += n * c.size;
   }
-  const std::string packed = lzf_compress(block);
+  ced::detail::raw_vector<unsigned char> packed;
+  detail::lzf_compress_into(std::string_view(reinterpret_cast<const char*>(base), block.size()), packed,
+                            detail::lzf_segment_bytes(block.size()), 0);
   if (packed.size() > std::numeric_limits<std::uint32_t>::max())
     throw io_error("the compressed cloud is too large for PCD binary_compressed");
   unsigned char sizes[8];
   store_le<std::uint32_t>(sizes, static_cast<std::uint32_t>(packed.size()));
   store_le<std::uint32_t>(sizes + 4, static_cast<std::uint32_t>(block.size()));
   out.write(reinterpret_cast<const char*>(sizes), 8);
-  out.write(packed.data(), static_cast<std::streamsize>(packed.size()));
+  out.write(reinterpret_cast<const char*>(packed.data()), static_cast<std::streamsize>(packed.size()));
 }
 
 /// The points of `cloud` as ascii or binary data, after the header.

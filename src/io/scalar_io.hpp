@@ -22,6 +22,7 @@
 #include "ced/cloud.hpp"
 #include "ced/io/output_file.hpp"
 #include "core/parallel.hpp"
+#include "core/raw_vector.hpp"
 #include "core/text.hpp"
 
 namespace ced::io::detail {
@@ -30,6 +31,15 @@ namespace ced::io::detail {
 /// cannot be opened or cannot be read. (Defined in output_file.cpp.)
 std::string read_whole_file(const std::string& path);
 
+/// lzf_compress() into `out` (resized to the compressed size), with segments
+/// of `segment` bytes parsed on up to `threads` threads (0: all cores, or the
+/// enclosing limit): the same bytes for any segment size and thread count
+/// (lzf.cpp; tests force small segments).
+void lzf_compress_into(std::string_view in, ced::detail::raw_vector<unsigned char>& out, std::size_t segment,
+                       unsigned threads);
+std::string lzf_compress_segmented(std::string_view in, std::size_t segment, unsigned threads);
+/// The segment size lzf_compress() uses for n bytes.
+std::size_t lzf_segment_bytes(std::size_t n) noexcept;
 /// lzf_decompress() into the out_size bytes at `out` (ced/io/lzf.hpp; lzf.cpp).
 void lzf_decompress_into(std::string_view in, char* out, std::size_t out_size, const std::string& name_for_errors);
 
