@@ -120,9 +120,9 @@ constexpr std::size_t lzf_bound(std::size_t n) noexcept { return n + n / 32 + 16
 /// literals before it, none of the literals after the last one.
 struct segment_parse {
   std::vector<lzf_match> matches;
-  std::vector<std::size_t> token_at;             ///< where each match's bytes start in `bytes`
-  ced::detail::raw_vector<unsigned char> bytes;  ///< its capacity is reused
-  std::size_t size = 0;                          ///< bytes used
+  std::vector<std::size_t> token_at;                    ///< where each match's bytes start in `bytes`
+  ced::detail::raw_column_vector<unsigned char> bytes;  ///< its capacity is reused
+  std::size_t size = 0;                                 ///< bytes used
   std::size_t end = 0;  ///< where the parse stopped: ≥ the segment's end unless the input ended
 
   void run(lzf_parser& p, const unsigned char* in, std::size_t from, std::size_t to) {
@@ -173,7 +173,7 @@ std::size_t lzf_segment_bytes(std::size_t n) noexcept {
   return n < 8 * mib ? std::max<std::size_t>(n, 1) : mib;
 }
 
-void lzf_compress_into(std::string_view input, ced::detail::raw_vector<unsigned char>& out, std::size_t segment,
+void lzf_compress_into(std::string_view input, ced::detail::raw_column_vector<unsigned char>& out, std::size_t segment,
                        unsigned threads) {
   const auto* in = reinterpret_cast<const unsigned char*>(input.data());
   const std::size_t n = input.size();
@@ -249,7 +249,7 @@ void lzf_compress_into(std::string_view input, ced::detail::raw_vector<unsigned 
 }
 
 std::string lzf_compress_segmented(std::string_view input, std::size_t segment, unsigned threads) {
-  ced::detail::raw_vector<unsigned char> out;
+  ced::detail::raw_column_vector<unsigned char> out;
   lzf_compress_into(input, out, segment, threads);
   return std::string(out.begin(), out.end());
 }

@@ -758,7 +758,7 @@ void write_compressed(std::ostream& out, const point_cloud& cloud, const std::ve
   const std::size_t n = cloud.size();
   constexpr std::size_t chunk = 4096;
   std::vector<double> vals(chunk);
-  ced::detail::raw_vector<unsigned char> block(n * record);  // field-major; every byte is written below
+  ced::detail::raw_column_vector<unsigned char> block(n * record);  // field-major; every byte is written below
   unsigned char* const base = block.data();
   std::size_t offset = 0;
   for (const auto& c : cols) {
@@ -771,7 +771,7 @@ void write_compressed(std::ostream& out, const point_cloud& cloud, const std::ve
     }
     offset += n * c.size;
   }
-  ced::detail::raw_vector<unsigned char> packed;
+  ced::detail::raw_column_vector<unsigned char> packed;
   detail::lzf_compress_into(std::string_view(reinterpret_cast<const char*>(base), block.size()), packed,
                             detail::lzf_segment_bytes(block.size()), 0);
   if (packed.size() > std::numeric_limits<std::uint32_t>::max())

@@ -35,7 +35,7 @@ std::string read_whole_file(const std::string& path);
 /// of `segment` bytes parsed on up to `threads` threads (0: all cores, or the
 /// enclosing limit): the same bytes for any segment size and thread count
 /// (lzf.cpp; tests force small segments).
-void lzf_compress_into(std::string_view in, ced::detail::raw_vector<unsigned char>& out, std::size_t segment,
+void lzf_compress_into(std::string_view in, ced::detail::raw_column_vector<unsigned char>& out, std::size_t segment,
                        unsigned threads);
 std::string lzf_compress_segmented(std::string_view in, std::size_t segment, unsigned threads);
 /// The segment size lzf_compress() uses for n bytes.
