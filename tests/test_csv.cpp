@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -10,6 +11,7 @@
 #include <sstream>
 
 #include "ced/io/csv.hpp"
+#include "core/parallel.hpp"
 #include "file_support.hpp"
 
 namespace fs = std::filesystem;
@@ -308,4 +310,76 @@ TEST(CsvWrite, IntegersAreRoundedAndClamped) {
   std::stringstream s;
   ced::io::write_csv(s, c);
   EXPECT_EQ(s.str(), "x,y,z,red,n\n1.5,0.1,-2,255,-3\n");
+}
+
+// ------------------------------------------------------------- threads
+
+namespace {
+/// A CSV text of about 5 MB: comments and blank lines here and there, a
+/// column that turns non-integer and a colour that leaves 0..255 only near
+/// the end (so the types depend on the last blocks), and `bad` lines whose
+/// first value is not a number.
+std::string big_csv(const std::vector<std::size_t>& bad = {}) {
+  std::mt19937 rng(5);
+  std::ostringstream s;
+  s << "x,y,z,intensity,red,w\n";
+  for (std::size_t i = 0; i < 150000; ++i) {
+    if (i % 9973 == 0) s << "# a comment at point " << i << "\n";
+    if (i % 7919 == 0) s << "\n";
+    if (std::find(bad.begin(), bad.end(), i) != bad.end())
+      s << "oops,";
+    else
+      s << (rng() % 100000) * 0.001 << ",";
+    s << (rng() % 100000) * 0.001 << "," << -(double(rng() % 5000) * 0.01) << "," << rng() % 60000 << ","
+      << (i == 149000 ? 300 : rng() % 256) << "," << (i == 148000 ? std::string("1.5") : std::to_string(rng() % 9))
+      << "\n";
+  }
+  return s.str();
+}
+
+point_cloud read_text_on(unsigned threads, const std::string& text) {
+  point_cloud c;
+  ced::detail::with_thread_limit(threads, [&] { c = read_text(text); });
+  return c;
+}
+}  // namespace
+
+TEST(CsvThreads, BlocksOfLinesOnThreadsGiveTheCloudOfOneThread) {
+  const std::string text = big_csv();
+  ASSERT_GT(text.size(), std::size_t(4) << 20);  // several blocks of 1 MiB
+  const point_cloud want = read_text_on(1, text);
+  ASSERT_EQ(want.size(), 150000u);
+  EXPECT_EQ(want.get_field("intensity").type(), scalar_type::int32);
+  EXPECT_EQ(want.get_field("red").type(), scalar_type::int32);  // the 300 near the end
+  EXPECT_EQ(want.get_field("w").type(), scalar_type::float64);  // the 1.5 near the end
+  for (unsigned threads : {2u, 3u}) {
+    const point_cloud got = read_text_on(threads, text);
+    ASSERT_EQ(got.size(), want.size());
+    EXPECT_EQ(got.origin(), want.origin());
+    EXPECT_EQ(got.positions(), want.positions());
+    ASSERT_EQ(field_names(got), field_names(want));
+    for (std::size_t f = 0; f < got.fields().size(); ++f) {
+      EXPECT_EQ(got.fields()[f].type(), want.fields()[f].type());
+      EXPECT_EQ(got.fields()[f].values, want.fields()[f].values);
+    }
+  }
+}
+
+TEST(CsvThreads, TheFirstBadLineInTheFileIsReported) {
+  // Two bad lines in later blocks: every thread count names the first one,
+  // with its line number in the file (comments and blank lines counted).
+  const std::string text = big_csv({120000, 70000});
+  std::string want;
+  for (unsigned threads : {1u, 2u, 3u}) {
+    try {
+      read_text_on(threads, text);
+      ADD_FAILURE() << "no error on " << threads << " threads";
+    } catch (const io_error& e) {
+      if (want.empty()) want = e.what();
+      EXPECT_EQ(std::string(e.what()), want) << threads << " threads";
+    }
+  }
+  // Line 1 is the header; point i is on line 2 + i plus the comments and blank lines before it.
+  const std::size_t extra = 70000 / 9973 + 1 + 70000 / 7919 + 1;
+  EXPECT_NE(want.find("line " + std::to_string(2 + 70000 + extra) + ", column 1 ('x')"), std::string::npos) << want;
 }

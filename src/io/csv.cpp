@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <filesystem>
 #include <limits>
 #include <memory>
@@ -173,6 +174,12 @@ struct column_stats {
     all_int = all_int && is_int;
     lo = std::min(lo, v);
     hi = std::max(hi, v);
+  }
+  /// The statistics of both sets of values (in any order: the same).
+  void merge(const column_stats& o) noexcept {
+    all_int = all_int && o.all_int;
+    lo = std::min(lo, o.lo);
+    hi = std::max(hi, o.hi);
   }
   /// The narrowest type of the n values of column `name`: uint8 colours,
   /// int32, else float64.
@@ -351,9 +358,10 @@ void parse_row(std::string_view line, std::size_t line_no, bool first, char deli
   }
 }
 
-/// The values of the data lines from `lines` on, column by column.
-std::vector<column_state> read_rows(line_reader lines, char delim, const std::vector<std::string>& names,
-                                    const csv_options& opt, const std::string& file) {
+/// The values of the data lines of `lines` (from its position to the end of
+/// its text), column by column; `first`: its first data line is the file's.
+std::vector<column_state> read_block(line_reader lines, bool first, char delim, const std::vector<std::string>& names,
+                                     const csv_options& opt, const std::string& file) {
   const std::size_t ncols = names.size();
   std::vector<column_state> cols(ncols);
   // At most one point per line, and a line with ncols values takes at least
@@ -367,7 +375,6 @@ std::vector<column_state> read_rows(line_reader lines, char delim, const std::ve
   for (auto& c : cols) c.values.reserve(estimate);
   std::string_view line;
   std::vector<std::string_view> tok;
-  bool first = true;
   while (lines.next(line)) {
     if (line.empty() || is_comment(line)) continue;
     parse_row(line, lines.line_no, first, delim, names, opt, file, tok, [&](std::size_t j, double v, bool is_int) {
@@ -375,6 +382,58 @@ std::vector<column_state> read_rows(line_reader lines, char delim, const std::ve
       cols[j].stats.add(v, is_int);
     });
     first = false;
+  }
+  return cols;
+}
+
+/// The values of the data lines from `lines` on, column by column: blocks of
+/// whole lines parsed on the threads, joined in order. The first error in
+/// the file is the one reported, as one thread would.
+std::vector<column_state> read_rows(line_reader lines, char delim, const std::vector<std::string>& names,
+                                    const csv_options& opt, const std::string& file) {
+  const std::string_view text = lines.text;
+  const std::size_t begin = lines.pos, bytes = text.size() - begin;
+  constexpr std::size_t min_block = std::size_t(1) << 20;
+  const std::size_t threads = ced::detail::effective_threads(0);
+  const std::size_t blocks = threads <= 1 ? 1 : std::min(4 * threads, bytes / min_block);
+  if (blocks <= 1) return read_block(lines, true, delim, names, opt, file);
+  // Block k is text[cut[k], cut[k + 1]): whole lines.
+  std::vector<std::size_t> cut(blocks + 1, text.size());
+  cut[0] = begin;
+  for (std::size_t k = 1; k < blocks; ++k) {
+    const std::size_t nl = text.find('\n', std::max(begin + k * (bytes / blocks), cut[k - 1]));
+    cut[k] = nl == std::string_view::npos ? text.size() : nl + 1;
+  }
+  std::vector<std::size_t> first_line(blocks, lines.line_no);  // the number of the line before each block
+  ced::detail::parallel_for(blocks - 1, 0, 1, [&](std::size_t b, std::size_t e) {
+    for (std::size_t k = b; k < e; ++k)
+      first_line[k + 1] =
+          static_cast<std::size_t>(std::count(text.begin() + static_cast<std::ptrdiff_t>(cut[k]),
+                                              text.begin() + static_cast<std::ptrdiff_t>(cut[k + 1]), '\n'));
+  });
+  for (std::size_t k = 1; k < blocks; ++k) first_line[k] += first_line[k - 1];
+  std::vector<std::vector<column_state>> parts(blocks);
+  std::vector<std::exception_ptr> errors(blocks);
+  ced::detail::parallel_for(blocks, 0, 1, [&](std::size_t b, std::size_t e) {
+    for (std::size_t k = b; k < e; ++k) try {
+        parts[k] =
+            read_block(line_reader{text.substr(0, cut[k + 1]), cut[k], first_line[k]}, k == 0, delim, names, opt, file);
+      } catch (...) {
+        errors[k] = std::current_exception();
+      }
+  });
+  for (const auto& e : errors)
+    if (e) std::rethrow_exception(e);
+  std::vector<column_state> cols = std::move(parts[0]);
+  for (std::size_t j = 0; j < cols.size(); ++j) {
+    std::size_t n = 0;
+    for (const auto& p : parts) n += p.empty() ? 0 : p[j].values.size();
+    cols[j].values.reserve(n);
+    for (std::size_t k = 1; k < blocks; ++k) {
+      const column_state& c = parts[k][j];
+      cols[j].values.insert(cols[j].values.end(), c.values.begin(), c.values.end());
+      cols[j].stats.merge(c.stats);
+    }
   }
   return cols;
 }
