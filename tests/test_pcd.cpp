@@ -15,6 +15,7 @@
 #include "ced/io/io.hpp"
 #include "ced/io/pcd.hpp"
 #include "ced/io/stream.hpp"
+#include "core/parallel.hpp"
 #include "file_support.hpp"
 
 namespace fs = std::filesystem;
@@ -633,4 +634,74 @@ TEST(PcdErrors, StreamNameIsUsedInMessages) {
   } catch (const io_error& e) {
     EXPECT_CONTAINS(e.what(), "my_buffer");
   }
+}
+
+// ------------------------------------------------------------- threads
+
+namespace {
+/// An ascii PCD of about 5 MB, blank lines here and there, `points` points
+/// declared; `bad`: points whose intensity is not a number; `lines` lines
+/// of points written (fewer than declared: truncated).
+std::string big_ascii_pcd(std::size_t points, std::size_t lines, const std::vector<std::size_t>& bad = {}) {
+  std::mt19937 rng(9);
+  std::ostringstream s;
+  s << "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z intensity n\nSIZE 4 4 4 4 4\nTYPE F F F F F\nCOUNT 1 1 1 1 2\n"
+    << "WIDTH " << points << "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << points << "\nDATA ascii\n";
+  for (std::size_t i = 0; i < lines; ++i) {
+    if (i % 7001 == 0) s << "\n  \n";
+    s << (rng() % 100000) * 0.001 << " " << (rng() % 100000) * 0.001 << " " << -(double(rng() % 5000) * 0.01) << " ";
+    if (std::find(bad.begin(), bad.end(), i) != bad.end())
+      s << "x";
+    else
+      s << rng() % 4096;
+    s << " " << (rng() % 100) * 0.01 << " " << (rng() % 100) * 0.01 << "\n";
+  }
+  if (lines == points) s << "trailing text after the last point is not read\n";
+  return s.str();
+}
+
+point_cloud read_pcd_on(unsigned threads, const std::string& text) {
+  point_cloud c;
+  ced::detail::with_thread_limit(threads, [&] { c = ced::io::read_pcd_buffer(text, "big.pcd"); });
+  return c;
+}
+
+std::string pcd_error_on(unsigned threads, const std::string& text) {
+  try {
+    read_pcd_on(threads, text);
+  } catch (const io_error& e) {
+    return e.what();
+  }
+  return "<no io_error>";
+}
+}  // namespace
+
+TEST(PcdThreads, AsciiBlocksOfLinesOnThreadsGiveTheCloudOfOneThread) {
+  const std::string text = big_ascii_pcd(150000, 150000);
+  ASSERT_GT(text.size(), std::size_t(4) << 20);  // several blocks of 1 MiB
+  const point_cloud want = read_pcd_on(1, text);
+  ASSERT_EQ(want.size(), 150000u);
+  for (unsigned threads : {2u, 3u}) {
+    const point_cloud got = read_pcd_on(threads, text);
+    ASSERT_EQ(got.size(), want.size());
+    EXPECT_EQ(got.origin(), want.origin());
+    EXPECT_EQ(got.positions(), want.positions());
+    ASSERT_EQ(got.fields().size(), want.fields().size());
+    for (std::size_t f = 0; f < got.fields().size(); ++f) EXPECT_EQ(got.fields()[f].values, want.fields()[f].values);
+  }
+}
+
+TEST(PcdThreads, AsciiErrorsAreTheOnesOfOneThread) {
+  // The first bad value in the file, with its line number, and a truncated
+  // file (fewer lines than points), the same on 1, 2 and 3 threads.
+  for (const std::string& text : {big_ascii_pcd(150000, 150000, {120000, 70000}), big_ascii_pcd(150000, 140000)}) {
+    const std::string want = pcd_error_on(1, text);
+    for (unsigned threads : {2u, 3u}) EXPECT_EQ(pcd_error_on(threads, text), want) << threads << " threads";
+  }
+  // Line 11 is DATA; point i is on line 12 + i plus two blank lines per 7001 points before it.
+  EXPECT_NE(pcd_error_on(2, big_ascii_pcd(150000, 150000, {120000, 70000}))
+                .find("line " + std::to_string(12 + 70000 + 2 * (70000 / 7001 + 1)) + ", field 'intensity'"),
+            std::string::npos);
+  EXPECT_NE(pcd_error_on(2, big_ascii_pcd(150000, 140000)).find("the file ends after 140000 of 150000 points"),
+            std::string::npos);
 }

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <filesystem>
 #include <istream>
 #include <limits>
@@ -336,28 +337,20 @@ uncompressed_body decompress_body(std::string_view data, const pcd_header& h, co
   return out;
 }
 
-void read_ascii(std::string_view data, const pcd_header& h, const std::vector<std::size_t>& col_of, columns& cols,
-                const std::string& file) {
+/// The ascii points [first, first + count) from the lines at [p, end) (the
+/// first of them numbered line_no + 1), blank lines skipped, into `cols`.
+/// Throws the truncation error when the lines end first.
+void parse_ascii_points(const char* p, const char* const end, std::size_t first, std::size_t count, std::size_t n,
+                        std::size_t line_no, const pcd_header& h, const std::vector<std::size_t>& col_of, columns& cols,
+                        const std::string& file) {
   std::size_t values_all = 0, values_real = 0;
   for (const auto& f : h.fields) {
     values_all += f.count;
     if (!f.padding) values_real += f.count;
   }
-  // A point takes at least 2 bytes per value (a digit and a separator).
-  const std::size_t remaining = data.size() - h.body_offset;
-  if (h.points > (remaining + 1) / (2 * values_real))
-    throw io_error(file, "truncated: POINTS declares " + std::to_string(h.points) + " points of " +
-                             std::to_string(values_real) + " values, but only " + std::to_string(remaining) +
-                             " bytes of ascii data follow");
-  const auto n = static_cast<std::size_t>(h.points);
-  for (auto& c : cols) c.resize(n);
-
-  const char* p = data.data() + h.body_offset;
-  const char* const end = data.data() + data.size();
-  std::size_t line_no = h.body_line - 1;
   std::vector<std::string_view> tok;
   tok.reserve(values_all);
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::size_t i = first; i < first + count; ++i) {
     // The next non-blank line, split into tokens.
     for (;;) {
       if (p >= end)
@@ -397,6 +390,74 @@ void read_ascii(std::string_view data, const pcd_header& h, const std::vector<st
       }
     }
   }
+}
+
+/// The lines of [p, end) that hold a value (not blank), and the line ends.
+std::pair<std::size_t, std::size_t> count_lines(const char* p, const char* const end) noexcept {
+  std::size_t filled = 0, lines = 0;
+  while (p < end) {
+    const auto* nl = static_cast<const char*>(std::memchr(p, '\n', static_cast<std::size_t>(end - p)));
+    const char* const line_end = nl ? nl : end;
+    while (p < line_end && is_space(*p)) ++p;  // a value usually starts the line
+    filled += p < line_end;
+    lines += nl != nullptr;
+    p = nl ? nl + 1 : end;
+  }
+  return {filled, lines};
+}
+
+void read_ascii(std::string_view data, const pcd_header& h, const std::vector<std::size_t>& col_of, columns& cols,
+                const std::string& file) {
+  std::size_t values_real = 0;
+  for (const auto& f : h.fields)
+    if (!f.padding) values_real += f.count;
+  // A point takes at least 2 bytes per value (a digit and a separator).
+  const std::size_t remaining = data.size() - h.body_offset;
+  if (h.points > (remaining + 1) / (2 * values_real))
+    throw io_error(file, "truncated: POINTS declares " + std::to_string(h.points) + " points of " +
+                             std::to_string(values_real) + " values, but only " + std::to_string(remaining) +
+                             " bytes of ascii data follow");
+  const auto n = static_cast<std::size_t>(h.points);
+  for (auto& c : cols) c.resize(n);
+  const char* const body = data.data() + h.body_offset;
+  const char* const end = data.data() + data.size();
+  constexpr std::size_t min_block = std::size_t(1) << 20;
+  const std::size_t threads = ced::detail::effective_threads(0);
+  const std::size_t blocks = threads <= 1 ? 1 : std::min(4 * threads, remaining / min_block);
+  if (blocks <= 1) return parse_ascii_points(body, end, 0, n, n, h.body_line - 1, h, col_of, cols, file);
+  // Blocks of whole lines: counted first (the points and lines before each),
+  // then parsed on the threads straight into the columns. Each keeps its
+  // first error; the earliest is the one one thread would have met first
+  // (a truncated file only shows at its end, after every block).
+  std::vector<const char*> cut(blocks + 1, end);
+  cut[0] = body;
+  for (std::size_t k = 1; k < blocks; ++k) {
+    const char* from = std::max(body + k * (remaining / blocks), cut[k - 1]);
+    const auto* nl = static_cast<const char*>(std::memchr(from, '\n', static_cast<std::size_t>(end - from)));
+    cut[k] = nl ? nl + 1 : end;
+  }
+  std::vector<std::pair<std::size_t, std::size_t>> before(blocks + 1, {0, h.body_line - 1});  // points, lines
+  ced::detail::parallel_for(blocks, 0, 1, [&](std::size_t b, std::size_t e) {
+    for (std::size_t k = b; k < e; ++k) before[k + 1] = count_lines(cut[k], cut[k + 1]);
+  });
+  for (std::size_t k = 1; k <= blocks; ++k) {
+    before[k].first += before[k - 1].first;
+    before[k].second += before[k - 1].second;
+  }
+  std::vector<std::exception_ptr> errors(blocks);
+  ced::detail::parallel_for(blocks, 0, 1, [&](std::size_t b, std::size_t e) {
+    for (std::size_t k = b; k < e; ++k) try {
+        const std::size_t first = std::min(before[k].first, n), last = std::min(before[k + 1].first, n);
+        parse_ascii_points(cut[k], cut[k + 1], first, last - first, n, before[k].second, h, col_of, cols, file);
+      } catch (...) {
+        errors[k] = std::current_exception();
+      }
+  });
+  for (const auto& e : errors)
+    if (e) std::rethrow_exception(e);
+  if (before[blocks].first < n)
+    throw io_error(file, "truncated: the file ends after " + std::to_string(before[blocks].first) + " of " +
+                             std::to_string(n) + " points");
 }
 
 /// The indices of the x, y and z fields (each of COUNT 1) in h.fields.

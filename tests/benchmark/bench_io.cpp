@@ -4,7 +4,7 @@
 // file. The files are generated once, in a temporary directory removed at
 // exit: a LAS 1.2 point format 3 file of 2 M points (68 MB), and a cloud of
 // 2.5 M points with xyz, rgb and normals (about 68 MB) as binary PLY, binary
-// and binary_compressed PCD; 500 k of those points as CSV and ascii PLY.
+// and binary_compressed PCD; 500 k of those points as CSV, ascii PLY and ascii PCD.
 //
 //   build/bin/bench_io [benchmark flags, e.g. --benchmark_filter=LAS]
 #include <benchmark/benchmark.h>
@@ -127,6 +127,10 @@ ced::point_cloud text_cloud() {
 const std::string& csv_file() {
   return input("rgbn.csv", [](const std::string& p) { ced::io::write_csv(p, text_cloud()); });
 }
+const std::string& ascii_pcd_file() {
+  return input("rgbn_ascii.pcd",
+               [](const std::string& p) { ced::io::write_pcd(p, text_cloud(), ced::io::pcd_format::ascii); });
+}
 const std::string& ascii_ply_file() {
   return input("rgbn_ascii.ply",
                [](const std::string& p) { ced::io::write_ply(p, text_cloud(), ced::io::ply_format::ascii); });
@@ -182,6 +186,7 @@ void BM_read_pcd(benchmark::State& s) { read_file(s, pcd_file()); }
 void BM_read_pcd_compressed(benchmark::State& s) { read_file(s, pcdc_file()); }
 void BM_read_csv(benchmark::State& s) { read_file(s, csv_file()); }
 void BM_read_ply_ascii(benchmark::State& s) { read_file(s, ascii_ply_file()); }
+void BM_read_pcd_ascii(benchmark::State& s) { read_file(s, ascii_pcd_file()); }
 void BM_stream_las(benchmark::State& s) { stream_file(s, las_file()); }
 void BM_stream_ply(benchmark::State& s) { stream_file(s, ply_file()); }
 void BM_stream_pcd(benchmark::State& s) { stream_file(s, pcd_file()); }
@@ -219,6 +224,7 @@ BENCHMARK(BM_read_pcd)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_read_pcd_compressed)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_read_csv)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_read_ply_ascii)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_read_pcd_ascii)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_stream_las)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_stream_ply)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_stream_pcd)->Unit(benchmark::kMillisecond)->UseRealTime();
