@@ -8,11 +8,13 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <random>
 #include <sstream>
 
 #include "ced/io/io.hpp"
 #include "ced/io/ply.hpp"
 #include "ced/io/stream.hpp"
+#include "core/parallel.hpp"
 #include "file_support.hpp"
 
 namespace fs = std::filesystem;
@@ -537,4 +539,87 @@ TEST(PlyErrors, StreamNameIsUsedInMessages) {
   } catch (const io_error& e) {
     EXPECT_CONTAINS(e.what(), "my_stream");
   }
+}
+
+// ------------------------------------------------------------- threads
+
+namespace {
+/// An ascii PLY of about 4.5 MB: 150 000 vertices (x y z intensity red),
+/// one a line, blank lines here and there, then faces; `bad`: vertices whose
+/// red is not a number; `joined`: vertices written on the line of the one
+/// before, `split`: vertices written on two lines (records not one a line);
+/// `written`: vertices written (fewer than declared: truncated, no faces).
+std::string big_ascii_ply(std::size_t written = 150000, const std::vector<std::size_t>& bad = {},
+                          const std::vector<std::size_t>& joined = {}, const std::vector<std::size_t>& split = {}) {
+  std::mt19937 rng(3);
+  std::ostringstream s;
+  s << "ply\nformat ascii 1.0\nelement vertex 150000\nproperty float x\nproperty float y\nproperty float z\n"
+    << "property ushort intensity\nproperty uchar red\nelement face 3\nproperty list uchar int vertex_indices\n"
+    << "end_header\n";
+  for (std::size_t i = 0; i < written; ++i) {
+    if (i % 6007 == 0) s << "\n \n";
+    if (i > 0) s << (std::find(joined.begin(), joined.end(), i) == joined.end() ? "\n" : " ");
+    s << (rng() % 100000) * 0.001 << " " << (rng() % 100000) * 0.001 << " " << -(double(rng() % 5000) * 0.01)
+      << (std::find(split.begin(), split.end(), i) == split.end() ? " " : "\n") << rng() % 60000 << " ";
+    if (std::find(bad.begin(), bad.end(), i) != bad.end())
+      s << "red";
+    else
+      s << rng() % 256;
+  }
+  if (written == 150000) s << "\n3 0 1 2\n3 1 2 3\n3 2 3 4";
+  s << "\n";
+  return s.str();
+}
+
+point_cloud read_ply_on(unsigned threads, const std::string& text) {
+  point_cloud c;
+  ced::detail::with_thread_limit(threads, [&] {
+    std::istringstream in(text);
+    c = ced::io::read_ply(in, "big.ply");
+  });
+  return c;
+}
+
+std::string ply_error_on(unsigned threads, const std::string& text) {
+  try {
+    read_ply_on(threads, text);
+  } catch (const ced::io::io_error& e) {
+    return e.what();
+  }
+  return "<no io_error>";
+}
+}  // namespace
+
+TEST(PlyThreads, AsciiBlocksOfLinesOnThreadsGiveTheCloudOfOneThread) {
+  // Records one a line (read in blocks on the threads), and records not one
+  // a line (read word by word): the cloud of one thread.
+  for (const std::string& text :
+       {big_ascii_ply(), big_ascii_ply(150000, {}, {100, 99000}), big_ascii_ply(150000, {}, {}, {130000})}) {
+    ASSERT_GT(text.size(), std::size_t(4) << 20);
+    const point_cloud want = read_ply_on(1, text);
+    ASSERT_EQ(want.size(), 150000u);
+    for (unsigned threads : {2u, 3u}) {
+      const point_cloud got = read_ply_on(threads, text);
+      ASSERT_EQ(got.size(), want.size());
+      EXPECT_EQ(got.positions(), want.positions());
+      ASSERT_EQ(got.fields().size(), 2u);
+      for (std::size_t f = 0; f < got.fields().size(); ++f) EXPECT_EQ(got.fields()[f].values, want.fields()[f].values);
+    }
+  }
+}
+
+TEST(PlyThreads, AsciiErrorsAreTheOnesOfOneThread) {
+  // The first bad value (after an irregular line or not) and a truncated
+  // file give the message of one thread on 2 and 3 threads.
+  const std::vector<std::string> texts = {big_ascii_ply(150000, {120000, 70000}),
+                                          big_ascii_ply(150000, {120000, 70000}, {50000}),
+                                          big_ascii_ply(150000, {120000, 70000}, {90000}),
+                                          big_ascii_ply(150000, {120000, 70000}, {}, {60000}), big_ascii_ply(140000)};
+  for (const std::string& text : texts) {
+    const std::string want = ply_error_on(1, text);
+    EXPECT_NE(want, "<no io_error>");
+    for (unsigned threads : {2u, 3u}) EXPECT_EQ(ply_error_on(threads, text), want) << threads << " threads";
+  }
+  EXPECT_NE(ply_error_on(2, texts[0]).find("vertex 70000, property 'red': 'red'"), std::string::npos);
+  EXPECT_NE(ply_error_on(2, texts[4]).find("the file ends after 140000 of 150000 vertices"), std::string::npos);
 }

@@ -392,32 +392,22 @@ std::vector<column_state> read_block(line_reader lines, bool first, char delim, 
 std::vector<column_state> read_rows(line_reader lines, char delim, const std::vector<std::string>& names,
                                     const csv_options& opt, const std::string& file) {
   const std::string_view text = lines.text;
-  const std::size_t begin = lines.pos, bytes = text.size() - begin;
-  constexpr std::size_t min_block = std::size_t(1) << 20;
-  const std::size_t threads = ced::detail::effective_threads(0);
-  const std::size_t blocks = threads <= 1 ? 1 : std::min(4 * threads, bytes / min_block);
+  const std::size_t blocks = ascii_blocks(text.size() - lines.pos);
   if (blocks <= 1) return read_block(lines, true, delim, names, opt, file);
   // Block k is text[cut[k], cut[k + 1]): whole lines.
-  std::vector<std::size_t> cut(blocks + 1, text.size());
-  cut[0] = begin;
-  for (std::size_t k = 1; k < blocks; ++k) {
-    const std::size_t nl = text.find('\n', std::max(begin + k * (bytes / blocks), cut[k - 1]));
-    cut[k] = nl == std::string_view::npos ? text.size() : nl + 1;
-  }
+  const std::vector<const char*> cut = cut_lines(text.data() + lines.pos, text.data() + text.size(), blocks);
   std::vector<std::size_t> first_line(blocks, lines.line_no);  // the number of the line before each block
   ced::detail::parallel_for(blocks - 1, 0, 1, [&](std::size_t b, std::size_t e) {
-    for (std::size_t k = b; k < e; ++k)
-      first_line[k + 1] =
-          static_cast<std::size_t>(std::count(text.begin() + static_cast<std::ptrdiff_t>(cut[k]),
-                                              text.begin() + static_cast<std::ptrdiff_t>(cut[k + 1]), '\n'));
+    for (std::size_t k = b; k < e; ++k) first_line[k + 1] = count_lines(cut[k], cut[k + 1]).second;
   });
   for (std::size_t k = 1; k < blocks; ++k) first_line[k] += first_line[k - 1];
   std::vector<std::vector<column_state>> parts(blocks);
   std::vector<std::exception_ptr> errors(blocks);
   ced::detail::parallel_for(blocks, 0, 1, [&](std::size_t b, std::size_t e) {
     for (std::size_t k = b; k < e; ++k) try {
-        parts[k] =
-            read_block(line_reader{text.substr(0, cut[k + 1]), cut[k], first_line[k]}, k == 0, delim, names, opt, file);
+        const auto from = static_cast<std::size_t>(cut[k] - text.data()),
+                   to = static_cast<std::size_t>(cut[k + 1] - text.data());
+        parts[k] = read_block(line_reader{text.substr(0, to), from, first_line[k]}, k == 0, delim, names, opt, file);
       } catch (...) {
         errors[k] = std::current_exception();
       }

@@ -392,20 +392,6 @@ void parse_ascii_points(const char* p, const char* const end, std::size_t first,
   }
 }
 
-/// The lines of [p, end) that hold a value (not blank), and the line ends.
-std::pair<std::size_t, std::size_t> count_lines(const char* p, const char* const end) noexcept {
-  std::size_t filled = 0, lines = 0;
-  while (p < end) {
-    const auto* nl = static_cast<const char*>(std::memchr(p, '\n', static_cast<std::size_t>(end - p)));
-    const char* const line_end = nl ? nl : end;
-    while (p < line_end && is_space(*p)) ++p;  // a value usually starts the line
-    filled += p < line_end;
-    lines += nl != nullptr;
-    p = nl ? nl + 1 : end;
-  }
-  return {filled, lines};
-}
-
 void read_ascii(std::string_view data, const pcd_header& h, const std::vector<std::size_t>& col_of, columns& cols,
                 const std::string& file) {
   std::size_t values_real = 0;
@@ -421,21 +407,13 @@ void read_ascii(std::string_view data, const pcd_header& h, const std::vector<st
   for (auto& c : cols) c.resize(n);
   const char* const body = data.data() + h.body_offset;
   const char* const end = data.data() + data.size();
-  constexpr std::size_t min_block = std::size_t(1) << 20;
-  const std::size_t threads = ced::detail::effective_threads(0);
-  const std::size_t blocks = threads <= 1 ? 1 : std::min(4 * threads, remaining / min_block);
+  const std::size_t blocks = ascii_blocks(remaining);
   if (blocks <= 1) return parse_ascii_points(body, end, 0, n, n, h.body_line - 1, h, col_of, cols, file);
   // Blocks of whole lines: counted first (the points and lines before each),
   // then parsed on the threads straight into the columns. Each keeps its
   // first error; the earliest is the one one thread would have met first
   // (a truncated file only shows at its end, after every block).
-  std::vector<const char*> cut(blocks + 1, end);
-  cut[0] = body;
-  for (std::size_t k = 1; k < blocks; ++k) {
-    const char* from = std::max(body + k * (remaining / blocks), cut[k - 1]);
-    const auto* nl = static_cast<const char*>(std::memchr(from, '\n', static_cast<std::size_t>(end - from)));
-    cut[k] = nl ? nl + 1 : end;
-  }
+  const std::vector<const char*> cut = cut_lines(body, end, blocks);
   std::vector<std::pair<std::size_t, std::size_t>> before(blocks + 1, {0, h.body_line - 1});  // points, lines
   ced::detail::parallel_for(blocks, 0, 1, [&](std::size_t b, std::size_t e) {
     for (std::size_t k = b; k < e; ++k) before[k + 1] = count_lines(cut[k], cut[k + 1]);

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <filesystem>
 #include <istream>
 #include <limits>
@@ -348,6 +349,90 @@ std::size_t read_binary_element(std::string_view data, std::size_t pos, const el
 
 // -------------------------------------------------------------- ascii body
 
+/// Fails: value `tok` of record i, property `prop`, is not one (status s).
+[[noreturn]] void fail_ascii_value(const std::string& file, const element_desc& e, std::size_t i,
+                                   const property_desc& prop, std::string_view tok, parse_status s) {
+  fail_value(file, e.name + " " + std::to_string(i) + ", property '" + prop.name + "': '" + std::string(tok) + "' ", s,
+             prop.type);
+}
+
+/// Records [first, first + count) of element e (no list properties) from the
+/// lines at [p, end), one a line, blank lines skipped, into `cols`. False
+/// when a line holds another number of values than the element has
+/// properties (the records are then not one a line). `stop`: the end of the
+/// last value read.
+bool read_ascii_lines(const char* p, const char* const end, std::size_t first, std::size_t count, const element_desc& e,
+                      columns& cols, const std::string& file, const char*& stop) {
+  const std::size_t np = e.props.size();
+  std::string_view tok;
+  for (std::size_t i = first; i < first + count;) {
+    const auto* nl = static_cast<const char*>(std::memchr(p, '\n', static_cast<std::size_t>(end - p)));
+    word_reader<> words(std::string_view(p, static_cast<std::size_t>((nl ? nl : end) - p)));
+    p = nl ? nl + 1 : end;
+    std::size_t j = 0;
+    for (; words.next(tok); ++j) {
+      if (j == np) return false;
+      double v = 0;
+      const parse_status s = parse_ascii_value(tok, e.props[j].type, v);
+      if (s != parse_status::ok) {
+        // A line with too few values is not one record: that comes first.
+        std::size_t more = 0;
+        for (std::string_view w; words.next(w);) ++more;
+        if (j + 1 + more != np) return false;
+        fail_ascii_value(file, e, i, e.props[j], tok, s);
+      }
+      cols[j][i] = v;
+      stop = words.p;
+    }
+    if (j == 0) continue;  // blank
+    if (j != np) return false;
+    ++i;
+  }
+  return true;
+}
+
+/// read_ascii_element() for an element of no list properties whose records
+/// lie one a line, in blocks of whole lines on the threads; false (nothing
+/// decided) when the body is small, there is one thread, or the records are
+/// not one a line or fewer than declared (the word-by-word reader then reads
+/// them and names any problem). `end_pos` receives where the element ends.
+bool read_ascii_blocks(std::string_view data, std::size_t pos, const element_desc& e, columns& cols,
+                       const std::string& file, std::size_t& end_pos) {
+  const auto n = static_cast<std::size_t>(e.count);
+  const char* const body = data.data() + pos;
+  const char* const end = data.data() + data.size();
+  const std::size_t blocks = ascii_blocks(data.size() - pos);
+  if (blocks <= 1 || std::any_of(e.props.begin(), e.props.end(), [](const property_desc& p) { return p.is_list; }))
+    return false;
+  const std::vector<const char*> cut = cut_lines(body, end, blocks);
+  std::vector<std::size_t> before(blocks + 1, 0);  // records (non-blank lines) before each block
+  ced::detail::parallel_for(blocks, 0, 1, [&](std::size_t b, std::size_t k1) {
+    for (std::size_t k = b; k < k1; ++k) before[k + 1] = count_lines(cut[k], cut[k + 1]).first;
+  });
+  for (std::size_t k = 1; k <= blocks; ++k) before[k] += before[k - 1];
+  if (before[blocks] < n) return false;
+  std::vector<std::exception_ptr> errors(blocks);
+  std::vector<char> regular(blocks, 1);
+  std::vector<const char*> stop(blocks, nullptr);
+  ced::detail::parallel_for(blocks, 0, 1, [&](std::size_t b, std::size_t k1) {
+    for (std::size_t k = b; k < k1; ++k) try {
+        const std::size_t first = std::min(before[k], n), last = std::min(before[k + 1], n);
+        regular[k] = read_ascii_lines(cut[k], cut[k + 1], first, last - first, e, cols, file, stop[k]);
+      } catch (...) {
+        errors[k] = std::current_exception();
+      }
+  });
+  // An irregular line before the first bad value: the word-by-word reader
+  // decides (what it reads there is not what the lines say).
+  for (std::size_t k = 0; k < blocks; ++k) {
+    if (!regular[k]) return false;
+    if (errors[k]) std::rethrow_exception(errors[k]);
+  }
+  const auto last = std::upper_bound(before.begin(), before.end(), n - 1) - before.begin() - 1;
+  end_pos = static_cast<std::size_t>(stop[static_cast<std::size_t>(last)] - data.data());
+  return true;
+}
+
 std::size_t read_ascii_element(std::string_view data, std::size_t pos, const element_desc& e, columns* cols,
                                const std::string& file) {
   if (e.count == 0 || e.props.empty()) return pos;
@@ -363,13 +448,12 @@ std::size_t read_ascii_element(std::string_view data, std::size_t pos, const ele
   if (cols)
     for (std::size_t j = 0; j < e.props.size(); ++j)
       if (!e.props[j].is_list) (*cols)[j].resize(n);
+  std::size_t end_pos = 0;
+  if (cols && read_ascii_blocks(data, pos, e, *cols, file, end_pos)) return end_pos;
 
   word_reader<> tk(data.substr(pos));
   std::string_view tok;
   const auto truncated = [&](std::size_t i) { fail_truncated(file, i, n, e); };
-  const auto where = [&](std::size_t i, const property_desc& prop) {
-    return e.name + " " + std::to_string(i) + ", property '" + prop.name + "': '" + std::string(tok) + "' ";
-  };
   for (std::size_t i = 0; i < n; ++i) {
     for (std::size_t j = 0; j < e.props.size(); ++j) {
       const property_desc& prop = e.props[j];
@@ -378,13 +462,14 @@ std::size_t read_ascii_element(std::string_view data, std::size_t pos, const ele
         std::uint64_t count = 0;
         const auto r = std::from_chars(tok.data(), tok.data() + tok.size(), count);
         if (r.ec != std::errc() || r.ptr != tok.data() + tok.size())
-          throw io_error(file, where(i, prop) + "is not a valid list length");
+          throw io_error(file, e.name + " " + std::to_string(i) + ", property '" + prop.name + "': '" +
+                                   std::string(tok) + "' is not a valid list length");
         for (std::uint64_t k = 0; k < count; ++k)
           if (!tk.next(tok)) truncated(i);
       } else if (cols) {
         double v = 0;
         const parse_status s = parse_ascii_value(tok, prop.type, v);
-        if (s != parse_status::ok) fail_value(file, where(i, prop), s, prop.type);
+        if (s != parse_status::ok) fail_ascii_value(file, e, i, prop, tok, s);
         (*cols)[j][i] = v;
       }
     }

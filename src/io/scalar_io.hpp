@@ -17,6 +17,7 @@
 #include <string_view>
 #include <system_error>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "ced/cloud.hpp"
@@ -30,6 +31,44 @@ namespace ced::io::detail {
 /// The whole file at `path`; io_error naming it when it is a directory,
 /// cannot be opened or cannot be read. (Defined in output_file.cpp.)
 std::string read_whole_file(const std::string& path);
+
+/// The lines of text [p, end) that hold a word (not blank, is_space), and
+/// the line ends ('\n') among them: what the ascii readers count to cut a
+/// body into blocks of whole lines.
+inline std::pair<std::size_t, std::size_t> count_lines(const char* p, const char* const end) noexcept {
+  std::size_t filled = 0, lines = 0;
+  while (p < end) {
+    const auto* nl = static_cast<const char*>(std::memchr(p, '\n', static_cast<std::size_t>(end - p)));
+    const char* const line_end = nl ? nl : end;
+    while (p < line_end && ced::detail::is_space(*p)) ++p;  // a value usually starts the line
+    filled += p < line_end;
+    lines += nl != nullptr;
+    p = nl ? nl + 1 : end;
+  }
+  return {filled, lines};
+}
+
+/// [begin, end) cut at line ends into `blocks` pieces of about equal size:
+/// cut[0] = begin, cut[blocks] = end.
+inline std::vector<const char*> cut_lines(const char* begin, const char* end, std::size_t blocks) {
+  std::vector<const char*> cut(blocks + 1, end);
+  cut[0] = begin;
+  const auto bytes = static_cast<std::size_t>(end - begin);
+  for (std::size_t k = 1; k < blocks; ++k) {
+    const char* from = std::max(begin + k * (bytes / blocks), cut[k - 1]);
+    const auto* nl = static_cast<const char*>(std::memchr(from, '\n', static_cast<std::size_t>(end - from)));
+    cut[k] = nl ? nl + 1 : end;
+  }
+  return cut;
+}
+
+/// How many blocks of whole lines an ascii body of `bytes` is parsed in: 1
+/// (one thread) unless there are threads and at least 2 MiB; at most 4 a
+/// thread, each at least 1 MiB.
+inline std::size_t ascii_blocks(std::size_t bytes) noexcept {
+  const std::size_t threads = ced::detail::effective_threads(0);
+  return threads <= 1 ? 1 : std::max<std::size_t>(1, std::min(4 * threads, bytes >> 20));
+}
 
 /// lzf_compress() into `out` (resized to the compressed size), with segments
 /// of `segment` bytes parsed on up to `threads` threads (0: all cores, or the
