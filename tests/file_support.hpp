@@ -49,6 +49,17 @@ inline std::string read_bytes(const std::string& path) {
 /// Writes `bytes` to a temporary file `name`, calls `read(path)`, and returns
 /// the io_error message it throws (expecting it to name the file), or
 /// "<no io_error thrown>".
+/// The io_error message `f()` throws, or "<no io_error thrown>".
+template <class F>
+std::string io_error_of(F&& f) {
+  try {
+    f();
+  } catch (const ced::io::io_error& e) {
+    return e.what();
+  }
+  return "<no io_error thrown>";
+}
+
 template <class Read>
 std::string read_error_of(Read&& read, const std::string& bytes, const std::string& name) {
   const std::string path = temp_file(name);

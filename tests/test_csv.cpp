@@ -353,15 +353,8 @@ TEST(CsvThreads, BlocksOfLinesOnThreadsGiveTheCloudOfOneThread) {
   EXPECT_EQ(want.get_field("red").type(), scalar_type::int32);  // the 300 near the end
   EXPECT_EQ(want.get_field("w").type(), scalar_type::float64);  // the 1.5 near the end
   for (unsigned threads : {2u, 3u}) {
-    const point_cloud got = read_text_on(threads, text);
-    ASSERT_EQ(got.size(), want.size());
-    EXPECT_EQ(got.origin(), want.origin());
-    EXPECT_EQ(got.positions(), want.positions());
-    ASSERT_EQ(field_names(got), field_names(want));
-    for (std::size_t f = 0; f < got.fields().size(); ++f) {
-      EXPECT_EQ(got.fields()[f].type(), want.fields()[f].type());
-      EXPECT_EQ(got.fields()[f].values, want.fields()[f].values);
-    }
+    SCOPED_TRACE(threads);
+    ced_test::expect_same_cloud(read_text_on(threads, text), want);
   }
 }
 

@@ -667,12 +667,7 @@ point_cloud read_pcd_on(unsigned threads, const std::string& text) {
 }
 
 std::string pcd_error_on(unsigned threads, const std::string& text) {
-  try {
-    read_pcd_on(threads, text);
-  } catch (const io_error& e) {
-    return e.what();
-  }
-  return "<no io_error>";
+  return ced_test::io_error_of([&] { read_pcd_on(threads, text); });
 }
 }  // namespace
 
@@ -682,12 +677,8 @@ TEST(PcdThreads, AsciiBlocksOfLinesOnThreadsGiveTheCloudOfOneThread) {
   const point_cloud want = read_pcd_on(1, text);
   ASSERT_EQ(want.size(), 150000u);
   for (unsigned threads : {2u, 3u}) {
-    const point_cloud got = read_pcd_on(threads, text);
-    ASSERT_EQ(got.size(), want.size());
-    EXPECT_EQ(got.origin(), want.origin());
-    EXPECT_EQ(got.positions(), want.positions());
-    ASSERT_EQ(got.fields().size(), want.fields().size());
-    for (std::size_t f = 0; f < got.fields().size(); ++f) EXPECT_EQ(got.fields()[f].values, want.fields()[f].values);
+    SCOPED_TRACE(threads);
+    ced_test::expect_same_cloud(read_pcd_on(threads, text), want);
   }
 }
 
