@@ -358,73 +358,74 @@ void parse_row(std::string_view line, std::size_t line_no, bool first, char deli
   }
 }
 
-/// The values of the data lines of `lines` (from its position to the end of
-/// its text), column by column; `first`: its first data line is the file's.
-std::vector<column_state> read_block(line_reader lines, bool first, char delim, const std::vector<std::string>& names,
-                                     const csv_options& opt, const std::string& file) {
-  const std::size_t ncols = names.size();
-  std::vector<column_state> cols(ncols);
-  // At most one point per line, and a line with ncols values takes at least
-  // 2 * ncols bytes (a digit and a separator each): so the reservation stays
-  // within a few times the file size, however many columns the header names.
-  const std::string_view text = lines.text;
-  const std::size_t remaining = text.size() - lines.pos;
-  const std::size_t lines_left =
-      static_cast<std::size_t>(std::count(text.begin() + static_cast<std::ptrdiff_t>(lines.pos), text.end(), '\n')) + 1;
-  const std::size_t estimate = std::min(lines_left, remaining / (2 * ncols) + 1);
-  for (auto& c : cols) c.values.reserve(estimate);
-  std::string_view line;
-  std::vector<std::string_view> tok;
-  while (lines.next(line)) {
-    if (line.empty() || is_comment(line)) continue;
-    parse_row(line, lines.line_no, first, delim, names, opt, file, tok, [&](std::size_t j, double v, bool is_int) {
-      cols[j].values.push_back(v);
-      cols[j].stats.add(v, is_int);
-    });
-    first = false;
-  }
-  return cols;
+/// The data lines of `lines` (from its position to the end of its text):
+/// neither blank nor comments.
+std::size_t count_data_lines(line_reader lines) noexcept {
+  std::size_t n = 0;
+  for (std::string_view line; lines.next(line);) n += !line.empty() && !is_comment(line);
+  return n;
 }
 
-/// The values of the data lines from `lines` on, column by column: blocks of
-/// whole lines parsed on the threads, joined in order. The first error in
-/// the file is the one reported, as one thread would.
+/// The values of the data lines of `lines` (from its position to the end of
+/// its text) into cols[j].values[first + r] for data line r, their statistics
+/// into `stats`; `first_line`: its first data line is the file's.
+void read_block(line_reader lines, bool first_line, char delim, const std::vector<std::string>& names,
+                const csv_options& opt, const std::string& file, std::vector<column_state>& cols, std::size_t first,
+                std::vector<column_stats>& stats) {
+  std::string_view line;
+  std::vector<std::string_view> tok;
+  for (std::size_t r = first; lines.next(line);) {
+    if (line.empty() || is_comment(line)) continue;
+    parse_row(line, lines.line_no, first_line, delim, names, opt, file, tok, [&](std::size_t j, double v, bool is_int) {
+      cols[j].values[r] = v;
+      stats[j].add(v, is_int);
+    });
+    first_line = false;
+    ++r;
+  }
+}
+
+/// The values of the data lines from `lines` on, column by column. Cut into
+/// blocks of whole lines, counted (each block's data lines and line ends),
+/// then parsed on the threads straight into the columns. Each block keeps
+/// its first error; the earliest in the file is rethrown, as one thread
+/// would have met it.
 std::vector<column_state> read_rows(line_reader lines, char delim, const std::vector<std::string>& names,
                                     const csv_options& opt, const std::string& file) {
   const std::string_view text = lines.text;
   const std::size_t blocks = ascii_blocks(text.size() - lines.pos);
-  if (blocks <= 1) return read_block(lines, true, delim, names, opt, file);
-  // Block k is text[cut[k], cut[k + 1]): whole lines.
   const std::vector<const char*> cut = cut_lines(text.data() + lines.pos, text.data() + text.size(), blocks);
-  std::vector<std::size_t> first_line(blocks, lines.line_no);  // the number of the line before each block
-  ced::detail::parallel_for(blocks - 1, 0, 1, [&](std::size_t b, std::size_t e) {
-    for (std::size_t k = b; k < e; ++k) first_line[k + 1] = count_lines(cut[k], cut[k + 1]).second;
+  // Block k is text[cut[k], cut[k + 1]): whole lines, read by reader(k).
+  const auto reader = [&](std::size_t k, std::size_t line_no) {
+    return line_reader{text.substr(0, static_cast<std::size_t>(cut[k + 1] - text.data())),
+                       static_cast<std::size_t>(cut[k] - text.data()), line_no};
+  };
+  std::vector<std::size_t> rows(blocks + 1, 0), line_no(blocks + 1, lines.line_no);  // before each block
+  ced::detail::parallel_for(blocks, 0, 1, [&](std::size_t b, std::size_t e) {
+    for (std::size_t k = b; k < e; ++k) {
+      rows[k + 1] = count_data_lines(reader(k, 0));
+      line_no[k + 1] = count_lines(cut[k], cut[k + 1]).second;
+    }
   });
-  for (std::size_t k = 1; k < blocks; ++k) first_line[k] += first_line[k - 1];
-  std::vector<std::vector<column_state>> parts(blocks);
+  for (std::size_t k = 1; k <= blocks; ++k) {
+    rows[k] += rows[k - 1];
+    line_no[k] += line_no[k - 1];
+  }
+  std::vector<column_state> cols(names.size());
+  for (auto& c : cols) c.values.resize(rows[blocks]);
+  std::vector<std::vector<column_stats>> stats(blocks, std::vector<column_stats>(names.size()));
   std::vector<std::exception_ptr> errors(blocks);
   ced::detail::parallel_for(blocks, 0, 1, [&](std::size_t b, std::size_t e) {
     for (std::size_t k = b; k < e; ++k) try {
-        const auto from = static_cast<std::size_t>(cut[k] - text.data()),
-                   to = static_cast<std::size_t>(cut[k + 1] - text.data());
-        parts[k] = read_block(line_reader{text.substr(0, to), from, first_line[k]}, k == 0, delim, names, opt, file);
+        read_block(reader(k, line_no[k]), k == 0, delim, names, opt, file, cols, rows[k], stats[k]);
       } catch (...) {
         errors[k] = std::current_exception();
       }
   });
   for (const auto& e : errors)
     if (e) std::rethrow_exception(e);
-  std::vector<column_state> cols = std::move(parts[0]);
-  for (std::size_t j = 0; j < cols.size(); ++j) {
-    std::size_t n = 0;
-    for (const auto& p : parts) n += p.empty() ? 0 : p[j].values.size();
-    cols[j].values.reserve(n);
-    for (std::size_t k = 1; k < blocks; ++k) {
-      const column_state& c = parts[k][j];
-      cols[j].values.insert(cols[j].values.end(), c.values.begin(), c.values.end());
-      cols[j].stats.merge(c.stats);
-    }
-  }
+  for (std::size_t j = 0; j < cols.size(); ++j)
+    for (const auto& s : stats) cols[j].stats.merge(s[j]);
   return cols;
 }
 
