@@ -349,11 +349,15 @@ std::size_t read_binary_element(std::string_view data, std::size_t pos, const el
 
 // -------------------------------------------------------------- ascii body
 
+/// Where value `tok` of record i, property `prop`, is: "vertex 12, property 'red': 'abc' ".
+std::string ascii_where(const element_desc& e, std::size_t i, const property_desc& prop, std::string_view tok) {
+  return e.name + " " + std::to_string(i) + ", property '" + prop.name + "': '" + std::string(tok) + "' ";
+}
+
 /// Fails: value `tok` of record i, property `prop`, is not one (status s).
 [[noreturn]] void fail_ascii_value(const std::string& file, const element_desc& e, std::size_t i,
                                    const property_desc& prop, std::string_view tok, parse_status s) {
-  fail_value(file, e.name + " " + std::to_string(i) + ", property '" + prop.name + "': '" + std::string(tok) + "' ", s,
-             prop.type);
+  fail_value(file, ascii_where(e, i, prop, tok), s, prop.type);
 }
 
 /// Records [first, first + count) of element e (no list properties) from the
@@ -462,8 +466,7 @@ std::size_t read_ascii_element(std::string_view data, std::size_t pos, const ele
         std::uint64_t count = 0;
         const auto r = std::from_chars(tok.data(), tok.data() + tok.size(), count);
         if (r.ec != std::errc() || r.ptr != tok.data() + tok.size())
-          throw io_error(file, e.name + " " + std::to_string(i) + ", property '" + prop.name + "': '" +
-                                   std::string(tok) + "' is not a valid list length");
+          throw io_error(file, ascii_where(e, i, prop, tok) + "is not a valid list length");
         for (std::uint64_t k = 0; k < count; ++k)
           if (!tk.next(tok)) truncated(i);
       } else if (cols) {
