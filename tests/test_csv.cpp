@@ -376,3 +376,18 @@ TEST(CsvThreads, TheFirstBadLineInTheFileIsReported) {
   const std::size_t extra = 70000 / 9973 + 1 + 70000 / 7919 + 1;
   EXPECT_NE(want.find("line " + std::to_string(2 + 70000 + extra) + ", column 1 ('x')"), std::string::npos) << want;
 }
+
+TEST(CsvThreads, ManyColumnsAndShortLinesAreAnErrorNotAHugeAllocation) {
+  // 4,000 columns named, then 1.5 M lines of one value: the columns are sized
+  // by what the bytes can hold (about 400 rows), not 1.5 M × 4,000 doubles,
+  // and the first line is the one named, on any number of threads.
+  std::string text = "c0";
+  for (int j = 1; j < 4000; ++j) text += ",c" + std::to_string(j);
+  text.replace(0, 2, "x,y,z");  // x, y and z among them
+  text += "\n";
+  for (int i = 0; i < 1500000; ++i) text += "1\n";
+  for (unsigned threads : {1u, 2u}) {
+    const std::string msg = ced_test::io_error_of([&] { read_text_on(threads, text); });
+    EXPECT_NE(msg.find("line 2: expected 4002 values"), std::string::npos) << threads << " threads: " << msg;
+  }
+}

@@ -374,8 +374,10 @@ void read_block(line_reader lines, bool first_line, char delim, const std::vecto
                 std::vector<column_stats>& stats) {
   std::string_view line;
   std::vector<std::string_view> tok;
+  const std::size_t rows = cols.empty() ? 0 : cols[0].values.size();
   for (std::size_t r = first; lines.next(line);) {
     if (line.empty() || is_comment(line)) continue;
+    if (r == rows) return;  // more lines than values fit: an earlier line is bad (read_rows())
     parse_row(line, lines.line_no, first_line, delim, names, opt, file, tok, [&](std::size_t j, double v, bool is_int) {
       cols[j].values[r] = v;
       stats[j].add(v, is_int);
@@ -411,8 +413,15 @@ std::vector<column_state> read_rows(line_reader lines, char delim, const std::ve
     rows[k] += rows[k - 1];
     line_no[k] += line_no[k - 1];
   }
-  std::vector<column_state> cols(names.size());
-  for (auto& c : cols) c.values.resize(rows[blocks]);
+  // A line of ncols values takes at least 2 * ncols bytes (a digit and a
+  // separator each), so no more lines than that can all be good: the columns
+  // stay within a few times the file size, however many columns the header
+  // names, and a block whose rows would go past them stops (an earlier line
+  // is bad, and its error is the one reported).
+  const std::size_t ncols = names.size();
+  const std::size_t fit = (text.size() - lines.pos + 1) / (2 * ncols) + 1;
+  std::vector<column_state> cols(ncols);
+  for (auto& c : cols) c.values.resize(std::min(rows[blocks], fit));
   std::vector<std::vector<column_stats>> stats(blocks, std::vector<column_stats>(names.size()));
   std::vector<std::exception_ptr> errors(blocks);
   ced::detail::parallel_for(blocks, 0, 1, [&](std::size_t b, std::size_t e) {
