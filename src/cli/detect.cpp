@@ -13,6 +13,7 @@
 #include <system_error>
 #include <vector>
 
+#include "../core/parallel.hpp"
 #include "ced/ced.hpp"
 #include "ced/io/io.hpp"
 #include "ced/preprocess.hpp"
@@ -220,7 +221,8 @@ int run_detect(const detect_options& o) {
   const ced::detection_result r =
       naming_file_fields(o, plan, [&] { return ced::detect(in.cloud, plan.params, plan.modalities); });
   progress.stage("writing");
-  write_outputs(o, plan, in, r, out);
+  // The writers' parallel chunks take --threads as the reader and the detection do.
+  ced::detail::with_thread_limit(static_cast<unsigned>(o.threads), [&] { write_outputs(o, plan, in, r, out); });
   progress.done();
 
   if (!o.quiet) print_report(o, plan, in, r, t_start);
