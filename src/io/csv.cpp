@@ -7,7 +7,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <exception>
 #include <filesystem>
 #include <limits>
 #include <memory>
@@ -423,16 +422,9 @@ std::vector<column_state> read_rows(line_reader lines, char delim, const std::ve
   std::vector<column_state> cols(ncols);
   for (auto& c : cols) c.values.resize(std::min(rows[blocks], fit));
   std::vector<std::vector<column_stats>> stats(blocks, std::vector<column_stats>(names.size()));
-  std::vector<std::exception_ptr> errors(blocks);
-  ced::detail::parallel_for(blocks, 0, 1, [&](std::size_t b, std::size_t e) {
-    for (std::size_t k = b; k < e; ++k) try {
-        read_block(reader(k, line_no[k]), k == 0, delim, names, opt, file, cols, rows[k], stats[k]);
-      } catch (...) {
-        errors[k] = std::current_exception();
-      }
+  for_each_block(blocks, [&](std::size_t k) {
+    read_block(reader(k, line_no[k]), k == 0, delim, names, opt, file, cols, rows[k], stats[k]);
   });
-  for (const auto& e : errors)
-    if (e) std::rethrow_exception(e);
   for (std::size_t j = 0; j < cols.size(); ++j)
     for (const auto& s : stats) cols[j].stats.merge(s[j]);
   return cols;

@@ -7,7 +7,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <exception>
 #include <filesystem>
 #include <istream>
 #include <limits>
@@ -422,17 +421,10 @@ void read_ascii(std::string_view data, const pcd_header& h, const std::vector<st
     before[k].first += before[k - 1].first;
     before[k].second += before[k - 1].second;
   }
-  std::vector<std::exception_ptr> errors(blocks);
-  ced::detail::parallel_for(blocks, 0, 1, [&](std::size_t b, std::size_t e) {
-    for (std::size_t k = b; k < e; ++k) try {
-        const std::size_t first = std::min(before[k].first, n), last = std::min(before[k + 1].first, n);
-        parse_ascii_points(cut[k], cut[k + 1], first, last - first, n, before[k].second, h, col_of, cols, file);
-      } catch (...) {
-        errors[k] = std::current_exception();
-      }
+  for_each_block(blocks, [&](std::size_t k) {
+    const std::size_t first = std::min(before[k].first, n), last = std::min(before[k + 1].first, n);
+    parse_ascii_points(cut[k], cut[k + 1], first, last - first, n, before[k].second, h, col_of, cols, file);
   });
-  for (const auto& e : errors)
-    if (e) std::rethrow_exception(e);
   if (before[blocks].first < n)
     throw io_error(file, "truncated: the file ends after " + std::to_string(before[blocks].first) + " of " +
                              std::to_string(n) + " points");

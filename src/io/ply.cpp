@@ -7,7 +7,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <exception>
 #include <filesystem>
 #include <istream>
 #include <limits>
@@ -415,22 +414,17 @@ bool read_ascii_blocks(std::string_view data, std::size_t pos, const element_des
   });
   for (std::size_t k = 1; k <= blocks; ++k) before[k] += before[k - 1];
   if (before[blocks] < n) return false;
-  std::vector<std::exception_ptr> errors(blocks);
-  std::vector<char> regular(blocks, 1);
+  // A line that is not one record, met before any bad value: the
+  // word-by-word reader decides (what it reads there is not what the lines say).
+  struct not_one_a_line {};
   std::vector<const char*> stop(blocks, nullptr);
-  ced::detail::parallel_for(blocks, 0, 1, [&](std::size_t b, std::size_t k1) {
-    for (std::size_t k = b; k < k1; ++k) try {
-        const std::size_t first = std::min(before[k], n), last = std::min(before[k + 1], n);
-        regular[k] = read_ascii_lines(cut[k], cut[k + 1], first, last - first, e, cols, file, stop[k]);
-      } catch (...) {
-        errors[k] = std::current_exception();
-      }
-  });
-  // An irregular line before the first bad value: the word-by-word reader
-  // decides (what it reads there is not what the lines say).
-  for (std::size_t k = 0; k < blocks; ++k) {
-    if (!regular[k]) return false;
-    if (errors[k]) std::rethrow_exception(errors[k]);
+  try {
+    for_each_block(blocks, [&](std::size_t k) {
+      const std::size_t first = std::min(before[k], n), last = std::min(before[k + 1], n);
+      if (!read_ascii_lines(cut[k], cut[k + 1], first, last - first, e, cols, file, stop[k])) throw not_one_a_line{};
+    });
+  } catch (const not_one_a_line&) {
+    return false;
   }
   const auto last = std::upper_bound(before.begin(), before.end(), n - 1) - before.begin() - 1;
   end_pos = static_cast<std::size_t>(stop[static_cast<std::size_t>(last)] - data.data());

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <limits>
 #include <memory>
 #include <ostream>
@@ -68,6 +69,23 @@ inline std::vector<const char*> cut_lines(const char* begin, const char* end, st
 inline std::size_t ascii_blocks(std::size_t bytes) noexcept {
   const std::size_t threads = ced::detail::effective_threads(0);
   return threads <= 1 ? 1 : std::max<std::size_t>(1, std::min(4 * threads, bytes >> 20));
+}
+
+/// Runs f(k) for every block k < blocks on the threads. An exception of
+/// f(k) ends block k only; when all are done, the first block's exception is
+/// rethrown: the one that one thread, block after block, would have met.
+template <class F>
+void for_each_block(std::size_t blocks, F&& f) {
+  std::vector<std::exception_ptr> errors(blocks);
+  ced::detail::parallel_for(blocks, 0, 1, [&](std::size_t b, std::size_t e) {
+    for (std::size_t k = b; k < e; ++k) try {
+        f(k);
+      } catch (...) {
+        errors[k] = std::current_exception();
+      }
+  });
+  for (const auto& error : errors)
+    if (error) std::rethrow_exception(error);
 }
 
 /// lzf_compress() into `out` (resized to the compressed size), with segments
