@@ -72,6 +72,34 @@ sample=$DATA/apartment_mesh_214.ply
 "$CED" detect "$sample" -m xyz:0.2 -m lab:0.1 --radius 0.05 --indices "$T/st.txt" --tile-size 0.7 -q 2> /dev/null
 check "PLY sample, xyz + lab, tiled" cmp -s "$T/s.txt" "$T/st.txt"
 
+# --- LAZ: the same keypoints as its LAS twin, whole, tiled (the chunks
+# decoded as the passes reach them), in a plan's tiles, and under ced-mpi ---
+laz=$DATA/autzen_trim.laz
+lazargs=(--preset ced6d --radius 6)
+"$CED" detect "$DATA/autzen_trim.las" "${lazargs[@]}" --indices "$T/laz_whole.txt" \
+  --indices-original "$T/laz_whole_o.txt" -o "$T/laz_whole.las" -q
+check "LAS twin has keypoints" test "$(wc -l < "$T/laz_whole.txt")" -gt 1000
+"$CED" detect "$laz" "${lazargs[@]}" --indices "$T/lz.txt" --indices-original "$T/lz_o.txt" -o "$T/lz.las" -q
+same_outputs "LAZ whole" "$T/lz" laz_whole
+"$CED" detect "$laz" "${lazargs[@]}" --tile-size 250 --indices "$T/lzt.txt" --indices-original "$T/lzt_o.txt" \
+  -o "$T/lzt.las" -q
+same_outputs "LAZ --tile-size" "$T/lzt" laz_whole
+"$CED" plan "$laz" "${lazargs[@]}" --tile-size 250 -o "$T/lzplan.json" -q
+for id in $(tr -d ' \n' < "$T/lzplan.json" | grep -o '"tiles":\[.*\]' | grep -o '\[[0-9]*,' | tr -d '[,'); do
+  "$CED" detect --plan "$T/lzplan.json" --tile "$id" -o "$T/lzpart_$id.cedpart" -q || echo "LAZ tile $id failed"
+done
+"$CED" merge "$T/lzplan.json" "$T"/lzpart_*.cedpart --indices "$T/lzp.txt" --indices-original "$T/lzp_o.txt" \
+  -o "$T/lzp.las" -q
+same_outputs "LAZ plan + tiles + merge" "$T/lzp" laz_whole
+if [ -n "$MPI" ] && command -v mpirun > /dev/null; then
+  mpirun --allow-run-as-root --oversubscribe -np 2 "$MPI" detect "$laz" "${lazargs[@]}" --tile-size 250 \
+    --indices "$T/lzm.txt" --indices-original "$T/lzm_o.txt" -o "$T/lzm.las" -q
+  same_outputs "LAZ ced-mpi -np 2" "$T/lzm" laz_whole
+fi
+expect_exit 1 "write .*lzw.las instead" "-o x.laz refused" -- detect "$laz" "${lazargs[@]}" --tile-size 250 \
+  -o "$T/lzw.laz"
+check "no .laz written" test ! -e "$T/lzw.laz"
+
 # --- Any scheduler: plan, one tile at a time, merge ---
 "$CED" plan "$T/mid.las" --preset ced6d --tile-size 1 -o "$T/plan.json" -q
 check "plan exit 0" test $? = 0

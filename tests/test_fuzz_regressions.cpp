@@ -98,6 +98,13 @@ TEST(fuzz_regressions, las) {
   });
 }
 
+TEST(fuzz_regressions, laz) {
+  replay("laz", [](std::string_view bytes) {
+    ced::io::las_read_info info;
+    (void)ced::io::read_las_buffer(bytes, "fuzz.laz", &info).size();
+  });
+}
+
 TEST(fuzz_regressions, csv) {
   replay("csv", [](std::string_view bytes) { (void)ced::io::read_csv_buffer(bytes, "fuzz.csv").size(); });
 }

@@ -20,7 +20,7 @@ struct convert_options {
 
 int run_convert(const convert_options& o) {
   if (o.voxel < 0 || !std::isfinite(o.voxel)) throw usage_error("--voxel must be a positive size");
-  const auto fmt = ced::io::format_of(o.output);
+  const auto fmt = ced::io::output_format_of(o.output);
   // Refused rather than converted in place: ced never writes over what it reads.
   check_paths({{"the input", o.input}}, {{"the output", o.output}});
   ced::io::atomic_output_file out(o.output);

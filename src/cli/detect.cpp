@@ -152,7 +152,7 @@ detect_plan make_plan(const detect_options& o) {
   plan.modalities = chosen_modalities(o);
   plan.view = render_view(o);
   check_png_color(o, plan.modalities);
-  if (!o.output.empty()) plan.out_format = ced::io::format_of(o.output);
+  if (!o.output.empty()) plan.out_format = ced::io::output_format_of(o.output);
   if (!o.viewer.empty() && ced::io::format_of(o.viewer) != ced::io::file_format::ply)
     throw usage_error("--viewer writes PLY: give it a .ply file name");
   plan.read_opts = make_read_options(o.format, o.columns);

@@ -392,7 +392,7 @@ command add_merge_command(CLI::App& app) {
             const auto t0 = clock_type::now();
             load_plugins(o->plugins);
             const ced::io::file_format format =
-                o->output.empty() ? ced::io::file_format::automatic : ced::io::format_of(o->output);
+                o->output.empty() ? ced::io::file_format::automatic : ced::io::output_format_of(o->output);
             const ced::tile_plan p = ced::tile_plan::load(*plan_path);
             std::vector<ced::io::named_path> inputs{{"the plan", *plan_path}, {"the plan's input", p.request.input}};
             for (const auto& part : *parts) inputs.push_back({"part", part});

@@ -40,9 +40,7 @@ file_format format_of(const std::string& path) {
   const auto dot = path.find_last_of('.');
   const std::string ext = ced::detail::to_lower(
       dot == std::string::npos || (slash != std::string::npos && dot < slash) ? "" : path.substr(dot + 1));
-  if (ext == "laz")
-    throw io_error(path + ": LAZ (compressed LAS) is not supported; decompress it first, e.g. `laszip -i " + path +
-                   " -o out.las` or `pdal translate " + path + " out.las`");
+  if (ext == "laz") return file_format::las;  // the LAS reader decodes LAZ (laz.hpp)
   if (ext == "e57")
     throw io_error(path + ": E57 is not supported; convert it first, e.g. `pdal translate " + path +
                    " out.las` or with CloudCompare to PLY");
@@ -52,6 +50,23 @@ file_format format_of(const std::string& path) {
   } catch (const std::invalid_argument&) {
     throw io_error(path + ": unsupported file type '." + ext + "' (ced reads .ply, .pcd, .las, .csv/.xyz/.txt/.pts)");
   }
+}
+
+namespace {
+/// io_error for an output path ending in .laz.
+void refuse_laz(const std::string& path) {
+  const auto slash = path.find_last_of("/\\");
+  const auto dot = path.find_last_of('.');
+  if (dot != std::string::npos && (slash == std::string::npos || dot > slash) &&
+      ced::detail::to_lower(path.substr(dot + 1)) == "laz")
+    throw io_error(path + ": writing LAZ is not supported (ced reads LAZ but writes uncompressed LAS); write " +
+                   path.substr(0, dot) + ".las instead");
+}
+}  // namespace
+
+file_format output_format_of(const std::string& path) {
+  refuse_laz(path);
+  return format_of(path);
 }
 
 namespace {
@@ -120,6 +135,7 @@ void write_cloud(std::ostream& out, const point_cloud& cloud, file_format format
 }
 
 void write_cloud(const std::string& path, const point_cloud& cloud, file_format format) {
+  refuse_laz(path);
   const file_format f = format == file_format::automatic ? format_of(path) : format;
   atomic_output_file out(path);
   try {

@@ -16,6 +16,7 @@
 
 #include "ced/io/stream.hpp"
 #include "ced/version.hpp"
+#include "laz.hpp"
 #include "records.hpp"
 #include "scalar_io.hpp"
 #include "stream_support.hpp"
@@ -163,8 +164,9 @@ struct las_header {
   int format = 0;
   const format_layout* layout = nullptr;
   std::size_t record_length = 0;  ///< the stride of the point records
-  std::uint64_t count = 0;        ///< point records, all within the file
+  std::uint64_t count = 0;        ///< point records, all within the file (when not compressed)
   std::array<double, 3> scale{}, offset{};
+  bool compressed = false;  ///< LAZ: the records are in compressed chunks (laz.hpp)
 };
 
 /// The header's scale factors and offsets: finite, the scales non-zero.
@@ -213,11 +215,12 @@ las_header read_header(const unsigned char* d, std::size_t size, const std::stri
                              ", but the file has " + std::to_string(size) + " bytes");
   h.n_vlrs = load_le<std::uint32_t>(d + 100);
   const int format_byte = d[104];
-  if (format_byte & 0xC0)
-    throw io_error(
-        file, "the point data is LAZ-compressed (point format byte " + std::to_string(format_byte) +
-                  "); decompress it first, e.g. with 'laszip -i in.laz -o out.las' or 'pdal translate in.laz out.las'");
-  h.format = format_byte;
+  // LAZ sets the top bit of the point format byte.
+  if (format_byte & 0x40)
+    throw io_error(file, "unknown compression of the point data (point format byte " + std::to_string(format_byte) +
+                             ", bit 6 set)");
+  h.compressed = (format_byte & 0x80) != 0;
+  h.format = format_byte & 0x3F;
   if (h.format > k_max_format)
     throw io_error(file, "unsupported point data record format " + std::to_string(h.format) + " (LAS defines 0 to 10)");
   h.layout = &k_formats[h.format];
@@ -233,7 +236,7 @@ las_header read_header(const unsigned char* d, std::size_t size, const std::stri
   }
   read_scale_and_offset(d, h, file);
   const std::uint64_t room = (size - h.point_offset) / h.record_length;
-  if (h.count > room)
+  if (!h.compressed && h.count > room)
     throw io_error(file, "truncated: " + std::to_string(h.count) + " points declared, room for " +
                              std::to_string(room) + " (" + std::to_string(h.record_length) +
                              "-byte records from byte " + std::to_string(h.point_offset) + " in " +
@@ -244,8 +247,10 @@ las_header read_header(const unsigned char* d, std::size_t size, const std::stri
 /// The extra-bytes descriptors of the variable length records (between the
 /// header and the point data), placed after the standard fields and checked
 /// to fit in a point record; none without an extra-bytes VLR.
-std::vector<extra_desc> read_vlrs(const unsigned char* d, const las_header& h, const std::string& file) {
+std::vector<extra_desc> read_vlrs(const unsigned char* d, const las_header& h, const std::string& file,
+                                  laz_layout* laz = nullptr) {
   std::vector<extra_desc> extras;
+  bool have_laz = false;
   bool have_extras = false;
   std::size_t pos = h.header_size;
   for (std::uint32_t i = 0; i < h.n_vlrs; ++i) {
@@ -264,8 +269,17 @@ std::vector<extra_desc> read_vlrs(const unsigned char* d, const las_header& h, c
       extras = parse_extra_bytes(d + pos + k_vlr_header_size, len, file);
       have_extras = true;
     }
+    if (h.compressed && user_id == "laszip encoded" && record_id == 22204 && !have_laz) {
+      const laz_layout l = parse_laszip_vlr(d + pos + k_vlr_header_size, len, h.format, h.record_length, file);
+      if (laz) *laz = l;
+      have_laz = true;
+    }
     pos += k_vlr_header_size + len;
   }
+  if (h.compressed && !have_laz)
+    throw io_error(file,
+                   "the point format byte says LAZ-compressed, but there is no LASzip VLR ('laszip encoded', "
+                   "record 22204) to say how");
   std::size_t extra_total = 0;
   for (auto& e : extras) {
     e.offset = h.layout->min_size + extra_total;
@@ -288,6 +302,7 @@ void fill_info(las_read_info& info, const las_header& h, const unsigned char* d)
   info.offset = h.offset;
   info.system_identifier = fixed_string(d + 26, 32);
   info.generating_software = fixed_string(d + 58, 32);
+  info.compressed = h.compressed;
 }
 
 /// The raw integer bounds of the n point records (`stride` bytes apart from
@@ -574,13 +589,70 @@ std::string read_head(input_file& file) {
   return head;
 }
 
+/// Reads bytes of a file held in memory (io_error past its end).
+laz_read_fn memory_reader(std::string_view bytes, const std::string& file) {
+  return [bytes, file](std::uint64_t offset, std::size_t n, char* out) {
+    if (offset > bytes.size() || n > bytes.size() - offset)
+      throw io_error(file, "truncated: " + std::to_string(n) + " bytes at byte " + std::to_string(offset) +
+                               " are past the end of the file (" + std::to_string(bytes.size()) + " bytes)");
+    std::memcpy(out, bytes.data() + offset, n);
+  };
+}
+
+laz_read_fn file_reader(const input_file& file) {
+  return [&file](std::uint64_t offset, std::size_t n, char* out) { file.read_at(offset, n, out); };
+}
+
+/// A LAZ file's compression and chunks.
+struct laz_points {
+  laz_layout layout;
+  std::vector<laz_chunk> chunks;
+};
+
+/// The chunks of a LAZ file (`h` compressed, `layout` from its VLR) of `size` bytes.
+laz_points open_laz(const las_header& h, const laz_layout& layout, std::uint64_t size, const laz_read_fn& read,
+                    const std::string& file) {
+  laz_points z{layout, laz_chunks(layout, h.point_offset, size, h.count, read, file)};
+  // Far beyond what LAZ compresses real points to (10-20 times): a corrupt
+  // header, refused before its records are allocated.
+  const std::uint64_t coded = size - h.point_offset;
+  if (h.count > (std::uint64_t(1) << 40) / h.record_length || h.count * h.record_length > 4096 * coded + (1u << 20))
+    throw io_error(file, "LAZ: " + std::to_string(h.count) + " points of " + std::to_string(h.record_length) +
+                             " bytes declared in " + std::to_string(coded) +
+                             " bytes of compressed data; that is not a plausible compression");
+  return z;
+}
+
+/// The records of chunks [c0, c1), decoded.
+big_bytes decode_laz(const laz_points& z, std::size_t c0, std::size_t c1, const laz_read_fn& read,
+                     const std::string& file) {
+  const std::uint64_t points =
+      c0 < c1 ? z.chunks[c1 - 1].first_point + z.chunks[c1 - 1].points - z.chunks[c0].first_point : 0;
+  big_bytes out(static_cast<std::size_t>(points * z.layout.record_length));
+  decode_laz_chunks(z.layout, z.chunks, c0, c1, read, reinterpret_cast<unsigned char*>(out.data()), file);
+  return out;
+}
+
+/// The records of a LAS or LAZ file whose header and VLRs are at d.
+point_cloud read_las_records(const unsigned char* d, const las_header& h, std::uint64_t size, const laz_read_fn& read,
+                             const record_source& plain, const std::string& file, las_read_info* info,
+                             const field_selection& selection) {
+  laz_layout layout;
+  const std::vector<extra_desc> extras = read_vlrs(d, h, file, &layout);
+  if (info) fill_info(*info, h, d);
+  if (!h.compressed) return read_records(plain, h, extras, selection);
+  const laz_points z = open_laz(h, layout, size, read, file);
+  const big_bytes records = decode_laz(z, 0, z.chunks.size(), read, file);
+  return read_records(record_source(reinterpret_cast<const unsigned char*>(records.data()), h.record_length), h, extras,
+                      selection);
+}
+
 point_cloud parse_las(std::string_view bytes, const std::string& file, las_read_info* info,
                       const field_selection& selection) {
   const auto* d = reinterpret_cast<const unsigned char*>(bytes.data());
   const las_header h = read_header(d, bytes.size(), file);
-  const std::vector<extra_desc> extras = read_vlrs(d, h, file);
-  if (info) fill_info(*info, h, d);
-  return read_records(record_source(d + h.point_offset, h.record_length), h, extras, selection);
+  return read_las_records(d, h, bytes.size(), memory_reader(bytes, file),
+                          record_source(d + h.point_offset, h.record_length), file, info, selection);
 }
 
 /// read_las() of a file: the header, then the records read in chunks.
@@ -590,9 +662,8 @@ point_cloud read_las_file(const std::string& path, las_read_info* info, const fi
   const std::string head = read_head(file);
   const auto* d = reinterpret_cast<const unsigned char*>(head.data());
   const las_header h = read_header(d, static_cast<std::size_t>(file.size()), path);
-  const std::vector<extra_desc> extras = read_vlrs(d, h, path);
-  if (info) fill_info(*info, h, d);
-  return read_records(record_source(file, h.point_offset, h.record_length), h, extras, selection);
+  return read_las_records(d, h, file.size(), file_reader(file), record_source(file, h.point_offset, h.record_length),
+                          path, info, selection);
 }
 
 // ------------------------------------------------------------------ writer
@@ -1027,9 +1098,21 @@ std::unique_ptr<piece_writer> las_pieces(std::ostream& out, const point_cloud& l
   return std::make_unique<las_piece_writer>(out, layout, n);
 }
 
+std::string las_point_records(std::string_view bytes, const std::string& name) {
+  const auto* d = reinterpret_cast<const unsigned char*>(bytes.data());
+  const las_header h = read_header(d, bytes.size(), name);
+  laz_layout layout;
+  read_vlrs(d, h, name, &layout);
+  if (!h.compressed) return std::string(bytes.substr(h.point_offset, h.count * h.record_length));
+  const laz_read_fn read = memory_reader(bytes, name);
+  const laz_points z = open_laz(h, layout, bytes.size(), read, name);
+  const big_bytes records = decode_laz(z, 0, z.chunks.size(), read, name);
+  return std::string(records.data(), records.size());
+}
+
 std::string las_details(const las_read_info& info) {
-  return "LAS " + std::to_string(info.version_major) + "." + std::to_string(info.version_minor) + ", point format " +
-         std::to_string(info.point_format);
+  return std::string(info.compressed ? "LAZ " : "LAS ") + std::to_string(info.version_major) + "." +
+         std::to_string(info.version_minor) + ", point format " + std::to_string(info.point_format);
 }
 }  // namespace detail
 
@@ -1041,7 +1124,9 @@ class las_stream final : public point_stream {
     const std::string head = read_head(m_file);
     const auto* d = reinterpret_cast<const unsigned char*>(head.data());
     m_header = read_header(d, static_cast<std::size_t>(m_file.size()), path);
-    m_extras = read_vlrs(d, m_header, path);
+    laz_layout layout;
+    m_extras = read_vlrs(d, m_header, path, &layout);
+    if (m_header.compressed) m_laz = open_laz(m_header, layout, m_file.size(), file_reader(m_file), path);
     las_read_info info;
     fill_info(info, m_header, d);
     m_details = las_details(info);
@@ -1056,7 +1141,8 @@ class las_stream final : public point_stream {
       return 0;
     }
     const std::size_t stride = m_header.record_length;
-    const record_source src(m_file, m_header.point_offset + m_next * stride, stride);
+    const record_source src =
+        m_header.compressed ? window(n) : record_source(m_file, m_header.point_offset + m_next * stride, stride);
     // During the first pass, the chunk's own flags decide its flag fields.
     const unsigned* flag_bits = m_scan.flags;
     record_scan chunk;
@@ -1088,7 +1174,28 @@ class las_stream final : public point_stream {
   std::uint64_t declared_points() const noexcept override { return m_header.count; }
 
  private:
+  /// LAZ: the records [m_next, m_next + n) in memory, from the chunks that hold
+  /// them, decoded (the last ones are kept for the next call).
+  record_source window(std::size_t n) {
+    const std::vector<laz_chunk>& chunks = m_laz.chunks;
+    const auto chunk_of = [&](std::uint64_t point) {
+      const auto it = std::upper_bound(chunks.begin(), chunks.end(), point,
+                                       [](std::uint64_t p, const laz_chunk& c) { return p < c.first_point; });
+      return static_cast<std::size_t>(it - chunks.begin()) - 1;
+    };
+    const std::size_t stride = m_header.record_length;
+    if (m_next < m_window_first || m_next + n > m_window_first + m_window.size() / stride) {
+      const std::size_t c0 = chunk_of(m_next), c1 = chunk_of(m_next + n - 1) + 1;
+      m_window = decode_laz(m_laz, c0, c1, file_reader(m_file), m_file.path());
+      m_window_first = chunks[c0].first_point;
+    }
+    return {reinterpret_cast<const unsigned char*>(m_window.data()) + (m_next - m_window_first) * stride, stride};
+  }
+
   input_file m_file;
+  laz_points m_laz;  ///< LAZ only
+  big_bytes m_window;
+  std::uint64_t m_window_first = 0;
   field_selection m_fields;
   las_header m_header;
   std::vector<extra_desc> m_extras;

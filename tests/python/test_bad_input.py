@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import ced
-from conftest import room
+from conftest import DATA, room
 
 
 @pytest.fixture(scope="module")
@@ -107,8 +107,11 @@ def test_bad_files(tmp_path):
                           b"property float y\nproperty float z\nend_header\n" + b"\0" * 50)
     with pytest.raises(ced.FileError, match="cut.ply"):
         ced.read(str(truncated))
-    with pytest.raises(ced.FileError, match="laz"):
+    with pytest.raises(ced.FileError, match="x.laz"):
         ced.read(str(tmp_path / "x.laz"))
+    with pytest.raises(ced.FileError, match="writing LAZ is not supported"):
+        ced.write(str(tmp_path / "out.laz"), ced.read(str(DATA / "simple.laz")))
+    assert not (tmp_path / "out.laz").exists()
     with pytest.raises(ValueError, match="format"):
         ced.read(str(truncated), format="obj")
     # A write that fails leaves no file behind.

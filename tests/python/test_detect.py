@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import ced
-from conftest import cli_keypoints, room
+from conftest import DATA, cli_keypoints, room
 
 
 def channels_of(cloud):
@@ -288,3 +288,14 @@ def test_normals_modality_reads_or_estimates_normals():
         ced.normals(0.2, radius=2)
     with pytest.raises(ValueError, match="nx"):
         ced.detect(pts, modalities=[ced.normals(source="fields")], radius=r)
+
+
+def test_laz_reads_as_its_las_twin():
+    """ced.read decodes LAZ: every field of the LAZ equals its plain-LAS twin's."""
+    laz = ced.read(str(DATA / "autzen_trim.laz"))
+    las = ced.read(str(DATA / "autzen_trim.las"))
+    assert len(np.asarray(las.points)) == 110000
+    np.testing.assert_array_equal(np.asarray(laz.absolute_points()), np.asarray(las.absolute_points()))
+    assert list(laz.fields) == list(las.fields)
+    for name, values in las.fields.items():
+        np.testing.assert_array_equal(np.asarray(laz.fields[name]), np.asarray(values), err_msg=name)

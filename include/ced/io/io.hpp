@@ -25,9 +25,13 @@ enum class file_format { automatic, ply, pcd, las, csv };
 file_format parse_format(const std::string& name);
 std::string format_name(file_format f);
 
-/// The format a path's extension names. Throws io_error for .laz and .e57
-/// (with how to convert them) and for unknown extensions.
+/// The format a path's extension names (.laz is LAS: the LAS reader decodes
+/// LAZ). Throws io_error for .e57 (with how to convert it) and for unknown
+/// extensions.
 file_format format_of(const std::string& path);
+/// The format to write `path` in: as format_of(), but io_error for .laz
+/// (ced reads LAZ but does not write it; the message suggests .las).
+file_format output_format_of(const std::string& path);
 
 struct read_options {
   file_format format = file_format::automatic;

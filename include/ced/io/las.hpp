@@ -20,6 +20,7 @@ struct las_read_info {
   std::uint64_t points = 0;
   std::array<double, 3> scale{}, offset{};             ///< X = raw X * scale + offset
   std::string system_identifier, generating_software;  ///< trailing NULs and spaces trimmed
+  bool compressed = false;                             ///< LAZ
 };
 
 /// Reads an uncompressed LAS file, versions 1.0 to 1.4, point data record

@@ -1,0 +1,285 @@
+// SPDX-License-Identifier: MIT
+// LAZ: the LASzip VLR, the chunk table, and chunks decoded back into LAS
+// point records (laz.hpp). The items' decoders are in laz_items.hpp.
+
+#include "laz.hpp"
+
+#include <algorithm>
+#include <string>
+
+#include "ced/io/error.hpp"
+#include "core/parallel.hpp"
+#include "laz_coder.hpp"
+#include "laz_items.hpp"
+#include "scalar_io.hpp"
+
+namespace ced::io::detail {
+
+namespace {
+
+const char* item_name(std::uint16_t type) {
+  switch (type) {
+    case laz_item::byte:
+      return "byte";
+    case laz_item::point10:
+      return "point10";
+    case laz_item::gpstime11:
+      return "gpstime11";
+    case laz_item::rgb12:
+      return "rgb12";
+    case 9:
+      return "wavepacket13";
+    case laz_item::point14:
+      return "point14";
+    case laz_item::rgb14:
+      return "rgb14";
+    case laz_item::rgbnir14:
+      return "rgbnir14";
+    case 13:
+      return "wavepacket14";
+    case laz_item::byte14:
+      return "byte14";
+    default:
+      return nullptr;
+  }
+}
+
+std::string item_text(const laz_item& it) {
+  const char* name = item_name(it.type);
+  return (name ? std::string(name) : "item type " + std::to_string(it.type)) + " v" + std::to_string(it.version) +
+         " (" + std::to_string(it.size) + " bytes)";
+}
+
+/// The items point format `format` is compressed with (before any extra bytes).
+std::vector<std::uint16_t> standard_items(int format) {
+  switch (format) {
+    case 0:
+      return {laz_item::point10};
+    case 1:
+      return {laz_item::point10, laz_item::gpstime11};
+    case 2:
+      return {laz_item::point10, laz_item::rgb12};
+    case 3:
+      return {laz_item::point10, laz_item::gpstime11, laz_item::rgb12};
+    default:
+      return {};
+  }
+}
+
+std::uint16_t item_size(std::uint16_t type) {
+  switch (type) {
+    case laz_item::point10:
+      return 20;
+    case laz_item::gpstime11:
+      return 8;
+    case laz_item::rgb12:
+      return 6;
+    default:
+      return 0;
+  }
+}
+
+}  // namespace
+
+std::string laz_layout::describe() const {
+  std::string s;
+  for (const laz_item& it : items) {
+    if (!s.empty()) s += ", ";
+    const char* name = item_name(it.type);
+    s += (name ? std::string(name) : std::to_string(it.type)) + " v" + std::to_string(it.version);
+  }
+  return s;
+}
+
+laz_layout parse_laszip_vlr(const unsigned char* p, std::size_t len, int format, std::size_t record_length,
+                            const std::string& file) {
+  const std::string where = "LASzip VLR: ";
+  if (len < 34) throw io_error(file, where + std::to_string(len) + " bytes, too short (it needs at least 34)");
+  laz_layout l;
+  l.record_length = record_length;
+  l.compressor = load_le<std::uint16_t>(p);
+  const auto coder = load_le<std::uint16_t>(p + 2);
+  l.chunk_size = load_le<std::uint32_t>(p + 12);
+  const std::size_t n_items = load_le<std::uint16_t>(p + 32);
+  if (34 + 6 * n_items > len)
+    throw io_error(file,
+                   where + std::to_string(n_items) + " items do not fit in its " + std::to_string(len) + " bytes");
+  if (coder != 0) throw io_error(file, where + "unknown coder " + std::to_string(coder) + " (LAZ knows 0, arithmetic)");
+  if (l.compressor == 3)
+    throw io_error(file, where +
+                             "layered chunked compression (LAS 1.4 point formats 6-10) is not supported yet; "
+                             "this reader decodes point formats 0-3 (pointwise compression)");
+  if (l.compressor != 1 && l.compressor != 2)
+    throw io_error(file, where + "unknown compressor " + std::to_string(l.compressor) +
+                             " (1: pointwise, 2: pointwise chunked, 3: layered chunked)");
+  if (l.compressor == 2 && l.chunk_size == 0) throw io_error(file, where + "a chunk size of 0 points");
+  std::size_t total = 0;
+  for (std::size_t i = 0; i < n_items; ++i) {
+    laz_item it;
+    it.type = load_le<std::uint16_t>(p + 34 + 6 * i);
+    it.size = load_le<std::uint16_t>(p + 36 + 6 * i);
+    it.version = load_le<std::uint16_t>(p + 38 + 6 * i);
+    l.items.push_back(it);
+    total += it.size;
+  }
+  // The items a point format is compressed with, in order, then its extra bytes.
+  const std::vector<std::uint16_t> want = standard_items(format);
+  if (want.empty())
+    throw io_error(file, where + "point format " + std::to_string(format) +
+                             " is not supported in LAZ yet (this reader decodes point formats 0-3)");
+  std::size_t i = 0;
+  for (; i < want.size(); ++i) {
+    if (i >= l.items.size() || l.items[i].type != want[i] || l.items[i].size != item_size(want[i]))
+      throw io_error(file, where + "items [" + l.describe() + "] do not match point format " + std::to_string(format) +
+                               " (it needs " + item_name(want[i]) + " as item " + std::to_string(i + 1) + ")");
+    if (l.items[i].version != 2)
+      throw io_error(file, where + item_text(l.items[i]) + ": only version 2 (LASzip 2.0 and later) is supported");
+  }
+  for (; i < l.items.size(); ++i) {
+    const laz_item& it = l.items[i];
+    if (it.type != laz_item::byte || i + 1 != l.items.size())
+      throw io_error(
+          file, where + "unexpected " + item_text(it) + " after the items of point format " + std::to_string(format));
+    if (it.version != 2)
+      throw io_error(file, where + item_text(it) + ": only version 2 (LASzip 2.0 and later) is supported");
+    if (it.size == 0) throw io_error(file, where + "an extra-bytes item of 0 bytes");
+  }
+  if (total != record_length)
+    throw io_error(file, where + "the items [" + l.describe() + "] hold " + std::to_string(total) +
+                             " bytes a point, but the header's point record length is " +
+                             std::to_string(record_length));
+  return l;
+}
+
+namespace {
+
+std::string chunk_error(std::size_t index, std::size_t chunks) {
+  return "LAZ chunk table: chunk " + std::to_string(index) + " of " + std::to_string(chunks) + ": ";
+}
+
+/// The chunk table's entries: points (when each chunk says) and bytes of each chunk.
+void read_chunk_table(const laz_layout& layout, std::uint64_t table, std::uint64_t file_size, const laz_read_fn& read,
+                      std::vector<std::uint32_t>& points, std::vector<std::uint32_t>& bytes, std::uint64_t max_chunks,
+                      const std::string& file) {
+  unsigned char head[8];
+  read(table, 8, reinterpret_cast<char*>(head));
+  const auto version = load_le<std::uint32_t>(head);
+  const auto count = load_le<std::uint32_t>(head + 4);
+  if (version != 0)
+    throw io_error(file, "LAZ chunk table at byte " + std::to_string(table) + ": unknown version " +
+                             std::to_string(version) + " (expected 0)");
+  if (count > max_chunks)
+    throw io_error(file, "LAZ chunk table at byte " + std::to_string(table) + ": " + std::to_string(count) +
+                             " chunks cannot fit in the " + std::to_string(max_chunks) + " bytes of point data");
+  points.assign(count, 0);
+  bytes.assign(count, 0);
+  if (count == 0) return;
+  const std::uint64_t start = table + 8;
+  std::string coded(static_cast<std::size_t>(file_size - start), '\0');
+  read(start, coded.size(), coded.data());
+  const auto* d = reinterpret_cast<const unsigned char*>(coded.data());
+  const bool variable = layout.chunk_size == 0xFFFFFFFFu;
+  try {
+    laz::decoder dec;
+    dec.start(d, d + coded.size());
+    laz::integer_decoder ic(32, 2);
+    for (std::size_t i = 0; i < count; ++i) {
+      if (variable)
+        points[i] = static_cast<std::uint32_t>(ic.decode(dec, i ? static_cast<std::int32_t>(points[i - 1]) : 0, 0));
+      bytes[i] = static_cast<std::uint32_t>(ic.decode(dec, i ? static_cast<std::int32_t>(bytes[i - 1]) : 0, 1));
+    }
+  } catch (const laz::corrupt& e) {
+    throw io_error(file, "LAZ chunk table at byte " + std::to_string(table) + " (" + std::to_string(count) +
+                             " chunks) is corrupt: " + e.what());
+  }
+}
+
+}  // namespace
+
+std::vector<laz_chunk> laz_chunks(const laz_layout& layout, std::uint64_t point_offset, std::uint64_t file_size,
+                                  std::uint64_t points, const laz_read_fn& read, const std::string& file) {
+  std::vector<laz_chunk> chunks;
+  if (layout.compressor == 1) {  // one chunk, no table: the point data runs to the end
+    if (points > 0) chunks.push_back({0, points, point_offset, file_size - point_offset});
+    return chunks;
+  }
+  if (file_size - point_offset < 8)
+    throw io_error(file, "LAZ: the point data (from byte " + std::to_string(point_offset) +
+                             ") is too short to hold the chunk table's offset");
+  unsigned char word[8];
+  read(point_offset, 8, reinterpret_cast<char*>(word));
+  auto table = load_le<std::int64_t>(word);
+  const std::uint64_t first = point_offset + 8;
+  if (table == -1) {  // written to a stream: the offset is the file's last 8 bytes
+    read(file_size - 8, 8, reinterpret_cast<char*>(word));
+    table = load_le<std::int64_t>(word);
+  }
+  if (table >= 0 && std::uint64_t(table) == first && points > 0)
+    throw io_error(file, "LAZ: the chunk table is missing (the compressor was interrupted before writing it)");
+  if (table < 0 || std::uint64_t(table) < first || std::uint64_t(table) > file_size - 8)
+    throw io_error(file, "LAZ: the chunk table's offset " + std::to_string(table) + " is outside the file (" +
+                             std::to_string(file_size) + " bytes, point data from byte " + std::to_string(first) +
+                             "); the file may be truncated");
+  const auto end = static_cast<std::uint64_t>(table);
+  std::vector<std::uint32_t> counts, sizes;
+  read_chunk_table(layout, end, file_size, read, counts, sizes, end - first, file);
+  const bool variable = layout.chunk_size == 0xFFFFFFFFu;
+  chunks.resize(counts.size());
+  std::uint64_t point = 0, offset = first;
+  for (std::size_t i = 0; i < chunks.size(); ++i) {
+    laz_chunk& c = chunks[i];
+    c.first_point = point;
+    c.points = variable ? counts[i] : std::min<std::uint64_t>(layout.chunk_size, points - std::min(points, point));
+    c.offset = offset;
+    c.bytes = sizes[i];
+    if (c.points == 0) throw io_error(file, chunk_error(i, chunks.size()) + "no points");
+    if (c.bytes == 0 || c.bytes > end - offset)
+      throw io_error(file, chunk_error(i, chunks.size()) + std::to_string(c.bytes) + " bytes from byte " +
+                               std::to_string(offset) + " do not fit before the chunk table at byte " +
+                               std::to_string(end));
+    point += c.points;
+    offset += c.bytes;
+  }
+  if (point != points)
+    throw io_error(file, "LAZ chunk table: its " + std::to_string(chunks.size()) + " chunks hold " +
+                             std::to_string(point) + " points, the header declares " + std::to_string(points));
+  return chunks;
+}
+
+void decode_laz_chunk(const laz_layout& layout, const laz_chunk& c, std::size_t index, const unsigned char* data,
+                      unsigned char* out, const std::string& file) {
+  if (c.points == 0) return;
+  const std::size_t stride = layout.record_length;
+  const auto fail = [&](const std::string& why) {
+    return io_error(file, "LAZ chunk " + std::to_string(index) + " (points " + std::to_string(c.first_point) + " to " +
+                              std::to_string(c.first_point + c.points - 1) + ", " + std::to_string(c.bytes) +
+                              " bytes at byte " + std::to_string(c.offset) + "): " + why);
+  };
+  if (c.bytes < stride) throw fail("too short for its first point record");
+  std::copy(data, data + stride, out);
+  if (c.points == 1) return;
+  try {
+    laz::pointwise_decoder dec(layout.items);
+    dec.decode(data + stride, data + c.bytes, out, stride, c.points, layout.compressor != 1);
+  } catch (const laz::corrupt& e) {
+    throw fail(e.what());
+  }
+}
+
+void decode_laz_chunks(const laz_layout& layout, const std::vector<laz_chunk>& chunks, std::size_t c0, std::size_t c1,
+                       const laz_read_fn& read, unsigned char* out, const std::string& file) {
+  if (c0 >= c1) return;
+  const std::uint64_t base = chunks[c0].first_point;
+  ced::detail::parallel_for(c1 - c0, 0, 1, [&](std::size_t b, std::size_t e) {
+    std::string buf;
+    for (std::size_t i = c0 + b; i < c0 + e; ++i) {
+      const laz_chunk& c = chunks[i];
+      buf.resize(static_cast<std::size_t>(c.bytes));
+      read(c.offset, buf.size(), buf.data());
+      decode_laz_chunk(layout, c, i, reinterpret_cast<const unsigned char*>(buf.data()),
+                       out + (c.first_point - base) * layout.record_length, file);
+    }
+  });
+}
+
+}  // namespace ced::io::detail

@@ -1,0 +1,91 @@
+// SPDX-License-Identifier: MIT
+// Private to src/io: LAZ, the LASzip compression of LAS point records
+// (laz.cpp, laz_items.cpp). The LAS reader (las.cpp) finds a LAZ file by its
+// point format byte, and asks this for its chunks, decoded back into the LAS
+// point records they were made from; everything after that is the LAS reader's.
+//
+// The format, as its public description (the LASzip paper and sources, the
+// LAZ specification) gives it: the LASzip VLR lists the items of a record
+// (point10, gpstime11, rgb12, bytes, ...) and a chunk size; the point data
+// starts with the byte offset of a chunk table, then the chunks, each a first
+// record stored as it is and the rest arithmetic-coded item by item, each
+// item predicted from the record before it in the same chunk. Chunks are
+// independent, so they decode in parallel.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace ced::io::detail {
+
+/// One item of a compressed record, as the LASzip VLR lists it.
+struct laz_item {
+  enum kind : std::uint16_t {
+    byte = 0,
+    point10 = 6,
+    gpstime11 = 7,
+    rgb12 = 8,
+    point14 = 10,
+    rgb14 = 11,
+    rgbnir14 = 12,
+    byte14 = 14
+  };
+  std::uint16_t type = 0, size = 0, version = 0;
+};
+
+/// How a LAZ file's records are compressed (its LASzip VLR), checked against
+/// the point format and the record length.
+struct laz_layout {
+  int compressor = 0;            ///< 1: pointwise, one chunk; 2: pointwise and chunked
+  std::uint32_t chunk_size = 0;  ///< points a chunk; 0xFFFFFFFF: each chunk says (chunk table)
+  std::vector<laz_item> items;   ///< in record order; their sizes add up to the record length
+  std::size_t record_length = 0;
+  std::string describe() const;  ///< "point10 v2, gpstime11 v2, rgb12 v2"
+};
+
+/// The LASzip VLR's `len` bytes at p, for point format `format` and records
+/// of `record_length` bytes. io_error naming `file` and the problem for a
+/// record that is too short, an unknown compressor, coder, item type or
+/// version, and items that disagree with the point format or the record length.
+laz_layout parse_laszip_vlr(const unsigned char* p, std::size_t len, int format, std::size_t record_length,
+                            const std::string& file);
+
+/// One chunk of compressed records: its points and its bytes in the file.
+struct laz_chunk {
+  std::uint64_t first_point = 0, points = 0;
+  std::uint64_t offset = 0, bytes = 0;
+};
+
+/// Reads `n` bytes at `offset` of the file into `out` (io_error when it cannot).
+using laz_read_fn = std::function<void(std::uint64_t offset, std::size_t n, char* out)>;
+
+/// The chunks of a LAZ file of `file_size` bytes whose point data starts at
+/// `point_offset` and holds `points` records, from its chunk table. io_error
+/// naming the file for a chunk table that is missing, out of the file or
+/// corrupt, chunks that overlap or run out of the point data, and chunk
+/// point counts that do not add up to `points`.
+std::vector<laz_chunk> laz_chunks(const laz_layout& layout, std::uint64_t point_offset, std::uint64_t file_size,
+                                  std::uint64_t points, const laz_read_fn& read, const std::string& file);
+
+/// Decodes chunk number `index` (`c`, its c.bytes bytes at `data`) into
+/// c.points records of layout.record_length bytes at `out`. io_error naming
+/// the file and the chunk when the data ends before its last point or does
+/// not decode. Reentrant: chunks may decode on several threads at once.
+void decode_laz_chunk(const laz_layout& layout, const laz_chunk& c, std::size_t index, const unsigned char* data,
+                      unsigned char* out, const std::string& file);
+
+/// Decodes chunks [c0, c1) into `out`, the records of chunk c0's first point
+/// on, chunks in parallel (the bytes read with `read`, a chunk at a time).
+void decode_laz_chunks(const laz_layout& layout, const std::vector<laz_chunk>& chunks, std::size_t c0, std::size_t c1,
+                       const laz_read_fn& read, unsigned char* out, const std::string& file);
+
+/// The point records of a LAS or LAZ file held in `bytes`, uncompressed
+/// (LAZ decoded), back to back; the header's checks as read_las(). For tests
+/// and the fuzz target: a LAZ file must give exactly its LAS twin's records.
+std::string las_point_records(std::string_view bytes, const std::string& name);
+
+}  // namespace ced::io::detail

@@ -1,0 +1,386 @@
+// SPDX-License-Identifier: MIT
+// Private to src/io: the decoders of LAZ's pointwise items, version 2
+// (point10, gpstime11, rgb12, byte): each predicts a record's item from the
+// record before it in the chunk and decodes the correction (laz.cpp).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <cstring>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "laz.hpp"
+#include "laz_coder.hpp"
+#include "scalar_io.hpp"
+
+namespace ced::io::detail::laz {
+
+/// The median of the last five values added (all 0 at first), kept sorted;
+/// each new value evicts the oldest end alternately, as the format does.
+class median5 {
+ public:
+  std::int32_t get() const noexcept { return m_v[2]; }
+  void add(std::int32_t v) noexcept {
+    if (m_high) {
+      if (v < m_v[2]) {
+        m_v[4] = m_v[3];
+        m_v[3] = m_v[2];
+        if (v < m_v[0]) {
+          m_v[2] = m_v[1];
+          m_v[1] = m_v[0];
+          m_v[0] = v;
+        } else if (v < m_v[1]) {
+          m_v[2] = m_v[1];
+          m_v[1] = v;
+        } else {
+          m_v[2] = v;
+        }
+      } else {
+        if (v < m_v[3]) {
+          m_v[4] = m_v[3];
+          m_v[3] = v;
+        } else {
+          m_v[4] = v;
+        }
+        m_high = false;
+      }
+    } else {
+      if (m_v[2] < v) {
+        m_v[0] = m_v[1];
+        m_v[1] = m_v[2];
+        if (m_v[4] < v) {
+          m_v[2] = m_v[3];
+          m_v[3] = m_v[4];
+          m_v[4] = v;
+        } else if (m_v[3] < v) {
+          m_v[2] = m_v[3];
+          m_v[3] = v;
+        } else {
+          m_v[2] = v;
+        }
+      } else {
+        if (m_v[1] < v) {
+          m_v[0] = m_v[1];
+          m_v[1] = v;
+        } else {
+          m_v[0] = v;
+        }
+        m_high = true;
+      }
+    }
+  }
+
+ private:
+  std::int32_t m_v[5] = {0, 0, 0, 0, 0};
+  bool m_high = true;
+};
+
+inline std::int32_t wrap_add(std::int32_t a, std::int32_t b) noexcept {
+  return static_cast<std::int32_t>(static_cast<std::uint32_t>(a) + static_cast<std::uint32_t>(b));
+}
+inline std::int32_t wrap_mul(std::int32_t a, std::int32_t b) noexcept {
+  return static_cast<std::int32_t>(static_cast<std::uint32_t>(a) * static_cast<std::uint32_t>(b));
+}
+inline std::int64_t wrap_add64(std::int64_t a, std::int32_t b) noexcept {
+  return static_cast<std::int64_t>(static_cast<std::uint64_t>(a) + static_cast<std::uint64_t>(std::int64_t(b)));
+}
+inline int clamp_u8(int v) noexcept { return v < 0 ? 0 : (v > 255 ? 255 : v); }
+
+/// A model for each value of a context byte, made when first needed.
+class models_by_byte {
+ public:
+  symbol_model& operator[](unsigned b) {
+    if (!m[b]) m[b] = std::make_unique<symbol_model>(256);
+    return *m[b];
+  }
+
+ private:
+  std::unique_ptr<symbol_model> m[256];
+};
+
+/// point10 v2: the 20 bytes of LAS point formats 0-5 (x, y, z, intensity,
+/// return bits, classification, scan angle, user data, point source).
+class point10_v2 {
+ public:
+  explicit point10_v2(const unsigned char* first) {
+    std::memcpy(m_last, first, 20);
+    m_last[12] = m_last[13] = 0;  // the intensity is predicted from 0
+  }
+
+  void decode(decoder& d, unsigned char* out) {
+    const std::uint32_t changed = d.symbol(m_changed);
+    unsigned r, n, m, l;
+    if (changed) {
+      if (changed & 32) m_last[14] = static_cast<unsigned char>(d.symbol(m_flags[m_last[14]]));
+      returns(r, n, m, l);
+      if (changed & 16) {
+        m_intensity[m] = static_cast<std::uint16_t>(m_ic_intensity.decode(d, m_intensity[m], m < 3 ? m : 3));
+      }
+      store_le<std::uint16_t>(m_last + 12, m_intensity[m]);
+      if (changed & 8) m_last[15] = static_cast<unsigned char>(d.symbol(m_class[m_last[15]]));
+      if (changed & 4) {
+        const std::uint32_t v = d.symbol(m_scan_angle[(m_last[14] >> 6) & 1]);
+        m_last[16] = static_cast<unsigned char>((v + m_last[16]) & 0xFF);
+      }
+      if (changed & 2) m_last[17] = static_cast<unsigned char>(d.symbol(m_user[m_last[17]]));
+      if (changed & 1) {
+        const auto id = load_le<std::uint16_t>(m_last + 18);
+        store_le<std::uint16_t>(m_last + 18, static_cast<std::uint16_t>(m_ic_source.decode(d, id, 0)));
+      }
+    } else {
+      returns(r, n, m, l);
+    }
+    const unsigned single = n == 1 ? 1 : 0;
+    std::int32_t diff = m_ic_dx.decode(d, m_x[m].get(), single);
+    store_le<std::int32_t>(m_last, wrap_add(load_le<std::int32_t>(m_last), diff));
+    m_x[m].add(diff);
+    std::uint32_t k = m_ic_dx.k();
+    diff = m_ic_dy.decode(d, m_y[m].get(), single + (k < 20 ? (k & ~1u) : 20));
+    store_le<std::int32_t>(m_last + 4, wrap_add(load_le<std::int32_t>(m_last + 4), diff));
+    m_y[m].add(diff);
+    k = (m_ic_dx.k() + m_ic_dy.k()) / 2;
+    m_height[l] = m_ic_z.decode(d, m_height[l], single + (k < 18 ? (k & ~1u) : 18));
+    store_le<std::int32_t>(m_last + 8, m_height[l]);
+    std::memcpy(out, m_last, 20);
+  }
+
+ private:
+  /// The return number r and count n of the last point, and the contexts
+  /// they select: m (of 16) for x, y and intensity, l = |n - r| for z.
+  void returns(unsigned& r, unsigned& n, unsigned& m, unsigned& l) const noexcept {
+    // Which of 16 contexts a (number of returns, return number) pair uses;
+    // pairs that a well-formed file does not have share the spare ones.
+    static constexpr unsigned char map[8][8] = {{15, 14, 13, 12, 11, 10, 9, 8},  {14, 0, 1, 3, 6, 10, 10, 9},
+                                                {13, 1, 2, 4, 7, 11, 11, 10},    {12, 3, 4, 5, 8, 12, 12, 11},
+                                                {11, 6, 7, 8, 9, 13, 13, 12},    {10, 10, 11, 12, 13, 14, 14, 13},
+                                                {9, 10, 11, 12, 13, 14, 15, 14}, {8, 9, 10, 11, 12, 13, 14, 15}};
+    r = m_last[14] & 7u;
+    n = (m_last[14] >> 3) & 7u;
+    m = map[n][r];
+    l = n > r ? n - r : r - n;
+  }
+
+  unsigned char m_last[20];
+  symbol_model m_changed{64};
+  models_by_byte m_flags, m_class, m_user;
+  symbol_model m_scan_angle[2] = {symbol_model(256), symbol_model(256)};
+  integer_decoder m_ic_intensity{16, 4}, m_ic_source{16, 1};
+  integer_decoder m_ic_dx{32, 2}, m_ic_dy{32, 22}, m_ic_z{32, 20};
+  median5 m_x[16], m_y[16];
+  std::uint16_t m_intensity[16] = {};
+  std::int32_t m_height[8] = {};
+};
+
+/// gpstime11 v2: a double's bits, coded as integer differences in up to four
+/// interleaved sequences (several flight lines or scanners), with multiples
+/// of the last difference predicted.
+class gpstime11_v2 {
+ public:
+  explicit gpstime11_v2(const unsigned char* first) { m_time[0] = load_le<std::int64_t>(first); }
+
+  void decode(decoder& d, unsigned char* out) {
+    constexpr std::int32_t multi_max = 500, multi_minus = -10;
+    constexpr std::uint32_t unchanged = multi_max - multi_minus + 1, code_full = unchanged + 1;
+    // A switch to another sequence is followed by the value in it; more than
+    // a few switches in a row do not occur in a valid stream.
+    for (int switches = 0;; ++switches) {
+      if (switches > 4) throw corrupt("gpstime: too many sequence switches");
+      if (m_diff[m_last] == 0) {
+        const std::uint32_t multi = d.symbol(m_zero_diff);
+        if (multi == 0) break;  // the same time
+        if (multi == 1) {
+          m_diff[m_last] = m_ic.decode(d, 0, 0);
+          m_time[m_last] = wrap_add64(m_time[m_last], m_diff[m_last]);
+          m_extreme[m_last] = 0;
+          break;
+        }
+        if (multi == 2) {
+          full(d);
+          break;
+        }
+        m_last = (m_last + multi - 2) & 3;
+        continue;
+      }
+      const std::uint32_t multi = d.symbol(m_multi);
+      if (multi == 1) {
+        m_time[m_last] = wrap_add64(m_time[m_last], m_ic.decode(d, m_diff[m_last], 1));
+        m_extreme[m_last] = 0;
+        break;
+      }
+      if (multi < unchanged) {
+        std::int32_t diff;
+        if (multi == 0) {
+          diff = m_ic.decode(d, 0, 7);
+          extreme(diff);
+        } else if (multi < std::uint32_t(multi_max)) {
+          diff = m_ic.decode(d, wrap_mul(std::int32_t(multi), m_diff[m_last]), multi < 10 ? 2 : 3);
+        } else if (multi == std::uint32_t(multi_max)) {
+          diff = m_ic.decode(d, wrap_mul(multi_max, m_diff[m_last]), 4);
+          extreme(diff);
+        } else {
+          const std::int32_t back = multi_max - std::int32_t(multi);
+          if (back > multi_minus) {
+            diff = m_ic.decode(d, wrap_mul(back, m_diff[m_last]), 5);
+          } else {
+            diff = m_ic.decode(d, wrap_mul(multi_minus, m_diff[m_last]), 6);
+            extreme(diff);
+          }
+        }
+        m_time[m_last] = wrap_add64(m_time[m_last], diff);
+        break;
+      }
+      if (multi == unchanged) break;
+      if (multi == code_full) {
+        full(d);
+        break;
+      }
+      m_last = (m_last + multi - code_full) & 3;
+    }
+    store_le<std::int64_t>(out, m_time[m_last]);
+  }
+
+ private:
+  /// A difference far from the prediction: after more than three in a row
+  /// it becomes the sequence's difference.
+  void extreme(std::int32_t diff) noexcept {
+    if (++m_extreme[m_last] > 3) {
+      m_diff[m_last] = diff;
+      m_extreme[m_last] = 0;
+    }
+  }
+  /// A new sequence, its time coded whole: the high 32 bits predicted from
+  /// the current sequence's, the low 32 bits raw.
+  void full(decoder& d) {
+    m_next = (m_next + 1) & 3;
+    const auto high = static_cast<std::uint32_t>(
+        m_ic.decode(d, static_cast<std::int32_t>(static_cast<std::uint64_t>(m_time[m_last]) >> 32), 8));
+    m_time[m_next] = static_cast<std::int64_t>((std::uint64_t(high) << 32) | d.u32());
+    m_last = m_next;
+    m_diff[m_last] = 0;
+    m_extreme[m_last] = 0;
+  }
+
+  unsigned m_last = 0, m_next = 0;
+  std::int64_t m_time[4] = {0, 0, 0, 0};
+  std::int32_t m_diff[4] = {0, 0, 0, 0};
+  std::int32_t m_extreme[4] = {0, 0, 0, 0};
+  symbol_model m_multi{516}, m_zero_diff{6};
+  integer_decoder m_ic{32, 9};
+};
+
+/// rgb12 v2: three 16-bit colours, each byte coded when it changed, green
+/// and blue predicted from red's change.
+class rgb12_v2 {
+ public:
+  explicit rgb12_v2(const unsigned char* first) {
+    for (int c = 0; c < 3; ++c) m_last[c] = load_le<std::uint16_t>(first + 2 * c);
+  }
+
+  void decode(decoder& d, unsigned char* out) {
+    const std::uint32_t used = d.symbol(m_used);
+    unsigned v[3];
+    const auto byte = [&](int model, int base) { return (d.symbol(m_diff[model]) + unsigned(base)) & 0xFFu; };
+    v[0] = (used & 1) ? byte(0, m_last[0] & 0xFF) : (m_last[0] & 0xFFu);
+    v[0] |= ((used & 2) ? byte(1, m_last[0] >> 8) : (m_last[0] >> 8)) << 8;
+    if (used & 64) {
+      int diff = int(v[0] & 0xFF) - int(m_last[0] & 0xFF);
+      v[1] = (used & 4) ? byte(2, clamp_u8(diff + (m_last[1] & 0xFF))) : (m_last[1] & 0xFFu);
+      if (used & 16) {
+        diff = (diff + (int(v[1] & 0xFF) - int(m_last[1] & 0xFF))) / 2;
+        v[2] = byte(4, clamp_u8(diff + (m_last[2] & 0xFF)));
+      } else {
+        v[2] = m_last[2] & 0xFFu;
+      }
+      diff = int(v[0] >> 8) - int(m_last[0] >> 8);
+      v[1] |= ((used & 8) ? byte(3, clamp_u8(diff + (m_last[1] >> 8))) : (m_last[1] >> 8)) << 8;
+      if (used & 32) {
+        diff = (diff + (int(v[1] >> 8) - int(m_last[1] >> 8))) / 2;
+        v[2] |= byte(5, clamp_u8(diff + (m_last[2] >> 8))) << 8;
+      } else {
+        v[2] |= m_last[2] & 0xFF00u;
+      }
+    } else {
+      v[1] = v[2] = v[0];
+    }
+    for (int c = 0; c < 3; ++c) {
+      m_last[c] = static_cast<std::uint16_t>(v[c]);
+      store_le<std::uint16_t>(out + 2 * c, m_last[c]);
+    }
+  }
+
+ private:
+  std::uint16_t m_last[3];
+  symbol_model m_used{128};
+  symbol_model m_diff[6] = {symbol_model(256), symbol_model(256), symbol_model(256),
+                            symbol_model(256), symbol_model(256), symbol_model(256)};
+};
+
+/// byte v2 (extra bytes): each byte's difference to the last point's, a model per byte.
+class bytes_v2 {
+ public:
+  bytes_v2(const unsigned char* first, std::size_t n) : m_last(first, first + n), m_models(n, symbol_model(256)) {}
+
+  void decode(decoder& d, unsigned char* out) {
+    for (std::size_t i = 0; i < m_last.size(); ++i) {
+      m_last[i] = static_cast<unsigned char>((m_last[i] + d.symbol(m_models[i])) & 0xFF);
+      out[i] = m_last[i];
+    }
+  }
+
+ private:
+  std::vector<unsigned char> m_last;
+  std::vector<symbol_model> m_models;
+};
+
+/// A chunk's records after its first: the items of laz_layout decoded in
+/// record order, each from the record before.
+class pointwise_decoder {
+ public:
+  explicit pointwise_decoder(const std::vector<laz_item>& items) : m_items(items) {}
+
+  /// Decodes records 1 to points - 1 of a chunk into out (record 0, the
+  /// first, is already there) from the coded bytes [p, end). With
+  /// `exact_end`, the coded bytes must end where the last point does (a chunk
+  /// of a chunk table; the encoder ends each with the bytes its decoder reads).
+  void decode(const unsigned char* p, const unsigned char* end, unsigned char* out, std::size_t stride,
+              std::uint64_t points, bool exact_end) {
+    std::size_t offset[4] = {0, 0, 0, 0};
+    std::size_t at = 0;
+    for (std::size_t i = 0; i < m_items.size(); ++i) {
+      offset[i] = at;
+      at += m_items[i].size;
+    }
+    // The items always come in this order (parse_laszip_vlr checks it).
+    point10_v2 point(out);
+    std::unique_ptr<gpstime11_v2> time;
+    std::unique_ptr<rgb12_v2> rgb;
+    std::unique_ptr<bytes_v2> extra;
+    std::size_t t_at = 0, c_at = 0, e_at = 0;
+    for (std::size_t i = 1; i < m_items.size(); ++i) {
+      if (m_items[i].type == laz_item::gpstime11) time = std::make_unique<gpstime11_v2>(out + (t_at = offset[i]));
+      if (m_items[i].type == laz_item::rgb12) rgb = std::make_unique<rgb12_v2>(out + (c_at = offset[i]));
+      if (m_items[i].type == laz_item::byte)
+        extra = std::make_unique<bytes_v2>(out + (e_at = offset[i]), m_items[i].size);
+    }
+    decoder d;
+    d.start(p, end);
+    for (std::uint64_t i = 1; i < points; ++i) {
+      unsigned char* r = out + i * stride;
+      point.decode(d, r);
+      if (time) time->decode(d, r + t_at);
+      if (rgb) rgb->decode(d, r + c_at);
+      if (extra) extra->decode(d, r + e_at);
+    }
+    if (exact_end && d.position() != end)
+      throw corrupt(std::to_string(end - d.position()) +
+                    " bytes after its last point: it holds more than its points, "
+                    "or it is corrupt");
+  }
+
+ private:
+  const std::vector<laz_item>& m_items;
+};
+
+}  // namespace ced::io::detail::laz

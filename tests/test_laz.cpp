@@ -1,0 +1,305 @@
+// SPDX-License-Identifier: MIT
+// LAZ (src/io/laz.*): every record of the public LAZ test files decodes to
+// the bytes of its plain-LAS twin, the clouds and keypoints are the twin's,
+// and damaged files are refused with an io_error naming the file, never read
+// out of bounds.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "ced/ced.hpp"
+#include "ced/io/io.hpp"
+#include "ced/io/las.hpp"
+#include "ced/io/stream.hpp"
+#include "core/parallel.hpp"
+#include "file_support.hpp"
+#include "io/laz.hpp"
+#include "io/scalar_io.hpp"
+
+using ced::io::io_error;
+using ced::io::detail::las_point_records;
+using ced::io::detail::load_le;
+using ced_test::read_bytes;
+using ced_test::temp_file;
+using ced_test::write_bytes;
+
+namespace {
+
+std::string data_path(const std::string& name) { return std::string(CED_TEST_DATA_DIR) + "/" + name; }
+
+struct twin {
+  const char* laz;
+  const char* las;
+};
+constexpr twin k_twins[] = {{"simple.laz", "simple.las"}, {"autzen_trim.laz", "autzen_trim.las"}};
+
+/// The io_error reading `bytes` (as a file `name`) throws; it must name the file.
+std::string laz_error(const std::string& bytes, const std::string& name = "bad.laz") {
+  return ced_test::read_error_of([](const std::string& p) { ced::io::read_cloud(p); }, bytes, name);
+}
+
+/// Byte offsets in a LAZ file: its point data, its LASzip VLR's payload.
+struct laz_offsets {
+  std::size_t points = 0, vlr = 0, vlr_len = 0;
+};
+
+laz_offsets offsets_of(const std::string& bytes) {
+  const auto* d = reinterpret_cast<const unsigned char*>(bytes.data());
+  laz_offsets o;
+  o.points = load_le<std::uint32_t>(d + 96);
+  std::size_t pos = load_le<std::uint16_t>(d + 94);
+  for (std::uint32_t i = 0, n = load_le<std::uint32_t>(d + 100); i < n; ++i) {
+    const std::size_t len = load_le<std::uint16_t>(d + pos + 20);
+    if (load_le<std::uint16_t>(d + pos + 18) == 22204) {
+      o.vlr = pos + 54;
+      o.vlr_len = len;
+    }
+    pos += 54 + len;
+  }
+  return o;
+}
+
+template <class T>
+void put(std::string& s, std::size_t at, T v) {
+  std::memcpy(&s[at], &v, sizeof v);
+}
+
+}  // namespace
+
+TEST(Laz, EveryRecordIsItsLasTwinsRecord) {
+  for (const twin& t : k_twins) {
+    SCOPED_TRACE(t.laz);
+    const std::string laz = las_point_records(read_bytes(data_path(t.laz)), t.laz);
+    const std::string las = las_point_records(read_bytes(data_path(t.las)), t.las);
+    ASSERT_GT(las.size(), 0u);
+    ASSERT_EQ(laz.size(), las.size());
+    // The raw bytes: integers, flags, times and colours, not only the scaled coordinates.
+    const auto diff = std::mismatch(laz.begin(), laz.end(), las.begin());
+    EXPECT_TRUE(diff.first == laz.end()) << "first differing byte " << (diff.first - laz.begin());
+  }
+}
+
+TEST(Laz, HeaderCountsBoundsAndReturnsAreThoseOfTheDecodedPoints) {
+  for (const twin& t : k_twins) {
+    SCOPED_TRACE(t.laz);
+    const std::string file = read_bytes(data_path(t.laz));
+    const auto* h = reinterpret_cast<const unsigned char*>(file.data());
+    const std::string records = las_point_records(file, t.laz);
+    const std::size_t stride = load_le<std::uint16_t>(h + 105);
+    const std::size_t n = records.size() / stride;
+    EXPECT_EQ(n, load_le<std::uint32_t>(h + 107));
+    std::int32_t lo[3], hi[3];
+    std::uint32_t by_return[5] = {0, 0, 0, 0, 0};
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto* r = reinterpret_cast<const unsigned char*>(records.data()) + i * stride;
+      for (int k = 0; k < 3; ++k) {
+        const auto v = load_le<std::int32_t>(r + 4 * k);
+        lo[k] = i ? std::min(lo[k], v) : v;
+        hi[k] = i ? std::max(hi[k], v) : v;
+      }
+      const unsigned ret = r[14] & 7u;
+      if (ret >= 1 && ret <= 5) ++by_return[ret - 1];
+    }
+    for (int k = 0; k < 5; ++k) EXPECT_EQ(by_return[k], load_le<std::uint32_t>(h + 111 + 4 * k)) << "return " << k + 1;
+    for (int k = 0; k < 3; ++k) {
+      const double scale = load_le<double>(h + 131 + 8 * k), offset = load_le<double>(h + 155 + 8 * k);
+      // Header bounds are max x, min x, max y, ... (to the rounding of raw * scale + offset).
+      EXPECT_NEAR(load_le<double>(h + 179 + 16 * k), hi[k] * scale + offset, scale * 1e-3) << "axis " << k;
+      EXPECT_NEAR(load_le<double>(h + 187 + 16 * k), lo[k] * scale + offset, scale * 1e-3) << "axis " << k;
+    }
+  }
+}
+
+TEST(Laz, ReadsAsItsLasTwinOnAnyThreadCount) {
+  for (const twin& t : k_twins) {
+    SCOPED_TRACE(t.laz);
+    ced::io::read_report rz, rs;
+    const ced::point_cloud laz = ced::io::read_cloud(data_path(t.laz), {}, &rz);
+    const ced::point_cloud las = ced::io::read_cloud(data_path(t.las), {}, &rs);
+    ced_test::expect_same_cloud(laz, las);
+    EXPECT_EQ(rz.details, "LAZ 1.2, point format 3");
+    EXPECT_EQ(rs.details, "LAS 1.2, point format 3");
+    ced::point_cloud one;
+    ced::detail::with_thread_limit(1, [&] { one = ced::io::read_cloud(data_path(t.laz)); });
+    ced_test::expect_same_cloud(one, las);
+    // Only the selected fields, as for LAS.
+    ced::io::read_options only;
+    only.fields = ced::field_selection::only({"gps_time", "blue"});
+    ced_test::expect_same_cloud(ced::io::read_cloud(data_path(t.laz), only),
+                                ced::io::read_cloud(data_path(t.las), only));
+  }
+}
+
+TEST(Laz, AutzenGivesTheKeypointsOfItsLasTwin) {
+  const ced::point_cloud laz = ced::io::read_cloud(data_path("autzen_trim.laz"));
+  const ced::point_cloud las = ced::io::read_cloud(data_path("autzen_trim.las"));
+  ced::detect_params p;
+  p.radius = p.nms_radius = 6.0;  // feet: about five times the median spacing
+  const auto want = ced::detect(las, p, ced::preset("ced6d"));
+  EXPECT_GT(want.keypoints.size(), 100u);
+  const auto got = ced::detect(laz, p, ced::preset("ced6d"));
+  EXPECT_EQ(got.keypoints, want.keypoints);
+  EXPECT_EQ(got.saliency, want.saliency);  // bitwise
+}
+
+TEST(Laz, StreamsChunkByChunkAsItReadsWhole) {
+  // Reads of a few points at a time cross the 50,000-point chunks of autzen.
+  for (const twin& t : k_twins) {
+    SCOPED_TRACE(t.laz);
+    const std::string path = data_path(t.laz);
+    const ced::point_cloud whole = ced::io::read_cloud(path);
+    const auto s = ced::io::open_point_stream(path);
+    EXPECT_TRUE(s->streaming());
+    EXPECT_EQ(s->declared_points(), whole.size());
+    ced::point_cloud chunk;
+    while (s->read(4999, {0, 0, 0}, chunk) > 0) {
+    }
+    EXPECT_EQ(s->origin(), whole.origin());
+    s->rewind();
+    std::vector<float> xyz;
+    std::vector<double> gps;
+    while (s->read(4999, s->origin(), chunk) > 0) {
+      xyz.insert(xyz.end(), chunk.positions().begin(), chunk.positions().end());
+      const auto* f = chunk.find_field("gps_time");
+      ASSERT_NE(f, nullptr);
+      for (std::size_t i = 0; i < chunk.size(); ++i) gps.push_back(f->values[i]);
+    }
+    ASSERT_EQ(xyz.size(), whole.positions().size());
+    EXPECT_TRUE(std::equal(xyz.begin(), xyz.end(), whole.positions().begin()));
+    const auto* g = whole.find_field("gps_time");
+    ASSERT_NE(g, nullptr);
+    for (std::size_t i = 0; i < whole.size(); ++i) ASSERT_EQ(gps[i], g->values[i]) << i;
+  }
+}
+
+TEST(Laz, WritingLazIsRefusedWithAHint) {
+  const ced::point_cloud c = ced::io::read_cloud(data_path("simple.laz"));
+  const std::string path = temp_file("out.laz");
+  const std::string msg = ced_test::io_error_of([&] { ced::io::write_cloud(path, c); });
+  EXPECT_CONTAINS(msg, "writing LAZ is not supported");
+  EXPECT_CONTAINS(msg, "out.las");
+  EXPECT_FALSE(std::filesystem::exists(path));
+  EXPECT_THROW(ced::io::output_format_of("x.LAZ"), io_error);
+  EXPECT_EQ(ced::io::format_of("x.laz"), ced::io::file_format::las);
+}
+
+TEST(LazMalformed, TruncatedAnywhere) {
+  const std::string file = read_bytes(data_path("autzen_trim.laz"));
+  const laz_offsets o = offsets_of(file);
+  // In the header, the VLRs, the chunk table offset, the chunks, the table.
+  for (std::size_t keep : {std::size_t(100), o.vlr + 10, o.points + 4, o.points + 100, std::size_t(300000),
+                           file.size() - 30, file.size() - 1}) {
+    SCOPED_TRACE(keep);
+    const std::string msg = laz_error(file.substr(0, keep));
+    EXPECT_NE(msg, "<no io_error thrown>");
+  }
+}
+
+TEST(LazMalformed, ChunkTable) {
+  const std::string file = read_bytes(data_path("autzen_trim.laz"));
+  const laz_offsets o = offsets_of(file);
+  const auto table = load_le<std::int64_t>(reinterpret_cast<const unsigned char*>(file.data()) + o.points);
+  {
+    std::string b = file;  // points at the first chunk: never written
+    put<std::int64_t>(b, o.points, std::int64_t(o.points + 8));
+    EXPECT_CONTAINS(laz_error(b), "chunk table is missing");
+  }
+  {
+    std::string b = file;
+    put<std::int64_t>(b, o.points, std::int64_t(file.size() + 100));
+    EXPECT_CONTAINS(laz_error(b), "outside the file");
+  }
+  {
+    std::string b = file;
+    put<std::uint32_t>(b, std::size_t(table), 1u);
+    EXPECT_CONTAINS(laz_error(b), "unknown version 1");
+  }
+  {
+    std::string b = file;
+    put<std::uint32_t>(b, std::size_t(table) + 4, 4u);  // 4 chunks: the last runs past the table
+    EXPECT_CONTAINS(laz_error(b), "LAZ chunk table");
+  }
+  {
+    std::string b = file;
+    put<std::uint32_t>(b, std::size_t(table) + 4, 2u);  // 2 chunks hold 100,000 points, not 110,000
+    EXPECT_CONTAINS(laz_error(b), "hold 100000 points, the header declares 110000");
+  }
+  {
+    std::string b = file;
+    put<std::uint32_t>(b, 107, 160000u);  // more points declared than 3 chunks of 50,000 hold
+    EXPECT_CONTAINS(laz_error(b), "hold 150000 points, the header declares 160000");
+  }
+  {
+    std::string b = file;  // the last chunk would hold 20,000 points: its data ends first
+    put<std::uint32_t>(b, 107, 120000u);
+    EXPECT_CONTAINS(laz_error(b), "LAZ chunk 2 (points 100000 to 119999");
+    EXPECT_CONTAINS(laz_error(b), "ends early");
+  }
+  {
+    std::string b = file;  // ... or 5,000: its data goes on after them
+    put<std::uint32_t>(b, 107, 105000u);
+    EXPECT_CONTAINS(laz_error(b), "bytes after its last point");
+  }
+}
+
+TEST(LazMalformed, LaszipVlr) {
+  const std::string file = read_bytes(data_path("simple.laz"));
+  const laz_offsets o = offsets_of(file);
+  const auto with = [&](std::size_t at, std::uint16_t v) {
+    std::string b = file;
+    put<std::uint16_t>(b, at, v);
+    return laz_error(b);
+  };
+  EXPECT_CONTAINS(with(o.vlr, 7), "unknown compressor 7");
+  EXPECT_CONTAINS(with(o.vlr, 3), "layered chunked compression");
+  EXPECT_CONTAINS(with(o.vlr + 2, 1), "unknown coder 1");
+  EXPECT_CONTAINS(with(o.vlr + 34 + 4, 1), "point10 v1 (20 bytes): only version 2");
+  EXPECT_CONTAINS(with(o.vlr + 34 + 6, 9), "do not match point format 3");       // gpstime11 -> wavepacket13
+  EXPECT_CONTAINS(with(o.vlr + 34 + 12 + 2, 7), "do not match point format 3");  // rgb12 of 7 bytes
+  EXPECT_CONTAINS(with(o.vlr + 32, 40), "items do not fit");
+  {
+    std::string b = file;  // the point format byte says LAZ, but no VLR says how
+    b[o.vlr - 54 + 2] = 'X';
+    EXPECT_CONTAINS(laz_error(b), "no LASzip VLR");
+  }
+  {
+    std::string b = file;  // point format 1 (no colour) with point format 3's items
+    b[104] = static_cast<char>(0x81);
+    put<std::uint16_t>(b, 105, 28);
+    EXPECT_CONTAINS(laz_error(b), "unexpected rgb12 v2 (6 bytes) after the items of point format 1");
+  }
+  {
+    std::string b = file;
+    b[104] = static_cast<char>(0xC3);
+    EXPECT_CONTAINS(laz_error(b), "unknown compression");
+  }
+}
+
+TEST(LazMalformed, DamagedChunksAreRefusedNeverMisread) {
+  // Bytes of the coded data changed at random: each read either throws an
+  // io_error naming the chunk, or (rarely) decodes some other points; it never
+  // reads out of bounds (the sanitizer builds run this) or hangs.
+  const std::string file = read_bytes(data_path("simple.laz"));
+  const laz_offsets o = offsets_of(file);
+  const std::size_t first = o.points + 8 + 34;  // the chunk's coded bytes, after its first record
+  const auto table =
+      static_cast<std::size_t>(load_le<std::int64_t>(reinterpret_cast<const unsigned char*>(file.data()) + o.points));
+  std::mt19937 rng(7);
+  int refused = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    std::string b = file;
+    const int flips = 1 + trial % 4;
+    for (int f = 0; f < flips; ++f) b[first + rng() % (table - first)] = static_cast<char>(rng() & 0xFF);
+    const std::string msg = ced_test::io_error_of([&] { las_point_records(b, "damaged.laz"); });
+    if (msg != "<no io_error thrown>") {
+      EXPECT_CONTAINS(msg, "LAZ chunk 0");
+      ++refused;
+    }
+  }
+  EXPECT_GT(refused, 150);  // the decoder must end exactly at the chunk's end
+}
