@@ -303,3 +303,122 @@ TEST(LazMalformed, DamagedChunksAreRefusedNeverMisread) {
   }
   EXPECT_GT(refused, 150);  // the decoder must end exactly at the chunk's end
 }
+
+namespace {
+
+/// A LAS 1.2 file (no VLRs) of point format `format` holding `records`
+/// (`stride` bytes each) as they are.
+std::string las_with_records(int format, std::size_t stride, const std::string& records) {
+  std::string h(227, '\0');
+  std::memcpy(&h[0], "LASF", 4);
+  h[24] = 1;
+  h[25] = 2;
+  put<std::uint16_t>(h, 94, 227);
+  put<std::uint32_t>(h, 96, 227);
+  h[104] = static_cast<char>(format);
+  put<std::uint16_t>(h, 105, static_cast<std::uint16_t>(stride));
+  put<std::uint32_t>(h, 107, static_cast<std::uint32_t>(records.size() / stride));
+  for (int k = 0; k < 3; ++k) put<double>(h, 131 + 8 * k, 0.01);
+  return h + records;
+}
+
+/// n records of point format `format` with `extra` extra bytes: coherent
+/// like a scan (`random` false: small steps, returns of pulses, GPS times
+/// in two interleaved flight lines with jumps and repeats, grey and coloured
+/// points) or every byte random.
+std::string make_records(int format, std::size_t extra, std::size_t n, bool random, unsigned seed) {
+  static constexpr std::size_t k_size[4] = {20, 28, 26, 34};
+  const std::size_t stride = k_size[format] + extra;
+  std::mt19937 rng(seed);
+  std::string r(n * stride, '\0');
+  if (random) {
+    for (char& c : r) c = static_cast<char>(rng());
+    return r;
+  }
+  std::int32_t xyz[3] = {1000, -2000, 300};
+  double line_time[2] = {1e5, 3.7e8};
+  std::uint16_t rgb[3] = {100, 200, 300};
+  for (std::size_t i = 0; i < n; ++i) {
+    unsigned char* p = reinterpret_cast<unsigned char*>(&r[i * stride]);
+    for (int k = 0; k < 3; ++k) xyz[k] += static_cast<std::int32_t>(rng() % 41) - 20 + (rng() % 97 == 0 ? 100000 : 0);
+    std::memcpy(p, xyz, 12);
+    const std::uint16_t intensity = static_cast<std::uint16_t>(rng() % 3 == 0 ? rng() : 500 + rng() % 8);
+    std::memcpy(p + 12, &intensity, 2);
+    const unsigned returns = 1 + rng() % 3, number = 1 + (rng() % 5 == 0 ? rng() % 7 : returns - 1);
+    p[14] = static_cast<unsigned char>(number | returns << 3 | (rng() % 9 == 0 ? 0x40 : 0) | (i % 50 == 0 ? 0x80 : 0));
+    p[15] = static_cast<unsigned char>(rng() % 6 == 0 ? rng() % 32 : 2);
+    p[16] = static_cast<unsigned char>(static_cast<int>(i % 60) - 30);
+    p[17] = static_cast<unsigned char>(i / 100);
+    const std::uint16_t source = static_cast<std::uint16_t>(i / 400);
+    std::memcpy(p + 18, &source, 2);
+    std::size_t at = 20;
+    if (format == 1 || format == 3) {
+      const int line = (i / 3) % 2;  // two flight lines interleaved
+      const unsigned step = rng() % 10;
+      line_time[line] += step == 0 ? 0.0 : step < 7 ? 1e-5 : step < 9 ? 3e-5 * (rng() % 20) : 1e4;
+      double t = line_time[line];
+      if (rng() % 211 == 0) t = -t;  // a sign flip: a huge integer difference
+      std::memcpy(p + at, &t, 8);
+      at += 8;
+    }
+    if (format >= 2) {
+      if (rng() % 4 == 0)
+        for (auto& c : rgb) c = static_cast<std::uint16_t>(rng());
+      else if (rng() % 3 == 0)
+        rgb[1] = rgb[2] = rgb[0];  // grey
+      std::memcpy(p + at, rgb, 6);
+      at += 6;
+    }
+    for (std::size_t e = 0; e < extra; ++e) p[at + e] = static_cast<unsigned char>(e == 0 ? i % 7 : rng());
+  }
+  return r;
+}
+
+}  // namespace
+
+TEST(LazWriter, CompressesLAStoolsAutzenToTheSameBytes) {
+  // LASzip's own compression of the LAS twin, point data and chunk table
+  // byte for byte (the VLR's description and version differ).
+  const std::string want = read_bytes(data_path("autzen_trim.laz"));
+  const std::string got = ced::io::detail::laz_from_las(read_bytes(data_path("autzen_trim.las")), "autzen_trim.las");
+  ASSERT_EQ(got.size(), want.size());
+  const std::size_t points = offsets_of(want).points;
+  ASSERT_EQ(offsets_of(got).points, points);
+  EXPECT_TRUE(got.compare(points, std::string::npos, want, points, std::string::npos) == 0);
+}
+
+TEST(LazWriter, EveryFormatExtraBytesAndChunkingRoundTrips) {
+  static constexpr std::size_t k_size[4] = {20, 28, 26, 34};
+  for (int format = 0; format <= 3; ++format)
+    for (std::size_t extra : {std::size_t(0), std::size_t(3)})
+      for (bool random : {false, true}) {
+        SCOPED_TRACE("format " + std::to_string(format) + ", extra " + std::to_string(extra) +
+                     (random ? ", random bytes" : ", scan-like"));
+        const std::size_t n = 3001;
+        const std::string records = make_records(format, extra, n, random, unsigned(format * 10 + extra));
+        const std::string las = las_with_records(format, k_size[format] + extra, records);
+        for (std::uint32_t chunk : {1u, 7u, 1000u, 50000u}) {
+          const std::string laz = ced::io::detail::laz_from_las(las, "t.las", chunk);
+          EXPECT_TRUE(las_point_records(laz, "t.laz") == records) << "chunks of " << chunk;
+        }
+        const std::vector<std::uint32_t> variable = {1, 2, 998, 1000, 1000};
+        const std::string laz = ced::io::detail::laz_from_las(las, "t.las", 0, variable);
+        EXPECT_TRUE(las_point_records(laz, "t.laz") == records) << "variable chunks";
+        if (!random) {
+          EXPECT_LT(laz.size(), las.size() * 2 / 3);  // it compresses
+          // And the reader reads it as the LAS, field for field.
+          write_bytes(temp_file("rt.las"), las);
+          write_bytes(temp_file("rt.laz"), laz);
+          ced_test::expect_same_cloud(ced::io::read_cloud(temp_file("rt.laz")),
+                                      ced::io::read_cloud(temp_file("rt.las")));
+        }
+      }
+}
+
+TEST(LazWriter, EmptyAndSinglePointFiles) {
+  for (std::size_t n : {std::size_t(0), std::size_t(1), std::size_t(2)}) {
+    const std::string records = make_records(3, 0, n, false, 5);
+    const std::string laz = ced::io::detail::laz_from_las(las_with_records(3, 34, records), "t.las");
+    EXPECT_TRUE(las_point_records(laz, "t.laz") == records) << n << " points";
+  }
+}

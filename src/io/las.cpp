@@ -1110,6 +1110,83 @@ std::string las_point_records(std::string_view bytes, const std::string& name) {
   return std::string(records.data(), records.size());
 }
 
+std::string laz_from_las(std::string_view las, const std::string& name, std::uint32_t chunk_size,
+                         const std::vector<std::uint32_t>& chunk_points) {
+  const auto* d = reinterpret_cast<const unsigned char*>(las.data());
+  const las_header h = read_header(d, las.size(), name);
+  read_vlrs(d, h, name);
+  if (h.compressed) throw std::invalid_argument(name + ": already compressed");
+  if (h.format > 3) throw std::invalid_argument(name + ": LAZ is written for point formats 0-3 only");
+  if (h.minor >= 4 && load_le<std::uint64_t>(d + 235) != 0)
+    throw std::invalid_argument(name + ": extended VLRs are not carried into LAZ");
+  const bool variable = !chunk_points.empty();
+  if (!variable && chunk_size == 0) throw std::invalid_argument("laz_from_las: a chunk size of 0");
+  // The items of the format, then its extra bytes.
+  laz_layout layout;
+  layout.compressor = 2;
+  layout.chunk_size = variable ? 0xFFFFFFFFu : chunk_size;
+  layout.record_length = h.record_length;
+  layout.items.push_back({laz_item::point10, 20, 2});
+  if (h.format == 1 || h.format == 3) layout.items.push_back({laz_item::gpstime11, 8, 2});
+  if (h.format >= 2) layout.items.push_back({laz_item::rgb12, 6, 2});
+  const std::size_t standard = h.layout->min_size;
+  if (h.record_length > standard)
+    layout.items.push_back({laz_item::byte, static_cast<std::uint16_t>(h.record_length - standard), 2});
+  // The chunks' points, their first records, and their bytes coded in parallel.
+  std::vector<std::uint32_t> points = chunk_points;
+  if (!variable)
+    for (std::uint64_t left = h.count; left > 0; left -= points.back())
+      points.push_back(static_cast<std::uint32_t>(std::min<std::uint64_t>(left, chunk_size)));
+  std::vector<std::uint64_t> first(points.size() + 1, 0);
+  for (std::size_t i = 0; i < points.size(); ++i) first[i + 1] = first[i] + points[i];
+  if (first.back() != h.count) throw std::invalid_argument("laz_from_las: the chunks do not hold the points");
+  std::vector<std::string> coded(points.size());
+  const auto* records = d + h.point_offset;
+  ced::detail::parallel_for(points.size(), 0, 1, [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i)
+      encode_laz_chunk(layout, records + first[i] * h.record_length, points[i], coded[i]);
+  });
+  std::vector<std::uint32_t> bytes;
+  for (const std::string& c : coded) bytes.push_back(static_cast<std::uint32_t>(c.size()));
+  // The LASzip VLR: after the last VLR, before any bytes between the VLRs and the points.
+  std::size_t vlr_end = h.header_size;
+  for (std::uint32_t i = 0; i < h.n_vlrs; ++i) vlr_end += k_vlr_header_size + load_le<std::uint16_t>(d + vlr_end + 20);
+  std::string vlr(k_vlr_header_size + 34 + 6 * layout.items.size(), '\0');
+  auto* v = reinterpret_cast<unsigned char*>(vlr.data());
+  store_le<std::uint16_t>(v, 0xAABB);
+  std::memcpy(v + 2, "laszip encoded", 14);
+  store_le<std::uint16_t>(v + 18, 22204);
+  store_le<std::uint16_t>(v + 20, static_cast<std::uint16_t>(vlr.size() - k_vlr_header_size));
+  std::memcpy(v + 22, "ced LAZ writer", 14);
+  unsigned char* p = v + k_vlr_header_size;
+  store_le<std::uint16_t>(p, 2);  // pointwise chunked
+  p[4] = 2;                       // the LASzip version the items are of: 2.2.0
+  p[5] = 2;
+  store_le<std::uint32_t>(p + 12, layout.chunk_size);
+  store_le<std::int64_t>(p + 16, -1);  // no special EVLRs
+  store_le<std::int64_t>(p + 24, -1);
+  store_le<std::uint16_t>(p + 32, static_cast<std::uint16_t>(layout.items.size()));
+  for (std::size_t i = 0; i < layout.items.size(); ++i) {
+    store_le<std::uint16_t>(p + 34 + 6 * i, layout.items[i].type);
+    store_le<std::uint16_t>(p + 36 + 6 * i, layout.items[i].size);
+    store_le<std::uint16_t>(p + 38 + 6 * i, layout.items[i].version);
+  }
+  std::string out(las.substr(0, vlr_end));
+  out += vlr;
+  out += las.substr(vlr_end, h.point_offset - vlr_end);
+  auto* o = reinterpret_cast<unsigned char*>(out.data());
+  store_le<std::uint32_t>(o + 96, static_cast<std::uint32_t>(out.size()));
+  store_le<std::uint32_t>(o + 100, h.n_vlrs + 1);
+  o[104] = static_cast<unsigned char>(h.format | 0x80);
+  std::uint64_t table = out.size() + 8;
+  for (const std::string& c : coded) table += c.size();
+  out.append(8, '\0');
+  store_le<std::int64_t>(reinterpret_cast<unsigned char*>(out.data()) + out.size() - 8, std::int64_t(table));
+  for (const std::string& c : coded) out += c;
+  out += encode_chunk_table(points, bytes, variable);
+  return out;
+}
+
 std::string las_details(const las_read_info& info) {
   return std::string(info.compressed ? "LAZ " : "LAS ") + std::to_string(info.version_major) + "." +
          std::to_string(info.version_minor) + ", point format " + std::to_string(info.point_format);

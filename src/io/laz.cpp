@@ -182,7 +182,7 @@ void read_chunk_table(const laz_layout& layout, std::uint64_t table, std::uint64
   try {
     laz::decoder dec;
     dec.start(d, d + coded.size());
-    laz::integer_decoder ic(32, 2);
+    laz::integer_coder ic(32, 2);
     for (std::size_t i = 0; i < count; ++i) {
       if (variable)
         points[i] = static_cast<std::uint32_t>(ic.decode(dec, i ? static_cast<std::int32_t>(points[i - 1]) : 0, 0));
@@ -259,11 +259,29 @@ void decode_laz_chunk(const laz_layout& layout, const laz_chunk& c, std::size_t 
   std::copy(data, data + stride, out);
   if (c.points == 1) return;
   try {
-    laz::pointwise_decoder dec(layout.items);
-    dec.decode(data + stride, data + c.bytes, out, stride, c.points, layout.compressor != 1);
+    laz::decode_pointwise(layout.items, data + stride, data + c.bytes, out, stride, c.points, layout.compressor != 1);
   } catch (const laz::corrupt& e) {
     throw fail(e.what());
   }
+}
+
+void encode_laz_chunk(const laz_layout& layout, const unsigned char* records, std::uint64_t points, std::string& out) {
+  laz::encode_pointwise(layout.items, records, layout.record_length, points, out);
+}
+
+std::string encode_chunk_table(const std::vector<std::uint32_t>& points, const std::vector<std::uint32_t>& bytes,
+                               bool variable) {
+  std::string t(8, '\0');
+  store_le<std::uint32_t>(reinterpret_cast<unsigned char*>(t.data()) + 4, static_cast<std::uint32_t>(bytes.size()));
+  if (bytes.empty()) return t;
+  laz::encoder e(t);
+  laz::integer_coder ic(32, 2);
+  for (std::size_t i = 0; i < bytes.size(); ++i) {
+    if (variable) ic.encode(e, i ? std::int32_t(points[i - 1]) : 0, std::int32_t(points[i]), 0);
+    ic.encode(e, i ? std::int32_t(bytes[i - 1]) : 0, std::int32_t(bytes[i]), 1);
+  }
+  e.done();
+  return t;
 }
 
 void decode_laz_chunks(const laz_layout& layout, const std::vector<laz_chunk>& chunks, std::size_t c0, std::size_t c1,

@@ -83,6 +83,22 @@ void decode_laz_chunk(const laz_layout& layout, const laz_chunk& c, std::size_t 
 void decode_laz_chunks(const laz_layout& layout, const std::vector<laz_chunk>& chunks, std::size_t c0, std::size_t c1,
                        const laz_read_fn& read, unsigned char* out, const std::string& file);
 
+/// Codes `points` records (`stride` bytes apart from `records`) as one
+/// chunk of `layout` (pointwise items v2), appending the chunk's bytes to `out`.
+void encode_laz_chunk(const laz_layout& layout, const unsigned char* records, std::uint64_t points, std::string& out);
+/// The chunk table of chunks of these points (written when `variable`) and bytes.
+std::string encode_chunk_table(const std::vector<std::uint32_t>& points, const std::vector<std::uint32_t>& bytes,
+                               bool variable);
+
+/// The LAZ file of a LAS file held in `las` (point format 0-3, no extended
+/// VLRs): the LASzip VLR after its VLRs, its records in chunks of
+/// `chunk_size` points coded in parallel, then the chunk table; with
+/// `chunk_points` not empty, chunks of those sizes instead (variable chunks;
+/// they must add up to the point count). std::invalid_argument for what it
+/// cannot compress. For the tests and the benchmarks' inputs.
+std::string laz_from_las(std::string_view las, const std::string& name, std::uint32_t chunk_size = 50000,
+                         const std::vector<std::uint32_t>& chunk_points = {});
+
 /// The point records of a LAS or LAZ file held in `bytes`, uncompressed
 /// (LAZ decoded), back to back; the header's checks as read_las(). For tests
 /// and the fuzz target: a LAZ file must give exactly its LAS twin's records.

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
-// Private to src/io: the entropy decoder LAZ is coded with (laz.cpp): an
-// adaptive arithmetic decoder with 32-bit interval arithmetic, its adaptive
-// bit and symbol models, and the integer decoder built on them (a corrector
+// Private to src/io: the entropy coder LAZ is coded with (laz.cpp): an
+// adaptive arithmetic decoder and encoder with 32-bit interval arithmetic,
+// their adaptive bit and symbol models, and the integer coder built on them (a corrector
 // coded as its bit length k, then its k bits). Written from the format's
 // public description; every number below (the 13- and 15-bit probability
 // scales, the update cycles, the halving of counts) is part of the format,
@@ -11,9 +11,18 @@
 #include <cstddef>
 #include <cstdint>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace ced::io::detail::laz {
+
+/// The decoder's steps are inlined into the items' decoders: a call each
+/// would cost a third of a symbol's time.
+#if defined(__GNUC__)
+#define CED_LAZ_INLINE inline __attribute__((always_inline))
+#else
+#define CED_LAZ_INLINE inline
+#endif
 
 /// Thrown when the coded bytes end too early or decode to an impossible
 /// value; the chunk decoder turns it into an io_error naming file and chunk.
@@ -49,18 +58,22 @@ struct bit_model {
 /// them the cumulative distribution, rebuilt on a growing cycle.
 class symbol_model {
  public:
-  explicit symbol_model(std::uint32_t n = 2) { reset(n); }
+  /// A model of n symbols; n = 0: none yet (reset() makes it).
+  explicit symbol_model(std::uint32_t n = 0) {
+    if (n) reset(n);
+  }
 
   void reset(std::uint32_t n) {
     m_n = n;
     m_count.assign(n, 1);
     m_dist.assign(n, 0);
-    // Past 16 symbols, a table of the distribution's coarse steps starts
-    // the search (a speed-up only: it finds the same symbol).
+    // Past 2 symbols, a table of the distribution in about 4n steps starts
+    // the search, so that it mostly has one or two symbols left to test (a
+    // speed-up only: it finds the same symbol).
     m_table_bits = 0;
-    if (n > 16) {
-      m_table_bits = 3;
-      while (n > (1u << (m_table_bits + 2))) ++m_table_bits;
+    if (n > 2) {
+      m_table_bits = 2;
+      while ((1u << m_table_bits) < n && m_table_bits < 12) ++m_table_bits;
       m_table.assign((std::size_t(1) << m_table_bits) + 2, 0);
     }
     m_total = 0;
@@ -143,7 +156,7 @@ class decoder {
   /// Where the decoder has read to.
   const unsigned char* position() const noexcept { return m_p; }
 
-  std::uint32_t bit(bit_model& m) {
+  CED_LAZ_INLINE std::uint32_t bit(bit_model& m) {
     const std::uint32_t x = m.zero_prob * (m_length >> bit_shift);
     std::uint32_t sym;
     if (m_value < x) {
@@ -160,7 +173,7 @@ class decoder {
     return sym;
   }
 
-  std::uint32_t symbol(symbol_model& m) {
+  CED_LAZ_INLINE std::uint32_t symbol(symbol_model& m) {
     const std::uint32_t* dist = m.distribution();
     const std::uint32_t y0 = m_length;
     m_length >>= symbol_shift;
@@ -221,12 +234,106 @@ class decoder {
   std::uint32_t m_value = 0, m_length = 0;
 };
 
+/// The arithmetic encoder, appending to a string: the inverse of decoder
+/// (a carry runs back through the bytes already written).
+class encoder {
+ public:
+  explicit encoder(std::string& out) : m_out(out) {}
+
+  void bit(bit_model& m, std::uint32_t sym) {
+    const std::uint32_t x = m.zero_prob * (m_length >> bit_shift);
+    if (sym == 0) {
+      m_length = x;
+      ++m.zero_count;
+    } else {
+      add(x);
+      m_length -= x;
+    }
+    if (m_length < min_length) renormalise();
+    if (--m.until_update == 0) m.update();
+  }
+
+  void symbol(symbol_model& m, std::uint32_t sym) {
+    const std::uint32_t* dist = m.distribution();
+    std::uint32_t x;
+    if (sym + 1 == m.size()) {
+      x = dist[sym] * (m_length >> symbol_shift);
+      add(x);
+      m_length -= x;
+    } else {
+      m_length >>= symbol_shift;
+      x = dist[sym] * m_length;
+      add(x);
+      m_length = dist[sym + 1] * m_length - x;
+    }
+    if (m_length < min_length) renormalise();
+    m.seen(sym);
+  }
+
+  /// `bits` (1 to 32) raw bits of v.
+  void bits(std::uint32_t bits, std::uint32_t v) {
+    if (bits > 19) {
+      raw(16, v & 0xFFFFu);
+      v >>= 16;
+      bits -= 16;
+    }
+    raw(bits, v);
+  }
+  void u32(std::uint32_t v) {
+    raw(16, v & 0xFFFFu);
+    raw(16, v >> 16);
+  }
+
+  /// Ends the stream: the bytes that fix the interval, then the zeros the
+  /// decoder reads ahead (it reads exactly to the end).
+  void done() {
+    bool another_byte = true;
+    if (m_length > 2 * min_length) {
+      add(min_length);
+      m_length = min_length >> 1;
+    } else {
+      add(min_length >> 1);
+      m_length = min_length >> 9;
+      another_byte = false;
+    }
+    renormalise();
+    m_out.append(another_byte ? 3 : 2, '\0');
+  }
+
+ private:
+  void raw(std::uint32_t bits, std::uint32_t v) {
+    m_length >>= bits;
+    add(v * m_length);
+    if (m_length < min_length) renormalise();
+  }
+  void add(std::uint32_t x) {
+    const std::uint32_t before = m_base;
+    m_base += x;
+    if (m_base < before) carry();
+  }
+  void carry() {
+    std::size_t i = m_out.size();
+    while (i > m_first && static_cast<unsigned char>(m_out[i - 1]) == 0xFF) m_out[--i] = '\0';
+    if (i > m_first) m_out[i - 1] = static_cast<char>(static_cast<unsigned char>(m_out[i - 1]) + 1);
+  }
+  void renormalise() {
+    do {
+      m_out.push_back(static_cast<char>(m_base >> 24));
+      m_base <<= 8;
+    } while ((m_length <<= 8) < min_length);
+  }
+
+  std::string& m_out;
+  std::size_t m_first = m_out.size();  ///< the stream's first byte
+  std::uint32_t m_base = 0, m_length = 0xFFFFFFFFu;
+};
+
 /// Integers coded as a correction to a prediction: the corrector's bit
 /// length k under one of `contexts` models, then its value (the high bits
 /// under a model for k, the rest raw). Values wrap into `bits` bits.
-class integer_decoder {
+class integer_coder {
  public:
-  explicit integer_decoder(std::uint32_t bits = 16, std::uint32_t contexts = 1, std::uint32_t bits_high = 8)
+  explicit integer_coder(std::uint32_t bits = 16, std::uint32_t contexts = 1, std::uint32_t bits_high = 8)
       : m_bits_high(bits_high) {
     if (bits && bits < 32) {
       m_corr_bits = bits;
@@ -238,10 +345,10 @@ class integer_decoder {
       m_corr_min = INT32_MIN;
     }
     m_k_models.assign(contexts, symbol_model(m_corr_bits + 1));
-    m_corrector.reserve(m_corr_bits + 1);
-    m_corrector.emplace_back(2);  // unused: k = 0 has a bit model
-    for (std::uint32_t i = 1; i <= m_corr_bits; ++i)
-      m_corrector.emplace_back(1u << (i <= m_bits_high ? i : m_bits_high));
+    // The corrector models of each k (k = 0 has a bit model), made when k
+    // first occurs: most chunks use a few (the same models as made up front,
+    // since a model is only ever used from its initial state).
+    m_corrector.resize(m_corr_bits + 1);
   }
 
   std::int32_t decode(decoder& d, std::int32_t prediction, std::uint32_t context) {
@@ -256,6 +363,17 @@ class integer_decoder {
     }
     return real;
   }
+  void encode(encoder& e, std::int32_t prediction, std::int32_t real, std::uint32_t context) {
+    auto c = static_cast<std::int32_t>(static_cast<std::uint32_t>(real) - static_cast<std::uint32_t>(prediction));
+    if (m_corr_range) {
+      const std::int32_t corr_max = static_cast<std::int32_t>(m_corr_range / 2) - 1;
+      if (c < m_corr_min)
+        c += static_cast<std::int32_t>(m_corr_range);
+      else if (c > corr_max)
+        c -= static_cast<std::int32_t>(m_corr_range);
+    }
+    write_corrector(e, c, m_k_models[context]);
+  }
   /// The bit length k of the last corrector (the decoders use it as context).
   std::uint32_t k() const noexcept { return m_k; }
 
@@ -266,16 +384,41 @@ class integer_decoder {
     if (m_k >= 32) return m_corr_min;
     std::int32_t c;
     if (m_k <= m_bits_high) {
-      c = static_cast<std::int32_t>(d.symbol(m_corrector[m_k]));
+      c = static_cast<std::int32_t>(d.symbol(corrector_model()));
     } else {
       const std::uint32_t low_bits = m_k - m_bits_high;
-      const std::uint32_t high = d.symbol(m_corrector[m_k]);
+      const std::uint32_t high = d.symbol(corrector_model());
       c = static_cast<std::int32_t>((high << low_bits) | d.bits(low_bits));
     }
     // c in [0, 2^k): the upper half are the positive correctors from 2^(k-1) + 1,
     // the lower half the negative ones down to -(2^k - 1).
     if (c >= (std::int32_t(1) << (m_k - 1))) return static_cast<std::int32_t>(static_cast<std::uint32_t>(c) + 1u);
     return static_cast<std::int32_t>(static_cast<std::uint32_t>(c) - ((std::uint32_t(1) << m_k) - 1));
+  }
+
+  void write_corrector(encoder& e, std::int32_t c, symbol_model& k_model) {
+    // k: the bit length of |c| for c <= 0, of c - 1 for c > 0.
+    std::uint32_t c1 = c <= 0 ? 0u - static_cast<std::uint32_t>(c) : static_cast<std::uint32_t>(c) - 1;
+    m_k = 0;
+    while (c1) {
+      c1 >>= 1;
+      ++m_k;
+    }
+    e.symbol(k_model, m_k);
+    if (m_k == 0) return e.bit(m_zero, static_cast<std::uint32_t>(c));
+    if (m_k >= 32) return;
+    std::uint32_t v =
+        c < 0 ? static_cast<std::uint32_t>(c) + ((std::uint32_t(1) << m_k) - 1) : static_cast<std::uint32_t>(c) - 1;
+    if (m_k <= m_bits_high) return e.symbol(corrector_model(), v);
+    const std::uint32_t low_bits = m_k - m_bits_high;
+    e.symbol(corrector_model(), v >> low_bits);
+    e.bits(low_bits, v & ((std::uint32_t(1) << low_bits) - 1));
+  }
+
+  symbol_model& corrector_model() {
+    symbol_model& m = m_corrector[m_k];
+    if (m.size() == 0) m.reset(1u << (m_k <= m_bits_high ? m_k : m_bits_high));
+    return m;
   }
 
   std::uint32_t m_bits_high;

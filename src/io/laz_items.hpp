@@ -4,6 +4,7 @@
 // record before it in the chunk and decodes the correction (laz.cpp).
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <cstring>
@@ -146,18 +147,54 @@ class point10_v2 {
     std::memcpy(out, m_last, 20);
   }
 
+  void encode(encoder& e, const unsigned char* item) {
+    unsigned r, n, m, l;
+    returns_of(item[14], r, n, m, l);
+    const auto intensity = load_le<std::uint16_t>(item + 12);
+    const auto id = load_le<std::uint16_t>(item + 18), last_id = load_le<std::uint16_t>(m_last + 18);
+    const std::uint32_t changed = (m_last[14] != item[14]) << 5 | (m_intensity[m] != intensity) << 4 |
+                                  (m_last[15] != item[15]) << 3 | (m_last[16] != item[16]) << 2 |
+                                  (m_last[17] != item[17]) << 1 | (last_id != id);
+    e.symbol(m_changed, changed);
+    if (changed & 32) e.symbol(m_flags[m_last[14]], item[14]);
+    if (changed & 16) {
+      m_ic_intensity.encode(e, m_intensity[m], intensity, m < 3 ? m : 3);
+      m_intensity[m] = intensity;
+    }
+    if (changed & 8) e.symbol(m_class[m_last[15]], item[15]);
+    if (changed & 4) e.symbol(m_scan_angle[(item[14] >> 6) & 1], (item[16] - m_last[16]) & 0xFFu);
+    if (changed & 2) e.symbol(m_user[m_last[17]], item[17]);
+    if (changed & 1) m_ic_source.encode(e, last_id, id, 0);
+    const unsigned single = n == 1 ? 1 : 0;
+    std::int32_t diff = wrap_add(load_le<std::int32_t>(item), -load_le<std::int32_t>(m_last));
+    m_ic_dx.encode(e, m_x[m].get(), diff, single);
+    m_x[m].add(diff);
+    std::uint32_t k = m_ic_dx.k();
+    diff = wrap_add(load_le<std::int32_t>(item + 4), -load_le<std::int32_t>(m_last + 4));
+    m_ic_dy.encode(e, m_y[m].get(), diff, single + (k < 20 ? (k & ~1u) : 20));
+    m_y[m].add(diff);
+    k = (m_ic_dx.k() + m_ic_dy.k()) / 2;
+    const auto z = load_le<std::int32_t>(item + 8);
+    m_ic_z.encode(e, m_height[l], z, single + (k < 18 ? (k & ~1u) : 18));
+    m_height[l] = z;
+    std::memcpy(m_last, item, 20);
+  }
+
  private:
   /// The return number r and count n of the last point, and the contexts
   /// they select: m (of 16) for x, y and intensity, l = |n - r| for z.
   void returns(unsigned& r, unsigned& n, unsigned& m, unsigned& l) const noexcept {
+    returns_of(m_last[14], r, n, m, l);
+  }
+  static void returns_of(unsigned char flags, unsigned& r, unsigned& n, unsigned& m, unsigned& l) noexcept {
     // Which of 16 contexts a (number of returns, return number) pair uses;
     // pairs that a well-formed file does not have share the spare ones.
     static constexpr unsigned char map[8][8] = {{15, 14, 13, 12, 11, 10, 9, 8},  {14, 0, 1, 3, 6, 10, 10, 9},
                                                 {13, 1, 2, 4, 7, 11, 11, 10},    {12, 3, 4, 5, 8, 12, 12, 11},
                                                 {11, 6, 7, 8, 9, 13, 13, 12},    {10, 10, 11, 12, 13, 14, 14, 13},
                                                 {9, 10, 11, 12, 13, 14, 15, 14}, {8, 9, 10, 11, 12, 13, 14, 15}};
-    r = m_last[14] & 7u;
-    n = (m_last[14] >> 3) & 7u;
+    r = flags & 7u;
+    n = (flags >> 3) & 7u;
     m = map[n][r];
     l = n > r ? n - r : r - n;
   }
@@ -166,8 +203,8 @@ class point10_v2 {
   symbol_model m_changed{64};
   models_by_byte m_flags, m_class, m_user;
   symbol_model m_scan_angle[2] = {symbol_model(256), symbol_model(256)};
-  integer_decoder m_ic_intensity{16, 4}, m_ic_source{16, 1};
-  integer_decoder m_ic_dx{32, 2}, m_ic_dy{32, 22}, m_ic_z{32, 20};
+  integer_coder m_ic_intensity{16, 4}, m_ic_source{16, 1};
+  integer_coder m_ic_dx{32, 2}, m_ic_dy{32, 22}, m_ic_z{32, 20};
   median5 m_x[16], m_y[16];
   std::uint16_t m_intensity[16] = {};
   std::int32_t m_height[8] = {};
@@ -241,7 +278,95 @@ class gpstime11_v2 {
     store_le<std::int64_t>(out, m_time[m_last]);
   }
 
+  void encode(encoder& e, const unsigned char* item) {
+    constexpr std::int32_t multi_max = 500, multi_minus = -10;
+    constexpr std::uint32_t unchanged = multi_max - multi_minus + 1, code_full = unchanged + 1;
+    const auto t = load_le<std::int64_t>(item);
+    const auto diff_to = [&](unsigned seq, std::int32_t& d) {
+      const auto d64 =
+          static_cast<std::int64_t>(static_cast<std::uint64_t>(t) - static_cast<std::uint64_t>(m_time[seq]));
+      d = static_cast<std::int32_t>(d64);
+      return d64 == std::int64_t(d);
+    };
+    const auto other_sequence = [&]() -> unsigned {
+      std::int32_t d;
+      for (unsigned i = 1; i < 4; ++i)
+        if (diff_to((m_last + i) & 3, d)) return i;
+      return 0;
+    };
+    for (;;) {
+      std::int32_t d;
+      const bool small = diff_to(m_last, d);
+      if (m_diff[m_last] == 0) {
+        if (t == m_time[m_last]) return e.symbol(m_zero_diff, 0);
+        if (small) {
+          e.symbol(m_zero_diff, 1);
+          m_ic.encode(e, 0, d, 0);
+          m_diff[m_last] = d;
+          m_extreme[m_last] = 0;
+          m_time[m_last] = t;
+          return;
+        }
+        if (const unsigned i = other_sequence()) {
+          e.symbol(m_zero_diff, i + 2);
+          m_last = (m_last + i) & 3;
+          continue;
+        }
+        e.symbol(m_zero_diff, 2);
+        return full_encode(e, t);
+      }
+      if (t == m_time[m_last]) return e.symbol(m_multi, unchanged);
+      if (!small) {
+        if (const unsigned i = other_sequence()) {
+          e.symbol(m_multi, code_full + i);
+          m_last = (m_last + i) & 3;
+          continue;
+        }
+        e.symbol(m_multi, code_full);
+        return full_encode(e, t);
+      }
+      const std::int32_t last = m_diff[m_last];
+      const double ratio = std::clamp(double(d) / double(last), -1e6, 1e6);
+      const auto multi = static_cast<std::int32_t>(ratio >= 0 ? ratio + 0.5 : ratio - 0.5);
+      if (multi == 1) {
+        e.symbol(m_multi, 1);
+        m_ic.encode(e, last, d, 1);
+        m_extreme[m_last] = 0;
+      } else if (multi > 0 && multi < multi_max) {
+        e.symbol(m_multi, std::uint32_t(multi));
+        m_ic.encode(e, wrap_mul(multi, last), d, multi < 10 ? 2 : 3);
+      } else if (multi >= multi_max) {
+        e.symbol(m_multi, std::uint32_t(multi_max));
+        m_ic.encode(e, wrap_mul(multi_max, last), d, 4);
+        extreme(d);
+      } else if (multi < 0 && multi > multi_minus) {
+        e.symbol(m_multi, std::uint32_t(multi_max - multi));
+        m_ic.encode(e, wrap_mul(multi, last), d, 5);
+      } else if (multi < 0) {
+        e.symbol(m_multi, std::uint32_t(multi_max - multi_minus));
+        m_ic.encode(e, wrap_mul(multi_minus, last), d, 6);
+        extreme(d);
+      } else {
+        e.symbol(m_multi, 0);
+        m_ic.encode(e, 0, d, 7);
+        extreme(d);
+      }
+      m_time[m_last] = t;
+      return;
+    }
+  }
+
  private:
+  void full_encode(encoder& e, std::int64_t t) {
+    m_ic.encode(e, static_cast<std::int32_t>(static_cast<std::uint64_t>(m_time[m_last]) >> 32),
+                static_cast<std::int32_t>(static_cast<std::uint64_t>(t) >> 32), 8);
+    e.u32(static_cast<std::uint32_t>(t));
+    m_next = (m_next + 1) & 3;
+    m_last = m_next;
+    m_diff[m_last] = 0;
+    m_extreme[m_last] = 0;
+    m_time[m_last] = t;
+  }
   /// A difference far from the prediction: after more than three in a row
   /// it becomes the sequence's difference.
   void extreme(std::int32_t diff) noexcept {
@@ -267,7 +392,7 @@ class gpstime11_v2 {
   std::int32_t m_diff[4] = {0, 0, 0, 0};
   std::int32_t m_extreme[4] = {0, 0, 0, 0};
   symbol_model m_multi{516}, m_zero_diff{6};
-  integer_decoder m_ic{32, 9};
+  integer_coder m_ic{32, 9};
 };
 
 /// rgb12 v2: three 16-bit colours, each byte coded when it changed, green
@@ -310,6 +435,37 @@ class rgb12_v2 {
     }
   }
 
+  void encode(encoder& e, const unsigned char* item) {
+    unsigned v[3];
+    for (int c = 0; c < 3; ++c) v[c] = load_le<std::uint16_t>(item + 2 * c);
+    const auto lo = [](unsigned x) { return int(x & 0xFF); };
+    const auto hi = [](unsigned x) { return int(x >> 8); };
+    std::uint32_t used = 0;
+    for (int c = 0; c < 3; ++c) {
+      used |= std::uint32_t(lo(v[c]) != lo(m_last[c])) << (2 * c);
+      used |= std::uint32_t(hi(v[c]) != hi(m_last[c])) << (2 * c + 1);
+    }
+    used |= std::uint32_t(v[0] != v[1] || v[0] != v[2]) << 6;
+    e.symbol(m_used, used);
+    const auto put = [&](int model, int value) { e.symbol(m_diff[model], std::uint32_t(value) & 0xFFu); };
+    int diff_l = 0, diff_h = 0;
+    if (used & 1) put(0, diff_l = lo(v[0]) - lo(m_last[0]));
+    if (used & 2) put(1, diff_h = hi(v[0]) - hi(m_last[0]));
+    if (used & 64) {
+      if (used & 4) put(2, lo(v[1]) - clamp_u8(diff_l + lo(m_last[1])));
+      if (used & 16) {
+        diff_l = (diff_l + lo(v[1]) - lo(m_last[1])) / 2;
+        put(4, lo(v[2]) - clamp_u8(diff_l + lo(m_last[2])));
+      }
+      if (used & 8) put(3, hi(v[1]) - clamp_u8(diff_h + hi(m_last[1])));
+      if (used & 32) {
+        diff_h = (diff_h + hi(v[1]) - hi(m_last[1])) / 2;
+        put(5, hi(v[2]) - clamp_u8(diff_h + hi(m_last[2])));
+      }
+    }
+    for (int c = 0; c < 3; ++c) m_last[c] = static_cast<std::uint16_t>(v[c]);
+  }
+
  private:
   std::uint16_t m_last[3];
   symbol_model m_used{128};
@@ -329,58 +485,81 @@ class bytes_v2 {
     }
   }
 
+  void encode(encoder& e, const unsigned char* item) {
+    for (std::size_t i = 0; i < m_last.size(); ++i) {
+      e.symbol(m_models[i], (item[i] - m_last[i]) & 0xFFu);
+      m_last[i] = item[i];
+    }
+  }
+
  private:
   std::vector<unsigned char> m_last;
   std::vector<symbol_model> m_models;
 };
 
-/// A chunk's records after its first: the items of laz_layout decoded in
-/// record order, each from the record before.
-class pointwise_decoder {
+/// The items of one chunk's records (laz_layout's, in record order), each
+/// coded from the record before it, starting from the chunk's first record.
+class pointwise_items {
  public:
-  explicit pointwise_decoder(const std::vector<laz_item>& items) : m_items(items) {}
-
-  /// Decodes records 1 to points - 1 of a chunk into out (record 0, the
-  /// first, is already there) from the coded bytes [p, end). With
-  /// `exact_end`, the coded bytes must end where the last point does (a chunk
-  /// of a chunk table; the encoder ends each with the bytes its decoder reads).
-  void decode(const unsigned char* p, const unsigned char* end, unsigned char* out, std::size_t stride,
-              std::uint64_t points, bool exact_end) {
-    std::size_t offset[4] = {0, 0, 0, 0};
-    std::size_t at = 0;
-    for (std::size_t i = 0; i < m_items.size(); ++i) {
-      offset[i] = at;
-      at += m_items[i].size;
-    }
+  /// `first`: the chunk's first record, stored as it is.
+  pointwise_items(const std::vector<laz_item>& items, const unsigned char* first) : m_point(first) {
     // The items always come in this order (parse_laszip_vlr checks it).
-    point10_v2 point(out);
-    std::unique_ptr<gpstime11_v2> time;
-    std::unique_ptr<rgb12_v2> rgb;
-    std::unique_ptr<bytes_v2> extra;
-    std::size_t t_at = 0, c_at = 0, e_at = 0;
-    for (std::size_t i = 1; i < m_items.size(); ++i) {
-      if (m_items[i].type == laz_item::gpstime11) time = std::make_unique<gpstime11_v2>(out + (t_at = offset[i]));
-      if (m_items[i].type == laz_item::rgb12) rgb = std::make_unique<rgb12_v2>(out + (c_at = offset[i]));
-      if (m_items[i].type == laz_item::byte)
-        extra = std::make_unique<bytes_v2>(out + (e_at = offset[i]), m_items[i].size);
+    std::size_t at = items.empty() ? 0 : items[0].size;
+    for (std::size_t i = 1; i < items.size(); ++i) {
+      if (items[i].type == laz_item::gpstime11) m_time = std::make_unique<gpstime11_v2>(first + (m_time_at = at));
+      if (items[i].type == laz_item::rgb12) m_rgb = std::make_unique<rgb12_v2>(first + (m_rgb_at = at));
+      if (items[i].type == laz_item::byte)
+        m_extra = std::make_unique<bytes_v2>(first + (m_extra_at = at), items[i].size);
+      at += items[i].size;
     }
-    decoder d;
-    d.start(p, end);
-    for (std::uint64_t i = 1; i < points; ++i) {
-      unsigned char* r = out + i * stride;
-      point.decode(d, r);
-      if (time) time->decode(d, r + t_at);
-      if (rgb) rgb->decode(d, r + c_at);
-      if (extra) extra->decode(d, r + e_at);
-    }
-    if (exact_end && d.position() != end)
-      throw corrupt(std::to_string(end - d.position()) +
-                    " bytes after its last point: it holds more than its points, "
-                    "or it is corrupt");
+  }
+
+  void decode(decoder& d, unsigned char* r) {
+    m_point.decode(d, r);
+    if (m_time) m_time->decode(d, r + m_time_at);
+    if (m_rgb) m_rgb->decode(d, r + m_rgb_at);
+    if (m_extra) m_extra->decode(d, r + m_extra_at);
+  }
+  void encode(encoder& e, const unsigned char* r) {
+    m_point.encode(e, r);
+    if (m_time) m_time->encode(e, r + m_time_at);
+    if (m_rgb) m_rgb->encode(e, r + m_rgb_at);
+    if (m_extra) m_extra->encode(e, r + m_extra_at);
   }
 
  private:
-  const std::vector<laz_item>& m_items;
+  point10_v2 m_point;
+  std::unique_ptr<gpstime11_v2> m_time;
+  std::unique_ptr<rgb12_v2> m_rgb;
+  std::unique_ptr<bytes_v2> m_extra;
+  std::size_t m_time_at = 0, m_rgb_at = 0, m_extra_at = 0;
 };
+
+/// Decodes records 1 to points - 1 of a chunk into out (record 0, the first,
+/// is already there) from the coded bytes [p, end). With `exact_end`, the
+/// coded bytes must end where the last point does (a chunk of a chunk table:
+/// the encoder ends each with the bytes its decoder reads ahead).
+inline void decode_pointwise(const std::vector<laz_item>& items, const unsigned char* p, const unsigned char* end,
+                             unsigned char* out, std::size_t stride, std::uint64_t points, bool exact_end) {
+  pointwise_items coder(items, out);
+  decoder d;
+  d.start(p, end);
+  for (std::uint64_t i = 1; i < points; ++i) coder.decode(d, out + i * stride);
+  if (exact_end && d.position() != end)
+    throw corrupt(std::to_string(end - d.position()) +
+                  " bytes after its last point: it holds more than its points, or it is corrupt");
+}
+
+/// A chunk of `points` records (`stride` bytes apart from `records`), coded:
+/// the first record as it is, then the rest (appended to `out`).
+inline void encode_pointwise(const std::vector<laz_item>& items, const unsigned char* records, std::size_t stride,
+                             std::uint64_t points, std::string& out) {
+  if (points == 0) return;
+  out.append(reinterpret_cast<const char*>(records), stride);
+  pointwise_items coder(items, records);
+  encoder e(out);
+  for (std::uint64_t i = 1; i < points; ++i) coder.encode(e, records + i * stride);
+  e.done();
+}
 
 }  // namespace ced::io::detail::laz

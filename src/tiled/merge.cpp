@@ -234,7 +234,8 @@ tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts) {
   if (limit && order.size() > limit) {  // the strongest of all tiles' keypoints, still by index
     std::vector<rank_key> keys(order.size());
     for (std::size_t q = 0; q < order.size(); ++q) {
-      const auto [i, j] = order[q].second;
+      // Plain variables: a lambda may not capture structured bindings before C++20 (clang refuses).
+      const std::size_t i = order[q].second.first, j = order[q].second.second;
       keys[q] = {score_of(m, [&](std::size_t k) { return parts[i].saliency[k][j]; }), order[q].first};
     }
     std::vector<rank_key> sorted = keys;

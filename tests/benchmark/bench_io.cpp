@@ -5,19 +5,27 @@
 // exit: a LAS 1.2 point format 3 file of 2 M points (68 MB), and a cloud of
 // 2.5 M points with xyz, rgb and normals (about 68 MB) as binary PLY, binary
 // and binary_compressed PCD; 500 k of those points as CSV, ascii PLY and ascii PCD.
+// LAZ: 20 copies of the real Autzen LiDAR sample (tests/data/autzen_trim.las),
+// 2.2 M points, compressed by ced's LAZ writer into chunks of 50,000 points
+// (the bytes LASzip writes), beside the same points as LAS.
 //
 //   build/bin/bench_io [benchmark flags, e.g. --benchmark_filter=LAS]
 #include <benchmark/benchmark.h>
 
 #include <cstdint>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "ced/ced.hpp"
 #include "ced/io/stream.hpp"
+#include "io/laz.hpp"
+#include "io/scalar_io.hpp"
 
 namespace {
 
@@ -136,6 +144,44 @@ const std::string& ascii_ply_file() {
                [](const std::string& p) { ced::io::write_ply(p, text_cloud(), ced::io::ply_format::ascii); });
 }
 
+/// 20 copies of the Autzen sample side by side in x, each 1,000 s later in
+/// GPS time, as LAS 1.2 point format 3 bytes (2.2 M points, 75 MB).
+const std::string& autzen20_las_bytes() {
+  static const std::string bytes = [] {
+    std::ifstream in(std::string(CED_TEST_DATA_DIR) + "/autzen_trim.las", std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    const std::string one = ss.str();
+    using ced::io::detail::load_le;
+    using ced::io::detail::store_le;
+    const auto* d = reinterpret_cast<const unsigned char*>(one.data());
+    const std::size_t offset = load_le<std::uint32_t>(d + 96), n = load_le<std::uint32_t>(d + 107), stride = 34;
+    std::string out = one.substr(0, offset);
+    auto* h = reinterpret_cast<unsigned char*>(out.data());
+    store_le<std::uint32_t>(h + 107, static_cast<std::uint32_t>(20 * n));
+    const std::int32_t span = 200000;  // raw units, wider than the sample
+    for (int copy = 0; copy < 20; ++copy)
+      for (std::size_t i = 0; i < n; ++i) {
+        std::string r = one.substr(offset + i * stride, stride);
+        auto* p = reinterpret_cast<unsigned char*>(r.data());
+        store_le<std::int32_t>(p, load_le<std::int32_t>(p) + copy * span);
+        store_le<double>(p + 20, load_le<double>(p + 20) + 1000.0 * copy);
+        out += r;
+      }
+    return out;
+  }();
+  return bytes;
+}
+const std::string& autzen20_las() {
+  return input("autzen20.las",
+               [](const std::string& p) { std::ofstream(p, std::ios::binary) << autzen20_las_bytes(); });
+}
+const std::string& autzen20_laz() {
+  return input("autzen20.laz", [](const std::string& p) {
+    std::ofstream(p, std::ios::binary) << ced::io::detail::laz_from_las(autzen20_las_bytes(), "autzen20.las");
+  });
+}
+
 /// Reads `path` with read_cloud() on each iteration.
 void read_file(benchmark::State& state, const std::string& path, const ced::io::read_options& options = {}) {
   const auto bytes = static_cast<std::int64_t>(fs::file_size(path));
@@ -147,6 +193,8 @@ void read_file(benchmark::State& state, const std::string& path, const ced::io::
   }
   state.SetBytesProcessed(state.iterations() * bytes);
   state.counters["points"] = static_cast<double>(points);
+  state.counters["points/s"] = benchmark::Counter(static_cast<double>(points) * static_cast<double>(state.iterations()),
+                                                  benchmark::Counter::kIsRate);
 }
 
 /// Reads `path` through open_point_stream() in chunks of 1 M points, a whole
@@ -191,6 +239,18 @@ void BM_stream_las(benchmark::State& s) { stream_file(s, las_file()); }
 void BM_stream_ply(benchmark::State& s) { stream_file(s, ply_file()); }
 void BM_stream_pcd(benchmark::State& s) { stream_file(s, pcd_file()); }
 
+void BM_read_laz(benchmark::State& s) { read_file(s, autzen20_laz()); }
+void BM_read_laz_as_las(benchmark::State& s) { read_file(s, autzen20_las()); }
+void BM_stream_laz(benchmark::State& s) { stream_file(s, autzen20_laz()); }
+/// The LAZ writer alone (in memory): the 2.2 M records coded in chunks in parallel.
+void BM_compress_laz(benchmark::State& s) {
+  const std::string& las = autzen20_las_bytes();
+  std::size_t out = 0;
+  for (auto _ : s) out = ced::io::detail::laz_from_las(las, "autzen20.las").size();
+  s.SetBytesProcessed(s.iterations() * static_cast<std::int64_t>(las.size()));
+  s.counters["laz_bytes"] = static_cast<double>(out);
+}
+
 void BM_write_las(benchmark::State& s) {
   write_file(s, "out.las", las_cloud(), [](const std::string& p, const ced::point_cloud& c) {
     ced::io::las_write_options o;
@@ -225,6 +285,10 @@ BENCHMARK(BM_read_pcd_compressed)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_read_csv)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_read_ply_ascii)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_read_pcd_ascii)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_read_laz)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_read_laz_as_las)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_stream_laz)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_compress_laz)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_stream_las)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_stream_ply)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_stream_pcd)->Unit(benchmark::kMillisecond)->UseRealTime();
