@@ -35,8 +35,19 @@ std::string data_path(const std::string& name) { return std::string(CED_TEST_DAT
 struct twin {
   const char* laz;
   const char* las;
+  const char* details;  ///< read_report::details of the LAZ
 };
-constexpr twin k_twins[] = {{"simple.laz", "simple.las"}, {"autzen_trim.laz", "autzen_trim.las"}};
+/// LAZ files and their plain twins: point format 3 in one chunk and in three
+/// (point10, gpstime11, rgb12 v2), with 27 extra bytes (byte v2), and LAS
+/// 1.4 point format 6 with extended VLRs (layered: point14 v3).
+constexpr twin k_twins[] = {{"simple.laz", "simple.las", "LAZ 1.2, point format 3"},
+                            {"autzen_trim.laz", "autzen_trim.las", "LAZ 1.2, point format 3"},
+                            {"extra.laz", "extrabytes.las", "LAZ 1.4, point format 3"},
+                            {"1_4_w_evlr.laz", "1_4_w_evlr.las", "LAZ 1.4, point format 6"}};
+/// Every LAZ file of tests/data (with COPC's layered point format 7 and a
+/// point format 8 file with NIR and extra bytes, which have no twin).
+constexpr const char* k_laz_files[] = {"simple.laz",     "autzen_trim.laz",         "extra.laz",
+                                       "1_4_w_evlr.laz", "1.2-with-color.copc.laz", "append-bug.laz"};
 
 /// The io_error reading `bytes` (as a file `name`) throws; it must name the file.
 std::string laz_error(const std::string& bytes, const std::string& name = "bad.laz") {
@@ -85,16 +96,17 @@ TEST(Laz, EveryRecordIsItsLasTwinsRecord) {
 }
 
 TEST(Laz, HeaderCountsBoundsAndReturnsAreThoseOfTheDecodedPoints) {
-  for (const twin& t : k_twins) {
-    SCOPED_TRACE(t.laz);
-    const std::string file = read_bytes(data_path(t.laz));
+  for (const char* name : k_laz_files) {
+    SCOPED_TRACE(name);
+    const std::string file = read_bytes(data_path(name));
     const auto* h = reinterpret_cast<const unsigned char*>(file.data());
-    const std::string records = las_point_records(file, t.laz);
+    const std::string records = las_point_records(file, name);
     const std::size_t stride = load_le<std::uint16_t>(h + 105);
     const std::size_t n = records.size() / stride;
-    EXPECT_EQ(n, load_le<std::uint32_t>(h + 107));
+    const bool v14 = h[25] >= 4, extended = (h[104] & 0x3F) >= 6;
+    EXPECT_EQ(n, v14 ? load_le<std::uint64_t>(h + 247) : load_le<std::uint32_t>(h + 107));
     std::int32_t lo[3], hi[3];
-    std::uint32_t by_return[5] = {0, 0, 0, 0, 0};
+    std::uint64_t by_return[15] = {};
     for (std::size_t i = 0; i < n; ++i) {
       const auto* r = reinterpret_cast<const unsigned char*>(records.data()) + i * stride;
       for (int k = 0; k < 3; ++k) {
@@ -102,10 +114,12 @@ TEST(Laz, HeaderCountsBoundsAndReturnsAreThoseOfTheDecodedPoints) {
         lo[k] = i ? std::min(lo[k], v) : v;
         hi[k] = i ? std::max(hi[k], v) : v;
       }
-      const unsigned ret = r[14] & 7u;
-      if (ret >= 1 && ret <= 5) ++by_return[ret - 1];
+      const unsigned ret = extended ? r[14] & 15u : r[14] & 7u;
+      if (ret >= 1) ++by_return[ret - 1];
     }
-    for (int k = 0; k < 5; ++k) EXPECT_EQ(by_return[k], load_le<std::uint32_t>(h + 111 + 4 * k)) << "return " << k + 1;
+    for (int k = 0; k < (v14 ? 15 : 5); ++k)
+      EXPECT_EQ(by_return[k], v14 ? load_le<std::uint64_t>(h + 255 + 8 * k) : load_le<std::uint32_t>(h + 111 + 4 * k))
+          << "return " << k + 1;
     for (int k = 0; k < 3; ++k) {
       const double scale = load_le<double>(h + 131 + 8 * k), offset = load_le<double>(h + 155 + 8 * k);
       // Header bounds are max x, min x, max y, ... (to the rounding of raw * scale + offset).
@@ -122,17 +136,49 @@ TEST(Laz, ReadsAsItsLasTwinOnAnyThreadCount) {
     const ced::point_cloud laz = ced::io::read_cloud(data_path(t.laz), {}, &rz);
     const ced::point_cloud las = ced::io::read_cloud(data_path(t.las), {}, &rs);
     ced_test::expect_same_cloud(laz, las);
-    EXPECT_EQ(rz.details, "LAZ 1.2, point format 3");
-    EXPECT_EQ(rs.details, "LAS 1.2, point format 3");
+    EXPECT_EQ(rz.details, t.details);
+    EXPECT_EQ("LAZ" + rs.details.substr(3), t.details);
     ced::point_cloud one;
     ced::detail::with_thread_limit(1, [&] { one = ced::io::read_cloud(data_path(t.laz)); });
     ced_test::expect_same_cloud(one, las);
     // Only the selected fields, as for LAS.
     ced::io::read_options only;
-    only.fields = ced::field_selection::only({"gps_time", "blue"});
+    only.fields = ced::field_selection::only({"gps_time", "intensity"});
     ced_test::expect_same_cloud(ced::io::read_cloud(data_path(t.laz), only),
                                 ced::io::read_cloud(data_path(t.las), only));
   }
+}
+
+TEST(Laz, CopcHoldsThePointsOfItsLasTwin) {
+  // COPC stores the twin's points (LAS 1.2 format 3) in octree order, as LAS
+  // 1.4 format 7 in variable chunks: the same points, field for field, as sets.
+  const ced::point_cloud copc = ced::io::read_cloud(data_path("1.2-with-color.copc.laz"));
+  const ced::point_cloud las = ced::io::read_cloud(data_path("1.2-with-color.las"));
+  ASSERT_EQ(copc.size(), las.size());
+  const char* fields[] = {"intensity",
+                          "return_number",
+                          "number_of_returns",
+                          "classification",
+                          "user_data",
+                          "point_source_id",
+                          "gps_time",
+                          "red",
+                          "green",
+                          "blue"};
+  const auto rows = [&](const ced::point_cloud& c) {
+    std::vector<std::vector<double>> r(c.size());
+    for (std::size_t i = 0; i < c.size(); ++i) {
+      for (int k = 0; k < 3; ++k) r[i].push_back(std::round((c.origin()[k] + double(c.position(i)[k])) * 100));
+      for (const char* f : fields) {
+        const auto* column = c.find_field(f);
+        EXPECT_NE(column, nullptr) << f;
+        r[i].push_back(column ? column->values[i] : 0);
+      }
+    }
+    std::sort(r.begin(), r.end());
+    return r;
+  };
+  EXPECT_TRUE(rows(copc) == rows(las));
 }
 
 TEST(Laz, AutzenGivesTheKeypointsOfItsLasTwin) {
@@ -256,9 +302,9 @@ TEST(LazMalformed, LaszipVlr) {
     return laz_error(b);
   };
   EXPECT_CONTAINS(with(o.vlr, 7), "unknown compressor 7");
-  EXPECT_CONTAINS(with(o.vlr, 3), "layered chunked compression");
+  EXPECT_CONTAINS(with(o.vlr, 3), "compressor 3 with point format 3");
   EXPECT_CONTAINS(with(o.vlr + 2, 1), "unknown coder 1");
-  EXPECT_CONTAINS(with(o.vlr + 34 + 4, 1), "point10 v1 (20 bytes): only version 2");
+  EXPECT_CONTAINS(with(o.vlr + 34 + 4, 1), "point10 v1 (20 bytes): not supported (pointwise items are version 2");
   EXPECT_CONTAINS(with(o.vlr + 34 + 6, 9), "do not match point format 3");       // gpstime11 -> wavepacket13
   EXPECT_CONTAINS(with(o.vlr + 34 + 12 + 2, 7), "do not match point format 3");  // rgb12 of 7 bytes
   EXPECT_CONTAINS(with(o.vlr + 32, 40), "items do not fit");
@@ -420,5 +466,66 @@ TEST(LazWriter, EmptyAndSinglePointFiles) {
     const std::string records = make_records(3, 0, n, false, 5);
     const std::string laz = ced::io::detail::laz_from_las(las_with_records(3, 34, records), "t.las");
     EXPECT_TRUE(las_point_records(laz, "t.laz") == records) << n << " points";
+  }
+}
+
+TEST(LazMalformed, LayeredChunks) {
+  // 1_4_w_evlr.laz: one layered chunk of 1,000 points after the first 30-byte
+  // record: the point count, 9 layer sizes, the layers.
+  const std::string file = read_bytes(data_path("1_4_w_evlr.laz"));
+  const laz_offsets o = offsets_of(file);
+  const std::size_t count_at = o.points + 8 + 30, sizes_at = count_at + 4;
+  {
+    std::string b = file;
+    put<std::uint32_t>(b, count_at, 999u);
+    EXPECT_CONTAINS(laz_error(b), "its point count differs from the chunk table's");
+  }
+  {
+    std::string b = file;  // the z layer claims more bytes than the chunk has
+    put<std::uint32_t>(b, sizes_at + 4, 1u << 20);
+    EXPECT_CONTAINS(laz_error(b), "its layers run past the chunk's end");
+  }
+  {
+    std::string b = file;  // one byte moved from the z layer to the x/y layer
+    const auto xy = load_le<std::uint32_t>(reinterpret_cast<const unsigned char*>(b.data()) + sizes_at);
+    const auto z = load_le<std::uint32_t>(reinterpret_cast<const unsigned char*>(b.data()) + sizes_at + 4);
+    put<std::uint32_t>(b, sizes_at, xy + 1);
+    put<std::uint32_t>(b, sizes_at + 4, z - 1);
+    EXPECT_CONTAINS(laz_error(b), "LAZ chunk 0");
+  }
+  // Random damage to the layers: refused or (rarely) other points, never a crash.
+  const auto table =
+      static_cast<std::size_t>(load_le<std::int64_t>(reinterpret_cast<const unsigned char*>(file.data()) + o.points));
+  const std::size_t first = sizes_at + 36;
+  std::mt19937 rng(11);
+  int refused = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    std::string b = file;
+    for (int f = 0; f <= trial % 3; ++f) b[first + rng() % (table - first)] = static_cast<char>(rng() & 0xFF);
+    const std::string msg = ced_test::io_error_of([&] { las_point_records(b, "damaged.laz"); });
+    if (msg != "<no io_error thrown>") {
+      EXPECT_CONTAINS(msg, "LAZ chunk 0");
+      ++refused;
+    }
+  }
+  EXPECT_GT(refused, 120);
+}
+
+TEST(LazMalformed, LayeredVlr) {
+  const std::string file = read_bytes(data_path("1.2-with-color.copc.laz"));
+  const laz_offsets o = offsets_of(file);
+  const auto with = [&](std::size_t at, std::uint16_t v) {
+    std::string b = file;
+    put<std::uint16_t>(b, at, v);
+    return laz_error(b);
+  };
+  EXPECT_CONTAINS(with(o.vlr, 2), "compressor 2 with point format 7");
+  EXPECT_CONTAINS(with(o.vlr + 34 + 4, 2), "point14 v2 (30 bytes): not supported (layered items are versions 3 and 4)");
+  EXPECT_CONTAINS(with(o.vlr + 34 + 6, 12), "do not match point format 7");  // rgb14 -> rgbnir14
+  {
+    std::string b = file;  // point format 9 (waveforms), records long enough for it
+    b[104] = static_cast<char>(0x89);
+    put<std::uint16_t>(b, 105, 59);
+    EXPECT_CONTAINS(laz_error(b), "point format 9 is not supported in LAZ");
   }
 }

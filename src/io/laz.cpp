@@ -11,6 +11,7 @@
 #include "core/parallel.hpp"
 #include "laz_coder.hpp"
 #include "laz_items.hpp"
+#include "laz_layered.hpp"
 #include "scalar_io.hpp"
 
 namespace ced::io::detail {
@@ -50,7 +51,8 @@ std::string item_text(const laz_item& it) {
          " (" + std::to_string(it.size) + " bytes)";
 }
 
-/// The items point format `format` is compressed with (before any extra bytes).
+/// The items point format `format` is compressed with (before any extra
+/// bytes): pointwise (compressor 2) for formats 0-3, layered (3) for 6-8.
 std::vector<std::uint16_t> standard_items(int format) {
   switch (format) {
     case 0:
@@ -61,6 +63,12 @@ std::vector<std::uint16_t> standard_items(int format) {
       return {laz_item::point10, laz_item::rgb12};
     case 3:
       return {laz_item::point10, laz_item::gpstime11, laz_item::rgb12};
+    case 6:
+      return {laz_item::point14};
+    case 7:
+      return {laz_item::point14, laz_item::rgb14};
+    case 8:
+      return {laz_item::point14, laz_item::rgbnir14};
     default:
       return {};
   }
@@ -74,6 +82,12 @@ std::uint16_t item_size(std::uint16_t type) {
       return 8;
     case laz_item::rgb12:
       return 6;
+    case laz_item::point14:
+      return 30;
+    case laz_item::rgb14:
+      return 6;
+    case laz_item::rgbnir14:
+      return 8;
     default:
       return 0;
   }
@@ -105,14 +119,15 @@ laz_layout parse_laszip_vlr(const unsigned char* p, std::size_t len, int format,
     throw io_error(file,
                    where + std::to_string(n_items) + " items do not fit in its " + std::to_string(len) + " bytes");
   if (coder != 0) throw io_error(file, where + "unknown coder " + std::to_string(coder) + " (LAZ knows 0, arithmetic)");
-  if (l.compressor == 3)
-    throw io_error(file, where +
-                             "layered chunked compression (LAS 1.4 point formats 6-10) is not supported yet; "
-                             "this reader decodes point formats 0-3 (pointwise compression)");
-  if (l.compressor != 1 && l.compressor != 2)
+  if (l.compressor < 1 || l.compressor > 3)
     throw io_error(file, where + "unknown compressor " + std::to_string(l.compressor) +
                              " (1: pointwise, 2: pointwise chunked, 3: layered chunked)");
-  if (l.compressor == 2 && l.chunk_size == 0) throw io_error(file, where + "a chunk size of 0 points");
+  if (l.compressor >= 2 && l.chunk_size == 0) throw io_error(file, where + "a chunk size of 0 points");
+  const bool layered = format >= 6;
+  if (layered != (l.compressor == 3))
+    throw io_error(file, where + "compressor " + std::to_string(l.compressor) + " with point format " +
+                             std::to_string(format) +
+                             " (LAZ compresses formats 0-5 pointwise, compressor 1 or 2, and 6-10 layered, 3)");
   std::size_t total = 0;
   for (std::size_t i = 0; i < n_items; ++i) {
     laz_item it;
@@ -126,22 +141,30 @@ laz_layout parse_laszip_vlr(const unsigned char* p, std::size_t len, int format,
   const std::vector<std::uint16_t> want = standard_items(format);
   if (want.empty())
     throw io_error(file, where + "point format " + std::to_string(format) +
-                             " is not supported in LAZ yet (this reader decodes point formats 0-3)");
+                             " is not supported in LAZ (this reader decodes point formats 0-3 and 6-8; "
+                             "4, 5, 9 and 10 carry waveforms)");
+  // Pointwise items are version 2 (LASzip 2.0 on); layered ones 3 or 4.
+  const auto check_version = [&](const laz_item& it) {
+    if (layered ? (it.version == 3 || it.version == 4) : it.version == 2) return;
+    throw io_error(file, where + item_text(it) + ": not supported (" +
+                             (layered ? "layered items are versions 3 and 4"
+                                      : "pointwise items are version 2, written by LASzip 2.0 and later") +
+                             ")");
+  };
   std::size_t i = 0;
   for (; i < want.size(); ++i) {
     if (i >= l.items.size() || l.items[i].type != want[i] || l.items[i].size != item_size(want[i]))
       throw io_error(file, where + "items [" + l.describe() + "] do not match point format " + std::to_string(format) +
                                " (it needs " + item_name(want[i]) + " as item " + std::to_string(i + 1) + ")");
-    if (l.items[i].version != 2)
-      throw io_error(file, where + item_text(l.items[i]) + ": only version 2 (LASzip 2.0 and later) is supported");
+    check_version(l.items[i]);
   }
+  const std::uint16_t extra_type = layered ? std::uint16_t(laz_item::byte14) : std::uint16_t(laz_item::byte);
   for (; i < l.items.size(); ++i) {
     const laz_item& it = l.items[i];
-    if (it.type != laz_item::byte || i + 1 != l.items.size())
+    if (it.type != extra_type || i + 1 != l.items.size())
       throw io_error(
           file, where + "unexpected " + item_text(it) + " after the items of point format " + std::to_string(format));
-    if (it.version != 2)
-      throw io_error(file, where + item_text(it) + ": only version 2 (LASzip 2.0 and later) is supported");
+    check_version(it);
     if (it.size == 0) throw io_error(file, where + "an extra-bytes item of 0 bytes");
   }
   if (total != record_length)
@@ -259,7 +282,10 @@ void decode_laz_chunk(const laz_layout& layout, const laz_chunk& c, std::size_t 
   std::copy(data, data + stride, out);
   if (c.points == 1) return;
   try {
-    laz::decode_pointwise(layout.items, data + stride, data + c.bytes, out, stride, c.points, layout.compressor != 1);
+    if (layout.compressor == 3)
+      laz::decode_layered(layout.items, data + stride, data + c.bytes, out, stride, c.points);
+    else
+      laz::decode_pointwise(layout.items, data + stride, data + c.bytes, out, stride, c.points, layout.compressor != 1);
   } catch (const laz::corrupt& e) {
     throw fail(e.what());
   }

@@ -403,36 +403,46 @@ class rgb12_v2 {
     for (int c = 0; c < 3; ++c) m_last[c] = load_le<std::uint16_t>(first + 2 * c);
   }
 
-  void decode(decoder& d, unsigned char* out) {
-    const std::uint32_t used = d.symbol(m_used);
+  /// The models of the colour's coding.
+  struct models {
+    symbol_model used{128};
+    symbol_model diff[6] = {symbol_model(256), symbol_model(256), symbol_model(256),
+                            symbol_model(256), symbol_model(256), symbol_model(256)};
+  };
+
+  /// Decodes a colour from `last` (updated to it) under models `m`.
+  static void decode_with(decoder& d, models& m, std::uint16_t last[3]) {
+    const std::uint32_t used = d.symbol(m.used);
     unsigned v[3];
-    const auto byte = [&](int model, int base) { return (d.symbol(m_diff[model]) + unsigned(base)) & 0xFFu; };
-    v[0] = (used & 1) ? byte(0, m_last[0] & 0xFF) : (m_last[0] & 0xFFu);
-    v[0] |= ((used & 2) ? byte(1, m_last[0] >> 8) : (m_last[0] >> 8)) << 8;
+    const auto byte = [&](int model, int base) { return (d.symbol(m.diff[model]) + unsigned(base)) & 0xFFu; };
+    v[0] = (used & 1) ? byte(0, last[0] & 0xFF) : (last[0] & 0xFFu);
+    v[0] |= ((used & 2) ? byte(1, last[0] >> 8) : (last[0] >> 8)) << 8;
     if (used & 64) {
-      int diff = int(v[0] & 0xFF) - int(m_last[0] & 0xFF);
-      v[1] = (used & 4) ? byte(2, clamp_u8(diff + (m_last[1] & 0xFF))) : (m_last[1] & 0xFFu);
+      int diff = int(v[0] & 0xFF) - int(last[0] & 0xFF);
+      v[1] = (used & 4) ? byte(2, clamp_u8(diff + (last[1] & 0xFF))) : (last[1] & 0xFFu);
       if (used & 16) {
-        diff = (diff + (int(v[1] & 0xFF) - int(m_last[1] & 0xFF))) / 2;
-        v[2] = byte(4, clamp_u8(diff + (m_last[2] & 0xFF)));
+        diff = (diff + (int(v[1] & 0xFF) - int(last[1] & 0xFF))) / 2;
+        v[2] = byte(4, clamp_u8(diff + (last[2] & 0xFF)));
       } else {
-        v[2] = m_last[2] & 0xFFu;
+        v[2] = last[2] & 0xFFu;
       }
-      diff = int(v[0] >> 8) - int(m_last[0] >> 8);
-      v[1] |= ((used & 8) ? byte(3, clamp_u8(diff + (m_last[1] >> 8))) : (m_last[1] >> 8)) << 8;
+      diff = int(v[0] >> 8) - int(last[0] >> 8);
+      v[1] |= ((used & 8) ? byte(3, clamp_u8(diff + (last[1] >> 8))) : (last[1] >> 8)) << 8;
       if (used & 32) {
-        diff = (diff + (int(v[1] >> 8) - int(m_last[1] >> 8))) / 2;
-        v[2] |= byte(5, clamp_u8(diff + (m_last[2] >> 8))) << 8;
+        diff = (diff + (int(v[1] >> 8) - int(last[1] >> 8))) / 2;
+        v[2] |= byte(5, clamp_u8(diff + (last[2] >> 8))) << 8;
       } else {
-        v[2] |= m_last[2] & 0xFF00u;
+        v[2] |= last[2] & 0xFF00u;
       }
     } else {
       v[1] = v[2] = v[0];
     }
-    for (int c = 0; c < 3; ++c) {
-      m_last[c] = static_cast<std::uint16_t>(v[c]);
-      store_le<std::uint16_t>(out + 2 * c, m_last[c]);
-    }
+    for (int c = 0; c < 3; ++c) last[c] = static_cast<std::uint16_t>(v[c]);
+  }
+
+  void decode(decoder& d, unsigned char* out) {
+    decode_with(d, m_models, m_last);
+    for (int c = 0; c < 3; ++c) store_le<std::uint16_t>(out + 2 * c, m_last[c]);
   }
 
   void encode(encoder& e, const unsigned char* item) {
@@ -446,8 +456,8 @@ class rgb12_v2 {
       used |= std::uint32_t(hi(v[c]) != hi(m_last[c])) << (2 * c + 1);
     }
     used |= std::uint32_t(v[0] != v[1] || v[0] != v[2]) << 6;
-    e.symbol(m_used, used);
-    const auto put = [&](int model, int value) { e.symbol(m_diff[model], std::uint32_t(value) & 0xFFu); };
+    e.symbol(m_models.used, used);
+    const auto put = [&](int model, int value) { e.symbol(m_models.diff[model], std::uint32_t(value) & 0xFFu); };
     int diff_l = 0, diff_h = 0;
     if (used & 1) put(0, diff_l = lo(v[0]) - lo(m_last[0]));
     if (used & 2) put(1, diff_h = hi(v[0]) - hi(m_last[0]));
@@ -468,9 +478,7 @@ class rgb12_v2 {
 
  private:
   std::uint16_t m_last[3];
-  symbol_model m_used{128};
-  symbol_model m_diff[6] = {symbol_model(256), symbol_model(256), symbol_model(256),
-                            symbol_model(256), symbol_model(256), symbol_model(256)};
+  models m_models;
 };
 
 /// byte v2 (extra bytes): each byte's difference to the last point's, a model per byte.
