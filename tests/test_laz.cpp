@@ -529,3 +529,26 @@ TEST(LazMalformed, LayeredVlr) {
     EXPECT_CONTAINS(laz_error(b), "point format 9 is not supported in LAZ");
   }
 }
+
+TEST(Laz, LayeredFieldsDecodeAloneAsWithTheRest) {
+  // A selection decodes only its fields' layers (the others are skipped);
+  // each selected field must still be the whole decode's.
+  for (const char* name : {"append-bug.laz", "1.2-with-color.copc.laz", "1_4_w_evlr.laz"}) {
+    SCOPED_TRACE(name);
+    const ced::point_cloud all = ced::io::read_cloud(data_path(name));
+    for (const std::vector<std::string>& only :
+         {std::vector<std::string>{"red", "green", "blue"}, {"nir"}, {"intensity", "gps_time"}, {"classification"},
+          {"scan_angle", "user_data", "point_source_id"}, {"withheld", "overlap"}, {}}) {
+      ced::io::read_options o;
+      o.fields = ced::field_selection::only(only);
+      const ced::point_cloud some = ced::io::read_cloud(data_path(name), o);
+      ASSERT_EQ(some.size(), all.size());
+      EXPECT_TRUE(std::equal(some.positions().begin(), some.positions().end(), all.positions().begin()));
+      for (const auto& f : some.fields()) {
+        const auto* g = all.find_field(f.name);
+        ASSERT_NE(g, nullptr) << f.name;
+        for (std::size_t i = 0; i < all.size(); ++i) ASSERT_EQ(f.values[i], g->values[i]) << f.name << " " << i;
+      }
+    }
+  }
+}

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstring>
 #include <ctime>
+#include <initializer_list>
 #include <limits>
 #include <memory>
 #include <ostream>
@@ -623,13 +624,34 @@ laz_points open_laz(const las_header& h, const laz_layout& layout, std::uint64_t
   return z;
 }
 
-/// The records of chunks [c0, c1), decoded.
+/// The fields of layered LAZ chunks that a selection needs decoded.
+laz_wanted wanted_of(const field_selection& s) {
+  laz_wanted w;
+  if (s.all) return w;
+  const auto any = [&](std::initializer_list<const char*> names) {
+    for (const char* n : names)
+      if (s.wants(n)) return true;
+    return false;
+  };
+  w.classification = any({"classification"});
+  w.flags = any({"synthetic", "key_point", "withheld", "overlap", "scan_direction_flag", "edge_of_flight_line"});
+  w.intensity = any({"intensity"});
+  w.scan_angle = any({"scan_angle"});
+  w.user_data = any({"user_data"});
+  w.point_source = any({"point_source_id"});
+  w.gps_time = any({"gps_time"});
+  w.rgb = any({"red", "green", "blue"});
+  w.nir = any({"nir"});
+  return w;  // extra bytes: always (their fields' names are the descriptors')
+}
+
+/// The records of chunks [c0, c1), decoded (of layered chunks, the `wanted` fields).
 big_bytes decode_laz(const laz_points& z, std::size_t c0, std::size_t c1, const laz_read_fn& read,
-                     const std::string& file) {
+                     const std::string& file, const laz_wanted& wanted = {}) {
   const std::uint64_t points =
       c0 < c1 ? z.chunks[c1 - 1].first_point + z.chunks[c1 - 1].points - z.chunks[c0].first_point : 0;
   big_bytes out(static_cast<std::size_t>(points * z.layout.record_length));
-  decode_laz_chunks(z.layout, z.chunks, c0, c1, read, reinterpret_cast<unsigned char*>(out.data()), file);
+  decode_laz_chunks(z.layout, z.chunks, c0, c1, read, reinterpret_cast<unsigned char*>(out.data()), file, wanted);
   return out;
 }
 
@@ -642,7 +664,7 @@ point_cloud read_las_records(const unsigned char* d, const las_header& h, std::u
   if (info) fill_info(*info, h, d);
   if (!h.compressed) return read_records(plain, h, extras, selection);
   const laz_points z = open_laz(h, layout, size, read, file);
-  const big_bytes records = decode_laz(z, 0, z.chunks.size(), read, file);
+  const big_bytes records = decode_laz(z, 0, z.chunks.size(), read, file, wanted_of(selection));
   return read_records(record_source(reinterpret_cast<const unsigned char*>(records.data()), h.record_length), h, extras,
                       selection);
 }
@@ -1263,7 +1285,7 @@ class las_stream final : public point_stream {
     const std::size_t stride = m_header.record_length;
     if (m_next < m_window_first || m_next + n > m_window_first + m_window.size() / stride) {
       const std::size_t c0 = chunk_of(m_next), c1 = chunk_of(m_next + n - 1) + 1;
-      m_window = decode_laz(m_laz, c0, c1, file_reader(m_file), m_file.path());
+      m_window = decode_laz(m_laz, c0, c1, file_reader(m_file), m_file.path(), wanted_of(m_fields));
       m_window_first = chunks[c0].first_point;
     }
     return {reinterpret_cast<const unsigned char*>(m_window.data()) + (m_next - m_window_first) * stride, stride};

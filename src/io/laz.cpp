@@ -270,7 +270,7 @@ std::vector<laz_chunk> laz_chunks(const laz_layout& layout, std::uint64_t point_
 }
 
 void decode_laz_chunk(const laz_layout& layout, const laz_chunk& c, std::size_t index, const unsigned char* data,
-                      unsigned char* out, const std::string& file) {
+                      unsigned char* out, const std::string& file, const laz_wanted& wanted) {
   if (c.points == 0) return;
   const std::size_t stride = layout.record_length;
   const auto fail = [&](const std::string& why) {
@@ -283,7 +283,7 @@ void decode_laz_chunk(const laz_layout& layout, const laz_chunk& c, std::size_t 
   if (c.points == 1) return;
   try {
     if (layout.compressor == 3)
-      laz::decode_layered(layout.items, data + stride, data + c.bytes, out, stride, c.points);
+      laz::decode_layered(layout.items, data + stride, data + c.bytes, out, stride, c.points, wanted);
     else
       laz::decode_pointwise(layout.items, data + stride, data + c.bytes, out, stride, c.points, layout.compressor != 1);
   } catch (const laz::corrupt& e) {
@@ -311,7 +311,7 @@ std::string encode_chunk_table(const std::vector<std::uint32_t>& points, const s
 }
 
 void decode_laz_chunks(const laz_layout& layout, const std::vector<laz_chunk>& chunks, std::size_t c0, std::size_t c1,
-                       const laz_read_fn& read, unsigned char* out, const std::string& file) {
+                       const laz_read_fn& read, unsigned char* out, const std::string& file, const laz_wanted& wanted) {
   if (c0 >= c1) return;
   const std::uint64_t base = chunks[c0].first_point;
   ced::detail::parallel_for(c1 - c0, 0, 1, [&](std::size_t b, std::size_t e) {
@@ -321,7 +321,7 @@ void decode_laz_chunks(const laz_layout& layout, const std::vector<laz_chunk>& c
       buf.resize(static_cast<std::size_t>(c.bytes));
       read(c.offset, buf.size(), buf.data());
       decode_laz_chunk(layout, c, i, reinterpret_cast<const unsigned char*>(buf.data()),
-                       out + (c.first_point - base) * layout.record_length, file);
+                       out + (c.first_point - base) * layout.record_length, file, wanted);
     }
   });
 }

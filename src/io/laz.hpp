@@ -71,17 +71,28 @@ using laz_read_fn = std::function<void(std::uint64_t offset, std::size_t n, char
 std::vector<laz_chunk> laz_chunks(const laz_layout& layout, std::uint64_t point_offset, std::uint64_t file_size,
                                   std::uint64_t points, const laz_read_fn& read, const std::string& file);
 
+/// Which fields of a layered chunk (point formats 6-8) to decode: each is a
+/// layer of its own, and a layer not decoded leaves its field at the chunk's
+/// first record's value. Positions, returns and the scanner channel are always
+/// decoded; pointwise chunks (formats 0-3) decode everything.
+struct laz_wanted {
+  bool classification = true, flags = true, intensity = true, scan_angle = true, user_data = true, point_source = true,
+       gps_time = true, rgb = true, nir = true, extra = true;
+};
+
 /// Decodes chunk number `index` (`c`, its c.bytes bytes at `data`) into
-/// c.points records of layout.record_length bytes at `out`. io_error naming
+/// c.points records of layout.record_length bytes at `out` (the `wanted`
+/// fields of a layered chunk). io_error naming
 /// the file and the chunk when the data ends before its last point or does
 /// not decode. Reentrant: chunks may decode on several threads at once.
 void decode_laz_chunk(const laz_layout& layout, const laz_chunk& c, std::size_t index, const unsigned char* data,
-                      unsigned char* out, const std::string& file);
+                      unsigned char* out, const std::string& file, const laz_wanted& wanted = {});
 
 /// Decodes chunks [c0, c1) into `out`, the records of chunk c0's first point
 /// on, chunks in parallel (the bytes read with `read`, a chunk at a time).
 void decode_laz_chunks(const laz_layout& layout, const std::vector<laz_chunk>& chunks, std::size_t c0, std::size_t c1,
-                       const laz_read_fn& read, unsigned char* out, const std::string& file);
+                       const laz_read_fn& read, unsigned char* out, const std::string& file,
+                       const laz_wanted& wanted = {});
 
 /// Codes `points` records (`stride` bytes apart from `records`) as one
 /// chunk of `layout` (pointwise items v2), appending the chunk's bytes to `out`.

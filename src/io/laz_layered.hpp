@@ -455,7 +455,7 @@ class byte14_v3 {
 /// the first, is already there) from the bytes [p, end) after the first
 /// record: the point count, the layers' sizes, the layers.
 inline void decode_layered(const std::vector<laz_item>& items, const unsigned char* p, const unsigned char* end,
-                           unsigned char* out, std::size_t stride, std::uint64_t points) {
+                           unsigned char* out, std::size_t stride, std::uint64_t points, const laz_wanted& wanted) {
   const auto take_u32 = [&]() {
     if (end - p < 4) throw corrupt("the layer sizes run past the chunk's end");
     const auto v = load_le<std::uint32_t>(p);
@@ -481,6 +481,26 @@ inline void decode_layered(const std::vector<laz_item>& items, const unsigned ch
     layers[i].end = p += sizes[i];
   }
   if (p != end) throw corrupt(std::to_string(end - p) + " bytes after its layers");
+  // The layers of fields not wanted are skipped: as if their field did not change.
+  const bool point_layer_wanted[point14_v3::layer_count] = {true,
+                                                            true,
+                                                            wanted.classification,
+                                                            wanted.flags,
+                                                            wanted.intensity,
+                                                            wanted.scan_angle,
+                                                            wanted.user_data,
+                                                            wanted.point_source,
+                                                            wanted.gps_time};
+  for (std::size_t i = 0; i < items.size(); ++i) {
+    const std::size_t next = i + 1 < items.size() ? first_layer[i + 1] : layers.size();
+    for (std::size_t k = first_layer[i]; k < next; ++k) {
+      const std::size_t in_item = k - first_layer[i];
+      const bool keep = items[i].type == laz_item::point14  ? point_layer_wanted[in_item]
+                        : items[i].type == laz_item::byte14 ? wanted.extra
+                                                            : (in_item == 0 ? wanted.rgb : wanted.nir);
+      if (!keep) layers[k].end = layers[k].begin;
+    }
+  }
   for (layer& l : layers) l.start();
   if (layers[point14_v3::xy].begin == layers[point14_v3::xy].end) throw corrupt("its x/y layer is empty");
   // The items after point14 follow its scanner channel.
