@@ -96,6 +96,27 @@ if [ -n "$MPI" ] && command -v mpirun > /dev/null; then
     --indices "$T/lzm.txt" --indices-original "$T/lzm_o.txt" -o "$T/lzm.las" -q
   same_outputs "LAZ ced-mpi -np 2" "$T/lzm" laz_whole
 fi
+# COPC: a plan's tiles read only the octree nodes near them, and give the
+# whole run's outputs on the file, and on the same points converted to LAS.
+copc=$DATA/1.2-with-color.copc.laz
+copcargs=(--preset ced6d --radius 60)
+"$CED" detect "$copc" "${copcargs[@]}" --indices "$T/copc_whole.txt" --indices-original "$T/copc_whole_o.txt" \
+  -o "$T/copc_whole.las" -q
+"$CED" convert "$copc" "$T/copc_as.las"
+"$CED" detect "$T/copc_as.las" "${copcargs[@]}" --indices "$T/copc_las.txt" -q
+check "COPC whole: the keypoints of the same points as LAS" cmp -s "$T/copc_whole.txt" "$T/copc_las.txt"
+"$CED" plan "$copc" "${copcargs[@]}" --tile-size 800 -o "$T/copcplan.json" -q
+: > "$T/copc_err"
+for id in $(tr -d ' \n' < "$T/copcplan.json" | grep -o '"tiles":\[.*\]' | grep -o '\[[0-9]*,' | tr -d '[,'); do
+  "$CED" detect --plan "$T/copcplan.json" --tile "$id" -o "$T/copcpart_$id.cedpart" 2>> "$T/copc_err" ||
+    echo "COPC tile $id failed"
+done
+"$CED" merge "$T/copcplan.json" "$T"/copcpart_*.cedpart --indices "$T/copcp.txt" --indices-original "$T/copcp_o.txt" \
+  -o "$T/copcp.las" -q
+same_outputs "COPC plan + tiles (by its index) + merge" "$T/copcp" copc_whole
+check "COPC tiles are read through the index" grep -q "through the file's COPC index" "$T/copc_err"
+check "COPC tiles decode part of the file" \
+  test "$(grep -o '([0-9]* decoded' "$T/copc_err" | tr -d '( decoded' | sort -n | head -1)" -lt 1065
 expect_exit 1 "write .*lzw.las instead" "-o x.laz refused" -- detect "$laz" "${lazargs[@]}" --tile-size 250 \
   -o "$T/lzw.laz"
 check "no .laz written" test ! -e "$T/lzw.laz"

@@ -536,9 +536,13 @@ TEST(Laz, LayeredFieldsDecodeAloneAsWithTheRest) {
   for (const char* name : {"append-bug.laz", "1.2-with-color.copc.laz", "1_4_w_evlr.laz"}) {
     SCOPED_TRACE(name);
     const ced::point_cloud all = ced::io::read_cloud(data_path(name));
-    for (const std::vector<std::string>& only :
-         {std::vector<std::string>{"red", "green", "blue"}, {"nir"}, {"intensity", "gps_time"}, {"classification"},
-          {"scan_angle", "user_data", "point_source_id"}, {"withheld", "overlap"}, {}}) {
+    for (const std::vector<std::string>& only : {std::vector<std::string>{"red", "green", "blue"},
+                                                 {"nir"},
+                                                 {"intensity", "gps_time"},
+                                                 {"classification"},
+                                                 {"scan_angle", "user_data", "point_source_id"},
+                                                 {"withheld", "overlap"},
+                                                 {}}) {
       ced::io::read_options o;
       o.fields = ced::field_selection::only(only);
       const ced::point_cloud some = ced::io::read_cloud(data_path(name), o);
@@ -550,5 +554,105 @@ TEST(Laz, LayeredFieldsDecodeAloneAsWithTheRest) {
         for (std::size_t i = 0; i < all.size(); ++i) ASSERT_EQ(f.values[i], g->values[i]) << f.name << " " << i;
       }
     }
+  }
+}
+
+namespace {
+
+/// The COPC sample with its info VLR's root page pointed at `offset`, `size`.
+std::string copc_with_root(std::uint64_t offset, std::uint64_t size) {
+  std::string b = read_bytes(data_path("1.2-with-color.copc.laz"));
+  put<std::uint64_t>(b, 375 + 54 + 40, offset);
+  put<std::uint64_t>(b, 375 + 54 + 48, size);
+  return b;
+}
+
+/// The io_error that asking `bytes`' stream for its runs in a box throws.
+std::string runs_error(const std::string& bytes) {
+  const std::string path = temp_file("copc.laz");
+  write_bytes(path, bytes);
+  return ced_test::io_error_of([&] {
+    const double lo[3] = {-1e300, -1e300, -1e300}, hi[3] = {1e300, 1e300, 1e300};
+    (void)ced::io::open_point_stream(path)->runs_within(lo, hi);
+  });
+}
+
+}  // namespace
+
+TEST(Copc, RunsWithinABoxHoldItsPoints) {
+  const std::string path = data_path("1.2-with-color.copc.laz");
+  const ced::point_cloud all = ced::io::read_cloud(path);
+  const auto s = ced::io::open_point_stream(path);
+  // Plain LAS and LAZ have no index.
+  const double any_lo[3] = {0, 0, 0}, any_hi[3] = {1, 1, 1};
+  EXPECT_FALSE(ced::io::open_point_stream(data_path("autzen_trim.laz"))->runs_within(any_lo, any_hi));
+  // A box of a quarter of the cloud: its runs hold every point in it, and fewer than all.
+  double lo[3], hi[3];
+  for (int k = 0; k < 3; ++k) {
+    lo[k] = 1e300;
+    hi[k] = -1e300;
+  }
+  for (std::size_t i = 0; i < all.size(); ++i)
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], all.origin()[k] + all.position(i)[k]);
+      hi[k] = std::max(hi[k], all.origin()[k] + all.position(i)[k]);
+    }
+  const double box_lo[3] = {lo[0], lo[1], lo[2]};
+  const double box_hi[3] = {(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, hi[2]};
+  const auto runs = s->runs_within(box_lo, box_hi);
+  ASSERT_TRUE(runs);
+  std::vector<char> in_run(all.size(), 0);
+  std::uint64_t total = 0, last_end = 0;
+  for (const auto& r : *runs) {
+    EXPECT_GE(r.first, last_end);  // ascending, apart
+    last_end = r.first + r.count;
+    total += r.count;
+    for (std::uint64_t i = r.first; i < r.first + r.count; ++i) in_run[i] = 1;
+  }
+  EXPECT_LT(total, all.size());
+  std::size_t inside = 0;
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    bool in = true;
+    for (int k = 0; k < 3; ++k) {
+      const double v = all.origin()[k] + all.position(i)[k];
+      in = in && v >= box_lo[k] && v <= box_hi[k];
+    }
+    if (!in) continue;
+    ++inside;
+    EXPECT_TRUE(in_run[i]) << "point " << i << " is in the box but in no run";
+  }
+  EXPECT_GT(inside, 100u);
+  // A run reads as the whole file's points, with the fields the names give.
+  std::vector<std::string> names;
+  for (const auto& f : all.fields()) names.push_back(f.name);
+  ced::point_cloud c;
+  const auto& r = runs->back();
+  s->read_run(r, names, all.origin(), c);
+  ASSERT_EQ(c.size(), r.count);
+  ASSERT_EQ(c.fields().size(), all.fields().size());
+  for (std::size_t i = 0; i < c.size(); ++i)
+    for (int k = 0; k < 3; ++k) ASSERT_EQ(c.position(i)[k], all.position(r.first + i)[k]);
+}
+
+TEST(Copc, DamagedHierarchy) {
+  const std::string file = read_bytes(data_path("1.2-with-color.copc.laz"));
+  EXPECT_CONTAINS(runs_error(copc_with_root(file.size() - 10, 64)), "outside the file");
+  EXPECT_CONTAINS(runs_error(copc_with_root(31604, 33)), "not a whole number of 32-byte entries");
+  {
+    std::string b = copc_with_root(31604, 2080);
+    put<std::int32_t>(b, 31604 + 4, 5);  // the root node 0-5-0-0: outside a depth-0 octree
+    EXPECT_CONTAINS(runs_error(b), "is outside the octree");
+  }
+  {
+    std::string b = copc_with_root(31604, 2080);
+    put<std::uint64_t>(b, 31604 + 16, 100);  // the root node's points at byte 100: no chunk there
+    EXPECT_CONTAINS(runs_error(b), "is not a chunk of the chunk table");
+  }
+  {
+    std::string b = copc_with_root(31604, 2080);  // the first entry a child page: the root page itself
+    put<std::uint64_t>(b, 31604 + 16, 31604);
+    put<std::int32_t>(b, 31604 + 24, 2080);
+    put<std::int32_t>(b, 31604 + 28, -1);
+    EXPECT_CONTAINS(runs_error(b), "reached twice");
   }
 }

@@ -104,12 +104,19 @@ struct tile_points {
   std::uint64_t tile = 0;
   point_cloud cloud;  ///< fields with whole_range set
   std::vector<std::uint64_t> index, file_index;
+  /// Points decoded from the file to find these (read_tile()).
+  std::uint64_t decoded = 0;
+  bool indexed = false;  ///< found through the file's spatial index (COPC)
 };
 
-/// Reads tile `id`'s points from the input (two passes over the file: the
-/// first learns what the whole file decides about its fields, as plan_tiles).
+/// Reads tile `id`'s points from the input: two passes over the file (the
+/// first learns what the whole file decides about its fields, as
+/// plan_tiles), or, when the file has a spatial index (COPC), only the
+/// chunks of the octree nodes that meet the tile's core and halo.
 /// Throws io_error when the input differs from the plan's: its fingerprint,
-/// its decoded content (when the plan has `content`), or the tile's counts.
+/// its point count, its decoded content (when the plan has `content`; not
+/// checked through an index, which decodes only part of the file), or the
+/// tile's counts.
 tile_points read_tile(const tile_plan& plan, std::uint64_t id);
 
 /// What one tile contributes: its core keypoints, ascending index.

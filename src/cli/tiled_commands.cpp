@@ -333,8 +333,10 @@ int run_detect_plan_tile(const detect_options& o) {
   const ced::tile_part part = ced::detect_tile(plan, pts, static_cast<unsigned>(std::max(0, o.threads)));
   ced::write_part(o.output, plan, part);
   if (!o.quiet)
-    std::fprintf(stderr, "ced: tile %lld: %zu points read, %zu keypoints; %.1f ms\n", o.tile, pts.cloud.size(),
-                 part.index.size(), ms_since(t0));
+    std::fprintf(stderr, "ced: tile %lld: %zu points read (%llu decoded%s), %zu keypoints; %.1f ms\n", o.tile,
+                 pts.cloud.size(), static_cast<unsigned long long>(pts.decoded),
+                 pts.indexed ? ", through the file's COPC index" : ": two passes over the file", part.index.size(),
+                 ms_since(t0));
   return exit_ok;
 }
 

@@ -10,6 +10,7 @@
 #include <initializer_list>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <ostream>
 #include <sstream>
 #include <type_traits>
@@ -249,7 +250,7 @@ las_header read_header(const unsigned char* d, std::size_t size, const std::stri
 /// header and the point data), placed after the standard fields and checked
 /// to fit in a point record; none without an extra-bytes VLR.
 std::vector<extra_desc> read_vlrs(const unsigned char* d, const las_header& h, const std::string& file,
-                                  laz_layout* laz = nullptr) {
+                                  laz_layout* laz = nullptr, std::optional<copc_info>* copc = nullptr) {
   std::vector<extra_desc> extras;
   bool have_laz = false;
   bool have_extras = false;
@@ -270,6 +271,9 @@ std::vector<extra_desc> read_vlrs(const unsigned char* d, const las_header& h, c
       extras = parse_extra_bytes(d + pos + k_vlr_header_size, len, file);
       have_extras = true;
     }
+    // COPC: the info VLR comes first.
+    if (copc && h.compressed && i == 0 && user_id == "copc" && record_id == 1)
+      *copc = parse_copc_info(d + pos + k_vlr_header_size, len, file);
     if (h.compressed && user_id == "laszip encoded" && record_id == 22204 && !have_laz) {
       const laz_layout l = parse_laszip_vlr(d + pos + k_vlr_header_size, len, h.format, h.record_length, file);
       if (laz) *laz = l;
@@ -419,25 +423,24 @@ struct column_planner {
   }
 };
 
+/// The one-bit (and scanner channel) flags of bytes 14 and 15.
+std::vector<flag_spec> flags_of(bool extended) {
+  if (extended)
+    return {{"synthetic", 15, 0, 1},          {"key_point", 15, 1, 1},
+            {"withheld", 15, 2, 1},           {"overlap", 15, 3, 1},
+            {"scanner_channel", 15, 4, 3},    {"scan_direction_flag", 15, 6, 1},
+            {"edge_of_flight_line", 15, 7, 1}};
+  return {{"synthetic", 15, 5, 1},
+          {"key_point", 15, 6, 1},
+          {"withheld", 15, 7, 1},
+          {"scan_direction_flag", 14, 6, 1},
+          {"edge_of_flight_line", 14, 7, 1}};
+}
+
 /// The flags of bytes 14 and 15: added only when some point sets them.
 void plan_flags(column_planner& plan, bool extended) {
-  static constexpr flag_spec k_legacy_flags[] = {{"synthetic", 15, 5, 1},
-                                                 {"key_point", 15, 6, 1},
-                                                 {"withheld", 15, 7, 1},
-                                                 {"scan_direction_flag", 14, 6, 1},
-                                                 {"edge_of_flight_line", 14, 7, 1}};
-  static constexpr flag_spec k_extended_flags[] = {{"synthetic", 15, 0, 1},          {"key_point", 15, 1, 1},
-                                                   {"withheld", 15, 2, 1},           {"overlap", 15, 3, 1},
-                                                   {"scanner_channel", 15, 4, 3},    {"scan_direction_flag", 15, 6, 1},
-                                                   {"edge_of_flight_line", 15, 7, 1}};
-  const auto add_flags = [&](const auto& table) {
-    for (const flag_spec& fl : table)
-      if ((plan.flag_bits[fl.offset - 14] >> fl.shift) & fl.mask) plan.bits(fl.name, fl.offset, fl.shift, fl.mask);
-  };
-  if (extended)
-    add_flags(k_extended_flags);
-  else
-    add_flags(k_legacy_flags);
+  for (const flag_spec& fl : flags_of(extended))
+    if ((plan.flag_bits[fl.offset - 14] >> fl.shift) & fl.mask) plan.bits(fl.name, fl.offset, fl.shift, fl.mask);
 }
 
 /// The standard fields of the point format, then its flags.
@@ -1224,7 +1227,7 @@ class las_stream final : public point_stream {
     const auto* d = reinterpret_cast<const unsigned char*>(head.data());
     m_header = read_header(d, static_cast<std::size_t>(m_file.size()), path);
     laz_layout layout;
-    m_extras = read_vlrs(d, m_header, path, &layout);
+    m_extras = read_vlrs(d, m_header, path, &layout, &m_copc);
     if (m_header.compressed) m_laz = open_laz(m_header, layout, m_file.size(), file_reader(m_file), path);
     las_read_info info;
     fill_info(info, m_header, d);
@@ -1272,6 +1275,59 @@ class las_stream final : public point_stream {
   bool streaming() const noexcept override { return true; }
   std::uint64_t declared_points() const noexcept override { return m_header.count; }
 
+  std::optional<std::vector<point_run>> runs_within(const double lo[3], const double hi[3]) override {
+    if (!m_copc) return std::nullopt;
+    if (!m_nodes) m_nodes = read_copc_hierarchy(*m_copc, m_file.size(), file_reader(m_file), m_file.path());
+    const std::vector<laz_chunk>& chunks = m_laz.chunks;
+    std::vector<point_run> runs;
+    for (const copc_node& n : *m_nodes) {
+      double box[6];
+      n.box(*m_copc, box);
+      // Points on a cube's faces may belong to either side: closed boxes, a
+      // margin of a millionth of the root cube.
+      const double margin = 1e-6 * m_copc->halfsize;
+      bool meets = true;
+      for (int k = 0; k < 3; ++k) meets = meets && box[k] - margin <= hi[k] && box[3 + k] + margin >= lo[k];
+      if (!meets) continue;
+      const auto it = std::lower_bound(chunks.begin(), chunks.end(), n.offset,
+                                       [](const laz_chunk& c, std::uint64_t o) { return c.offset < o; });
+      if (it == chunks.end() || it->offset != n.offset || it->points != std::uint64_t(n.points))
+        throw io_error(m_file.path(), "COPC node " + std::to_string(n.depth) + "-" + std::to_string(n.x) + "-" +
+                                          std::to_string(n.y) + "-" + std::to_string(n.z) + " (" +
+                                          std::to_string(n.points) + " points at byte " + std::to_string(n.offset) +
+                                          ") is not a chunk of the chunk table");
+      runs.push_back({it->first_point, it->points});
+    }
+    std::sort(runs.begin(), runs.end(), [](const point_run& a, const point_run& b) { return a.first < b.first; });
+    // Neighbouring runs join: one read each.
+    std::vector<point_run> joined;
+    for (const point_run& r : runs) {
+      if (!joined.empty() && joined.back().first + joined.back().count == r.first)
+        joined.back().count += r.count;
+      else if (joined.empty() || joined.back().first != r.first)
+        joined.push_back(r);
+    }
+    return joined;
+  }
+
+  void read_run(const point_run& r, const std::vector<std::string>& fields, const std::array<double, 3>& origin,
+                point_cloud& out) override {
+    if (!m_copc) return point_stream::read_run(r, fields, origin, out);
+    // The flags the whole file has, from their names, as a complete pass decides them.
+    record_scan named;
+    const format_layout& layout = *m_header.layout;
+    for (const std::string& f : fields)
+      for (const flag_spec& fl : flags_of(layout.extended))
+        if (f == fl.name) named.flags[fl.offset - 14] |= fl.mask << fl.shift;
+    m_scan.flags[0] = named.flags[0];
+    m_scan.flags[1] = named.flags[1];
+    m_first_pass_done = true;
+    m_next = r.first;
+    if (r.first > m_header.count || r.count > m_header.count - r.first)
+      throw std::logic_error("las_stream::read_run: a run past the file's points");
+    read(static_cast<std::size_t>(r.count), origin, out);
+  }
+
  private:
   /// LAZ: the records [m_next, m_next + n) in memory, from the chunks that hold
   /// them, decoded (the last ones are kept for the next call).
@@ -1292,7 +1348,9 @@ class las_stream final : public point_stream {
   }
 
   input_file m_file;
-  laz_points m_laz;  ///< LAZ only
+  laz_points m_laz;                               ///< LAZ only
+  std::optional<copc_info> m_copc;                ///< COPC only
+  std::optional<std::vector<copc_node>> m_nodes;  ///< of the hierarchy, when asked
   big_bytes m_window;
   std::uint64_t m_window_first = 0;
   field_selection m_fields;

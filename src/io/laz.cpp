@@ -5,6 +5,8 @@
 #include "laz.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <set>
 #include <string>
 
 #include "ced/io/error.hpp"
@@ -289,6 +291,75 @@ void decode_laz_chunk(const laz_layout& layout, const laz_chunk& c, std::size_t 
   } catch (const laz::corrupt& e) {
     throw fail(e.what());
   }
+}
+
+void copc_node::box(const copc_info& info, double out[6]) const noexcept {
+  const double side = 2 * info.halfsize / std::ldexp(1.0, depth);
+  const std::int32_t key[3] = {x, y, z};
+  for (int k = 0; k < 3; ++k) {
+    out[k] = info.center[k] - info.halfsize + side * key[k];
+    out[3 + k] = out[k] + side;
+  }
+}
+
+copc_info parse_copc_info(const unsigned char* p, std::size_t len, const std::string& file) {
+  if (len < 160) throw io_error(file, "COPC info VLR: " + std::to_string(len) + " bytes, it needs 160");
+  copc_info c;
+  for (int k = 0; k < 3; ++k) c.center[k] = load_le<double>(p + 8 * k);
+  c.halfsize = load_le<double>(p + 24);
+  c.root_offset = load_le<std::uint64_t>(p + 40);
+  c.root_size = load_le<std::uint64_t>(p + 48);
+  if (!(std::isfinite(c.center[0]) && std::isfinite(c.center[1]) && std::isfinite(c.center[2]) &&
+        std::isfinite(c.halfsize) && c.halfsize > 0))
+    throw io_error(file, "COPC info VLR: the octree's cube is not finite and positive");
+  return c;
+}
+
+std::vector<copc_node> read_copc_hierarchy(const copc_info& info, std::uint64_t file_size, const laz_read_fn& read,
+                                           const std::string& file) {
+  constexpr std::size_t entry = 32;
+  std::vector<copc_node> nodes;
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> pages = {{info.root_offset, info.root_size}};
+  std::set<std::uint64_t> seen;
+  std::uint64_t entries = 0;
+  std::string buf;
+  while (!pages.empty()) {
+    const auto [offset, size] = pages.back();
+    pages.pop_back();
+    const std::string where =
+        "COPC hierarchy page at byte " + std::to_string(offset) + " (" + std::to_string(size) + " bytes): ";
+    if (offset > file_size || size > file_size - offset) throw io_error(file, where + "outside the file");
+    if (size % entry != 0) throw io_error(file, where + "not a whole number of 32-byte entries");
+    if (!seen.insert(offset).second) throw io_error(file, where + "reached twice");
+    if ((entries += size / entry) > file_size / entry) throw io_error(file, where + "more entries than the file holds");
+    buf.resize(static_cast<std::size_t>(size));
+    read(offset, buf.size(), buf.data());
+    for (std::size_t i = 0; i < buf.size(); i += entry) {
+      const auto* e = reinterpret_cast<const unsigned char*>(buf.data()) + i;
+      copc_node n;
+      n.depth = load_le<std::int32_t>(e);
+      n.x = load_le<std::int32_t>(e + 4);
+      n.y = load_le<std::int32_t>(e + 8);
+      n.z = load_le<std::int32_t>(e + 12);
+      n.offset = load_le<std::uint64_t>(e + 16);
+      n.bytes = load_le<std::int32_t>(e + 24);
+      n.points = load_le<std::int32_t>(e + 28);
+      const std::int64_t cells = n.depth >= 0 && n.depth < 31 ? std::int64_t(1) << n.depth : 0;
+      if (cells == 0 || n.x < 0 || n.y < 0 || n.z < 0 || n.x >= cells || n.y >= cells || n.z >= cells)
+        throw io_error(file, where + "node " + std::to_string(n.depth) + "-" + std::to_string(n.x) + "-" +
+                                 std::to_string(n.y) + "-" + std::to_string(n.z) + " is outside the octree");
+      if (n.points == -1) {
+        if (n.bytes < 0) throw io_error(file, where + "a child page of negative size");
+        pages.push_back({n.offset, std::uint64_t(n.bytes)});
+      } else if (n.points < -1 || n.bytes < 0) {
+        throw io_error(file, where + "a node with " + std::to_string(n.points) + " points in " +
+                                 std::to_string(n.bytes) + " bytes");
+      } else if (n.points > 0) {
+        nodes.push_back(n);
+      }
+    }
+  }
+  return nodes;
 }
 
 void encode_laz_chunk(const laz_layout& layout, const unsigned char* records, std::uint64_t points, std::string& out) {

@@ -94,6 +94,32 @@ void decode_laz_chunks(const laz_layout& layout, const std::vector<laz_chunk>& c
                        const laz_read_fn& read, unsigned char* out, const std::string& file,
                        const laz_wanted& wanted = {});
 
+/// COPC: the octree of a cloud-optimised LAZ file, from its "copc" info VLR
+/// (the root cube) and its hierarchy pages (each node's chunk).
+struct copc_info {
+  double center[3] = {0, 0, 0};
+  double halfsize = 0;
+  std::uint64_t root_offset = 0, root_size = 0;  ///< of the root hierarchy page
+};
+struct copc_node {
+  std::int32_t depth = 0, x = 0, y = 0, z = 0;
+  std::uint64_t offset = 0;  ///< of its chunk
+  std::int32_t bytes = 0, points = 0;
+  /// Its cube, absolute: {x0, y0, z0, x1, y1, z1}.
+  void box(const copc_info& info, double out[6]) const noexcept;
+};
+
+/// The 160 bytes of the COPC info VLR; io_error naming the file when the
+/// cube is not finite and positive.
+copc_info parse_copc_info(const unsigned char* p, std::size_t len, const std::string& file);
+
+/// Every node of the hierarchy with points (pages followed from the root).
+/// io_error naming the file for a page outside the file or of a size that is
+/// not whole entries, a page reached twice, a node key outside its depth's
+/// grid, or more entries than the file could hold.
+std::vector<copc_node> read_copc_hierarchy(const copc_info& info, std::uint64_t file_size, const laz_read_fn& read,
+                                           const std::string& file);
+
 /// Codes `points` records (`stride` bytes apart from `records`) as one
 /// chunk of `layout` (pointwise items v2), appending the chunk's bytes to `out`.
 void encode_laz_chunk(const laz_layout& layout, const unsigned char* records, std::uint64_t points, std::string& out);

@@ -2,6 +2,8 @@
 // Tiled runs: one tile of a plan, read from the input (checked against the
 // plan) and detected into its part: the keypoints of its core.
 #include <chrono>
+#include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,12 +25,76 @@ bool near_tile(const tile_grid& g, const std::array<std::uint32_t, 3>& c, const 
   return true;
 }
 
+/// The absolute box that holds tile t's core grown by its halo (with a
+/// margin; a tile at the grid's edge reaches out without end, as tile_of()
+/// gives it the points beyond).
+void tile_region(const tile_plan& plan, std::uint64_t t, double lo[3], double hi[3]) {
+  const auto core = plan.grid.core_box(t);
+  const auto c = plan.grid.coords(t);
+  const double grow = plan.grid.halo + 0.01 * plan.grid.size;
+  constexpr double far = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < 3; ++k) {
+    lo[k] = c[k] == 0 ? -far : plan.origin[k] + core[k] - grow;
+    hi[k] = c[k] + 1 == plan.grid.dims[k] ? far : plan.origin[k] + core[3 + k] + grow;
+  }
+}
+
+/// The tile's points from a file with a spatial index (COPC): only the runs
+/// of points near the tile are read. The file's fingerprint and its point
+/// count, and the tile's counts, are checked against the plan (its content
+/// hash needs every point, so it is not). Empty when the file has no index.
+std::optional<tile_points> read_tile_indexed(const tile_plan& plan, std::uint64_t id, io::point_stream& s) {
+  // Only files whose every point is finite (LAS): a point's index is then its file index.
+  if (plan.file_points != plan.finite_points) return std::nullopt;
+  double lo[3], hi[3];
+  tile_region(plan, id, lo, hi);
+  const auto runs = s.runs_within(lo, hi);
+  if (!runs) return std::nullopt;
+  if (s.declared_points() != plan.file_points)
+    throw io::io_error(plan.request.input, "the file changed since the plan was made (" +
+                                               std::to_string(s.declared_points()) + " points; the plan says " +
+                                               std::to_string(plan.file_points) + "): make a new plan");
+  std::vector<std::string> names;
+  for (const plan_field& f : plan.fields) names.push_back(f.name);
+  const auto coords = plan.grid.coords(id);
+  const std::vector<plan_field> tile_fields = tile_fields_of(plan);
+  const std::size_t rs = record_size(plan);
+  std::vector<column> converted;
+  std::string records;
+  std::uint64_t core = 0, decoded = 0;
+  point_cloud c;
+  for (const io::point_stream::point_run& r : *runs) {
+    s.read_run(r, names, plan.origin, c);
+    decoded += c.size();
+    if (c.fields().size() != plan.fields.size())
+      throw io::io_error(plan.request.input, "its fields differ from the plan's: make a new plan");
+    const field_bytes fields = conform_fields(c, tile_fields, converted);
+    for (std::size_t i = 0; i < c.size(); ++i) {
+      if (!finite3(c.position(i)) || !near_tile(plan.grid, coords, c.position(i))) continue;
+      const std::uint64_t index = r.first + i;
+      append_record(records, rs, index, index, c.positions().data(), fields, i);
+      core += plan.grid.tile_of(c.position(i)) == id;
+    }
+  }
+  tile_points pts = points_from_records(plan, id, records, 0, plan.request.input);
+  pts.decoded = decoded;
+  pts.indexed = true;
+  const tile_entry& e = plan.tile(id);
+  if (core != e.core_points || pts.cloud.size() != e.points)
+    throw io::io_error(plan.request.input, "the file changed since the plan was made (tile " + std::to_string(id) +
+                                               " reads " + std::to_string(pts.cloud.size()) + " points and owns " +
+                                               std::to_string(core) + "; the plan says " + std::to_string(e.points) +
+                                               " and " + std::to_string(e.core_points) + "): make a new plan");
+  return pts;
+}
+
 }  // namespace
 
 tile_points read_tile(const tile_plan& plan, std::uint64_t id) {
   plan.tile(id);  // throws for a tile that owns no points
   check_plan_input(plan);
   auto s = io::open_point_stream(plan.request.input, plan.request.read);
+  if (auto pts = read_tile_indexed(plan, id, *s)) return std::move(*pts);
   // A pass to learn the whole file's fields (LAS flags), then the tile's points.
   for_each_chunk(*s, {0, 0, 0}, [](const point_cloud&) {});
   s->rewind();
@@ -62,6 +128,7 @@ tile_points read_tile(const tile_plan& plan, std::uint64_t id) {
   if (!plan.content.empty() && hex(content) != plan.content)
     changed("its decoded points hash to " + hex(content) + ", the plan's to " + plan.content);
   tile_points pts = points_from_records(plan, id, records, 0, plan.request.input);
+  pts.decoded = 2 * file_index;
   if (core != e.core_points || pts.cloud.size() != e.points)
     changed("tile " + std::to_string(id) + " reads " + std::to_string(pts.cloud.size()) + " points and owns " +
             std::to_string(core) + "; the plan says " + std::to_string(e.points) + " and " +

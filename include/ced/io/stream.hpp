@@ -7,7 +7,10 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
+#include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "ced/cloud.hpp"
 #include "ced/io/io.hpp"
@@ -51,6 +54,31 @@ class point_stream {
   virtual bool streaming() const noexcept = 0;
   /// Points in the file when its header says (LAS, streamed PLY and PCD); else 0.
   virtual std::uint64_t declared_points() const noexcept { return 0; }
+
+  /// Consecutive points of the file: [first, first + count).
+  struct point_run {
+    std::uint64_t first = 0, count = 0;
+  };
+  /// Files with a spatial index (COPC): the runs of points, ascending and
+  /// apart, that hold every point within the absolute box [lo, hi] (and
+  /// others near it), found without reading the points. Other files: none
+  /// (std::nullopt). io_error for an index that is damaged.
+  virtual std::optional<std::vector<point_run>> runs_within(const double lo[3], const double hi[3]) {
+    (void)lo;
+    (void)hi;
+    return std::nullopt;
+  }
+  /// Reads run `r` (one of runs_within()'s) into `out`, positions relative
+  /// to `origin`, with the fields a complete pass would give: `fields` names
+  /// them (a tile plan records them), as no pass learns them here.
+  virtual void read_run(const point_run& r, const std::vector<std::string>& fields, const std::array<double, 3>& origin,
+                        point_cloud& out) {
+    (void)r;
+    (void)fields;
+    (void)origin;
+    (void)out;
+    throw std::logic_error("point_stream::read_run: this stream has no spatial index");
+  }
 };
 
 /// Opens `path` for reading in chunks (format and fields as in read_options).
