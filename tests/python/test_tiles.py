@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import ced
+from conftest import DATA
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[2] / "examples" / "python"
 
@@ -37,6 +38,17 @@ def test_tiles_give_the_whole_result(las, tmp_path):
     assert np.array_equal(merged.keypoints, np.asarray(whole.keypoints, dtype=np.uint64))
     assert np.array_equal(merged.saliency["rgb"], whole.saliency["rgb"][whole.keypoints])
     assert len(merged.cloud) == len(whole.keypoints)
+
+
+def test_copc_tiles_read_through_its_index_give_the_whole_result():
+    """A COPC file's tiles are read through its octree (ced's own LAZ decoder)."""
+    copc = str(DATA / "1.2-with-color.copc.laz")
+    whole = ced.detect(ced.read(copc), modalities="ced6d", radius=60.0)
+    plan = ced.plan_tiles(copc, tile_size=800.0, modalities="ced6d", radius=60.0)
+    assert len(plan.tiles) > 3
+    merged = ced.merge_parts(plan, [ced.detect_tile(plan, t) for t, _, _ in plan.tiles])
+    assert len(whole.keypoints) > 0
+    assert np.array_equal(merged.keypoints, np.asarray(whole.keypoints, dtype=np.uint64))
 
 
 def test_refined_tiles_give_the_whole_result(las, tmp_path):
