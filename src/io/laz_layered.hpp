@@ -332,41 +332,66 @@ struct channel_rule {
   unsigned context(unsigned channel, bool switched) const noexcept { return v3 && !switched ? 0u : channel; }
 };
 
+/// The contexts of an item after point14, one a scanner channel (made when
+/// first used, from the last values), and which one's last values the
+/// current point is coded from (see channel_rule).
+template <class Context>
+class channel_contexts {
+ public:
+  channel_contexts(std::unique_ptr<Context> first, unsigned channel, bool stale_last)
+      : m_stale_last(stale_last), m_current(channel) {
+    m_ctx[channel] = std::move(first);
+    m_last = m_ctx[channel].get();
+  }
+  /// The context whose models code a point of `channel` (`make(last)` makes
+  /// a new one); last() is then the one whose values it is coded from.
+  template <class Make>
+  Context& follow(unsigned channel, Make&& make) {
+    m_last = m_ctx[m_current].get();
+    if (channel != m_current) {
+      m_current = channel;
+      if (!m_ctx[m_current]) {
+        m_ctx[m_current] = make(*m_last);
+        m_last = m_ctx[m_current].get();
+      } else if (!m_stale_last) {
+        m_last = m_ctx[m_current].get();
+      }
+    }
+    return *m_ctx[m_current];
+  }
+  Context& last() noexcept { return *m_last; }
+
+ private:
+  bool m_stale_last;
+  unsigned m_current;
+  std::unique_ptr<Context> m_ctx[4];
+  Context* m_last;
+};
+
 /// rgb14 and rgbnir14 (v3, v4): the colour as rgb12, and the NIR's two
 /// bytes, in their own layers, with models per scanner channel.
 class rgbnir14_v3 {
  public:
   /// `stale_last`: version 3 (its own), see channel_rule.
   rgbnir14_v3(const unsigned char* first, unsigned channel, bool nir, bool stale_last, layer* layers)
-      : m_nir(nir), m_stale_last(stale_last), m_layers(layers), m_current(channel) {
-    m_ctx[channel] = std::make_unique<context>(first, nir);
-    m_last = m_ctx[channel].get();
-  }
+      : m_nir(nir), m_layers(layers), m_ctx(std::make_unique<context>(first, nir), channel, stale_last) {}
 
   void decode(unsigned char* out, unsigned context_of_point) {
-    m_last = m_ctx[m_current].get();
-    if (context_of_point != m_current) {
-      m_current = context_of_point;
-      if (!m_ctx[m_current]) {
-        m_ctx[m_current] = std::make_unique<context>(m_last->bytes(), m_nir);
-        m_last = m_ctx[m_current].get();
-      } else if (!m_stale_last) {
-        m_last = m_ctx[m_current].get();
-      }
-    }
-    context& models = *m_ctx[m_current];
-    if (m_layers[0].changes()) rgb12_v2::decode_with(m_layers[0].dec, models.rgb, m_last->rgb_last);
-    for (int c = 0; c < 3; ++c) store_le<std::uint16_t>(out + 2 * c, m_last->rgb_last[c]);
+    context& models =
+        m_ctx.follow(context_of_point, [&](context& from) { return std::make_unique<context>(from.bytes(), m_nir); });
+    context& last = m_ctx.last();
+    if (m_layers[0].changes()) rgb12_v2::decode_with(m_layers[0].dec, models.rgb, last.rgb_last);
+    for (int c = 0; c < 3; ++c) store_le<std::uint16_t>(out + 2 * c, last.rgb_last[c]);
     if (!m_nir) return;
     if (m_layers[1].changes()) {
       decoder& d = m_layers[1].dec;
       const std::uint32_t used = d.symbol(models.nir_used);
-      unsigned v = m_last->nir_last;
+      unsigned v = last.nir_last;
       if (used & 1) v = (v & 0xFF00u) | ((d.symbol(models.nir_diff[0]) + (v & 0xFFu)) & 0xFFu);
       if (used & 2) v = (v & 0x00FFu) | (((d.symbol(models.nir_diff[1]) + (v >> 8)) & 0xFFu) << 8);
-      m_last->nir_last = static_cast<std::uint16_t>(v);
+      last.nir_last = static_cast<std::uint16_t>(v);
     }
-    store_le<std::uint16_t>(out + 6, m_last->nir_last);
+    store_le<std::uint16_t>(out + 6, last.nir_last);
   }
 
   void check_ends() const {
@@ -394,11 +419,9 @@ class rgbnir14_v3 {
     symbol_model nir_diff[2] = {symbol_model(256), symbol_model(256)};
   };
 
-  bool m_nir, m_stale_last;
+  bool m_nir;
   layer* m_layers;
-  unsigned m_current;
-  std::unique_ptr<context> m_ctx[4];
-  context* m_last;  ///< whose last values this point is coded from
+  channel_contexts<context> m_ctx;
 };
 
 /// byte14 (v3, v4): each extra byte in its own layer, its difference to the
@@ -407,28 +430,16 @@ class byte14_v3 {
  public:
   /// `stale_last`: version 3 (its own), see channel_rule.
   byte14_v3(const unsigned char* first, std::size_t n, unsigned channel, bool stale_last, layer* layers)
-      : m_n(n), m_stale_last(stale_last), m_layers(layers), m_current(channel) {
-    m_ctx[channel] = std::make_unique<context>(first, n);
-    m_last = m_ctx[channel].get();
-  }
+      : m_n(n), m_layers(layers), m_ctx(std::make_unique<context>(first, n), channel, stale_last) {}
 
   void decode(unsigned char* out, unsigned context_of_point) {
-    m_last = m_ctx[m_current].get();
-    if (context_of_point != m_current) {
-      m_current = context_of_point;
-      if (!m_ctx[m_current]) {
-        m_ctx[m_current] = std::make_unique<context>(m_last->last.data(), m_n);
-        m_last = m_ctx[m_current].get();
-      } else if (!m_stale_last) {
-        m_last = m_ctx[m_current].get();
-      }
-    }
-    context& models = *m_ctx[m_current];
+    context& models =
+        m_ctx.follow(context_of_point, [&](context& from) { return std::make_unique<context>(from.last.data(), m_n); });
+    std::vector<unsigned char>& last = m_ctx.last().last;
     for (std::size_t i = 0; i < m_n; ++i) {
       if (m_layers[i].changes())
-        m_last->last[i] =
-            static_cast<unsigned char>((m_last->last[i] + m_layers[i].dec.symbol(models.models[i])) & 0xFFu);
-      out[i] = m_last->last[i];
+        last[i] = static_cast<unsigned char>((last[i] + m_layers[i].dec.symbol(models.models[i])) & 0xFFu);
+      out[i] = last[i];
     }
   }
 
@@ -444,11 +455,8 @@ class byte14_v3 {
   };
 
   std::size_t m_n;
-  bool m_stale_last;
   layer* m_layers;
-  unsigned m_current;
-  std::unique_ptr<context> m_ctx[4];
-  context* m_last;
+  channel_contexts<context> m_ctx;
 };
 
 /// Decodes records 1 to points - 1 of a layered chunk into out (record 0,
