@@ -117,9 +117,11 @@ same_outputs "COPC plan + tiles (by its index) + merge" "$T/copcp" copc_whole
 check "COPC tiles are read through the index" grep -q "through the file's COPC index" "$T/copc_err"
 check "COPC tiles decode part of the file" \
   test "$(grep -o '([0-9]* decoded' "$T/copc_err" | tr -d '( decoded' | sort -n | head -1)" -lt 1065
-expect_exit 1 "write .*lzw.las instead" "-o x.laz refused" -- detect "$laz" "${lazargs[@]}" --tile-size 250 \
-  -o "$T/lzw.laz"
-check "no .laz written" test ! -e "$T/lzw.laz"
+# LAZ out: the keypoint cloud as LAZ, whole and merged from tiles, the same bytes.
+"$CED" detect "$laz" "${lazargs[@]}" -o "$T/lzw.laz" -q
+"$CED" detect "$laz" "${lazargs[@]}" --tile-size 250 -o "$T/lzwt.laz" -q
+check "LAZ out: tiled as whole" cmp -s "$T/lzw.laz" "$T/lzwt.laz"
+check "LAZ out: the keypoints" sh -c "'$CED' info '$T/lzw.laz' | grep -q \"^$T/lzw.laz: $(wc -l < "$T/laz_whole.txt") points (LAZ 1.2\""
 
 # --- Any scheduler: plan, one tile at a time, merge ---
 "$CED" plan "$T/mid.las" --preset ced6d --tile-size 1 -o "$T/plan.json" -q

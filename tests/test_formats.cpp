@@ -80,7 +80,7 @@ TEST(Formats, ExtensionsAndRefusals) {
     }
     return std::string();
   };
-  EXPECT_EQ(ced::io::format_of("scan.laz"), ced::io::file_format::las);  // read by the LAS reader
+  EXPECT_EQ(ced::io::format_of("scan.laz"), ced::io::file_format::laz);  // read by the LAS reader
   EXPECT_EQ(message("scan.laz"), "");
   EXPECT_NE(message("scan.e57").find("convert"), std::string::npos);
   EXPECT_NE(message("scan.obj").find("unsupported"), std::string::npos);

@@ -308,7 +308,7 @@ void progress_bar::draw(double f) {
 CLI::Option* add_input_options(CLI::App* cmd, std::string& input, const std::string& what, std::string& format,
                                std::string& columns) {
   CLI::Option* in = cmd->add_option("input", input, what);
-  cmd->add_option("--format", format, "Input format when the extension does not say: ply, pcd, las, csv, auto");
+  cmd->add_option("--format", format, "Input format when the extension does not say: ply, pcd, las, laz, csv, auto");
   cmd->add_option("--columns", columns, "CSV column names, e.g. x,y,z,intensity (the file then has no header)");
   return in;
 }

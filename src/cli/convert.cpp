@@ -20,7 +20,7 @@ struct convert_options {
 
 int run_convert(const convert_options& o) {
   if (o.voxel < 0 || !std::isfinite(o.voxel)) throw usage_error("--voxel must be a positive size");
-  const auto fmt = ced::io::output_format_of(o.output);
+  const auto fmt = ced::io::format_of(o.output);
   // Refused rather than converted in place: ced never writes over what it reads.
   check_paths({{"the input", o.input}}, {{"the output", o.output}});
   ced::io::atomic_output_file out(o.output);
@@ -40,7 +40,7 @@ command add_convert_command(CLI::App& app) {
   auto o = std::make_shared<convert_options>();
   auto* conv = app.add_subcommand("convert", "Convert between formats (by extension), optionally voxel down-sampled");
   add_input_options(conv, o->input, "Input point cloud", o->format, o->columns)->required();
-  conv->add_option("output", o->output, "Output: .ply, .pcd, .las or .csv")->required();
+  conv->add_option("output", o->output, "Output: .ply, .pcd, .las, .laz or .csv")->required();
   conv->add_option("--voxel", o->voxel, "Voxel size for down-sampling (metres)");
   return {conv, [o] { return run_convert(*o); }};
 }

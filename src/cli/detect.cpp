@@ -152,7 +152,7 @@ detect_plan make_plan(const detect_options& o) {
   plan.modalities = chosen_modalities(o);
   plan.view = render_view(o);
   check_png_color(o, plan.modalities);
-  if (!o.output.empty()) plan.out_format = ced::io::output_format_of(o.output);
+  if (!o.output.empty()) plan.out_format = ced::io::format_of(o.output);
   if (!o.viewer.empty() && ced::io::format_of(o.viewer) != ced::io::file_format::ply)
     throw usage_error("--viewer writes PLY: give it a .ply file name");
   plan.read_opts = make_read_options(o.format, o.columns);
@@ -264,7 +264,7 @@ void add_detector_options(CLI::App* cmd, detect_options& o, const std::string& r
 command add_detect_command(CLI::App& app, std::function<int(const detect_options&)> run) {
   auto o = std::make_shared<detect_options>();
   auto* det = app.add_subcommand("detect", "Detect keypoints");
-  add_input_options(det, o->input, "Input cloud: .ply, .pcd, .las, .csv/.xyz/.txt/.pts", o->format, o->columns);
+  add_input_options(det, o->input, "Input cloud: .ply, .pcd, .las, .laz (COPC too), .csv/.xyz/.txt/.pts", o->format, o->columns);
   add_detector_options(
       det, *o,
       "Neighbourhood radius in metres, or auto = factor x resolution (default: 0.05 with --preset, else auto)");
@@ -276,7 +276,7 @@ command add_detect_command(CLI::App& app, std::function<int(const detect_options
       "--indices-original", o->indices_original,
       "Keypoint indices into the input file's points (after --voxel: the point nearest each voxel centroid)");
   det->add_option("-o,--output", o->output,
-                  "Keypoints with all fields + saliency_<modality>: .ply, .pcd, .las or .csv");
+                  "Keypoints with all fields + saliency_<modality>: .ply, .pcd, .las, .laz or .csv");
   det->add_option("--viewer", o->viewer, "Whole cloud as PLY, keypoints red, scalar_keypoint/scalar_saliency_* fields");
   det->add_option("--png", o->png, "Picture of the cloud with the keypoints as red discs");
   det->add_option("--view", o->view, "View for --png: top, front or iso (default iso)");

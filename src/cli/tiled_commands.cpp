@@ -386,7 +386,7 @@ command add_merge_command(CLI::App& app) {
   cmd->add_option("parts", *parts, "The parts (from `ced detect --plan --tile`), one per tile")->required();
   cmd->add_option("--indices", o->indices, "Keypoint indices into the input's finite points (0-based, ascending)");
   cmd->add_option("--indices-original", o->indices_original, "Keypoint indices into the input file's points");
-  cmd->add_option("-o,--output", o->output, "Keypoints with all fields + saliency_<modality>: .ply, .pcd, .las, .csv");
+  cmd->add_option("-o,--output", o->output, "Keypoints with all fields + saliency_<modality>: .ply, .pcd, .las, .laz, .csv");
   cmd->add_option("--summary", o->summary, "JSON summary");
   add_plugin_option(cmd, o->plugins);
   cmd->add_flag("-q,--quiet", o->quiet, "Print nothing on stderr");
@@ -394,7 +394,7 @@ command add_merge_command(CLI::App& app) {
             const auto t0 = clock_type::now();
             load_plugins(o->plugins);
             const ced::io::file_format format =
-                o->output.empty() ? ced::io::file_format::automatic : ced::io::output_format_of(o->output);
+                o->output.empty() ? ced::io::file_format::automatic : ced::io::format_of(o->output);
             const ced::tile_plan p = ced::tile_plan::load(*plan_path);
             std::vector<ced::io::named_path> inputs{{"the plan", *plan_path}, {"the plan's input", p.request.input}};
             for (const auto& part : *parts) inputs.push_back({"part", part});

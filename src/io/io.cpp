@@ -15,8 +15,9 @@ file_format parse_format(const std::string& name) {
   if (name == "ply") return file_format::ply;
   if (name == "pcd") return file_format::pcd;
   if (name == "las") return file_format::las;
+  if (name == "laz") return file_format::laz;
   if (name == "csv" || name == "xyz" || name == "txt" || name == "pts") return file_format::csv;
-  throw std::invalid_argument("unknown format '" + name + "' (known: ply, pcd, las, csv, auto)");
+  throw std::invalid_argument("unknown format '" + name + "' (known: ply, pcd, las, laz, csv, auto)");
 }
 
 std::string format_name(file_format f) {
@@ -31,6 +32,8 @@ std::string format_name(file_format f) {
       return "las";
     case file_format::csv:
       return "csv";
+    case file_format::laz:
+      return "laz";
   }
   return "?";
 }
@@ -40,7 +43,6 @@ file_format format_of(const std::string& path) {
   const auto dot = path.find_last_of('.');
   const std::string ext = ced::detail::to_lower(
       dot == std::string::npos || (slash != std::string::npos && dot < slash) ? "" : path.substr(dot + 1));
-  if (ext == "laz") return file_format::las;  // the LAS reader decodes LAZ (laz.hpp)
   if (ext == "e57")
     throw io_error(path + ": E57 is not supported; convert it first, e.g. `pdal translate " + path +
                    " out.las` or with CloudCompare to PLY");
@@ -48,25 +50,9 @@ file_format format_of(const std::string& path) {
   try {
     return parse_format(ext);
   } catch (const std::invalid_argument&) {
-    throw io_error(path + ": unsupported file type '." + ext + "' (ced reads .ply, .pcd, .las, .csv/.xyz/.txt/.pts)");
+    throw io_error(path + ": unsupported file type '." + ext +
+                   "' (ced reads .ply, .pcd, .las, .laz, .csv/.xyz/.txt/.pts)");
   }
-}
-
-namespace {
-/// io_error for an output path ending in .laz.
-void refuse_laz(const std::string& path) {
-  const auto slash = path.find_last_of("/\\");
-  const auto dot = path.find_last_of('.');
-  if (dot != std::string::npos && (slash == std::string::npos || dot > slash) &&
-      ced::detail::to_lower(path.substr(dot + 1)) == "laz")
-    throw io_error(path + ": writing LAZ is not supported (ced reads LAZ but writes uncompressed LAS); write " +
-                   path.substr(0, dot) + ".las instead");
-}
-}  // namespace
-
-file_format output_format_of(const std::string& path) {
-  refuse_laz(path);
-  return format_of(path);
 }
 
 namespace {
@@ -88,7 +74,8 @@ point_cloud read_cloud_here(const std::string& path, const read_options& options
       r.details = detail::pcd_details(info);
       break;
     }
-    case file_format::las: {
+    case file_format::las:
+    case file_format::laz: {
       las_read_info info;
       c = read_las(path, &info, options.fields);
       r.details = detail::las_details(info);
@@ -125,6 +112,9 @@ void write_cloud(std::ostream& out, const point_cloud& cloud, file_format format
     case file_format::las:
       write_las(out, cloud);
       return;
+    case file_format::laz:
+      detail::write_laz(out, cloud);
+      return;
     case file_format::csv:
       write_csv(out, cloud);
       return;
@@ -135,7 +125,6 @@ void write_cloud(std::ostream& out, const point_cloud& cloud, file_format format
 }
 
 void write_cloud(const std::string& path, const point_cloud& cloud, file_format format) {
-  refuse_laz(path);
   const file_format f = format == file_format::automatic ? format_of(path) : format;
   atomic_output_file out(path);
   try {
@@ -161,6 +150,11 @@ cloud_writer::cloud_writer(std::ostream& out, const point_cloud& layout, std::ui
       if (m_start == std::streampos(-1))
         throw std::invalid_argument("cloud_writer: LAS in pieces needs a seekable output (a file)");
       m_pieces = detail::las_pieces(out, m_layout, points);
+      break;
+    case file_format::laz:
+      if (m_start == std::streampos(-1))
+        throw std::invalid_argument("cloud_writer: LAZ in pieces needs a seekable output (a file)");
+      m_pieces = detail::laz_pieces(out, m_layout, points);
       break;
     case file_format::csv:
       m_pieces = detail::csv_pieces(out, m_layout, points);
@@ -189,6 +183,7 @@ void cloud_writer::finish() {
   if (m_written != m_points)
     throw io_error("cloud_writer: " + std::to_string(m_written) + " points written of the " + std::to_string(m_points) +
                    " announced");
+  m_pieces->finish(m_out);
   const std::string header = m_pieces->final_header();
   if (!header.empty()) {
     const std::streampos end = m_out.tellp();

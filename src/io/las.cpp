@@ -1093,11 +1093,72 @@ void write_las(const std::string& path, const point_cloud& cloud, const las_writ
 
 namespace detail {
 namespace {
+/// The items LAZ compresses point format `format` (0-3) with, for records
+/// of `record_length` bytes (the format's and extra bytes).
+laz_layout pointwise_layout(int format, std::size_t record_length, std::uint32_t chunk_size) {
+  laz_layout layout;
+  layout.compressor = 2;
+  layout.chunk_size = chunk_size;
+  layout.record_length = record_length;
+  layout.items.push_back({laz_item::point10, 20, 2});
+  if (format == 1 || format == 3) layout.items.push_back({laz_item::gpstime11, 8, 2});
+  if (format >= 2) layout.items.push_back({laz_item::rgb12, 6, 2});
+  const std::size_t standard = k_formats[format].min_size;
+  if (record_length > standard)
+    layout.items.push_back({laz_item::byte, static_cast<std::uint16_t>(record_length - standard), 2});
+  return layout;
+}
+
+/// The head of a LAZ file (up to its point data) from a LAS file's head (up
+/// to its point data): the LASzip VLR after the VLRs (before any bytes
+/// between them and the points), the format byte's compression bit, the
+/// point data's offset and the VLR count.
+std::string laz_head(std::string_view las_head, const laz_layout& layout) {
+  const auto* d = reinterpret_cast<const unsigned char*>(las_head.data());
+  const std::uint32_t n_vlrs = load_le<std::uint32_t>(d + 100);
+  std::size_t vlr_end = load_le<std::uint16_t>(d + 94);
+  for (std::uint32_t i = 0; i < n_vlrs; ++i) vlr_end += k_vlr_header_size + load_le<std::uint16_t>(d + vlr_end + 20);
+  std::string vlr(k_vlr_header_size + 34 + 6 * layout.items.size(), '\0');
+  auto* v = reinterpret_cast<unsigned char*>(vlr.data());
+  store_le<std::uint16_t>(v, 0xAABB);
+  std::memcpy(v + 2, "laszip encoded", 14);
+  store_le<std::uint16_t>(v + 18, 22204);
+  store_le<std::uint16_t>(v + 20, static_cast<std::uint16_t>(vlr.size() - k_vlr_header_size));
+  std::memcpy(v + 22, "ced LAZ writer", 14);
+  unsigned char* p = v + k_vlr_header_size;
+  store_le<std::uint16_t>(p, static_cast<std::uint16_t>(layout.compressor));
+  p[4] = 2;  // the LASzip version the items are of: 2.2.0
+  p[5] = 2;
+  store_le<std::uint32_t>(p + 12, layout.chunk_size);
+  store_le<std::int64_t>(p + 16, -1);  // no special EVLRs
+  store_le<std::int64_t>(p + 24, -1);
+  store_le<std::uint16_t>(p + 32, static_cast<std::uint16_t>(layout.items.size()));
+  for (std::size_t i = 0; i < layout.items.size(); ++i) {
+    store_le<std::uint16_t>(p + 34 + 6 * i, layout.items[i].type);
+    store_le<std::uint16_t>(p + 36 + 6 * i, layout.items[i].size);
+    store_le<std::uint16_t>(p + 38 + 6 * i, layout.items[i].version);
+  }
+  std::string out(las_head.substr(0, vlr_end));
+  out += vlr;
+  out += las_head.substr(vlr_end);
+  auto* o = reinterpret_cast<unsigned char*>(out.data());
+  store_le<std::uint32_t>(o + 96, static_cast<std::uint32_t>(out.size()));
+  store_le<std::uint32_t>(o + 100, n_vlrs + 1);
+  o[104] = static_cast<unsigned char>(d[104] | 0x80);
+  return out;
+}
+
+void append_i64(std::string& s, std::int64_t v) {
+  s.append(8, '\0');
+  store_le<std::int64_t>(reinterpret_cast<unsigned char*>(s.data()) + s.size() - 8, v);
+}
+
 /// LAS in pieces: a header of the right size first, rewritten with the
 /// bounds and counts of all the points once they are written.
 class las_piece_writer final : public piece_writer {
  public:
-  las_piece_writer(std::ostream& out, const point_cloud& layout, std::uint64_t n) : m_layout(layout) {
+  las_piece_writer(std::ostream& out, const point_cloud& layout, std::uint64_t n, const las_write_options& options = {})
+      : m_layout(layout), m_opt(options) {
     check_writable(m_layout, m_opt, n);
     const std::string header = make_header(m_layout, m_opt, plan_records(m_layout, m_opt.version_minor), m_stats);
     out.write(header.data(), static_cast<std::streamsize>(header.size()));
@@ -1117,10 +1178,73 @@ class las_piece_writer final : public piece_writer {
   las_write_options m_opt;
   las_stats m_stats;
 };
+/// LAZ in pieces: the LAS 1.2 records of a las_piece_writer, coded in chunks
+/// of 50,000 points as they fill, the last chunk and the chunk table at the
+/// end, then the header again with its bounds and the table's offset: the
+/// bytes write_laz() writes for the whole cloud.
+class laz_piece_writer final : public piece_writer {
+ public:
+  laz_piece_writer(std::ostream& out, const point_cloud& layout, std::uint64_t n) {
+    las_write_options o;
+    o.version_minor = 2;
+    std::ostringstream head;
+    m_las = std::make_unique<las_piece_writer>(head, layout, n, o);
+    const std::string las_head = head.str();
+    const auto* d = reinterpret_cast<const unsigned char*>(las_head.data());
+    m_layout = pointwise_layout(d[104], load_le<std::uint16_t>(d + 105), k_chunk_points);
+    const std::string h = laz_head(las_head, m_layout);
+    m_head_size = h.size();
+    out.write(h.data(), static_cast<std::streamsize>(h.size()));
+    out.write("\0\0\0\0\0\0\0\0", 8);  // the chunk table's offset, known at the end
+  }
+  void write(std::ostream& out, const point_cloud& chunk) override {
+    std::ostringstream records;
+    m_las->write(records, chunk);
+    m_pending += records.str();
+    const std::size_t full = std::size_t(k_chunk_points) * m_layout.record_length;
+    std::size_t at = 0;
+    for (; m_pending.size() - at >= full; at += full) code(out, m_pending.data() + at, k_chunk_points);
+    m_pending.erase(0, at);
+  }
+  void finish(std::ostream& out) override {
+    if (!m_pending.empty())
+      code(out, m_pending.data(), static_cast<std::uint32_t>(m_pending.size() / m_layout.record_length));
+    m_pending.clear();
+    const std::string table = encode_chunk_table(m_points, m_bytes, false);
+    out.write(table.data(), static_cast<std::streamsize>(table.size()));
+  }
+  std::string final_header() override {
+    std::string h = laz_head(m_las->final_header(), m_layout);
+    std::uint64_t table = m_head_size + 8;
+    for (std::uint32_t b : m_bytes) table += b;
+    append_i64(h, std::int64_t(table));
+    return h;
+  }
+
+ private:
+  static constexpr std::uint32_t k_chunk_points = 50000;
+  void code(std::ostream& out, const char* records, std::uint32_t points) {
+    std::string c;
+    encode_laz_chunk(m_layout, reinterpret_cast<const unsigned char*>(records), points, c);
+    out.write(c.data(), static_cast<std::streamsize>(c.size()));
+    m_points.push_back(points);
+    m_bytes.push_back(static_cast<std::uint32_t>(c.size()));
+  }
+
+  std::unique_ptr<las_piece_writer> m_las;
+  laz_layout m_layout;
+  std::size_t m_head_size = 0;
+  std::string m_pending;  ///< records of the chunk being filled
+  std::vector<std::uint32_t> m_points, m_bytes;
+};
 }  // namespace
 
 std::unique_ptr<piece_writer> las_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n) {
   return std::make_unique<las_piece_writer>(out, layout, n);
+}
+
+std::unique_ptr<piece_writer> laz_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n) {
+  return std::make_unique<laz_piece_writer>(out, layout, n);
 }
 
 std::string las_point_records(std::string_view bytes, const std::string& name) {
@@ -1146,18 +1270,8 @@ std::string laz_from_las(std::string_view las, const std::string& name, std::uin
     throw std::invalid_argument(name + ": extended VLRs are not carried into LAZ");
   const bool variable = !chunk_points.empty();
   if (!variable && chunk_size == 0) throw std::invalid_argument("laz_from_las: a chunk size of 0");
-  // The items of the format, then its extra bytes.
-  laz_layout layout;
-  layout.compressor = 2;
-  layout.chunk_size = variable ? 0xFFFFFFFFu : chunk_size;
-  layout.record_length = h.record_length;
-  layout.items.push_back({laz_item::point10, 20, 2});
-  if (h.format == 1 || h.format == 3) layout.items.push_back({laz_item::gpstime11, 8, 2});
-  if (h.format >= 2) layout.items.push_back({laz_item::rgb12, 6, 2});
-  const std::size_t standard = h.layout->min_size;
-  if (h.record_length > standard)
-    layout.items.push_back({laz_item::byte, static_cast<std::uint16_t>(h.record_length - standard), 2});
-  // The chunks' points, their first records, and their bytes coded in parallel.
+  const laz_layout layout = pointwise_layout(h.format, h.record_length, variable ? 0xFFFFFFFFu : chunk_size);
+  // The chunks' points, and their bytes coded in parallel.
   std::vector<std::uint32_t> points = chunk_points;
   if (!variable)
     for (std::uint64_t left = h.count; left > 0; left -= points.back())
@@ -1173,43 +1287,22 @@ std::string laz_from_las(std::string_view las, const std::string& name, std::uin
   });
   std::vector<std::uint32_t> bytes;
   for (const std::string& c : coded) bytes.push_back(static_cast<std::uint32_t>(c.size()));
-  // The LASzip VLR: after the last VLR, before any bytes between the VLRs and the points.
-  std::size_t vlr_end = h.header_size;
-  for (std::uint32_t i = 0; i < h.n_vlrs; ++i) vlr_end += k_vlr_header_size + load_le<std::uint16_t>(d + vlr_end + 20);
-  std::string vlr(k_vlr_header_size + 34 + 6 * layout.items.size(), '\0');
-  auto* v = reinterpret_cast<unsigned char*>(vlr.data());
-  store_le<std::uint16_t>(v, 0xAABB);
-  std::memcpy(v + 2, "laszip encoded", 14);
-  store_le<std::uint16_t>(v + 18, 22204);
-  store_le<std::uint16_t>(v + 20, static_cast<std::uint16_t>(vlr.size() - k_vlr_header_size));
-  std::memcpy(v + 22, "ced LAZ writer", 14);
-  unsigned char* p = v + k_vlr_header_size;
-  store_le<std::uint16_t>(p, 2);  // pointwise chunked
-  p[4] = 2;                       // the LASzip version the items are of: 2.2.0
-  p[5] = 2;
-  store_le<std::uint32_t>(p + 12, layout.chunk_size);
-  store_le<std::int64_t>(p + 16, -1);  // no special EVLRs
-  store_le<std::int64_t>(p + 24, -1);
-  store_le<std::uint16_t>(p + 32, static_cast<std::uint16_t>(layout.items.size()));
-  for (std::size_t i = 0; i < layout.items.size(); ++i) {
-    store_le<std::uint16_t>(p + 34 + 6 * i, layout.items[i].type);
-    store_le<std::uint16_t>(p + 36 + 6 * i, layout.items[i].size);
-    store_le<std::uint16_t>(p + 38 + 6 * i, layout.items[i].version);
-  }
-  std::string out(las.substr(0, vlr_end));
-  out += vlr;
-  out += las.substr(vlr_end, h.point_offset - vlr_end);
-  auto* o = reinterpret_cast<unsigned char*>(out.data());
-  store_le<std::uint32_t>(o + 96, static_cast<std::uint32_t>(out.size()));
-  store_le<std::uint32_t>(o + 100, h.n_vlrs + 1);
-  o[104] = static_cast<unsigned char>(h.format | 0x80);
+  std::string out = laz_head(las.substr(0, h.point_offset), layout);
   std::uint64_t table = out.size() + 8;
   for (const std::string& c : coded) table += c.size();
-  out.append(8, '\0');
-  store_le<std::int64_t>(reinterpret_cast<unsigned char*>(out.data()) + out.size() - 8, std::int64_t(table));
+  append_i64(out, std::int64_t(table));
   for (const std::string& c : coded) out += c;
   out += encode_chunk_table(points, bytes, variable);
   return out;
+}
+
+void write_laz(std::ostream& out, const point_cloud& cloud) {
+  std::ostringstream las;
+  las_write_options o;
+  o.version_minor = 2;
+  write_las(las, cloud, o);
+  const std::string laz = laz_from_las(las.str(), "the LAS records of the output");
+  out.write(laz.data(), static_cast<std::streamsize>(laz.size()));
 }
 
 std::string las_details(const las_read_info& info) {

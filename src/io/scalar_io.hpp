@@ -147,6 +147,9 @@ class piece_writer {
  public:
   virtual ~piece_writer() = default;
   virtual void write(std::ostream& out, const point_cloud& chunk) = 0;
+  /// After the last chunk: what follows the points (LAZ: the last chunk
+  /// and the chunk table).
+  virtual void finish(std::ostream& out) { (void)out; }
   /// The header again, when what it says is known only at the end (LAS: the
   /// bounds and counts by return); empty when the first was final.
   virtual std::string final_header() { return {}; }
@@ -154,6 +157,9 @@ class piece_writer {
 std::unique_ptr<piece_writer> ply_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n);
 std::unique_ptr<piece_writer> pcd_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n);
 std::unique_ptr<piece_writer> las_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n);
+std::unique_ptr<piece_writer> laz_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n);
+/// `cloud` as LAZ: LAS 1.2 (point formats 0-3), compressed (laz.hpp).
+void write_laz(std::ostream& out, const point_cloud& cloud);
 std::unique_ptr<piece_writer> csv_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n);
 
 // The text helpers of core, for the readers.

@@ -299,3 +299,13 @@ def test_laz_reads_as_its_las_twin():
     assert list(laz.fields) == list(las.fields)
     for name, values in las.fields.items():
         np.testing.assert_array_equal(np.asarray(laz.fields[name]), np.asarray(values), err_msg=name)
+
+
+def test_laz_written_reads_back(tmp_path):
+    """ced.write to .laz compresses (LAS 1.2 in LAZ); it reads back as the cloud."""
+    las = ced.read(str(DATA / "simple.las"))
+    ced.write(str(tmp_path / "out.laz"), las)
+    back = ced.read(str(tmp_path / "out.laz"))
+    np.testing.assert_array_equal(np.asarray(back.absolute_points()), np.asarray(las.absolute_points()))
+    for name, values in las.fields.items():
+        np.testing.assert_array_equal(np.asarray(back.fields[name]), np.asarray(values), err_msg=name)

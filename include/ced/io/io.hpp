@@ -18,20 +18,19 @@
 
 namespace ced::io {
 
-enum class file_format { automatic, ply, pcd, las, csv };
+/// laz: LAZ (compressed LAS). Read by the LAS reader, which decodes it;
+/// written as LAS 1.2 (point formats 0-3, other fields as extra bytes),
+/// compressed in chunks of 50,000 points.
+enum class file_format { automatic, ply, pcd, las, csv, laz };
 
-/// "ply", "pcd", "las", "csv" (also "xyz", "txt", "pts"), or "auto";
+/// "ply", "pcd", "las", "laz", "csv" (also "xyz", "txt", "pts"), or "auto";
 /// throws std::invalid_argument otherwise.
 file_format parse_format(const std::string& name);
 std::string format_name(file_format f);
 
-/// The format a path's extension names (.laz is LAS: the LAS reader decodes
-/// LAZ). Throws io_error for .e57 (with how to convert it) and for unknown
-/// extensions.
+/// The format a path's extension names. Throws io_error for .e57 (with how
+/// to convert it) and for unknown extensions.
 file_format format_of(const std::string& path);
-/// The format to write `path` in: as format_of(), but io_error for .laz
-/// (ced reads LAZ but does not write it; the message suggests .las).
-file_format output_format_of(const std::string& path);
 
 struct read_options {
   file_format format = file_format::automatic;
