@@ -264,7 +264,8 @@ void add_detector_options(CLI::App* cmd, detect_options& o, const std::string& r
 command add_detect_command(CLI::App& app, std::function<int(const detect_options&)> run) {
   auto o = std::make_shared<detect_options>();
   auto* det = app.add_subcommand("detect", "Detect keypoints");
-  add_input_options(det, o->input, "Input cloud: .ply, .pcd, .las, .laz (COPC too), .csv/.xyz/.txt/.pts", o->format, o->columns);
+  add_input_options(det, o->input, "Input cloud: .ply, .pcd, .las, .laz (COPC too), .csv/.xyz/.txt/.pts", o->format,
+                    o->columns);
   add_detector_options(
       det, *o,
       "Neighbourhood radius in metres, or auto = factor x resolution (default: 0.05 with --preset, else auto)");
