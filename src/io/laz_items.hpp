@@ -210,189 +210,204 @@ class point10_v2 {
   std::int32_t m_height[8] = {};
 };
 
+/// GPS times as up to four interleaved sequences (flight lines, scanners),
+/// each with its last time and integer difference, multiples of which are
+/// predicted. gpstime11 v2 and point14 v3 code them alike.
+struct gps_sequences {
+  static constexpr std::int32_t multi_max = 500, multi_minus = -10;
+  unsigned last = 0, next = 0;
+  std::int64_t time[4] = {0, 0, 0, 0};
+  std::int32_t diff[4] = {0, 0, 0, 0};
+  std::int32_t extreme[4] = {0, 0, 0, 0};
+  integer_coder ic{32, 9};
+
+  /// A difference far from the prediction: after more than three in a row
+  /// it becomes the sequence's difference.
+  void far_diff(std::int32_t d) noexcept {
+    if (++extreme[last] > 3) {
+      diff[last] = d;
+      extreme[last] = 0;
+    }
+  }
+  /// Adds to the sequence's time the difference coded under multiplier
+  /// symbol `multi`: 0 (none), 2 to multi_max (that many times the last
+  /// difference) or past it (minus multi - multi_max times, at most
+  /// -multi_minus). Symbol 1 (the last difference itself) is the caller's.
+  void add_multiple(decoder& d, std::uint32_t multi) {
+    std::int32_t got;
+    if (multi == 0) {
+      got = ic.decode(d, 0, 7);
+      far_diff(got);
+    } else if (multi < std::uint32_t(multi_max)) {
+      got = ic.decode(d, wrap_mul(std::int32_t(multi), diff[last]), multi < 10 ? 2 : 3);
+    } else if (multi == std::uint32_t(multi_max)) {
+      got = ic.decode(d, wrap_mul(multi_max, diff[last]), 4);
+      far_diff(got);
+    } else {
+      const std::int32_t back = multi_max - std::int32_t(multi);
+      if (back > multi_minus) {
+        got = ic.decode(d, wrap_mul(back, diff[last]), 5);
+      } else {
+        got = ic.decode(d, wrap_mul(multi_minus, diff[last]), 6);
+        far_diff(got);
+      }
+    }
+    time[last] = wrap_add64(time[last], got);
+  }
+  /// A new sequence, its time coded whole: the high 32 bits predicted from
+  /// the current sequence's, the low 32 bits raw.
+  void decode_full(decoder& d) {
+    next = (next + 1) & 3;
+    const auto high = static_cast<std::uint32_t>(
+        ic.decode(d, static_cast<std::int32_t>(static_cast<std::uint64_t>(time[last]) >> 32), 8));
+    time[next] = static_cast<std::int64_t>((std::uint64_t(high) << 32) | d.u32());
+    last = next;
+    diff[last] = 0;
+    extreme[last] = 0;
+  }
+  void encode_full(encoder& e, std::int64_t t) {
+    ic.encode(e, static_cast<std::int32_t>(static_cast<std::uint64_t>(time[last]) >> 32),
+              static_cast<std::int32_t>(static_cast<std::uint64_t>(t) >> 32), 8);
+    e.u32(static_cast<std::uint32_t>(t));
+    next = (next + 1) & 3;
+    last = next;
+    diff[last] = 0;
+    extreme[last] = 0;
+    time[last] = t;
+  }
+};
+
 /// gpstime11 v2: a double's bits, coded as integer differences in up to four
 /// interleaved sequences (several flight lines or scanners), with multiples
 /// of the last difference predicted.
 class gpstime11_v2 {
  public:
-  explicit gpstime11_v2(const unsigned char* first) { m_time[0] = load_le<std::int64_t>(first); }
+  explicit gpstime11_v2(const unsigned char* first) { m_seq.time[0] = load_le<std::int64_t>(first); }
 
   void decode(decoder& d, unsigned char* out) {
-    constexpr std::int32_t multi_max = 500, multi_minus = -10;
+    constexpr std::int32_t multi_max = gps_sequences::multi_max, multi_minus = gps_sequences::multi_minus;
     constexpr std::uint32_t unchanged = multi_max - multi_minus + 1, code_full = unchanged + 1;
     // A switch to another sequence is followed by the value in it; more than
     // a few switches in a row do not occur in a valid stream.
     for (int switches = 0;; ++switches) {
       if (switches > 4) throw corrupt("gpstime: too many sequence switches");
-      if (m_diff[m_last] == 0) {
+      if (m_seq.diff[m_seq.last] == 0) {
         const std::uint32_t multi = d.symbol(m_zero_diff);
         if (multi == 0) break;  // the same time
         if (multi == 1) {
-          m_diff[m_last] = m_ic.decode(d, 0, 0);
-          m_time[m_last] = wrap_add64(m_time[m_last], m_diff[m_last]);
-          m_extreme[m_last] = 0;
+          m_seq.diff[m_seq.last] = m_seq.ic.decode(d, 0, 0);
+          m_seq.time[m_seq.last] = wrap_add64(m_seq.time[m_seq.last], m_seq.diff[m_seq.last]);
+          m_seq.extreme[m_seq.last] = 0;
           break;
         }
         if (multi == 2) {
-          full(d);
+          m_seq.decode_full(d);
           break;
         }
-        m_last = (m_last + multi - 2) & 3;
+        m_seq.last = (m_seq.last + multi - 2) & 3;
         continue;
       }
       const std::uint32_t multi = d.symbol(m_multi);
       if (multi == 1) {
-        m_time[m_last] = wrap_add64(m_time[m_last], m_ic.decode(d, m_diff[m_last], 1));
-        m_extreme[m_last] = 0;
+        m_seq.time[m_seq.last] = wrap_add64(m_seq.time[m_seq.last], m_seq.ic.decode(d, m_seq.diff[m_seq.last], 1));
+        m_seq.extreme[m_seq.last] = 0;
         break;
       }
       if (multi < unchanged) {
-        std::int32_t diff;
-        if (multi == 0) {
-          diff = m_ic.decode(d, 0, 7);
-          extreme(diff);
-        } else if (multi < std::uint32_t(multi_max)) {
-          diff = m_ic.decode(d, wrap_mul(std::int32_t(multi), m_diff[m_last]), multi < 10 ? 2 : 3);
-        } else if (multi == std::uint32_t(multi_max)) {
-          diff = m_ic.decode(d, wrap_mul(multi_max, m_diff[m_last]), 4);
-          extreme(diff);
-        } else {
-          const std::int32_t back = multi_max - std::int32_t(multi);
-          if (back > multi_minus) {
-            diff = m_ic.decode(d, wrap_mul(back, m_diff[m_last]), 5);
-          } else {
-            diff = m_ic.decode(d, wrap_mul(multi_minus, m_diff[m_last]), 6);
-            extreme(diff);
-          }
-        }
-        m_time[m_last] = wrap_add64(m_time[m_last], diff);
+        m_seq.add_multiple(d, multi);
         break;
       }
       if (multi == unchanged) break;
       if (multi == code_full) {
-        full(d);
+        m_seq.decode_full(d);
         break;
       }
-      m_last = (m_last + multi - code_full) & 3;
+      m_seq.last = (m_seq.last + multi - code_full) & 3;
     }
-    store_le<std::int64_t>(out, m_time[m_last]);
+    store_le<std::int64_t>(out, m_seq.time[m_seq.last]);
   }
 
   void encode(encoder& e, const unsigned char* item) {
-    constexpr std::int32_t multi_max = 500, multi_minus = -10;
+    constexpr std::int32_t multi_max = gps_sequences::multi_max, multi_minus = gps_sequences::multi_minus;
     constexpr std::uint32_t unchanged = multi_max - multi_minus + 1, code_full = unchanged + 1;
     const auto t = load_le<std::int64_t>(item);
     const auto diff_to = [&](unsigned seq, std::int32_t& d) {
       const auto d64 =
-          static_cast<std::int64_t>(static_cast<std::uint64_t>(t) - static_cast<std::uint64_t>(m_time[seq]));
+          static_cast<std::int64_t>(static_cast<std::uint64_t>(t) - static_cast<std::uint64_t>(m_seq.time[seq]));
       d = static_cast<std::int32_t>(d64);
       return d64 == std::int64_t(d);
     };
     const auto other_sequence = [&]() -> unsigned {
       std::int32_t d;
       for (unsigned i = 1; i < 4; ++i)
-        if (diff_to((m_last + i) & 3, d)) return i;
+        if (diff_to((m_seq.last + i) & 3, d)) return i;
       return 0;
     };
     for (;;) {
       std::int32_t d;
-      const bool small = diff_to(m_last, d);
-      if (m_diff[m_last] == 0) {
-        if (t == m_time[m_last]) return e.symbol(m_zero_diff, 0);
+      const bool small = diff_to(m_seq.last, d);
+      if (m_seq.diff[m_seq.last] == 0) {
+        if (t == m_seq.time[m_seq.last]) return e.symbol(m_zero_diff, 0);
         if (small) {
           e.symbol(m_zero_diff, 1);
-          m_ic.encode(e, 0, d, 0);
-          m_diff[m_last] = d;
-          m_extreme[m_last] = 0;
-          m_time[m_last] = t;
+          m_seq.ic.encode(e, 0, d, 0);
+          m_seq.diff[m_seq.last] = d;
+          m_seq.extreme[m_seq.last] = 0;
+          m_seq.time[m_seq.last] = t;
           return;
         }
         if (const unsigned i = other_sequence()) {
           e.symbol(m_zero_diff, i + 2);
-          m_last = (m_last + i) & 3;
+          m_seq.last = (m_seq.last + i) & 3;
           continue;
         }
         e.symbol(m_zero_diff, 2);
-        return full_encode(e, t);
+        return m_seq.encode_full(e, t);
       }
-      if (t == m_time[m_last]) return e.symbol(m_multi, unchanged);
+      if (t == m_seq.time[m_seq.last]) return e.symbol(m_multi, unchanged);
       if (!small) {
         if (const unsigned i = other_sequence()) {
           e.symbol(m_multi, code_full + i);
-          m_last = (m_last + i) & 3;
+          m_seq.last = (m_seq.last + i) & 3;
           continue;
         }
         e.symbol(m_multi, code_full);
-        return full_encode(e, t);
+        return m_seq.encode_full(e, t);
       }
-      const std::int32_t last = m_diff[m_last];
+      const std::int32_t last = m_seq.diff[m_seq.last];
       const double ratio = std::clamp(double(d) / double(last), -1e6, 1e6);
       const auto multi = static_cast<std::int32_t>(ratio >= 0 ? ratio + 0.5 : ratio - 0.5);
       if (multi == 1) {
         e.symbol(m_multi, 1);
-        m_ic.encode(e, last, d, 1);
-        m_extreme[m_last] = 0;
+        m_seq.ic.encode(e, last, d, 1);
+        m_seq.extreme[m_seq.last] = 0;
       } else if (multi > 0 && multi < multi_max) {
         e.symbol(m_multi, std::uint32_t(multi));
-        m_ic.encode(e, wrap_mul(multi, last), d, multi < 10 ? 2 : 3);
+        m_seq.ic.encode(e, wrap_mul(multi, last), d, multi < 10 ? 2 : 3);
       } else if (multi >= multi_max) {
         e.symbol(m_multi, std::uint32_t(multi_max));
-        m_ic.encode(e, wrap_mul(multi_max, last), d, 4);
-        extreme(d);
+        m_seq.ic.encode(e, wrap_mul(multi_max, last), d, 4);
+        m_seq.far_diff(d);
       } else if (multi < 0 && multi > multi_minus) {
         e.symbol(m_multi, std::uint32_t(multi_max - multi));
-        m_ic.encode(e, wrap_mul(multi, last), d, 5);
+        m_seq.ic.encode(e, wrap_mul(multi, last), d, 5);
       } else if (multi < 0) {
         e.symbol(m_multi, std::uint32_t(multi_max - multi_minus));
-        m_ic.encode(e, wrap_mul(multi_minus, last), d, 6);
-        extreme(d);
+        m_seq.ic.encode(e, wrap_mul(multi_minus, last), d, 6);
+        m_seq.far_diff(d);
       } else {
         e.symbol(m_multi, 0);
-        m_ic.encode(e, 0, d, 7);
-        extreme(d);
+        m_seq.ic.encode(e, 0, d, 7);
+        m_seq.far_diff(d);
       }
-      m_time[m_last] = t;
+      m_seq.time[m_seq.last] = t;
       return;
     }
   }
 
  private:
-  void full_encode(encoder& e, std::int64_t t) {
-    m_ic.encode(e, static_cast<std::int32_t>(static_cast<std::uint64_t>(m_time[m_last]) >> 32),
-                static_cast<std::int32_t>(static_cast<std::uint64_t>(t) >> 32), 8);
-    e.u32(static_cast<std::uint32_t>(t));
-    m_next = (m_next + 1) & 3;
-    m_last = m_next;
-    m_diff[m_last] = 0;
-    m_extreme[m_last] = 0;
-    m_time[m_last] = t;
-  }
-  /// A difference far from the prediction: after more than three in a row
-  /// it becomes the sequence's difference.
-  void extreme(std::int32_t diff) noexcept {
-    if (++m_extreme[m_last] > 3) {
-      m_diff[m_last] = diff;
-      m_extreme[m_last] = 0;
-    }
-  }
-  /// A new sequence, its time coded whole: the high 32 bits predicted from
-  /// the current sequence's, the low 32 bits raw.
-  void full(decoder& d) {
-    m_next = (m_next + 1) & 3;
-    const auto high = static_cast<std::uint32_t>(
-        m_ic.decode(d, static_cast<std::int32_t>(static_cast<std::uint64_t>(m_time[m_last]) >> 32), 8));
-    m_time[m_next] = static_cast<std::int64_t>((std::uint64_t(high) << 32) | d.u32());
-    m_last = m_next;
-    m_diff[m_last] = 0;
-    m_extreme[m_last] = 0;
-  }
-
-  unsigned m_last = 0, m_next = 0;
-  std::int64_t m_time[4] = {0, 0, 0, 0};
-  std::int32_t m_diff[4] = {0, 0, 0, 0};
-  std::int32_t m_extreme[4] = {0, 0, 0, 0};
+  gps_sequences m_seq;
   symbol_model m_multi{516}, m_zero_diff{6};
-  integer_coder m_ic{32, 9};
 };
 
 /// rgb12 v2: three 16-bit colours, each byte coded when it changed, green

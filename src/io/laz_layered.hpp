@@ -146,7 +146,7 @@ class point14_v3 {
       last.gps_changed = false;
       for (auto& v : last_z) v = from.z;
       for (auto& v : last_intensity) v = from.intensity;
-      time[0] = from.gps;
+      gps.time[0] = from.gps;
     }
     point14_fields last;
     symbol_model changed[8] = {symbol_model(128), symbol_model(128), symbol_model(128), symbol_model(128),
@@ -159,12 +159,9 @@ class point14_v3 {
     lazy_models<64> class_of{256}, flags_of{64}, user_of{256};
     integer_coder ic_intensity{16, 4}, ic_angle{16, 2}, ic_source{16, 1};
     std::uint16_t last_intensity[8];
-    // GPS time: up to four sequences, as gpstime11 but for the unchanged case.
-    unsigned seq = 0, next = 0;
-    std::int64_t time[4] = {0, 0, 0, 0};
-    std::int32_t diff[4] = {0, 0, 0, 0}, extreme[4] = {0, 0, 0, 0};
+    // GPS time: the sequences of gpstime11, coded only when the time changed.
+    gps_sequences gps;
     symbol_model multi{515}, zero_diff{5};
-    integer_coder ic_gps{32, 9};
   };
 
   void decode_fields(context& c, std::uint32_t changed) {
@@ -241,77 +238,47 @@ class point14_v3 {
       p.source = static_cast<std::uint16_t>(c.ic_source.decode(m_layers[source].dec, p.source, 0));
     if (m_layers[gps].changes() && gps_changed) {
       decode_gps(c, m_layers[gps].dec);
-      p.gps = c.time[c.seq];
+      p.gps = c.gps.time[c.gps.last];
     }
     p.gps_changed = gps_changed;
   }
 
-  void decode_gps(context& c, decoder& d) {
-    constexpr std::int32_t multi_max = 500, multi_minus = -10;
-    constexpr std::uint32_t code_full = multi_max - multi_minus + 1;
+  /// As gpstime11_v2::decode, but a time that did not change is not coded:
+  /// the symbols for "unchanged" are gone (the zero-difference model has 5,
+  /// the multiplier model 515).
+  static void decode_gps(context& c, decoder& d) {
+    gps_sequences& g = c.gps;
+    constexpr std::uint32_t code_full = gps_sequences::multi_max - gps_sequences::multi_minus + 1;
     for (int switches = 0;; ++switches) {
       if (switches > 4) throw corrupt("GPS time: too many sequence switches");
-      if (c.diff[c.seq] == 0) {
+      if (g.diff[g.last] == 0) {
         const std::uint32_t multi = d.symbol(c.zero_diff);
         if (multi == 0) {
-          c.diff[c.seq] = c.ic_gps.decode(d, 0, 0);
-          c.time[c.seq] = wrap_add64(c.time[c.seq], c.diff[c.seq]);
-          c.extreme[c.seq] = 0;
+          g.diff[g.last] = g.ic.decode(d, 0, 0);
+          g.time[g.last] = wrap_add64(g.time[g.last], g.diff[g.last]);
+          g.extreme[g.last] = 0;
         } else if (multi == 1) {
-          full(c, d);
+          g.decode_full(d);
         } else {
-          c.seq = (c.seq + multi - 1) & 3;
+          g.last = (g.last + multi - 1) & 3;
           continue;
         }
         return;
       }
       const std::uint32_t multi = d.symbol(c.multi);
       if (multi == 1) {
-        c.time[c.seq] = wrap_add64(c.time[c.seq], c.ic_gps.decode(d, c.diff[c.seq], 1));
-        c.extreme[c.seq] = 0;
+        g.time[g.last] = wrap_add64(g.time[g.last], g.ic.decode(d, g.diff[g.last], 1));
+        g.extreme[g.last] = 0;
       } else if (multi < code_full) {
-        std::int32_t diff;
-        if (multi == 0) {
-          diff = c.ic_gps.decode(d, 0, 7);
-          extreme(c, diff);
-        } else if (multi < std::uint32_t(multi_max)) {
-          diff = c.ic_gps.decode(d, wrap_mul(std::int32_t(multi), c.diff[c.seq]), multi < 10 ? 2 : 3);
-        } else if (multi == std::uint32_t(multi_max)) {
-          diff = c.ic_gps.decode(d, wrap_mul(multi_max, c.diff[c.seq]), 4);
-          extreme(c, diff);
-        } else {
-          const std::int32_t back = multi_max - std::int32_t(multi);
-          if (back > multi_minus) {
-            diff = c.ic_gps.decode(d, wrap_mul(back, c.diff[c.seq]), 5);
-          } else {
-            diff = c.ic_gps.decode(d, wrap_mul(multi_minus, c.diff[c.seq]), 6);
-            extreme(c, diff);
-          }
-        }
-        c.time[c.seq] = wrap_add64(c.time[c.seq], diff);
+        g.add_multiple(d, multi);
       } else if (multi == code_full) {
-        full(c, d);
+        g.decode_full(d);
       } else {
-        c.seq = (c.seq + multi - code_full) & 3;
+        g.last = (g.last + multi - code_full) & 3;
         continue;
       }
       return;
     }
-  }
-  static void extreme(context& c, std::int32_t diff) noexcept {
-    if (++c.extreme[c.seq] > 3) {
-      c.diff[c.seq] = diff;
-      c.extreme[c.seq] = 0;
-    }
-  }
-  static void full(context& c, decoder& d) {
-    c.next = (c.next + 1) & 3;
-    const auto high = static_cast<std::uint32_t>(
-        c.ic_gps.decode(d, static_cast<std::int32_t>(static_cast<std::uint64_t>(c.time[c.seq]) >> 32), 8));
-    c.time[c.next] = static_cast<std::int64_t>((std::uint64_t(high) << 32) | d.u32());
-    c.seq = c.next;
-    c.diff[c.seq] = 0;
-    c.extreme[c.seq] = 0;
   }
 
   layer* m_layers;
