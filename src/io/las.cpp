@@ -1093,22 +1093,6 @@ void write_las(const std::string& path, const point_cloud& cloud, const las_writ
 
 namespace detail {
 namespace {
-/// The items LAZ compresses point format `format` (0-3) with, for records
-/// of `record_length` bytes (the format's and extra bytes).
-laz_layout pointwise_layout(int format, std::size_t record_length, std::uint32_t chunk_size) {
-  laz_layout layout;
-  layout.compressor = 2;
-  layout.chunk_size = chunk_size;
-  layout.record_length = record_length;
-  layout.items.push_back({laz_item::point10, 20, 2});
-  if (format == 1 || format == 3) layout.items.push_back({laz_item::gpstime11, 8, 2});
-  if (format >= 2) layout.items.push_back({laz_item::rgb12, 6, 2});
-  const std::size_t standard = k_formats[format].min_size;
-  if (record_length > standard)
-    layout.items.push_back({laz_item::byte, static_cast<std::uint16_t>(record_length - standard), 2});
-  return layout;
-}
-
 /// The head of a LAZ file (up to its point data) from a LAS file's head (up
 /// to its point data): the LASzip VLR after the VLRs (before any bytes
 /// between them and the points), the format byte's compression bit, the
@@ -1191,7 +1175,7 @@ class laz_piece_writer final : public piece_writer {
     m_las = std::make_unique<las_piece_writer>(head, layout, n, o);
     const std::string las_head = head.str();
     const auto* d = reinterpret_cast<const unsigned char*>(las_head.data());
-    m_layout = pointwise_layout(d[104], load_le<std::uint16_t>(d + 105), k_chunk_points);
+    m_layout = pointwise_layout(d[104], load_le<std::uint16_t>(d + 105), k_laz_chunk_points);
     const std::string h = laz_head(las_head, m_layout);
     m_head_size = h.size();
     out.write(h.data(), static_cast<std::streamsize>(h.size()));
@@ -1201,9 +1185,9 @@ class laz_piece_writer final : public piece_writer {
     std::ostringstream records;
     m_las->write(records, chunk);
     m_pending += records.str();
-    const std::size_t full = std::size_t(k_chunk_points) * m_layout.record_length;
+    const std::size_t full = std::size_t(k_laz_chunk_points) * m_layout.record_length;
     std::size_t at = 0;
-    for (; m_pending.size() - at >= full; at += full) code(out, m_pending.data() + at, k_chunk_points);
+    for (; m_pending.size() - at >= full; at += full) code(out, m_pending.data() + at, k_laz_chunk_points);
     m_pending.erase(0, at);
   }
   void finish(std::ostream& out) override {
@@ -1222,7 +1206,6 @@ class laz_piece_writer final : public piece_writer {
   }
 
  private:
-  static constexpr std::uint32_t k_chunk_points = 50000;
   void code(std::ostream& out, const char* records, std::uint32_t points) {
     std::string c;
     encode_laz_chunk(m_layout, reinterpret_cast<const unsigned char*>(records), points, c);

@@ -362,6 +362,21 @@ std::vector<copc_node> read_copc_hierarchy(const copc_info& info, std::uint64_t 
   return nodes;
 }
 
+laz_layout pointwise_layout(int format, std::size_t record_length, std::uint32_t chunk_size) {
+  laz_layout layout;
+  layout.compressor = 2;
+  layout.chunk_size = chunk_size;
+  layout.record_length = record_length;
+  std::size_t standard = 0;
+  for (const std::uint16_t type : standard_items(format)) {
+    layout.items.push_back({type, item_size(type), 2});
+    standard += item_size(type);
+  }
+  if (record_length > standard)
+    layout.items.push_back({laz_item::byte, static_cast<std::uint16_t>(record_length - standard), 2});
+  return layout;
+}
+
 void encode_laz_chunk(const laz_layout& layout, const unsigned char* records, std::uint64_t points, std::string& out) {
   laz::encode_pointwise(layout.items, records, layout.record_length, points, out);
 }

@@ -120,6 +120,14 @@ copc_info parse_copc_info(const unsigned char* p, std::size_t len, const std::st
 std::vector<copc_node> read_copc_hierarchy(const copc_info& info, std::uint64_t file_size, const laz_read_fn& read,
                                            const std::string& file);
 
+/// Points a chunk of the LAZ that ced writes (LASzip's default).
+inline constexpr std::uint32_t k_laz_chunk_points = 50000;
+
+/// How ced compresses records of point format `format` (0-3) of
+/// `record_length` bytes: pointwise, the format's items (version 2) then its
+/// extra bytes, chunks of `chunk_size` points (0xFFFFFFFF: variable).
+laz_layout pointwise_layout(int format, std::size_t record_length, std::uint32_t chunk_size);
+
 /// Codes `points` records (`stride` bytes apart from `records`) as one
 /// chunk of `layout` (pointwise items v2), appending the chunk's bytes to `out`.
 void encode_laz_chunk(const laz_layout& layout, const unsigned char* records, std::uint64_t points, std::string& out);
@@ -133,7 +141,7 @@ std::string encode_chunk_table(const std::vector<std::uint32_t>& points, const s
 /// `chunk_points` not empty, chunks of those sizes instead (variable chunks;
 /// they must add up to the point count). std::invalid_argument for what it
 /// cannot compress. For the tests and the benchmarks' inputs.
-std::string laz_from_las(std::string_view las, const std::string& name, std::uint32_t chunk_size = 50000,
+std::string laz_from_las(std::string_view las, const std::string& name, std::uint32_t chunk_size = k_laz_chunk_points,
                          const std::vector<std::uint32_t>& chunk_points = {});
 
 /// The point records of a LAS or LAZ file held in `bytes`, uncompressed
