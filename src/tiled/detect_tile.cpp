@@ -25,6 +25,30 @@ bool near_tile(const tile_grid& g, const std::array<std::uint32_t, 3>& c, const 
   return true;
 }
 
+[[noreturn]] void input_changed(const tile_plan& plan, const std::string& what) {
+  throw io::io_error(plan.request.input, "the file changed since the plan was made (" + what + "): make a new plan");
+}
+
+/// A chunk of the input as the tile's records carry it (its fields must be the plan's).
+field_bytes plan_fields_of(const tile_plan& plan, const point_cloud& c, const std::vector<plan_field>& tile_fields,
+                           std::vector<column>& converted) {
+  if (c.fields().size() != plan.fields.size())
+    throw io::io_error(plan.request.input, "its fields differ from the plan's: make a new plan");
+  return conform_fields(c, tile_fields, converted);
+}
+
+/// The tile's points from `records`, which must be as many as the plan
+/// says, `core` of them its own.
+tile_points tile_from_records(const tile_plan& plan, std::uint64_t id, const std::string& records, std::uint64_t core) {
+  tile_points pts = points_from_records(plan, id, records, 0, plan.request.input);
+  const tile_entry& e = plan.tile(id);
+  if (core != e.core_points || pts.cloud.size() != e.points)
+    input_changed(plan, "tile " + std::to_string(id) + " reads " + std::to_string(pts.cloud.size()) +
+                            " points and owns " + std::to_string(core) + "; the plan says " + std::to_string(e.points) +
+                            " and " + std::to_string(e.core_points));
+  return pts;
+}
+
 /// The absolute box that holds tile t's core grown by its halo (with a
 /// margin; a tile at the grid's edge reaches out without end, as tile_of()
 /// gives it the points beyond).
@@ -51,9 +75,8 @@ std::optional<tile_points> read_tile_indexed(const tile_plan& plan, std::uint64_
   const auto runs = s.runs_within(lo, hi);
   if (!runs) return std::nullopt;
   if (s.declared_points() != plan.file_points)
-    throw io::io_error(plan.request.input, "the file changed since the plan was made (" +
-                                               std::to_string(s.declared_points()) + " points; the plan says " +
-                                               std::to_string(plan.file_points) + "): make a new plan");
+    input_changed(plan,
+                  std::to_string(s.declared_points()) + " points; the plan says " + std::to_string(plan.file_points));
   std::vector<std::string> names;
   for (const plan_field& f : plan.fields) names.push_back(f.name);
   const auto coords = plan.grid.coords(id);
@@ -66,9 +89,7 @@ std::optional<tile_points> read_tile_indexed(const tile_plan& plan, std::uint64_
   for (const io::point_stream::point_run& r : *runs) {
     s.read_run(r, names, plan.origin, c);
     decoded += c.size();
-    if (c.fields().size() != plan.fields.size())
-      throw io::io_error(plan.request.input, "its fields differ from the plan's: make a new plan");
-    const field_bytes fields = conform_fields(c, tile_fields, converted);
+    const field_bytes fields = plan_fields_of(plan, c, tile_fields, converted);
     for (std::size_t i = 0; i < c.size(); ++i) {
       if (!finite3(c.position(i)) || !near_tile(plan.grid, coords, c.position(i))) continue;
       const std::uint64_t index = r.first + i;
@@ -76,15 +97,9 @@ std::optional<tile_points> read_tile_indexed(const tile_plan& plan, std::uint64_
       core += plan.grid.tile_of(c.position(i)) == id;
     }
   }
-  tile_points pts = points_from_records(plan, id, records, 0, plan.request.input);
+  tile_points pts = tile_from_records(plan, id, records, core);
   pts.decoded = decoded;
   pts.indexed = true;
-  const tile_entry& e = plan.tile(id);
-  if (core != e.core_points || pts.cloud.size() != e.points)
-    throw io::io_error(plan.request.input, "the file changed since the plan was made (tile " + std::to_string(id) +
-                                               " reads " + std::to_string(pts.cloud.size()) + " points and owns " +
-                                               std::to_string(core) + "; the plan says " + std::to_string(e.points) +
-                                               " and " + std::to_string(e.core_points) + "): make a new plan");
   return pts;
 }
 
@@ -105,10 +120,8 @@ tile_points read_tile(const tile_plan& plan, std::uint64_t id) {
   const std::size_t rs = record_size(plan);
   std::vector<column> converted;
   for_each_chunk(*s, plan.origin, [&](const point_cloud& c) {
-    if (c.fields().size() != plan.fields.size())
-      throw io::io_error(plan.request.input, "its fields differ from the plan's: make a new plan");
+    const field_bytes fields = plan_fields_of(plan, c, tile_fields, converted);
     if (!plan.content.empty()) content = hash_chunk(c, content);
-    const field_bytes fields = conform_fields(c, tile_fields, converted);
     for (std::size_t i = 0; i < c.size(); ++i, ++file_index) {
       if (!finite3(c.position(i))) continue;
       if (near_tile(plan.grid, coords, c.position(i))) {
@@ -118,21 +131,13 @@ tile_points read_tile(const tile_plan& plan, std::uint64_t id) {
       ++index;
     }
   });
-  const tile_entry& e = plan.tile(id);
-  auto changed = [&](const std::string& what) {
-    throw io::io_error(plan.request.input, "the file changed since the plan was made (" + what + "): make a new plan");
-  };
   if (file_index != plan.file_points || index != plan.finite_points)
-    changed(std::to_string(file_index) + " points, " + std::to_string(index) + " finite; the plan says " +
-            std::to_string(plan.file_points) + ", " + std::to_string(plan.finite_points));
+    input_changed(plan, std::to_string(file_index) + " points, " + std::to_string(index) + " finite; the plan says " +
+                            std::to_string(plan.file_points) + ", " + std::to_string(plan.finite_points));
   if (!plan.content.empty() && hex(content) != plan.content)
-    changed("its decoded points hash to " + hex(content) + ", the plan's to " + plan.content);
-  tile_points pts = points_from_records(plan, id, records, 0, plan.request.input);
+    input_changed(plan, "its decoded points hash to " + hex(content) + ", the plan's to " + plan.content);
+  tile_points pts = tile_from_records(plan, id, records, core);
   pts.decoded = 2 * file_index;
-  if (core != e.core_points || pts.cloud.size() != e.points)
-    changed("tile " + std::to_string(id) + " reads " + std::to_string(pts.cloud.size()) + " points and owns " +
-            std::to_string(core) + "; the plan says " + std::to_string(e.points) + " and " +
-            std::to_string(e.core_points));
   return pts;
 }
 
