@@ -168,7 +168,8 @@ struct las_header {
   std::size_t record_length = 0;  ///< the stride of the point records
   std::uint64_t count = 0;        ///< point records, all within the file (when not compressed)
   std::array<double, 3> scale{}, offset{};
-  bool compressed = false;  ///< LAZ: the records are in compressed chunks (laz.hpp)
+  std::array<double, 3> min{}, max{};  ///< the header's bounds, as written (maybe wrong)
+  bool compressed = false;             ///< LAZ: the records are in compressed chunks (laz.hpp)
 };
 
 /// The header's scale factors and offsets: finite, the scales non-zero.
@@ -182,6 +183,8 @@ void read_scale_and_offset(const unsigned char* d, las_header& h, const std::str
                      "invalid " + axis + " scale factor " + num(h.scale[k]) + " (it must be finite and non-zero)");
     if (!std::isfinite(h.offset[k]))
       throw io_error(file, "invalid " + axis + " offset " + num(h.offset[k]) + " (not finite)");
+    h.max[k] = load_le<double>(d + 179 + 16 * k);
+    h.min[k] = load_le<double>(d + 187 + 16 * k);
   }
 }
 
@@ -326,14 +329,20 @@ void raw_bounds(const unsigned char* base, std::size_t stride, std::size_t n, st
   }
 }
 
-/// The origin of points whose raw integers span [lo, hi].
+/// The origin of points whose raw integers span [lo, hi]: that of the
+/// header's box when it holds them grown by 1 % (las_header_box), else of theirs. A file
+/// whose header is right thus has one origin however much of it is read,
+/// which a tile read through a COPC index needs (ced::io::point_stream::header_box).
 std::array<double, 3> las_origin(const std::int32_t lo[3], const std::int32_t hi[3], const las_header& h) {
-  double a[3], b[3];
+  double a[3], b[3], box[6];
+  const bool header = las_header_box(h.min.data(), h.max.data(), h.scale.data(), 0.01, box);
+  bool inside = header;
   for (std::size_t k = 0; k < 3; ++k) {
     a[k] = lo[k] * h.scale[k] + h.offset[k];
     b[k] = hi[k] * h.scale[k] + h.offset[k];
+    inside = inside && std::min(a[k], b[k]) >= box[k] && std::max(a[k], b[k]) <= box[3 + k];
   }
-  return choose_origin(a, b);
+  return inside ? choose_origin(h.min.data(), h.max.data()) : choose_origin(a, b);
 }
 
 /// What a pass over point records learns: the bounds of their raw integer
@@ -663,8 +672,12 @@ point_cloud read_las_records(const unsigned char* d, const las_header& h, std::u
                              const record_source& plain, const std::string& file, las_read_info* info,
                              const field_selection& selection) {
   laz_layout layout;
-  const std::vector<extra_desc> extras = read_vlrs(d, h, file, &layout);
-  if (info) fill_info(*info, h, d);
+  std::optional<copc_info> copc;
+  const std::vector<extra_desc> extras = read_vlrs(d, h, file, &layout, &copc);
+  if (info) {
+    fill_info(*info, h, d);
+    info->copc = copc.has_value();
+  }
   if (!h.compressed) return read_records(plain, h, extras, selection);
   const laz_points z = open_laz(h, layout, size, read, file);
   const big_bytes records = decode_laz(z, 0, z.chunks.size(), read, file, wanted_of(selection));
@@ -1290,7 +1303,8 @@ void write_laz(std::ostream& out, const point_cloud& cloud) {
 
 std::string las_details(const las_read_info& info) {
   return std::string(info.compressed ? "LAZ " : "LAS ") + std::to_string(info.version_major) + "." +
-         std::to_string(info.version_minor) + ", point format " + std::to_string(info.point_format);
+         std::to_string(info.version_minor) + ", point format " + std::to_string(info.point_format) +
+         (info.copc ? ", COPC" : "");
 }
 }  // namespace detail
 
@@ -1307,6 +1321,7 @@ class las_stream final : public point_stream {
     if (m_header.compressed) m_laz = open_laz(m_header, layout, m_file.size(), file_reader(m_file), path);
     las_read_info info;
     fill_info(info, m_header, d);
+    info.copc = m_copc.has_value();
     m_details = las_details(info);
   }
 
@@ -1351,20 +1366,13 @@ class las_stream final : public point_stream {
   bool streaming() const noexcept override { return true; }
   std::uint64_t declared_points() const noexcept override { return m_header.count; }
 
-  std::optional<std::vector<point_run>> runs_within(const double lo[3], const double hi[3]) override {
+  std::optional<std::vector<index_node>> index_nodes() override {
     if (!m_copc) return std::nullopt;
     if (!m_nodes) m_nodes = read_copc_hierarchy(*m_copc, m_file.size(), file_reader(m_file), m_file.path());
     const std::vector<laz_chunk>& chunks = m_laz.chunks;
-    std::vector<point_run> runs;
+    std::vector<index_node> out;
+    out.reserve(m_nodes->size());
     for (const copc_node& n : *m_nodes) {
-      double box[6];
-      n.box(*m_copc, box);
-      // Points on a cube's faces may belong to either side: closed boxes, a
-      // margin of a millionth of the root cube.
-      const double margin = 1e-6 * m_copc->halfsize;
-      bool meets = true;
-      for (int k = 0; k < 3; ++k) meets = meets && box[k] - margin <= hi[k] && box[3 + k] + margin >= lo[k];
-      if (!meets) continue;
       const auto it = std::lower_bound(chunks.begin(), chunks.end(), n.offset,
                                        [](const laz_chunk& c, std::uint64_t o) { return c.offset < o; });
       if (it == chunks.end() || it->offset != n.offset || it->points != std::uint64_t(n.points))
@@ -1372,18 +1380,21 @@ class las_stream final : public point_stream {
                                           std::to_string(n.y) + "-" + std::to_string(n.z) + " (" +
                                           std::to_string(n.points) + " points at byte " + std::to_string(n.offset) +
                                           ") is not a chunk of the chunk table");
-      runs.push_back({it->first_point, it->points});
+      index_node& e = out.emplace_back();
+      n.box(*m_copc, e.box.data());
+      e.run = {it->first_point, it->points};
     }
-    std::sort(runs.begin(), runs.end(), [](const point_run& a, const point_run& b) { return a.first < b.first; });
-    // Neighbouring runs join: one read each.
-    std::vector<point_run> joined;
-    for (const point_run& r : runs) {
-      if (!joined.empty() && joined.back().first + joined.back().count == r.first)
-        joined.back().count += r.count;
-      else if (joined.empty() || joined.back().first != r.first)
-        joined.push_back(r);
-    }
-    return joined;
+    return out;
+  }
+  bool header_bounds(double lo[3], double hi[3]) const override {
+    double box[6];
+    if (!las_header_box(m_header.min.data(), m_header.max.data(), m_header.scale.data(), 0, box)) return false;
+    std::copy_n(m_header.min.begin(), 3, lo);
+    std::copy_n(m_header.max.begin(), 3, hi);
+    return true;
+  }
+  bool header_box(double growth, double box[6]) const override {
+    return las_header_box(m_header.min.data(), m_header.max.data(), m_header.scale.data(), growth, box);
   }
 
   void read_run(const point_run& r, const std::vector<std::string>& fields, const std::array<double, 3>& origin,
@@ -1441,6 +1452,30 @@ class las_stream final : public point_stream {
 
 std::unique_ptr<point_stream> open_las_stream(const std::string& path, const field_selection& fields) {
   return std::make_unique<las_stream>(path, fields);
+}
+
+const std::vector<std::string>& las_flag_fields() {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> out;
+    for (const flag_spec& f : flags_of(true)) out.push_back(f.name);
+    return out;  // the legacy formats' flags are among these
+  }();
+  return names;
+}
+
+bool las_header_box(const double min[3], const double max[3], const double scale[3], double growth,
+                    double box[6]) noexcept {
+  double extent = 0;
+  for (std::size_t k = 0; k < 3; ++k) {
+    if (!std::isfinite(min[k]) || !std::isfinite(max[k]) || !(min[k] <= max[k])) return false;
+    extent = std::max(extent, max[k] - min[k]);
+  }
+  for (std::size_t k = 0; k < 3; ++k) {
+    const double grow = growth * extent + std::fabs(scale[k]);
+    box[k] = min[k] - grow;
+    box[3 + k] = max[k] + grow;
+  }
+  return true;
 }
 
 }  // namespace ced::io

@@ -192,6 +192,42 @@ class whole_file_stream final : public point_stream {
 };
 }  // namespace
 
+std::vector<point_stream::index_node> point_stream::nodes_within(const std::vector<index_node>& nodes,
+                                                                 const double lo[3], const double hi[3]) {
+  // Points on a cube's faces may belong to either side: closed boxes, a
+  // margin of a millionth of the largest node's edge.
+  const double margin = index_margin(nodes);
+  std::vector<index_node> out;
+  for (const index_node& n : nodes) {
+    bool meets = true;
+    for (int k = 0; k < 3; ++k) meets = meets && n.box[k] - margin <= hi[k] && n.box[3 + k] + margin >= lo[k];
+    if (meets) out.push_back(n);
+  }
+  std::sort(out.begin(), out.end(), [](const index_node& a, const index_node& b) { return a.run.first < b.run.first; });
+  return out;
+}
+
+double point_stream::index_margin(const std::vector<index_node>& nodes) noexcept {
+  double margin = 0;
+  for (const index_node& n : nodes) margin = std::max(margin, 1e-6 * (n.box[3] - n.box[0]));
+  return margin;
+}
+
+std::optional<std::vector<point_stream::point_run>> point_stream::runs_within(const double lo[3], const double hi[3]) {
+  const auto nodes = index_nodes();
+  if (!nodes) return std::nullopt;
+  // Neighbouring runs join: one read each.
+  std::vector<point_run> joined;
+  for (const index_node& n : nodes_within(*nodes, lo, hi)) {
+    const point_run& r = n.run;
+    if (!joined.empty() && joined.back().first + joined.back().count == r.first)
+      joined.back().count += r.count;
+    else if (joined.empty() || joined.back().first != r.first)
+      joined.push_back(r);
+  }
+  return joined;
+}
+
 std::unique_ptr<point_stream> open_point_stream(const std::string& path, const read_options& options) {
   const file_format f = options.format == file_format::automatic ? format_of(path) : options.format;
   if (f == file_format::las || f == file_format::laz) return open_las_stream(path, options.fields);

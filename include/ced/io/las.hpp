@@ -7,6 +7,7 @@
 #include <iosfwd>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "ced/cloud.hpp"
 #include "ced/io/error.hpp"
@@ -21,6 +22,7 @@ struct las_read_info {
   std::array<double, 3> scale{}, offset{};             ///< X = raw X * scale + offset
   std::string system_identifier, generating_software;  ///< trailing NULs and spaces trimmed
   bool compressed = false;                             ///< LAZ
+  bool copc = false;  ///< COPC: a LAZ with a COPC info VLR (an octree index of its chunks)
 };
 
 /// Reads an uncompressed LAS file, versions 1.0 to 1.4, point data record
@@ -30,7 +32,8 @@ struct las_read_info {
 ///   beyond ±1e4 on some axis (georeferenced data), the cloud's origin is the
 ///   centre of the data's bounding box rounded to integers, and positions are
 ///   stored relative to it (millimetres survive for extents up to ~16 km);
-///   otherwise the origin is zero.
+///   otherwise the origin is zero. The box is the header's bounds when every
+///   point lies within them grown by 1 % (las_header_box), else the points'.
 /// - Fields, in this order, when the format has them:
 ///   intensity (uint16), return_number, number_of_returns (uint8),
 ///   classification (uint8; the low 5 bits for formats 0-5),
@@ -64,6 +67,21 @@ point_cloud read_las(const std::string& path, las_read_info* info = nullptr, con
 /// Same, from the bytes of a whole LAS file; `name` names it in error messages.
 point_cloud read_las_buffer(std::string_view bytes, const std::string& name, las_read_info* info = nullptr,
                             const field_selection& fields = {});
+
+/// The one-bit flag fields read_las() gives only when some point sets them
+/// (synthetic, key_point, withheld, overlap, scanner_channel,
+/// scan_direction_flag, edge_of_flight_line), as point_stream::read_run()
+/// takes their names.
+const std::vector<std::string>& las_flag_fields();
+
+/// The box a LAS header's bounds (min, max) vouch for: [min, max] grown on
+/// each axis by `growth` times the largest extent and one scale step; false
+/// when the bounds are not finite or not ordered. A file whose points all
+/// lie in its header's box grown by 1 % takes its origin from the header's
+/// bounds (read_las(), streams and tiles alike), so that a tile read through
+/// a COPC index, which sees only some points, has the whole file's origin.
+bool las_header_box(const double min[3], const double max[3], const double scale[3], double growth,
+                    double box[6]) noexcept;
 
 /// Options for write_las().
 struct las_write_options {

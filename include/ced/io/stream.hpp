@@ -59,14 +59,42 @@ class point_stream {
   struct point_run {
     std::uint64_t first = 0, count = 0;
   };
-  /// Files with a spatial index (COPC): the runs of points, ascending and
-  /// apart, that hold every point within the absolute box [lo, hi] (and
-  /// others near it), found without reading the points. Other files: none
-  /// (std::nullopt). io_error for an index that is damaged.
-  virtual std::optional<std::vector<point_run>> runs_within(const double lo[3], const double hi[3]) {
+  /// A node of a file's spatial index: its box (absolute, {x0, y0, z0, x1,
+  /// y1, z1}), which holds its points, and the points themselves.
+  struct index_node {
+    std::array<double, 6> box{};
+    point_run run;
+  };
+  /// Files with a spatial index (COPC): every node of it that holds points,
+  /// read from the index alone. Other files: none (std::nullopt). io_error
+  /// for an index that is damaged or does not match the file's chunks.
+  virtual std::optional<std::vector<index_node>> index_nodes() { return std::nullopt; }
+  /// Files with a spatial index: the runs of points, ascending and apart,
+  /// of the nodes that meet the absolute box [lo, hi] (and so hold every
+  /// point within it, and others near it). Other files: none.
+  std::optional<std::vector<point_run>> runs_within(const double lo[3], const double hi[3]);
+  /// The nodes among `nodes` whose box meets [lo, hi] (closed, grown by
+  /// index_margin()), in the file's order.
+  static std::vector<index_node> nodes_within(const std::vector<index_node>& nodes, const double lo[3],
+                                              const double hi[3]);
+  /// How far a point may lie outside its node's box: a millionth of the
+  /// largest node's edge (points on a face belong to either side).
+  static double index_margin(const std::vector<index_node>& nodes) noexcept;
+  /// LAS: the header's bounds as written, when they are finite and ordered
+  /// (they may be wrong: header_box() tells how far to trust them); false
+  /// for other formats.
+  virtual bool header_bounds(double lo[3], double hi[3]) const {
     (void)lo;
     (void)hi;
-    return std::nullopt;
+    return false;
+  }
+  /// LAS: the box the header's bounds vouch for, grown on each axis by
+  /// `growth` times the largest extent and one scale step (las_header_box);
+  /// false when they are not finite and ordered, and for other formats.
+  virtual bool header_box(double growth, double box[6]) const {
+    (void)growth;
+    (void)box;
+    return false;
   }
   /// Reads run `r` (one of runs_within()'s) into `out`, positions relative
   /// to `origin`, with the fields a complete pass would give: `fields` names
