@@ -115,6 +115,12 @@ done
   -o "$T/copcp.las" -q
 same_outputs "COPC plan + tiles (by its index) + merge" "$T/copcp" copc_whole
 check "COPC tiles are read through the index" grep -q "through the file's COPC index" "$T/copc_err"
+check "COPC: ced info says so" sh -c "'$CED' info '$copc' | grep -q 'point format 7, COPC'"
+check "COPC: ced plan plans from the index" grep -q '"indexed": true' "$T/copcplan.json"
+"$CED" plan "$copc" "${copcargs[@]}" --tile-size 800 --scan -o "$T/copcscan.json" 2> "$T/copcscan_err"
+check "COPC: ced plan --scan passes over the points" sh -c "! grep -q indexed '$T/copcscan.json'"
+"$CED" plan "$copc" "${copcargs[@]}" --tile-size 800 -o "$T/copcplan2.json" 2> "$T/copcplan_err"
+check "COPC: ced plan says its counts are estimates" grep -q "COPC index and header, without a pass" "$T/copcplan_err"
 check "COPC tiles decode part of the file" \
   test "$(grep -o '([0-9]* decoded' "$T/copc_err" | tr -d '( decoded' | sort -n | head -1)" -lt 1065
 # LAZ out: the keypoint cloud as LAZ, whole and merged from tiles, the same bytes.

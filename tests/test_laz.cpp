@@ -18,6 +18,7 @@
 #include "ced/io/io.hpp"
 #include "ced/io/las.hpp"
 #include "ced/io/stream.hpp"
+#include "ced/tiled.hpp"
 #include "core/parallel.hpp"
 #include "file_support.hpp"
 #include "io/laz.hpp"
@@ -679,5 +680,111 @@ TEST(Copc, DamagedHierarchy) {
     put<std::int32_t>(b, 31604 + 24, 2080);
     put<std::int32_t>(b, 31604 + 28, -1);
     EXPECT_CONTAINS(runs_error(b), "reached twice");
+  }
+}
+
+namespace {
+
+/// The keypoints (indices) of every tile of `plan` merged.
+std::vector<std::uint64_t> merged_keypoints(const ced::tile_plan& plan) {
+  std::vector<ced::tile_part> parts;
+  for (const auto& t : plan.tiles) parts.push_back(ced::detect_tile(plan, ced::read_tile(plan, t.id)));
+  return ced::merge_parts(plan, std::move(parts)).index;
+}
+
+/// `file` with its header's bounds on axis k set to [lo, hi].
+std::string with_bounds(std::string file, int k, double lo, double hi) {
+  put<double>(file, 179 + 16 * std::size_t(k), hi);
+  put<double>(file, 187 + 16 * std::size_t(k), lo);
+  return file;
+}
+
+double header_bound(const std::string& file, std::size_t at) {
+  double v;
+  std::memcpy(&v, file.data() + at, sizeof v);
+  return v;
+}
+
+}  // namespace
+
+TEST(Copc, PlanFromTheIndexGivesTheWholeResult) {
+  const std::string path = data_path("1.2-with-color.copc.laz");
+  const ced::point_cloud all = ced::io::read_cloud(path);
+  for (const char* preset : {"ced6d", "ced3d"}) {
+    ced::detect_params p;
+    p.radius = p.nms_radius = 60;
+    const auto whole = ced::detect(all, p, ced::preset(preset));
+    ced::tiled_request r;
+    r.input = path;
+    r.params = p;
+    r.modalities = ced::preset_specs(preset);
+    r.tile_size = 800;
+    const ced::tile_plan plan = ced::plan_tiles(r);
+    EXPECT_TRUE(plan.indexed) << preset;
+    EXPECT_GT(plan.tiles.size(), 3u);
+    EXPECT_EQ(plan.file_points, all.size());
+    // The plan survives its file, and the tiles read through the index give the whole result.
+    const ced::tile_plan again = ced::tile_plan::from_json(plan.to_json(), "plan.json");
+    EXPECT_TRUE(again.indexed);
+    ASSERT_FALSE(whole.keypoints.empty());
+    EXPECT_EQ(merged_keypoints(again), std::vector<std::uint64_t>(whole.keypoints.begin(), whole.keypoints.end()))
+        << preset;
+    // With scan: a plan by passes over the points (exact counts), the same keypoints.
+    r.scan = true;
+    const ced::tile_plan scanned = ced::plan_tiles(r);
+    EXPECT_FALSE(scanned.indexed);
+    EXPECT_EQ(merged_keypoints(scanned), merged_keypoints(plan)) << preset;
+    EXPECT_EQ(scanned.origin, plan.origin);
+  }
+}
+
+TEST(Copc, PlanFromTheIndexTrustsTheHeaderOnlyAsFarAsItHolds) {
+  const std::string file = read_bytes(data_path("1.2-with-color.copc.laz"));
+  const double lo = header_bound(file, 187), hi = header_bound(file, 179);
+  ced::detect_params p;
+  p.radius = p.nms_radius = 60;
+  ced::tiled_request r;
+  r.params = p;
+  r.modalities = ced::preset_specs("ced6d");
+  r.tile_size = 800;
+  // Bounds looser than the points (by 0.4 % of the extent): the whole read
+  // and the plan both take their origin from them, and the tiles are exact.
+  {
+    const std::string path = temp_file("loose.copc.laz");
+    write_bytes(path, with_bounds(file, 0, lo - 0.004 * (hi - lo), hi));
+    const ced::point_cloud all = ced::io::read_cloud(path);
+    r.input = path;
+    const ced::tile_plan plan = ced::plan_tiles(r);
+    EXPECT_EQ(plan.origin, all.origin());
+    const auto whole = ced::detect(all, p, ced::preset("ced6d"));
+    EXPECT_EQ(merged_keypoints(plan), std::vector<std::uint64_t>(whole.keypoints.begin(), whole.keypoints.end()));
+  }
+  // Bounds that miss points: a tile names the point and says to scan.
+  {
+    const std::string path = temp_file("tight.copc.laz");
+    write_bytes(path, with_bounds(file, 0, lo, hi - 0.1 * (hi - lo)));
+    r.input = path;
+    const ced::tile_plan plan = ced::plan_tiles(r);
+    std::string error;
+    for (const auto& t : plan.tiles) {
+      error = ced_test::io_error_of([&] { (void)ced::read_tile(plan, t.id); });
+      if (!error.empty()) break;
+    }
+    EXPECT_CONTAINS(error, "lies outside the header's bounds");
+    EXPECT_CONTAINS(error, "--scan");
+    r.scan = true;  // the passes do not need the header
+    const ced::tile_plan scanned = ced::plan_tiles(r);
+    const auto whole = ced::detect(ced::io::read_cloud(path), p, ced::preset("ced6d"));
+    EXPECT_EQ(merged_keypoints(scanned), std::vector<std::uint64_t>(whole.keypoints.begin(), whole.keypoints.end()));
+    r.scan = false;
+  }
+  // An index that does not hold the header's points.
+  {
+    std::string b = file;
+    put<std::uint32_t>(b, 107, 1064);  // legacy point count one short
+    put<std::uint64_t>(b, 247, 1064);  // LAS 1.4 point count
+    r.input = temp_file("short.copc.laz");
+    write_bytes(r.input, b);
+    EXPECT_CONTAINS(ced_test::io_error_of([&] { (void)ced::plan_tiles(r); }), "1064");
   }
 }

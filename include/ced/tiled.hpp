@@ -32,6 +32,9 @@ struct tiled_request {
   std::vector<std::string> modalities;
   double tile_size = 0;            ///< edge of a tile's core, > 0; or 0 with memory_limit
   std::uint64_t memory_limit = 0;  ///< bytes a tile may take (sets the tile size); 0 = none
+  /// Plan by passes over the points even when the file has a spatial index
+  /// (COPC), which plan_tiles() otherwise plans from (tile_plan::indexed).
+  bool scan = false;
 };
 
 /// One tile of a plan that owns points.
@@ -72,6 +75,15 @@ struct tile_plan {
   std::optional<std::vector<std::string>> tile_fields;
   std::vector<tile_entry> tiles;  ///< ascending id
   bool streamed = true;           ///< false: the format is read whole (memory not bounded)
+  /// Planned from the file's spatial index (COPC) and its header, without a
+  /// pass over the points: the origin and grid come from the header's
+  /// bounds, `fields` is every field the point format can give (each flag
+  /// among them), only the tile_fields' ranges are known (read from their
+  /// own layers alone; the others are 0..0), and the tiles are those whose
+  /// core meets an index node with points, their counts estimated from the
+  /// nodes' counts and boxes (read_tile() cannot check them; it checks each
+  /// point against its node's box and the header's bounds instead).
+  bool indexed = false;
 
   std::string to_json() const;
   /// Throws io_error naming `name` for anything malformed.
@@ -88,7 +100,10 @@ struct tile_plan {
 using tiled_progress = std::function<void(const std::string& step, double fraction)>;
 
 /// Reads the input once (twice with a memory limit: once more to count points
-/// per area) and plans the tiles. Throws std::invalid_argument for a bad
+/// per area) and plans the tiles. A file with a spatial index (COPC) is
+/// planned from the index instead (tile_plan::indexed), without a pass over
+/// the points, unless the request asks to `scan` or gives a memory limit, or
+/// a modality does not say which fields it reads. Throws std::invalid_argument for a bad
 /// request (tile size, limit, modalities), io_error for the input.
 tile_plan plan_tiles(const tiled_request& request, const tiled_progress& progress = {});
 

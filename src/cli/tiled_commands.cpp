@@ -150,10 +150,16 @@ void report_plan(const ced::tile_plan& p, bool quiet) {
                  "average (%llu points read for %llu), which costs as much more time and cache space\n",
                  p.grid.halo, p.grid.size, ratio, static_cast<unsigned long long>(read),
                  static_cast<unsigned long long>(owned));
+  if (p.indexed)
+    std::fprintf(stderr,
+                 "ced: planned from %s's COPC index and header, without a pass over the points: the tiles' counts "
+                 "below are estimates (ced plan --scan counts them)\n",
+                 p.request.input.c_str());
   std::fprintf(stderr,
-               "ced: %zu tiles of %.4g (halo %.4g) own %llu points; %.2f points read a point, the largest tile reads "
-               "%llu\n",
-               p.tiles.size(), p.grid.size, p.grid.halo, static_cast<unsigned long long>(owned), ratio,
+               "ced: %zu tiles of %.4g (halo %.4g) own %s%llu points; %.2f points read a point, the largest tile reads "
+               "%s%llu\n",
+               p.tiles.size(), p.grid.size, p.grid.halo, p.indexed ? "about " : "",
+               static_cast<unsigned long long>(owned), ratio, p.indexed ? "about " : "",
                static_cast<unsigned long long>(largest));
 }
 
@@ -353,17 +359,21 @@ command add_plan_command(CLI::App& app) {
   cmd->add_option("--tile-size", o->tile_size, "Edge of a tile's core, in metres");
   cmd->add_option("--memory-limit", o->memory_limit, "Or: the tile size chosen so that a tile fits, e.g. 4G");
   cmd->add_option("-o,--output", *plan_path, "The plan (JSON)")->required();
+  auto scan = std::make_shared<bool>(false);
+  cmd->add_flag("--scan", *scan,
+                "COPC: plan by passes over the points (exact tile counts), not from the file's index and header");
   cmd->add_flag("-q,--quiet", o->quiet, "Print nothing on stderr");
   cmd->footer(
       "Example (Slurm array, or GNU parallel):\n"
       "  ced plan big.las --preset ced6d --tile-size 50 -o plan.json\n"
       "  ced detect --plan plan.json --tile ID -o part_ID.cedpart     # for every tile id in plan.json\n"
       "  ced merge plan.json part_*.cedpart -o keypoints.las --indices kp.txt");
-  return {cmd, [o, plan_path] {
+  return {cmd, [o, plan_path, scan] {
             if (o->radius.empty()) o->radius = "0.05";
             detect_plan plan = make_plan(*o);
             plan.read_opts.fields = {};  // all: merge may write keypoint clouds
             ced::tiled_request r = request_from(*o, plan);
+            r.scan = *scan;
             if (!wants_tiles(*o)) throw usage_error("give --tile-size or --memory-limit");
             check_paths(input_paths(*o), {{"-o", *plan_path}});
             ced::io::atomic_output_file out(*plan_path);

@@ -153,6 +153,10 @@ void bind_tiled(py::module_& m) {
       .def_property_readonly("points", [](const ced::tile_plan& p) { return p.file_points; })
       .def_property_readonly("digest", &ced::tile_plan::digest)
       .def_property_readonly(
+          "indexed", [](const ced::tile_plan& p) { return p.indexed; },
+          "True when planned from the file's COPC index without a pass over the points (tile counts are "
+          "estimates)")
+      .def_property_readonly(
           "tiles",
           [](const ced::tile_plan& p) {
             py::list out;
@@ -223,9 +227,10 @@ void bind_tiled(py::module_& m) {
       "plan_tiles",
       [](const std::string& input, py::object tile_size, py::object memory_limit, py::object modalities,
          py::object radius, py::object nms_radius, py::object min_neighbors, const std::string& format,
-         py::object refine, py::object max_keypoints) {
+         py::object refine, py::object max_keypoints, bool scan) {
         ced::tiled_request r;
         r.input = input;
+        r.scan = scan;
         r.read.format = ced::io::parse_format(format);
         r.params.radius = positive_arg(radius, "radius", "");
         r.params.nms_radius = nms_radius.is_none() ? r.params.radius : positive_arg(nms_radius, "nms_radius", "");
@@ -261,8 +266,10 @@ void bind_tiled(py::module_& m) {
       py::arg("input"), py::arg("tile_size") = py::none(), py::arg("memory_limit") = py::none(),
       py::arg("modalities") = py::none(), py::arg("radius") = 0.05, py::arg("nms_radius") = py::none(),
       py::arg("min_neighbors") = 5, py::arg("format") = "auto", py::arg("refine") = py::none(),
-      py::arg("max_keypoints") = 0,
-      "Plans the tiles of a cloud file (two passes over it), as `ced plan`. modalities: spec strings or a preset "
+      py::arg("max_keypoints") = 0, py::arg("scan") = false,
+      "Plans the tiles of a cloud file (two passes over it), as `ced plan`. A COPC file is planned from its "
+      "index and header without a pass over the points (plan.indexed), unless scan=True or memory_limit is "
+      "given. modalities: spec strings or a preset "
       "name (default: ced6d when the file has colour, else ced3d). refine: keypoint refinement (None: the "
       "preset's, on for robust3d/robust6d). max_keypoints: the merge keeps the strongest of all tiles' "
       "keypoints, as detect(max_keypoints=...) (0: no limit).");

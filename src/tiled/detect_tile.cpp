@@ -42,6 +42,7 @@ field_bytes plan_fields_of(const tile_plan& plan, const point_cloud& c, const st
 tile_points tile_from_records(const tile_plan& plan, std::uint64_t id, const std::string& records, std::uint64_t core) {
   tile_points pts = points_from_records(plan, id, records, 0, plan.request.input);
   const tile_entry& e = plan.tile(id);
+  if (plan.indexed) return pts;  // its counts are estimates
   if (core != e.core_points || pts.cloud.size() != e.points)
     input_changed(plan, "tile " + std::to_string(id) + " reads " + std::to_string(pts.cloud.size()) +
                             " points and owns " + std::to_string(core) + "; the plan says " + std::to_string(e.points) +
@@ -63,36 +64,64 @@ void tile_region(const tile_plan& plan, std::uint64_t t, double lo[3], double hi
   }
 }
 
-/// The tile's points from a file with a spatial index (COPC): only the runs
-/// of points near the tile are read. The file's fingerprint and its point
-/// count, and the tile's counts, are checked against the plan (its content
-/// hash needs every point, so it is not). Empty when the file has no index.
+/// Throws io_error when point `index` (q, relative to the plan's origin)
+/// lies outside `box` (absolute) by more than `margin`: `what` says whose box.
+void check_within(const tile_plan& plan, const float* q, const double* box, double margin, std::uint64_t index,
+                  const std::string& what) {
+  bool inside = true;
+  for (std::size_t k = 0; k < 3; ++k) {
+    const double x = double(q[k]) + plan.origin[k];
+    inside = inside && x >= box[k] - margin && x <= box[3 + k] + margin;
+  }
+  if (!inside)
+    throw io::io_error(plan.request.input, "point " + std::to_string(index) + " (" +
+                                               std::to_string(q[0] + plan.origin[0]) + ", " +
+                                               std::to_string(q[1] + plan.origin[1]) + ", " +
+                                               std::to_string(q[2] + plan.origin[2]) + ") lies outside " + what);
+}
+
+/// The tile's points from a file with a spatial index (COPC): only the index
+/// nodes near the tile are read. The file's fingerprint and point count are
+/// checked against the plan, and each point read against its node's box and
+/// (for a plan made from the index) the header's bounds; then the tile's
+/// counts, when the plan has them exactly. Its content hash needs every
+/// point, so it is not checked. Empty when the file has no index.
 std::optional<tile_points> read_tile_indexed(const tile_plan& plan, std::uint64_t id, io::point_stream& s) {
   // Only files whose every point is finite (LAS): a point's index is then its file index.
   if (plan.file_points != plan.finite_points) return std::nullopt;
-  double lo[3], hi[3];
-  tile_region(plan, id, lo, hi);
-  const auto runs = s.runs_within(lo, hi);
-  if (!runs) return std::nullopt;
+  const auto nodes = s.index_nodes();
+  if (!nodes) return std::nullopt;
   if (s.declared_points() != plan.file_points)
     input_changed(plan,
                   std::to_string(s.declared_points()) + " points; the plan says " + std::to_string(plan.file_points));
+  // A plan from the index took its origin and grid from the header's bounds,
+  // which the whole file's read trusts when they hold every point to 1 %.
+  double header[6];
+  if (plan.indexed && !s.header_box(0.005, header)) input_changed(plan, "its header's bounds are not finite");
+  double lo[3], hi[3];
+  tile_region(plan, id, lo, hi);
   std::vector<std::string> names;
   for (const plan_field& f : plan.fields) names.push_back(f.name);
   const auto coords = plan.grid.coords(id);
   const std::vector<plan_field> tile_fields = tile_fields_of(plan);
   const std::size_t rs = record_size(plan);
+  const double margin = io::point_stream::index_margin(*nodes);
   std::vector<column> converted;
   std::string records;
   std::uint64_t core = 0, decoded = 0;
   point_cloud c;
-  for (const io::point_stream::point_run& r : *runs) {
-    s.read_run(r, names, plan.origin, c);
+  for (const io::point_stream::index_node& n : io::point_stream::nodes_within(*nodes, lo, hi)) {
+    s.read_run(n.run, names, plan.origin, c);
     decoded += c.size();
     const field_bytes fields = plan_fields_of(plan, c, tile_fields, converted);
     for (std::size_t i = 0; i < c.size(); ++i) {
-      if (!finite3(c.position(i)) || !near_tile(plan.grid, coords, c.position(i))) continue;
-      const std::uint64_t index = r.first + i;
+      const std::uint64_t index = n.run.first + i;
+      check_within(plan, c.position(i), n.box.data(), margin, index, "the box of the index node that holds it");
+      if (plan.indexed)
+        check_within(plan, c.position(i), header, 0, index,
+                     "the header's bounds (by more than 0.5 % of their extent), from which the plan took its tiles: "
+                     "make a plan with --scan");
+      if (!near_tile(plan.grid, coords, c.position(i))) continue;
       append_record(records, rs, index, index, c.positions().data(), fields, i);
       core += plan.grid.tile_of(c.position(i)) == id;
     }
@@ -110,6 +139,7 @@ tile_points read_tile(const tile_plan& plan, std::uint64_t id) {
   check_plan_input(plan);
   auto s = io::open_point_stream(plan.request.input, plan.request.read);
   if (auto pts = read_tile_indexed(plan, id, *s)) return std::move(*pts);
+  if (plan.indexed) input_changed(plan, "it no longer has the spatial index the plan was made from");
   // A pass to learn the whole file's fields (LAS flags), then the tile's points.
   for_each_chunk(*s, {0, 0, 0}, [](const point_cloud&) {});
   s->rewind();

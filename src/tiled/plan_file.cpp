@@ -80,6 +80,7 @@ tiled_request request_from_json(const nlohmann::json& j) {
   r.modalities = j.at("modalities").get<std::vector<std::string>>();
   r.tile_size = number_of(j, "tile_size");
   r.memory_limit = count_of<std::uint64_t>(j, "memory_limit");
+  r.scan = j.value("scan", false);
   validate(r.params);
   if (r.modalities.empty()) throw std::invalid_argument("'modalities' is empty");
   modalities_of(r.modalities);  // each spec parses
@@ -97,6 +98,9 @@ void input_from_json(const nlohmann::json& in, tile_plan& p, const std::string& 
   p.file_points = count_of<std::uint64_t>(in, "points");
   p.finite_points = count_of<std::uint64_t>(in, "finite_points");
   p.streamed = in.at("streamed").get<bool>();
+  p.indexed = in.value("indexed", false);
+  if (p.indexed && p.finite_points != p.file_points)
+    throw io::io_error(name, "invalid tile plan: a plan from a spatial index counts every point finite");
   if (p.finite_points == 0 || p.finite_points > p.file_points ||
       p.finite_points > std::numeric_limits<std::uint32_t>::max())
     throw io::io_error(name, "invalid tile plan: its point counts are inconsistent");
@@ -160,7 +164,7 @@ void tiles_from_json(const nlohmann::json& tiles, tile_plan& p, const std::strin
     owned += e.core_points;
     p.tiles.push_back(e);
   }
-  if (owned != p.finite_points)
+  if (owned != p.finite_points && !p.indexed)  // a plan from an index estimates its counts
     throw io::io_error(name, "invalid tile plan: its tiles own " + std::to_string(owned) + " points, its input has " +
                                  std::to_string(p.finite_points) + " finite points");
 }
@@ -184,6 +188,7 @@ nlohmann::json request_json(const tiled_request& r) {
   j["modalities"] = r.modalities;
   j["tile_size"] = r.tile_size;
   j["memory_limit"] = r.memory_limit;
+  if (r.scan) j["scan"] = true;
   return j;
 }
 
@@ -196,6 +201,7 @@ std::string tile_plan::to_json() const {
   j["input"] = {{"details", details},    {"bytes", input_bytes},           {"fingerprint", fingerprint},
                 {"points", file_points}, {"finite_points", finite_points}, {"streamed", streamed}};
   if (!content.empty()) j["input"]["content"] = content;
+  if (indexed) j["input"]["indexed"] = true;
   j["origin"] = origin;
   j["grid"] = {{"lo", grid.lo}, {"size", grid.size}, {"dims", grid.dims}, {"halo", grid.halo}};
   auto& fl = j["fields"] = nlohmann::json::array();

@@ -10,6 +10,7 @@
 #include <string>
 #include <type_traits>
 
+#include "ced/io/las.hpp"
 #include "ced/scaled.hpp"
 #include "tiled/internal.hpp"
 
@@ -137,6 +138,132 @@ void plan_fields(tile_plan& p, io::point_stream& s, const scan_result& scan) {
   for (const auto& m : modalities_of(p.request.modalities)) m.bind(one, p.request.params);
 }
 
+using index_node = io::point_stream::index_node;
+
+/// The part of [a, b] (edge-extended: -inf/+inf at the grid's ends) that the
+/// interval [lo, hi] covers, as a fraction of it.
+double covered(double a, double b, double lo, double hi) noexcept {
+  if (!(hi > lo)) return lo >= a && lo <= b ? 1.0 : 0.0;
+  return std::max(0.0, std::min(b, hi) - std::max(a, lo)) / (hi - lo);
+}
+
+/// The tiles whose core (grown by `margin`) meets a node with points, with
+/// counts estimated from the nodes' (a node's points spread evenly over its box).
+std::vector<tile_entry> tiles_of_nodes(const tile_plan& p, const std::vector<index_node>& nodes, double margin) {
+  const tile_grid& g = p.grid;
+  std::map<std::uint64_t, std::pair<double, double>> est;  // core, core and halo
+  std::map<std::uint64_t, bool> listed;
+  constexpr double far = std::numeric_limits<double>::infinity();
+  for (const index_node& n : nodes) {
+    if (n.run.count == 0) continue;
+    double lo[3], hi[3];
+    std::int64_t c0[3], c1[3], h0[3], h1[3];
+    const auto cell = [&](std::size_t k, double x) {
+      const double c = std::floor((x - g.lo[k]) / g.size);
+      return static_cast<std::int64_t>(std::clamp(c, 0.0, double(g.dims[k] - 1)));
+    };
+    for (std::size_t k = 0; k < 3; ++k) {
+      lo[k] = n.box[k] - p.origin[k];
+      hi[k] = n.box[3 + k] - p.origin[k];
+      c0[k] = cell(k, lo[k] - margin);
+      c1[k] = cell(k, hi[k] + margin);
+      h0[k] = cell(k, lo[k] - g.halo - margin);
+      h1[k] = cell(k, hi[k] + g.halo + margin);
+    }
+    for (std::int64_t z = h0[2]; z <= h1[2]; ++z)
+      for (std::int64_t y = h0[1]; y <= h1[1]; ++y)
+        for (std::int64_t x = h0[0]; x <= h1[0]; ++x) {
+          const std::int64_t c[3] = {x, y, z};
+          double core = double(n.run.count), all = core;
+          bool own = true;
+          for (std::size_t k = 0; k < 3; ++k) {
+            const double a = c[k] == 0 ? -far : g.lo[k] + double(c[k]) * g.size;
+            const double b = c[k] + 1 == g.dims[k] ? far : g.lo[k] + double(c[k] + 1) * g.size;
+            core *= covered(a, b, lo[k], hi[k]);
+            all *= covered(a - g.halo, b + g.halo, lo[k], hi[k]);
+            own = own && c[k] >= c0[k] && c[k] <= c1[k];
+          }
+          const std::uint64_t t = std::uint64_t(x) + g.dims[0] * (std::uint64_t(y) + g.dims[1] * std::uint64_t(z));
+          auto& e = est[t];
+          e.first += core;
+          e.second += all;
+          if (own) listed[t] = true;
+        }
+  }
+  std::vector<tile_entry> out;
+  for (const auto& [t, e] : est) {
+    if (!listed.count(t)) continue;
+    const auto core = std::max<std::uint64_t>(1, std::uint64_t(std::llround(e.first)));
+    out.push_back({t, core, std::max(core, std::uint64_t(std::llround(e.second)))});
+  }
+  return out;
+}
+
+/// The ranges of the plan's tile fields over every point, from a read of
+/// those fields alone (a layered LAZ decodes only their layers).
+void tile_field_ranges(tile_plan& p, const tiled_progress& progress) {
+  if (p.tile_fields->empty()) return;
+  io::read_options o = p.request.read;
+  o.fields = field_selection::only(*p.tile_fields);
+  const auto s = io::open_point_stream(p.request.input, o);
+  scan_result scan;
+  for_each_chunk(*s, p.origin, [&](const point_cloud& c) {
+    scan_chunk(c, scan);
+    if (progress) progress("reading the modalities' fields", double(scan.file_points) / double(p.file_points));
+  });
+  if (scan.file_points != p.file_points)
+    throw io::io_error(p.request.input, std::to_string(scan.file_points) + " points read; its header says " +
+                                            std::to_string(p.file_points));
+  for (plan_field& f : p.fields) {
+    const auto it = scan.ranges.find(f.name);
+    if (it != scan.ranges.end()) f.range = it->second.first;
+  }
+}
+
+/// A plan from the file's spatial index (COPC) and header, without a pass
+/// over the points (tile_plan::indexed); none when the file has no index or
+/// the request cannot be planned so.
+std::optional<tile_plan> plan_from_index(const tiled_request& request, io::point_stream& s,
+                                         const tiled_progress& progress) {
+  if (request.scan || request.memory_limit > 0) return std::nullopt;
+  check_request(request);
+  const auto nodes = s.index_nodes();
+  double hlo[3], hhi[3], box[6];
+  if (!nodes || !s.header_bounds(hlo, hhi) || !s.header_box(0.01, box)) return std::nullopt;
+  tile_plan p;
+  p.request = request;
+  p.indexed = true;
+  p.fingerprint = fingerprint_of(request.input, p.input_bytes);
+  p.details = s.details();
+  p.streamed = s.streaming();
+  std::uint64_t total = 0;
+  for (const index_node& n : *nodes) total += n.run.count;
+  p.file_points = p.finite_points = s.declared_points();
+  if (total != p.file_points)
+    throw io::io_error(request.input, "its spatial index holds " + std::to_string(total) + " points; its header says " +
+                                          std::to_string(p.file_points));
+  if (p.file_points == 0) throw io::io_error(request.input, "the cloud has no (finite) points");
+  if (p.file_points > std::numeric_limits<std::uint32_t>::max())
+    throw io::io_error(request.input, "more than 2^32-1 points: split the file");
+  p.origin = choose_origin(hlo, hhi);
+  // The fields: every one the point format gives, each flag among them.
+  point_cloud probe;
+  s.read_run({0, 1}, io::las_flag_fields(), p.origin, probe);
+  for (const field& f : probe.fields()) p.fields.push_back({f.name, f.type(), value_range{0, 0}});
+  if (p.request.modalities.empty()) p.request.modalities = preset_specs(probe.has_rgb() ? "ced6d" : "ced3d");
+  p.tile_fields = detection_fields(p);
+  if (!p.tile_fields) return std::nullopt;  // a modality that does not say which fields it reads
+  double plo[3], phi[3];
+  for (std::size_t k = 0; k < 3; ++k) {
+    plo[k] = box[k] - p.origin[k];
+    phi[k] = box[3 + k] - p.origin[k];
+  }
+  p.grid = make_tile_grid(plo, phi, request.tile_size, halo_params(request));
+  p.tiles = tiles_of_nodes(p, *nodes, io::point_stream::index_margin(*nodes));
+  tile_field_ranges(p, progress);
+  return p;
+}
+
 }  // namespace
 
 namespace tiled_detail {
@@ -217,6 +344,7 @@ std::vector<tile_entry> count_tiles(io::point_stream& s, const tile_plan& p, con
 
 tile_plan plan_tiles(const tiled_request& request, const tiled_progress& progress) {
   auto s = io::open_point_stream(request.input, request.read);
+  if (auto p = plan_from_index(request, *s, progress)) return std::move(*p);
   tile_plan p = plan_grid(request, *s, progress);
   std::uint64_t content = 0;
   p.tiles = count_tiles(*s, p, progress, &content);  // pass 2

@@ -45,9 +45,14 @@ def test_copc_tiles_read_through_its_index_give_the_whole_result():
     copc = str(DATA / "1.2-with-color.copc.laz")
     whole = ced.detect(ced.read(copc), modalities="ced6d", radius=60.0)
     plan = ced.plan_tiles(copc, tile_size=800.0, modalities="ced6d", radius=60.0)
+    assert plan.indexed  # from the index and header, no pass over the points
     assert len(plan.tiles) > 3
     merged = ced.merge_parts(plan, [ced.detect_tile(plan, t) for t, _, _ in plan.tiles])
     assert len(whole.keypoints) > 0
+    assert np.array_equal(merged.keypoints, np.asarray(whole.keypoints, dtype=np.uint64))
+    scanned = ced.plan_tiles(copc, tile_size=800.0, modalities="ced6d", radius=60.0, scan=True)
+    assert not scanned.indexed
+    merged = ced.merge_parts(scanned, [ced.detect_tile(scanned, t) for t, _, _ in scanned.tiles])
     assert np.array_equal(merged.keypoints, np.asarray(whole.keypoints, dtype=np.uint64))
 
 

@@ -202,6 +202,10 @@ class TilePlan:
     @property
     def digest(self) -> str: ...
     @property
+    def indexed(self) -> bool:
+        """True when planned from the file's COPC index without a pass over the points (tile counts are
+        estimates)."""
+    @property
     def tiles(self) -> List[Tuple[int, int, int]]:
         """(id, points owned, points read) of every tile that owns points."""
 
@@ -231,9 +235,10 @@ class TilePart:
 def plan_tiles(input: str, tile_size: Optional[float] = None, memory_limit: Optional[float] = None,
                modalities: Union[None, str, Sequence[str]] = None, radius: float = 0.05,
                nms_radius: Optional[float] = None, min_neighbors: int = 5, format: str = "auto",
-               refine: Optional[bool] = None, max_keypoints: int = 0) -> TilePlan:
+               refine: Optional[bool] = None, max_keypoints: int = 0, scan: bool = False) -> TilePlan:
     """Plans the tiles of a cloud file (two passes over it), as `ced plan`. tile_size (metres, > 0) or
-    memory_limit (bytes, 1 .. 1e18), not both."""
+    memory_limit (bytes, 1 .. 1e18), not both. A COPC file is planned from its index and header without a
+    pass over the points (plan.indexed), unless scan=True or memory_limit is given."""
 
 
 def detect_tile(plan: TilePlan, tile: int, part: Union[None, str, PathLike[str]] = None,
