@@ -44,12 +44,13 @@ struct twin {
 /// (point10, gpstime11, rgb12 v2), with 27 extra bytes (byte v2), and LAS
 /// 1.4 point format 6 with extended VLRs (layered: point14 v3).
 constexpr twin k_twins[] = {{"simple.laz", "simple.las", "LAZ 1.2, point format 3"},
+                            {"simple-laszip-1.2r0.laz", "simple.las", "LAZ 1.2, point format 3"},
                             {"autzen_trim.laz", "autzen_trim.las", "LAZ 1.2, point format 3"},
                             {"extra.laz", "extrabytes.las", "LAZ 1.4, point format 3"},
                             {"1_4_w_evlr.laz", "1_4_w_evlr.las", "LAZ 1.4, point format 6"}};
 /// Every LAZ file of tests/data (with COPC's layered point format 7 and a
 /// point format 8 file with NIR and extra bytes, which have no twin).
-constexpr const char* k_laz_files[] = {"simple.laz",     "autzen_trim.laz",         "extra.laz",
+constexpr const char* k_laz_files[] = {"simple.laz",     "simple-laszip-1.2r0.laz", "autzen_trim.laz", "extra.laz",
                                        "1_4_w_evlr.laz", "1.2-with-color.copc.laz", "append-bug.laz"};
 
 /// The io_error reading `bytes` (as a file `name`) throws; it must name the file.
@@ -272,6 +273,27 @@ TEST(LazMalformed, TruncatedAnywhere) {
   }
 }
 
+TEST(LazMalformed, Version1TruncatedOrCorrupt) {
+  // LASzip 1.x: one stream of version 1 items, no chunk table, to the end of the file.
+  const std::string file = read_bytes(data_path("simple-laszip-1.2r0.laz"));
+  const laz_offsets o = offsets_of(file);
+  EXPECT_CONTAINS(laz_error(file.substr(0, o.points + 10)), "too short for its first point record");
+  for (std::size_t keep : {o.points + 100, file.size() / 2, file.size() - 40}) {
+    SCOPED_TRACE(keep);
+    EXPECT_CONTAINS(laz_error(file.substr(0, keep)), "ends early");
+  }
+  // Flipped bytes in the stream: an error, or other points, never a crash.
+  const std::string good = las_point_records(file, "v1.laz");
+  for (std::size_t at = o.points + 40; at < file.size(); at += 997) {
+    std::string b = file;
+    b[at] = static_cast<char>(b[at] ^ 0x5A);
+    const std::string msg = laz_error(b);
+    if (msg == "<no io_error thrown>") {
+      EXPECT_NE(las_point_records(b, "v1.laz"), good) << at;
+    }
+  }
+}
+
 TEST(LazMalformed, ChunkTable) {
   const std::string file = read_bytes(data_path("autzen_trim.laz"));
   const laz_offsets o = offsets_of(file);
@@ -330,7 +352,9 @@ TEST(LazMalformed, LaszipVlr) {
   EXPECT_CONTAINS(with(o.vlr, 7), "unknown compressor 7");
   EXPECT_CONTAINS(with(o.vlr, 3), "compressor 3 with point format 3");
   EXPECT_CONTAINS(with(o.vlr + 2, 1), "unknown coder 1");
-  EXPECT_CONTAINS(with(o.vlr + 34 + 4, 1), "point10 v1 (20 bytes): not supported (pointwise items are version 2");
+  EXPECT_CONTAINS(with(o.vlr + 34 + 4, 1), "of versions 1 and 2 mixed");
+  EXPECT_CONTAINS(with(o.vlr + 34 + 4, 5),
+                  "point10 v5 (20 bytes): not supported (pointwise items are versions 1 and 2");
   EXPECT_CONTAINS(with(o.vlr + 34 + 6, 9), "do not match point format 3");       // gpstime11 -> wavepacket13
   EXPECT_CONTAINS(with(o.vlr + 34 + 12 + 2, 7), "do not match point format 3");  // rgb12 of 7 bytes
   EXPECT_CONTAINS(with(o.vlr + 32, 40), "items do not fit");

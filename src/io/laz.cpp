@@ -14,6 +14,7 @@
 #include "laz_coder.hpp"
 #include "laz_items.hpp"
 #include "laz_layered.hpp"
+#include "laz_pointwise.hpp"
 #include "scalar_io.hpp"
 
 namespace ced::io::detail {
@@ -145,12 +146,16 @@ laz_layout parse_laszip_vlr(const unsigned char* p, std::size_t len, int format,
     throw io_error(file, where + "point format " + std::to_string(format) +
                              " is not supported in LAZ (this reader decodes point formats 0-3 and 6-8; "
                              "4, 5, 9 and 10 carry waveforms)");
-  // Pointwise items are version 2 (LASzip 2.0 on); layered ones 3 or 4.
+  // Pointwise items are version 1 (LASzip 1.x) or 2 (2.0 on), all the
+  // same; layered ones 3 or 4.
   const auto check_version = [&](const laz_item& it) {
-    if (layered ? (it.version == 3 || it.version == 4) : it.version == 2) return;
+    if (layered ? (it.version == 3 || it.version == 4) : (it.version == 1 || it.version == 2)) {
+      if (layered || it.version == l.items[0].version) return;
+      throw io_error(file, where + "items [" + l.describe() + "] of versions 1 and 2 mixed (LASzip writes one)");
+    }
     throw io_error(file, where + item_text(it) + ": not supported (" +
                              (layered ? "layered items are versions 3 and 4"
-                                      : "pointwise items are version 2, written by LASzip 2.0 and later") +
+                                      : "pointwise items are versions 1 and 2, written by LASzip 1.x and 2.0 on") +
                              ")");
   };
   std::size_t i = 0;
