@@ -1386,6 +1386,12 @@ class las_stream final : public point_stream {
     }
     return out;
   }
+  std::vector<std::string> flags_set() const override {
+    std::vector<std::string> out;
+    for (const flag_spec& fl : flags_of(m_header.layout->extended))
+      if ((m_scan.flags[fl.offset - 14] >> fl.shift) & fl.mask) out.push_back(fl.name);
+    return out;
+  }
   bool header_bounds(double lo[3], double hi[3]) const override {
     double box[6];
     if (!las_header_box(m_header.min.data(), m_header.max.data(), m_header.scale.data(), 0, box)) return false;
@@ -1399,7 +1405,6 @@ class las_stream final : public point_stream {
 
   void read_run(const point_run& r, const std::vector<std::string>& fields, const std::array<double, 3>& origin,
                 point_cloud& out) override {
-    if (!m_copc) return point_stream::read_run(r, fields, origin, out);
     // The flags the whole file has, from their names, as a complete pass decides them.
     record_scan named;
     const format_layout& layout = *m_header.layout;

@@ -80,6 +80,9 @@ class point_stream {
   /// How far a point may lie outside its node's box: a millionth of the
   /// largest node's edge (points on a face belong to either side).
   static double index_margin(const std::vector<index_node>& nodes) noexcept;
+  /// LAS, after a complete pass: the flag fields some point sets (a read of
+  /// every field has them). Other formats: none.
+  virtual std::vector<std::string> flags_set() const { return {}; }
   /// LAS: the header's bounds as written, when they are finite and ordered
   /// (they may be wrong: header_box() tells how far to trust them); false
   /// for other formats.
@@ -96,9 +99,11 @@ class point_stream {
     (void)box;
     return false;
   }
-  /// Reads run `r` (one of runs_within()'s) into `out`, positions relative
-  /// to `origin`, with the fields a complete pass would give: `fields` names
-  /// them (a tile plan records them), as no pass learns them here.
+  /// Reads run `r` (one of runs_within()'s; LAS: any run of the file's
+  /// points) into `out`, positions relative to `origin`, with the fields a
+  /// complete pass would give: `fields` names the flags among them (a tile
+  /// plan records them), as no pass learns them here. The stream's pass is
+  /// then spent: origin(), bounds() and flags_set() no longer hold.
   virtual void read_run(const point_run& r, const std::vector<std::string>& fields, const std::array<double, 3>& origin,
                         point_cloud& out) {
     (void)r;
