@@ -288,3 +288,78 @@ TEST(TiledRun, ATruncatedOrOversizedTileCacheIsRefused) {
   }
   ced::remove_work_dir(o.work_dir);
 }
+
+namespace {
+
+/// run_tiled's keypoints and fields of `r`, and whether it made a pass to
+/// learn the bounds before the tile cache (its progress says "pass 1").
+struct tiled_outcome {
+  std::vector<std::uint64_t> index;
+  std::vector<std::string> fields;
+  bool first_pass = false;
+  std::array<double, 3> origin{};
+};
+
+tiled_outcome run_and_watch(const ced::tiled_request& r, const std::string& work) {
+  tiled_outcome out;
+  ced::tiled_run_options o;
+  o.work_dir = ced_test::temp_file(work);
+  o.progress = [&](const std::string& step, double) {
+    if (step.find("pass 1") != std::string::npos) out.first_pass = true;
+  };
+  ced::tile_plan plan;
+  const ced::tile_part merged = ced::run_tiled(r, o, &plan);
+  out.index = merged.index;
+  for (const auto& f : merged.keypoints.fields()) out.fields.push_back(f.name);
+  out.origin = plan.origin;
+  return out;
+}
+
+}  // namespace
+
+TEST(TiledRun, LasIsPlannedFromItsHeaderInOnePassWhenTheHeaderHolds) {
+  // A georeferenced room (the origin is the bounds' rounded centre) with a
+  // flag some later points set and one no point sets.
+  ced::tiled_request r = room_request(6000, 16, "header_seed.las", 0.2, {500000.5, 4000000.25, 100});
+  ced::point_cloud c = ced::io::read_cloud(r.input);
+  std::vector<double> withheld(c.size(), 0.0), key(c.size(), 0.0);
+  for (std::size_t i = c.size() * 3 / 4; i < c.size(); i += 7) withheld[i] = 1;
+  c.add_field("withheld", ced::scalar_type::uint8, withheld);
+  c.add_field("key_point", ced::scalar_type::uint8, key);
+  ced::io::write_cloud(r.input, c);
+  const std::string bytes = ced_test::read_bytes(r.input);
+  const auto header = [&](std::size_t at) {
+    double v;
+    std::memcpy(&v, bytes.data() + at, sizeof v);
+    return v;
+  };
+  const double max_x = header(179), min_x = header(187), extent = max_x - min_x;
+  const auto with_max_x = [&](double v, const std::string& name) {
+    std::string b = bytes;
+    std::memcpy(&b[179], &v, sizeof v);
+    ced::tiled_request q = r;
+    q.input = ced_test::temp_file(name);
+    ced_test::write_bytes(q.input, b);
+    return q;
+  };
+  for (const auto& [q, one_pass] :
+       {std::pair{r, true}, std::pair{with_max_x(max_x + 0.005 * extent, "header_loose.las"), true},
+        std::pair{with_max_x(max_x - 0.6 * extent, "header_tight.las"), false}}) {
+    SCOPED_TRACE(q.input);
+    const ced::point_cloud file = ced::io::read_cloud(q.input);
+    const auto whole = ced::detect(file, q.params, specs(q.modalities)).keypoints;
+    ASSERT_GT(whole.size(), 5u);
+    std::vector<std::string> names;
+    for (const auto& f : file.fields()) names.push_back(f.name);
+    ASSERT_NE(std::find(names.begin(), names.end(), "withheld"), names.end());
+    EXPECT_EQ(std::find(names.begin(), names.end(), "key_point"), names.end());
+    const tiled_outcome t = run_and_watch(q, "header_work");
+    EXPECT_EQ(t.first_pass, !one_pass);
+    EXPECT_EQ(t.index, std::vector<std::uint64_t>(whole.begin(), whole.end()));
+    EXPECT_EQ(t.fields, names);  // the flags some point sets, as a whole read has them
+    EXPECT_EQ(t.origin, file.origin());
+  }
+  // With scan: the two passes.
+  r.scan = true;
+  EXPECT_TRUE(run_and_watch(r, "header_scan_work").first_pass);
+}

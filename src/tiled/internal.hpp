@@ -12,6 +12,7 @@
 #include <cstring>
 #include <filesystem>
 #include <future>
+#include <map>
 #include <memory>
 #include <nlohmann/json_fwd.hpp>
 #include <optional>
@@ -78,6 +79,26 @@ std::string fingerprint_of(const std::string& path, std::uint64_t& bytes);
 nlohmann::json request_json(const tiled_request& r);
 
 // ------------------------------------------------------------------ planning (planning.cpp, sizing.cpp)
+
+/// What a pass over the points learns: counts, and each field's range over
+/// the finite points (and whether every chunk had it).
+struct scan_result {
+  std::uint64_t file_points = 0, finite_points = 0;
+  std::map<std::string, std::pair<value_range, bool>> ranges;
+  std::size_t chunks = 0;
+};
+/// Adds chunk `c` to `s`.
+void scan_chunk(const point_cloud& c, scan_result& s);
+
+/// The plan a LAS or LAZ file's header gives, without a pass over the
+/// points: origin and grid from the header's bounds (grown by 1 %), every
+/// field of the point format (each flag among them), the modalities'
+/// tile_fields; no ranges, no tiles, and counts as the header declares.
+/// None when the header's bounds are not finite and ordered (or not LAS),
+/// or a modality does not say which fields it reads. What the file's
+/// points make of it (the origin a whole read takes, the flags set) is for
+/// the caller to check after a pass (build_cache).
+std::optional<tile_plan> plan_from_header(const tiled_request& request, io::point_stream& s);
 
 /// Plans without the tiles' counts (run_tiled counts them while it fills
 /// its cache; plan_tiles in a pass of its own). Leaves `s` rewound.

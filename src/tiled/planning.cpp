@@ -20,75 +20,6 @@ using namespace tiled_detail;
 
 namespace {
 
-/// What the first pass learns.
-struct scan_result {
-  std::uint64_t file_points = 0, finite_points = 0;
-  std::map<std::string, std::pair<value_range, bool>> ranges;  // seen in every chunk?
-  std::size_t chunks = 0;
-};
-
-/// The range of f's values over the finite points (`fin`); `any`: it has one.
-value_range finite_range(const field& f, const std::vector<std::uint8_t>& fin, bool all_finite, bool& any) {
-  value_range r{0, 0};
-  any = false;
-  f.values.visit([&](const auto* v, std::size_t n) {
-    using T = std::remove_const_t<std::remove_pointer_t<decltype(v)>>;
-    if constexpr (std::is_integral_v<T>) {
-      if (all_finite && n > 0) {  // the same range, in a loop the compiler vectorizes
-        T lo = v[0], hi = v[0];
-        for (std::size_t i = 1; i < n; ++i) {
-          lo = std::min(lo, v[i]);
-          hi = std::max(hi, v[i]);
-        }
-        r = {static_cast<double>(lo), static_cast<double>(hi)};
-        any = true;
-        return;
-      }
-    }
-    for (std::size_t i = 0; i < n; ++i) {
-      if (!fin[i]) continue;
-      const double x = static_cast<double>(v[i]);
-      r.lo = any ? std::min(r.lo, x) : x;
-      r.hi = any ? std::max(r.hi, x) : x;
-      any = true;
-    }
-  });
-  return r;
-}
-
-void scan_chunk(const point_cloud& c, scan_result& s) {
-  s.file_points += c.size();
-  std::vector<std::uint8_t> fin(c.size());
-  std::size_t finite = 0;
-  for (std::size_t i = 0; i < c.size(); ++i) {
-    fin[i] = finite3(c.position(i));
-    finite += fin[i];
-  }
-  s.finite_points += finite;
-  std::map<std::string, bool> here;
-  for (const field& f : c.fields()) {
-    here[f.name] = true;
-    bool any = false;
-    value_range r = finite_range(f, fin, finite == c.size(), any);
-    auto it = s.ranges.find(f.name);
-    if (it == s.ranges.end()) {
-      // A field first seen after some chunks (a LAS flag): it was 0 there.
-      if (s.chunks > 0) r = any ? value_range{std::min(r.lo, 0.0), std::max(r.hi, 0.0)} : value_range{0, 0};
-      s.ranges[f.name] = {r, any || s.chunks > 0};
-    } else if (any) {
-      auto& [w, seen] = it->second;
-      w = seen ? value_range{std::min(w.lo, r.lo), std::max(w.hi, r.hi)} : r;
-      seen = true;
-    }
-  }
-  for (auto& [name, v] : s.ranges)
-    if (!here.count(name)) {  // absent from this chunk: 0 there
-      v.first = v.second ? value_range{std::min(v.first.lo, 0.0), std::max(v.first.hi, 0.0)} : value_range{0, 0};
-      v.second = true;
-    }
-  ++s.chunks;
-}
-
 /// Throws std::invalid_argument for a bad tile size, limit or modality.
 void check_request(const tiled_request& request) {
   validate(request.params);
@@ -199,12 +130,15 @@ std::vector<tile_entry> tiles_of_nodes(const tile_plan& p, const std::vector<ind
   return out;
 }
 
-/// The ranges of the plan's tile fields over every point, from a read of
-/// those fields alone (a layered LAZ decodes only their layers).
+/// The ranges of the plan's tile fields (all its fields when it has none)
+/// over every point, from a read of those fields alone (a layered LAZ
+/// decodes only their layers).
 void tile_field_ranges(tile_plan& p, const tiled_progress& progress) {
-  if (p.tile_fields->empty()) return;
   io::read_options o = p.request.read;
-  o.fields = field_selection::only(*p.tile_fields);
+  if (p.tile_fields) {
+    if (p.tile_fields->empty()) return;
+    o.fields = field_selection::only(*p.tile_fields);
+  }
   const auto s = io::open_point_stream(p.request.input, o);
   scan_result scan;
   for_each_chunk(*s, p.origin, [&](const point_cloud& c) {
@@ -226,47 +160,130 @@ void tile_field_ranges(tile_plan& p, const tiled_progress& progress) {
 std::optional<tile_plan> plan_from_index(const tiled_request& request, io::point_stream& s,
                                          const tiled_progress& progress) {
   if (request.scan || request.memory_limit > 0) return std::nullopt;
-  check_request(request);
   const auto nodes = s.index_nodes();
-  double hlo[3], hhi[3], box[6];
-  if (!nodes || !s.header_bounds(hlo, hhi) || !s.header_box(0.01, box)) return std::nullopt;
-  tile_plan p;
-  p.request = request;
-  p.indexed = true;
-  p.fingerprint = fingerprint_of(request.input, p.input_bytes);
-  p.details = s.details();
-  p.streamed = s.streaming();
+  if (!nodes) return std::nullopt;
+  std::optional<tile_plan> p = plan_from_header(request, s);
+  if (!p) return std::nullopt;
+  p->indexed = true;
   std::uint64_t total = 0;
   for (const index_node& n : *nodes) total += n.run.count;
-  p.file_points = p.finite_points = s.declared_points();
-  if (total != p.file_points)
+  if (total != p->file_points)
     throw io::io_error(request.input, "its spatial index holds " + std::to_string(total) + " points; its header says " +
-                                          std::to_string(p.file_points));
-  if (p.file_points == 0) throw io::io_error(request.input, "the cloud has no (finite) points");
-  if (p.file_points > std::numeric_limits<std::uint32_t>::max())
-    throw io::io_error(request.input, "more than 2^32-1 points: split the file");
-  p.origin = choose_origin(hlo, hhi);
-  // The fields: every one the point format gives, each flag among them.
-  point_cloud probe;
-  s.read_run({0, 1}, io::las_flag_fields(), p.origin, probe);
-  for (const field& f : probe.fields()) p.fields.push_back({f.name, f.type(), value_range{0, 0}});
-  if (p.request.modalities.empty()) p.request.modalities = preset_specs(probe.has_rgb() ? "ced6d" : "ced3d");
-  p.tile_fields = detection_fields(p);
-  if (!p.tile_fields) return std::nullopt;  // a modality that does not say which fields it reads
-  double plo[3], phi[3];
-  for (std::size_t k = 0; k < 3; ++k) {
-    plo[k] = box[k] - p.origin[k];
-    phi[k] = box[3 + k] - p.origin[k];
-  }
-  p.grid = make_tile_grid(plo, phi, request.tile_size, halo_params(request));
-  p.tiles = tiles_of_nodes(p, *nodes, io::point_stream::index_margin(*nodes));
-  tile_field_ranges(p, progress);
+                                          std::to_string(p->file_points));
+  p->tiles = tiles_of_nodes(*p, *nodes, io::point_stream::index_margin(*nodes));
+  tile_field_ranges(*p, progress);
   return p;
 }
 
 }  // namespace
 
 namespace tiled_detail {
+
+namespace {
+
+/// The range of f's values over the finite points (`fin`); `any`: it has one.
+value_range finite_range(const field& f, const std::vector<std::uint8_t>& fin, bool all_finite, bool& any) {
+  value_range r{0, 0};
+  any = false;
+  f.values.visit([&](const auto* v, std::size_t n) {
+    using T = std::remove_const_t<std::remove_pointer_t<decltype(v)>>;
+    if constexpr (std::is_integral_v<T>) {
+      if (all_finite && n > 0) {  // the same range, in a loop the compiler vectorizes
+        T lo = v[0], hi = v[0];
+        for (std::size_t i = 1; i < n; ++i) {
+          lo = std::min(lo, v[i]);
+          hi = std::max(hi, v[i]);
+        }
+        r = {static_cast<double>(lo), static_cast<double>(hi)};
+        any = true;
+        return;
+      }
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!fin[i]) continue;
+      const double x = static_cast<double>(v[i]);
+      r.lo = any ? std::min(r.lo, x) : x;
+      r.hi = any ? std::max(r.hi, x) : x;
+      any = true;
+    }
+  });
+  return r;
+}
+
+}  // namespace
+
+void scan_chunk(const point_cloud& c, scan_result& s) {
+  s.file_points += c.size();
+  std::vector<std::uint8_t> fin(c.size());
+  std::size_t finite = 0;
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    fin[i] = finite3(c.position(i));
+    finite += fin[i];
+  }
+  s.finite_points += finite;
+  std::map<std::string, bool> here;
+  for (const field& f : c.fields()) {
+    here[f.name] = true;
+    bool any = false;
+    value_range r = finite_range(f, fin, finite == c.size(), any);
+    auto it = s.ranges.find(f.name);
+    if (it == s.ranges.end()) {
+      // A field first seen after some chunks (a LAS flag): it was 0 there.
+      if (s.chunks > 0) r = any ? value_range{std::min(r.lo, 0.0), std::max(r.hi, 0.0)} : value_range{0, 0};
+      s.ranges[f.name] = {r, any || s.chunks > 0};
+    } else if (any) {
+      auto& [w, seen] = it->second;
+      w = seen ? value_range{std::min(w.lo, r.lo), std::max(w.hi, r.hi)} : r;
+      seen = true;
+    }
+  }
+  for (auto& [name, v] : s.ranges)
+    if (!here.count(name)) {  // absent from this chunk: 0 there
+      v.first = v.second ? value_range{std::min(v.first.lo, 0.0), std::max(v.first.hi, 0.0)} : value_range{0, 0};
+      v.second = true;
+    }
+  ++s.chunks;
+}
+
+std::optional<tile_plan> plan_from_header(const tiled_request& request, io::point_stream& s) {
+  check_request(request);
+  double hlo[3], hhi[3], box[6];
+  if (!s.header_bounds(hlo, hhi) || !s.header_box(0.01, box)) return std::nullopt;
+  tile_plan p;
+  p.request = request;
+  p.fingerprint = fingerprint_of(request.input, p.input_bytes);
+  p.details = s.details();
+  p.streamed = s.streaming();
+  p.file_points = p.finite_points = s.declared_points();
+  if (p.file_points == 0) throw io::io_error(request.input, "the cloud has no (finite) points");
+  if (p.file_points > std::numeric_limits<std::uint32_t>::max())
+    throw io::io_error(request.input, "more than 2^32-1 points: split the file");
+  p.origin = choose_origin(hlo, hhi);
+  // The fields: every one the point format gives, each flag among them (a
+  // stream of its own: a run read spends a stream's pass).
+  point_cloud probe;
+  io::open_point_stream(request.input, request.read)->read_run({0, 1}, io::las_flag_fields(), p.origin, probe);
+  for (const field& f : probe.fields()) p.fields.push_back({f.name, f.type(), value_range{0, 0}});
+  if (p.request.modalities.empty()) p.request.modalities = preset_specs(probe.has_rgb() ? "ced6d" : "ced3d");
+  // The modalities find their fields (an error now, not in every tile).
+  const point_cloud one = empty_cloud(p, 1);
+  for (const auto& m : modalities_of(p.request.modalities)) m.bind(one, p.request.params);
+  p.tile_fields = detection_fields(p);
+  // Without tile_fields every field goes through the cache (a modality that
+  // does not say which it reads, or a read of only those): not the flags,
+  // whose presence only a pass over the points decides.
+  const auto& flags = io::las_flag_fields();
+  if (!p.tile_fields)
+    for (const plan_field& f : p.fields)
+      if (std::find(flags.begin(), flags.end(), f.name) != flags.end()) return std::nullopt;
+  double plo[3], phi[3];
+  for (std::size_t k = 0; k < 3; ++k) {
+    plo[k] = box[k] - p.origin[k];
+    phi[k] = box[3 + k] - p.origin[k];
+  }
+  p.grid = make_tile_grid(plo, phi, request.tile_size, halo_params(request));
+  return p;
+}
 
 std::vector<any_modality> modalities_of(const std::vector<std::string>& specs) {
   std::vector<any_modality> out;

@@ -15,6 +15,7 @@
 #include <utility>
 #include <vector>
 
+#include "ced/io/las.hpp"
 #include "ced/io/output_file.hpp"
 #include "tiled/internal.hpp"
 
@@ -214,45 +215,105 @@ std::string cache_file(const std::string& work_dir, std::uint64_t id) {
   return (fs::path(work_dir) / "cache" / ("t" + std::to_string(id) + ".bin")).string();
 }
 
-tile_plan build_cache(const tiled_request& request, const tiled_run_options& o, const fs::path& dir, bool& announced) {
-  const fs::path plan_path = dir / "plan.json", cache = dir / "cache";
-  std::error_code ec;
-  fs::create_directories(cache, ec);
-  if (ec) throw io::io_error(cache.string(), "cannot create the tile cache directory: " + ec.message());
-  auto s = io::open_point_stream(request.input, request.read);
-  tile_plan plan = plan_grid(request, *s, o.progress);
-  // The cache carries only what detection reads (the merge fetches the
-  // keypoints' records), read by a stream that decodes only that.
-  plan.tile_fields = detection_fields(plan);
-  if (plan.tile_fields) {
-    io::read_options slim = request.read;
-    slim.fields = field_selection::only(*plan.tile_fields);
-    s = io::open_point_stream(request.input, slim);
-  }
+namespace {
+
+/// The cache of `plan` from one pass over `s`: every point into the cache
+/// of each tile that reads it; the plan gets the tiles' counts. `scan`,
+/// when given, learns the fields' ranges on the way.
+void fill_cache(tile_plan& plan, io::point_stream& s, const tiled_run_options& o, const fs::path& dir, bool& announced,
+                scan_result* scan) {
   // Small tiles under a large halo: a point lands in many tiles, most of
   // which may own none (the air above the ground). Then the tiles are
   // counted first (one more pass), the plan is reported before anything
   // is written, and only tiles that own points are cached.
   tile_owners owners;
   if (tiles_per_point(plan.grid) > 2) {
-    plan.tiles = count_tiles(*s, plan, o.progress, nullptr);
+    plan.tiles = count_tiles(s, plan, o.progress, nullptr);
     owners = tile_owners(plan);
-    if (o.planned) o.planned(plan);
-    announced = true;
+    if (o.planned && !scan) o.planned(plan);
+    announced = !scan;
   }
-  // Pass 2: every point into the cache file of each tile that reads it.
-  // The threads locate and code while the next chunk is read: as many as
-  // asked, at most 4 (each codes its shard from the whole chunk).
+  // Every point into the cache file of each tile that reads it. The threads
+  // locate and code while the next chunk is read: as many as asked, at
+  // most 4 (each codes its shard from the whole chunk).
   const unsigned shards = std::min(4u, resolve_threads(o.threads));
   cache_filler fill{plan, owners, tile_counter(plan.grid.count()),
                     cache_writer(dir.string(), std::size_t(64) << 20, shards)};
   fill.tile_fields = tile_fields_of(plan);
-  for_each_chunk(*s, plan.origin, [&](const point_cloud& c) {
+  for_each_chunk(s, plan.origin, [&](const point_cloud& c) {
+    if (scan) scan_chunk(c, *scan);
     fill.add(c);
     if (o.progress) o.progress("reading (pass 2: tile cache)", double(fill.file_index) / double(plan.file_points));
   });
   fill.writer.flush();
   plan.tiles = fill.counts.entries();
+}
+
+/// After a pass over `s` that filled the cache of a plan made from the
+/// header (plan_from_header): true when the whole file's read would take
+/// the plan's origin and its points lie in the plan's grid, and then the
+/// plan gets what the pass learnt (the flags some point sets, the tile
+/// fields' ranges). False: the plan cannot stand.
+bool settle_header_plan(tile_plan& plan, const io::point_stream& s, const scan_result& scan) {
+  if (s.origin() != plan.origin || scan.file_points != plan.file_points) return false;
+  double lo[3], hi[3];
+  s.bounds(lo, hi);
+  for (std::size_t k = 0; k < 3; ++k) {
+    const double g0 = plan.origin[k] + plan.grid.lo[k], g1 = g0 + plan.grid.dims[k] * plan.grid.size;
+    if (lo[k] < g0 || hi[k] > g1) return false;
+  }
+  const std::vector<std::string> set = s.flags_set(), &flags = io::las_flag_fields();
+  const auto unset_flag = [&](const std::string& name) {
+    return std::find(flags.begin(), flags.end(), name) != flags.end() &&
+           std::find(set.begin(), set.end(), name) == set.end();
+  };
+  for (const plan_field& f : tile_fields_of(plan))
+    if (unset_flag(f.name)) return false;  // a whole read has no such field: the scanned plan says so
+  plan.fields.erase(
+      std::remove_if(plan.fields.begin(), plan.fields.end(), [&](const plan_field& f) { return unset_flag(f.name); }),
+      plan.fields.end());
+  for (plan_field& f : plan.fields) {
+    const auto it = scan.ranges.find(f.name);
+    if (it != scan.ranges.end()) f.range = it->second.first;
+  }
+  return true;
+}
+
+}  // namespace
+
+tile_plan build_cache(const tiled_request& request, const tiled_run_options& o, const fs::path& dir, bool& announced) {
+  const fs::path plan_path = dir / "plan.json", cache = dir / "cache";
+  std::error_code ec;
+  fs::create_directories(cache, ec);
+  if (ec) throw io::io_error(cache.string(), "cannot create the tile cache directory: " + ec.message());
+  // The cache carries only what detection reads (the merge fetches the
+  // keypoints' records), read by a stream that decodes only that.
+  const auto slim_stream = [&](const tile_plan& p) {
+    io::read_options slim = request.read;
+    if (p.tile_fields) slim.fields = field_selection::only(*p.tile_fields);
+    return io::open_point_stream(request.input, slim);
+  };
+  // LAS and LAZ: the plan from the header, and one pass, which fills the
+  // cache and checks what the header said.
+  if (!request.scan && request.memory_limit == 0) {
+    auto s = io::open_point_stream(request.input, request.read);
+    if (std::optional<tile_plan> plan = plan_from_header(request, *s)) {
+      s = slim_stream(*plan);
+      scan_result scan;
+      fill_cache(*plan, *s, o, dir, announced, &scan);
+      if (settle_header_plan(*plan, *s, scan)) {
+        io::write_text_file_atomic(plan_path.string(), plan->to_json());
+        return std::move(*plan);
+      }
+      clear_tiles(dir);  // the header's bounds were not the points': the passes below
+      fs::create_directories(cache, ec);
+    }
+  }
+  auto s = io::open_point_stream(request.input, request.read);
+  tile_plan plan = plan_grid(request, *s, o.progress);
+  plan.tile_fields = detection_fields(plan);
+  if (plan.tile_fields) s = slim_stream(plan);
+  fill_cache(plan, *s, o, dir, announced, nullptr);
   io::write_text_file_atomic(plan_path.string(), plan.to_json());
   return plan;
 }
