@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 // Clouds larger than memory: a file cut into exact tiles (ced/tile_geometry.hpp),
-// planned in two passes over it, each tile detected on its own (in this
+// planned in passes over it (or from its header or COPC index), each tile
+// detected on its own (in this
 // process, another one, another machine), the parts merged into exactly the
 // whole-cloud result. What `ced plan`, `ced detect --tile-size`,
 // `ced detect --plan --tile`, `ced merge`, `ced-mpi` and Python's
@@ -193,8 +194,9 @@ struct tiled_times {
 };
 
 /// The whole run in one process: plan, an on-disk tile cache in `work_dir`
-/// (one more pass over the input), the tiles one after the other, the
-/// merge. Each finished tile's part is kept in `work_dir` (a manifest):
+/// (one more pass over the input; LAS and LAZ are planned from their header
+/// and that pass alone, see docs/SCALE.md), the tiles one after the other,
+/// the merge. Each finished tile's part is kept in `work_dir` (a manifest):
 /// with `resume`, a run of the same request that was stopped redoes only
 /// the tiles without a part. `tile_done(done, total)` after each tile.
 ///
