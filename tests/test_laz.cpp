@@ -760,6 +760,17 @@ TEST(Copc, PlanFromTheIndexGivesTheWholeResult) {
     EXPECT_EQ(merged_keypoints(scanned), merged_keypoints(plan)) << preset;
     EXPECT_EQ(scanned.origin, plan.origin);
   }
+  // A grid of more than 2^20 tiles: planned by the passes, which list only
+  // the tiles that own points (a plan from the index would list them all).
+  ced::tiled_request fine;
+  fine.input = path;
+  fine.params.radius = fine.params.nms_radius = 1;
+  fine.modalities = ced::preset_specs("ced3d");
+  fine.tile_size = 8;
+  const ced::tile_plan many = ced::plan_tiles(fine);
+  EXPECT_GT(many.grid.count(), std::uint64_t(1) << 20);
+  EXPECT_FALSE(many.indexed);
+  EXPECT_LE(many.tiles.size(), all.size());
 }
 
 TEST(Copc, PlanFromTheIndexTrustsTheHeaderOnlyAsFarAsItHolds) {

@@ -103,8 +103,9 @@ using tiled_progress = std::function<void(const std::string& step, double fracti
 /// Reads the input once (twice with a memory limit: once more to count points
 /// per area) and plans the tiles. A file with a spatial index (COPC) is
 /// planned from the index instead (tile_plan::indexed), without a pass over
-/// the points, unless the request asks to `scan` or gives a memory limit, or
-/// a modality does not say which fields it reads. Throws std::invalid_argument for a bad
+/// the points, unless the request asks to `scan` or gives a memory limit, a
+/// modality does not say which fields it reads, or the grid has more than
+/// 2^20 tiles (such a plan lists every tile of the grid). Throws std::invalid_argument for a bad
 /// request (tile size, limit, modalities), io_error for the input.
 tile_plan plan_tiles(const tiled_request& request, const tiled_progress& progress = {});
 

@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 #include <type_traits>
+#include <vector>
 
 #include "ced/io/las.hpp"
 #include "ced/scaled.hpp"
@@ -71,6 +72,9 @@ void plan_fields(tile_plan& p, io::point_stream& s, const scan_result& scan) {
 
 using index_node = io::point_stream::index_node;
 
+/// The most tiles a plan from a spatial index may have (it lists them all).
+constexpr std::uint64_t k_max_indexed_tiles = std::uint64_t(1) << 20;
+
 /// The part of [a, b] (edge-extended: -inf/+inf at the grid's ends) that the
 /// interval [lo, hi] covers, as a fraction of it.
 double covered(double a, double b, double lo, double hi) noexcept {
@@ -82,8 +86,13 @@ double covered(double a, double b, double lo, double hi) noexcept {
 /// counts estimated from the nodes' (a node's points spread evenly over its box).
 std::vector<tile_entry> tiles_of_nodes(const tile_plan& p, const std::vector<index_node>& nodes, double margin) {
   const tile_grid& g = p.grid;
-  std::map<std::uint64_t, std::pair<double, double>> est;  // core, core and halo
-  std::map<std::uint64_t, bool> listed;
+  // Per tile: the estimated points of its core and of its core and halo, and
+  // whether its core meets a node (the shallow nodes meet every tile).
+  struct estimate {
+    double core = 0, all = 0;
+    bool listed = false;
+  };
+  std::vector<estimate> by_tile(g.count());
   constexpr double far = std::numeric_limits<double>::infinity();
   for (const index_node& n : nodes) {
     if (n.run.count == 0) continue;
@@ -115,18 +124,19 @@ std::vector<tile_entry> tiles_of_nodes(const tile_plan& p, const std::vector<ind
             own = own && c[k] >= c0[k] && c[k] <= c1[k];
           }
           const std::uint64_t t = std::uint64_t(x) + g.dims[0] * (std::uint64_t(y) + g.dims[1] * std::uint64_t(z));
-          auto& e = est[t];
-          e.first += core;
-          e.second += all;
-          if (own) listed[t] = true;
+          estimate& e = by_tile[t];
+          e.core += core;
+          e.all += all;
+          e.listed = e.listed || own;
         }
   }
   std::vector<tile_entry> out;
-  for (const auto& [t, e] : est) {
-    if (!listed.count(t)) continue;
-    const auto core = std::max<std::uint64_t>(1, std::uint64_t(std::llround(e.first)));
-    out.push_back({t, core, std::max(core, std::uint64_t(std::llround(e.second)))});
-  }
+  const auto add = [&](std::uint64_t t, const estimate& e) {
+    if (!e.listed) return;
+    const auto core = std::max<std::uint64_t>(1, std::uint64_t(std::llround(e.core)));
+    out.push_back({t, core, std::max(core, std::uint64_t(std::llround(e.all)))});
+  };
+  for (std::uint64_t t = 0; t < by_tile.size(); ++t) add(t, by_tile[t]);
   return out;
 }
 
@@ -164,13 +174,17 @@ std::optional<tile_plan> plan_from_index(const tiled_request& request, io::point
   if (!nodes) return std::nullopt;
   std::optional<tile_plan> p = plan_from_header(request, s);
   if (!p) return std::nullopt;
+  // The root's cube meets every tile, so such a plan lists every tile of the
+  // grid: with more than 2^20, the passes, which list only those that own points.
+  if (p->grid.count() > k_max_indexed_tiles) return std::nullopt;
   p->indexed = true;
   std::uint64_t total = 0;
   for (const index_node& n : *nodes) total += n.run.count;
   if (total != p->file_points)
     throw io::io_error(request.input, "its spatial index holds " + std::to_string(total) + " points; its header says " +
                                           std::to_string(p->file_points));
-  p->tiles = tiles_of_nodes(*p, *nodes, io::point_stream::index_margin(*nodes));
+  // Twice the margin a tile read allows a point outside its node: listing errs on the safe side.
+  p->tiles = tiles_of_nodes(*p, *nodes, 2 * io::point_stream::index_margin(*nodes));
   tile_field_ranges(*p, progress);
   return p;
 }
