@@ -89,13 +89,18 @@ struct scan_result {
 };
 /// Adds chunk `c` to `s`.
 void scan_chunk(const point_cloud& c, scan_result& s);
+/// Each of `fields` that `scan` saw gets the range it saw.
+void set_ranges(std::vector<plan_field>& fields, const scan_result& scan);
+/// True for the names of LAS's one-bit flag fields (io::las_flag_fields()).
+bool is_las_flag(const std::string& name);
 
 /// The plan a LAS or LAZ file's header gives, without a pass over the
 /// points: origin and grid from the header's bounds (grown by 1 %), every
 /// field of the point format (each flag among them), the modalities'
 /// tile_fields; no ranges, no tiles, and counts as the header declares.
 /// None when the header's bounds are not finite and ordered (or not LAS),
-/// or a modality does not say which fields it reads. What the file's
+/// or every field would go through the cache (no tile_fields) and one of
+/// them is a flag, whose presence only a pass decides. What the file's
 /// points make of it (the origin a whole read takes, the flags set) is for
 /// the caller to check after a pass (build_cache).
 std::optional<tile_plan> plan_from_header(const tiled_request& request, io::point_stream& s);

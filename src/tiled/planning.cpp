@@ -32,6 +32,45 @@ void check_request(const tiled_request& request) {
   modalities_of(request.modalities);  // bad specs fail before the file is read
 }
 
+/// A plan of `request` over the file `s` reads, before anything of its points:
+/// the request (checked), the input's fingerprint and description.
+tile_plan plan_head(const tiled_request& request, const io::point_stream& s) {
+  check_request(request);
+  tile_plan p;
+  p.request = request;
+  p.fingerprint = fingerprint_of(request.input, p.input_bytes);
+  p.details = s.details();
+  p.streamed = s.streaming();
+  return p;
+}
+
+/// Throws io_error when the plan's input has no finite point or more than
+/// 32-bit indices can count.
+void check_point_count(const tile_plan& p) {
+  if (p.finite_points == 0) throw io::io_error(p.request.input, "the cloud has no (finite) points");
+  if (p.finite_points > std::numeric_limits<std::uint32_t>::max())
+    throw io::io_error(p.request.input,
+                       "more than 2^32-1 finite points: a tile plan indexes points with 32 bits in each tile, "
+                       "but the whole file's indices must fit the outputs' too (split the file)");
+}
+
+/// The plan's modalities (a preset when none were asked: ced6d when `probe`,
+/// a point of the file, has colour) find their fields: an error now, not in
+/// every tile.
+void bind_modalities(tile_plan& p, const point_cloud& probe) {
+  if (p.request.modalities.empty()) p.request.modalities = preset_specs(probe.has_rgb() ? "ced6d" : "ced3d");
+  const point_cloud one = empty_cloud(p, 1);
+  for (const auto& m : modalities_of(p.request.modalities)) m.bind(one, p.request.params);
+}
+
+/// The absolute box [lo, hi] relative to the plan's origin, into [plo, phi].
+void relative_box(const tile_plan& p, const double lo[3], const double hi[3], double plo[3], double phi[3]) noexcept {
+  for (std::size_t k = 0; k < 3; ++k) {
+    plo[k] = lo[k] - p.origin[k];
+    phi[k] = hi[k] - p.origin[k];
+  }
+}
+
 /// Pass 1: counts, field ranges, the origin (and the bounds, from `s`).
 scan_result scan_input(tile_plan& p, io::point_stream& s, const tiled_progress& progress) {
   scan_result scan;
@@ -43,11 +82,7 @@ scan_result scan_input(tile_plan& p, io::point_stream& s, const tiled_progress& 
   });
   p.file_points = scan.file_points;
   p.finite_points = scan.finite_points;
-  if (p.finite_points == 0) throw io::io_error(p.request.input, "the cloud has no (finite) points");
-  if (p.finite_points > std::numeric_limits<std::uint32_t>::max())
-    throw io::io_error(p.request.input,
-                       "more than 2^32-1 finite points: a tile plan indexes points with 32 bits in each tile, "
-                       "but the whole file's indices must fit the outputs' too (split the file)");
+  check_point_count(p);
   p.origin = s.origin();
   return scan;
 }
@@ -60,14 +95,9 @@ void plan_fields(tile_plan& p, io::point_stream& s, const scan_result& scan) {
   point_cloud probe;
   s.read(1, p.origin, probe);
   s.rewind();
-  for (const field& f : probe.fields()) {
-    const auto it = scan.ranges.find(f.name);
-    p.fields.push_back({f.name, f.type(), it != scan.ranges.end() ? it->second.first : value_range{0, 0}});
-  }
-  if (p.request.modalities.empty()) p.request.modalities = preset_specs(probe.has_rgb() ? "ced6d" : "ced3d");
-  // The modalities find their fields (an error now, not in every tile).
-  point_cloud one = empty_cloud(p, 1);
-  for (const auto& m : modalities_of(p.request.modalities)) m.bind(one, p.request.params);
+  for (const field& f : probe.fields()) p.fields.push_back({f.name, f.type(), value_range{0, 0}});
+  set_ranges(p.fields, scan);
+  bind_modalities(p, probe);
 }
 
 using index_node = io::point_stream::index_node;
@@ -158,10 +188,7 @@ void tile_field_ranges(tile_plan& p, const tiled_progress& progress) {
   if (scan.file_points != p.file_points)
     throw io::io_error(p.request.input, std::to_string(scan.file_points) + " points read; its header says " +
                                             std::to_string(p.file_points));
-  for (plan_field& f : p.fields) {
-    const auto it = scan.ranges.find(f.name);
-    if (it != scan.ranges.end()) f.range = it->second.first;
-  }
+  set_ranges(p.fields, scan);
 }
 
 /// A plan from the file's spatial index (COPC) and header, without a pass
@@ -259,42 +286,40 @@ void scan_chunk(const point_cloud& c, scan_result& s) {
   ++s.chunks;
 }
 
+void set_ranges(std::vector<plan_field>& fields, const scan_result& scan) {
+  for (plan_field& f : fields) {
+    const auto it = scan.ranges.find(f.name);
+    if (it != scan.ranges.end()) f.range = it->second.first;
+  }
+}
+
+bool is_las_flag(const std::string& name) {
+  const auto& flags = io::las_flag_fields();
+  return std::find(flags.begin(), flags.end(), name) != flags.end();
+}
+
 std::optional<tile_plan> plan_from_header(const tiled_request& request, io::point_stream& s) {
-  check_request(request);
   double hlo[3], hhi[3], box[6];
   if (!s.header_bounds(hlo, hhi) || !s.header_box(0.01, box)) return std::nullopt;
-  tile_plan p;
-  p.request = request;
-  p.fingerprint = fingerprint_of(request.input, p.input_bytes);
-  p.details = s.details();
-  p.streamed = s.streaming();
-  p.file_points = p.finite_points = s.declared_points();
-  if (p.file_points == 0) throw io::io_error(request.input, "the cloud has no (finite) points");
-  if (p.file_points > std::numeric_limits<std::uint32_t>::max())
-    throw io::io_error(request.input, "more than 2^32-1 points: split the file");
+  tile_plan p = plan_head(request, s);
+  p.file_points = p.finite_points = s.declared_points();  // LAS positions are always finite
+  check_point_count(p);
   p.origin = choose_origin(hlo, hhi);
   // The fields: every one the point format gives, each flag among them (a
   // stream of its own: a run read spends a stream's pass).
   point_cloud probe;
   io::open_point_stream(request.input, request.read)->read_run({0, 1}, io::las_flag_fields(), p.origin, probe);
   for (const field& f : probe.fields()) p.fields.push_back({f.name, f.type(), value_range{0, 0}});
-  if (p.request.modalities.empty()) p.request.modalities = preset_specs(probe.has_rgb() ? "ced6d" : "ced3d");
-  // The modalities find their fields (an error now, not in every tile).
-  const point_cloud one = empty_cloud(p, 1);
-  for (const auto& m : modalities_of(p.request.modalities)) m.bind(one, p.request.params);
+  bind_modalities(p, probe);
   p.tile_fields = detection_fields(p);
   // Without tile_fields every field goes through the cache (a modality that
   // does not say which it reads, or a read of only those): not the flags,
   // whose presence only a pass over the points decides.
-  const auto& flags = io::las_flag_fields();
   if (!p.tile_fields)
     for (const plan_field& f : p.fields)
-      if (std::find(flags.begin(), flags.end(), f.name) != flags.end()) return std::nullopt;
+      if (is_las_flag(f.name)) return std::nullopt;
   double plo[3], phi[3];
-  for (std::size_t k = 0; k < 3; ++k) {
-    plo[k] = box[k] - p.origin[k];
-    phi[k] = box[3 + k] - p.origin[k];
-  }
+  relative_box(p, box, box + 3, plo, phi);
   p.grid = make_tile_grid(plo, phi, request.tile_size, halo_params(request));
   return p;
 }
@@ -317,21 +342,13 @@ void name_modalities(const tile_plan& plan, const std::vector<any_modality>& mod
 }
 
 tile_plan plan_grid(const tiled_request& request, io::point_stream& s, const tiled_progress& progress) {
-  tile_plan p;
-  p.request = request;
-  check_request(request);
-  p.fingerprint = fingerprint_of(request.input, p.input_bytes);
-  p.details = s.details();
-  p.streamed = s.streaming();
+  tile_plan p = plan_head(request, s);
   const scan_result scan = scan_input(p, s, progress);
   double lo[3], hi[3];
   s.bounds(lo, hi);
   plan_fields(p, s, scan);
   double plo[3], phi[3];
-  for (int k = 0; k < 3; ++k) {
-    plo[k] = lo[k] - p.origin[std::size_t(k)];
-    phi[k] = hi[k] - p.origin[std::size_t(k)];
-  }
+  relative_box(p, lo, hi, plo, phi);
   const double size = request.memory_limit > 0 ? size_for_memory(s, p, plo, phi, progress) : request.tile_size;
   s.rewind();
   p.grid = make_tile_grid(plo, phi, size, halo_params(request));

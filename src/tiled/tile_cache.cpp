@@ -15,7 +15,6 @@
 #include <utility>
 #include <vector>
 
-#include "ced/io/las.hpp"
 #include "ced/io/output_file.hpp"
 #include "tiled/internal.hpp"
 
@@ -262,20 +261,16 @@ bool settle_header_plan(tile_plan& plan, const io::point_stream& s, const scan_r
     const double g0 = plan.origin[k] + plan.grid.lo[k], g1 = g0 + plan.grid.dims[k] * plan.grid.size;
     if (lo[k] < g0 || hi[k] > g1) return false;
   }
-  const std::vector<std::string> set = s.flags_set(), &flags = io::las_flag_fields();
+  const std::vector<std::string> set = s.flags_set();
   const auto unset_flag = [&](const std::string& name) {
-    return std::find(flags.begin(), flags.end(), name) != flags.end() &&
-           std::find(set.begin(), set.end(), name) == set.end();
+    return is_las_flag(name) && std::find(set.begin(), set.end(), name) == set.end();
   };
   for (const plan_field& f : tile_fields_of(plan))
     if (unset_flag(f.name)) return false;  // a whole read has no such field: the scanned plan says so
   plan.fields.erase(
       std::remove_if(plan.fields.begin(), plan.fields.end(), [&](const plan_field& f) { return unset_flag(f.name); }),
       plan.fields.end());
-  for (plan_field& f : plan.fields) {
-    const auto it = scan.ranges.find(f.name);
-    if (it != scan.ranges.end()) f.range = it->second.first;
-  }
+  set_ranges(plan.fields, scan);
   return true;
 }
 
