@@ -33,8 +33,9 @@ struct tiled_request {
   std::vector<std::string> modalities;
   double tile_size = 0;            ///< edge of a tile's core, > 0; or 0 with memory_limit
   std::uint64_t memory_limit = 0;  ///< bytes a tile may take (sets the tile size); 0 = none
-  /// Plan by passes over the points even when the file has a spatial index
-  /// (COPC), which plan_tiles() otherwise plans from (tile_plan::indexed).
+  /// Plan by passes over the points even where the file would do without:
+  /// plan_tiles() plans a COPC file from its index (tile_plan::indexed), and
+  /// run_tiled() a LAS or LAZ file from its header (then one pass fills the cache).
   bool scan = false;
 };
 
