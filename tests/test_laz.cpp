@@ -723,12 +723,6 @@ std::string with_bounds(std::string file, int k, double lo, double hi) {
   return file;
 }
 
-double header_bound(const std::string& file, std::size_t at) {
-  double v;
-  std::memcpy(&v, file.data() + at, sizeof v);
-  return v;
-}
-
 }  // namespace
 
 TEST(Copc, PlanFromTheIndexGivesTheWholeResult) {
@@ -775,7 +769,8 @@ TEST(Copc, PlanFromTheIndexGivesTheWholeResult) {
 
 TEST(Copc, PlanFromTheIndexTrustsTheHeaderOnlyAsFarAsItHolds) {
   const std::string file = read_bytes(data_path("1.2-with-color.copc.laz"));
-  const double lo = header_bound(file, 187), hi = header_bound(file, 179);
+  const auto* h = reinterpret_cast<const unsigned char*>(file.data());
+  const double lo = load_le<double>(h + 187), hi = load_le<double>(h + 179);
   ced::detect_params p;
   p.radius = p.nms_radius = 60;
   ced::tiled_request r;
