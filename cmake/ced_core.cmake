@@ -12,10 +12,12 @@ ced_library(ced_core core
   src/core/parallel.cpp
   src/core/arena.cpp
   src/core/validate.cpp
+  src/core/neighborhoods.cpp
   src/core/block_partition.cpp
   src/core/tile_geometry.cpp
   src/core/neighbor_index.cpp
   src/core/neighbor_block.cpp
+  src/core/list_block.cpp
   src/core/kernel/block_kernel_generic.cpp
   src/core/saliency.cpp
   src/core/scaled.cpp

@@ -122,6 +122,7 @@ struct oracle_channel {
   std::vector<double> scale;
   int norm = 1;  // 1 = L1, 2 = L2
   double threshold = 0;
+  bool per_radius = false;  // measured per unit of each point's own radius (xyz under knn/adaptive)
 };
 
 inline std::vector<std::vector<std::uint32_t>> brute_neighbors(const ced::point_cloud& c, double r) {
@@ -146,10 +147,14 @@ struct oracle_result {
 
 /// The CED definition, literally: centroid = sum/n, distance in the norm,
 /// OR of thresholds, NMS on the product with ties kept.
-inline oracle_result oracle(const ced::point_cloud& c, const std::vector<oracle_channel>& ch, double radius,
-                            double nms_radius, std::uint32_t min_neighbors) {
+/// The CED definition over given neighbour lists nb[i]: centroid = sum/n,
+/// distance in the norm, OR of thresholds, NMS on the product with ties
+/// kept. A channel with `per_unit[i]` given (knn/adaptive neighbourhoods)
+/// has its saliency multiplied by per_unit[i] when `ch[m].per_radius`.
+inline oracle_result oracle_of_lists(const ced::point_cloud& c, const std::vector<oracle_channel>& ch,
+                                     const std::vector<std::vector<std::uint32_t>>& nb, double nms_radius,
+                                     std::uint32_t min_neighbors, const std::vector<double>& per_unit = {}) {
   const std::size_t n = c.size();
-  const auto nb = brute_neighbors(c, radius);
   oracle_result r;
   for (const auto& v : nb) r.neighbor_count.push_back(static_cast<std::uint32_t>(v.size()));
   r.saliency.assign(ch.size(), std::vector<double>(n, 0.0));
@@ -165,6 +170,7 @@ inline oracle_result oracle(const ced::point_cloud& c, const std::vector<oracle_
         acc += ch[m].norm == 1 ? std::abs(diff) : diff * diff;
       }
       r.saliency[m][i] = ch[m].norm == 1 ? acc : std::sqrt(acc);
+      if (ch[m].per_radius && !per_unit.empty()) r.saliency[m][i] *= per_unit[i];
     }
   r.candidate.assign(n, 0);
   std::vector<double> product(n, 1.0);
@@ -184,6 +190,11 @@ inline oracle_result oracle(const ced::point_cloud& c, const std::vector<oracle_
   return r;
 }
 
+inline oracle_result oracle(const ced::point_cloud& c, const std::vector<oracle_channel>& ch, double radius,
+                            double nms_radius, std::uint32_t min_neighbors) {
+  return oracle_of_lists(c, ch, brute_neighbors(c, radius), nms_radius, min_neighbors);
+}
+
 inline oracle_channel xyz_channel(const ced::point_cloud& c, double ratio, double radius) {
   oracle_channel ch;
   for (std::size_t i = 0; i < c.size(); ++i)
@@ -191,6 +202,7 @@ inline oracle_channel xyz_channel(const ced::point_cloud& c, double ratio, doubl
   ch.scale = {1, 1, 1};
   ch.norm = 2;
   ch.threshold = ratio * radius;
+  ch.per_radius = true;
   return ch;
 }
 

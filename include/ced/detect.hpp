@@ -38,6 +38,10 @@ struct detection_result {
   std::vector<std::uint8_t> candidate;
   /// Number of neighbours of each point within the radius (itself included).
   std::vector<std::uint32_t> neighbor_count;
+  /// Each point's own radius under a knn or adaptive neighbourhood (the
+  /// distance to its k-th nearest point, or its clamped adaptive radius);
+  /// empty for the fixed radius.
+  std::vector<float> point_radius;
   stage_times times;
 };
 
@@ -85,6 +89,13 @@ class detection_context {
   void without_neighbor_lists();
   /// Candidates, products and NMS; moves the result out.
   detection_result finish();
+  /// Under knn and adaptive neighbourhoods, the saliency of modality m is
+  /// multiplied by radius / r_i at each point i when its threshold is
+  /// proportional to the radius: `thresholds_at_twice` are the modalities'
+  /// thresholds with the radius doubled, and m qualifies when its threshold
+  /// doubles with it (xyz: ratio × radius). Its test s ≥ t·radius is then
+  /// s ≥ t·r_i. Without this call, saliencies are left as measured.
+  void scale_with_radius(const std::vector<double>& thresholds_at_twice);
   /// Adds the time the modalities took to bind (their channels; a scaled
   /// modality's own neighbour pass) to the saliency stage.
   void add_bind_ms(double ms);
@@ -103,6 +114,12 @@ template <class... M, class = std::enable_if_t<(sizeof...(M) > 0) && (is_modalit
 detection_result detect(const point_cloud& cloud, const detect_params& params, const M&... modalities) {
   detail::detection_context ctx(cloud, params, {std::string(modalities.name())...},
                                 {double(modalities.threshold(params))...});
+  if (!params.neighborhood.fixed()) {
+    detect_params twice = params;
+    twice.radius *= 2;
+    twice.nms_radius *= 2;
+    ctx.scale_with_radius({double(modalities.threshold(twice))...});
+  }
   {  // the evaluators (and their channels) end before the NMS: less peak memory
     const auto t_bind = std::chrono::steady_clock::now();
     const auto evaluators = std::make_tuple(modalities.bind(cloud, params)...);

@@ -4,8 +4,62 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <limits>
+#include <string>
 
 namespace ced {
+
+/// Which points make up a point's neighbourhood (docs/ALGORITHM.md,
+/// "Neighbourhoods").
+enum class neighborhood_kind : std::uint8_t {
+  radius,    ///< every point within detect_params::radius (the paper's)
+  knn,       ///< the k nearest points, the point itself included
+  adaptive,  ///< every point within scale × (distance to the k-th nearest), clamped
+};
+
+/// A neighbourhood: the fixed ball (default), `knn:K` or
+/// `adaptive:K[,scale=α][,min=r0][,max=r1]` (parse_neighborhood()).
+///
+/// - radius: N(i) = { j : |p_j − p_i|² < r² }, r = detect_params::radius.
+/// - knn: N(i) = the k points nearest to p_i (p_i included), by squared
+///   distance in float, ties to the smaller index; the point's own radius
+///   r_i is the distance to the k-th of them.
+/// - adaptive: r_i = clamp(scale × d_k(i), min_radius, max_radius), d_k(i)
+///   the distance to the k-th nearest point (p_i is the first), and
+///   N(i) = { j : |p_j − p_i|² < r_i² }.
+///
+/// Under knn and adaptive, sums of positions are measured in units of the
+/// point's own radius (times detect_params::radius, so that they stay in
+/// metres at that radius): the geometry test d ≥ t_g·r becomes
+/// d ≥ t_g·r_i, and a ratio stays a ratio. The NMS radius stays fixed.
+struct neighborhood_spec {
+  neighborhood_kind kind = neighborhood_kind::radius;
+  /// K: 1 .. 65,535 for knn and adaptive; unused by radius.
+  std::uint32_t k = 0;
+  /// α > 0 (adaptive).
+  double scale = 1.0;
+  /// r0 ≥ 0 and r1 ≥ r0 (adaptive), metres; r1 may be +infinity.
+  double min_radius = 0.0;
+  double max_radius = std::numeric_limits<double>::infinity();
+
+  bool fixed() const noexcept { return kind == neighborhood_kind::radius; }
+};
+
+/// Parses "radius", "knn:K" or "adaptive:K[,scale=α][,min=r0][,max=r1]";
+/// throws std::invalid_argument naming the bad part.
+neighborhood_spec parse_neighborhood(const std::string& text);
+/// The spec in the form parse_neighborhood() reads ("knn:16", ...).
+std::string to_string(const neighborhood_spec& n);
+/// Throws std::invalid_argument naming the parameter when K, scale, min or
+/// max is out of range (K < 1 or > 65,535, scale ≤ 0, min > max, NaN, ...).
+void validate(const neighborhood_spec& n);
+
+/// How fixed-radius neighbours are gathered. Both give the same
+/// neighbourhoods; the sums may differ in their last bits.
+enum class search_kind : std::uint8_t {
+  grid,  ///< ced's block grid (default, the fastest)
+  cgal,  ///< CGAL's Kd_tree, one ball query per point: the reference
+};
 
 /// Parameters shared by all modalities. Defaults are the paper's, for clouds
 /// at about 1 cm resolution.
@@ -38,6 +92,11 @@ struct detect_params {
   /// ranked by its own score. The same keypoints in tiled runs (the merge
   /// selects them from all tiles). See keypoint_score() and strongest().
   std::size_t max_keypoints = 0;
+  /// Which points make up a neighbourhood (default: the ball of `radius`).
+  neighborhood_spec neighborhood;
+  /// How neighbours are gathered (grid by default; knn and adaptive always
+  /// use CGAL's spatial search).
+  search_kind search = search_kind::grid;
   /// Optional: called with the fraction of the saliency stage done (0..1),
   /// from any worker thread, never concurrently; keep it cheap. It may throw
   /// to cancel the detection: detect() then stops its workers and rethrows

@@ -32,4 +32,13 @@ voxel_result voxel_downsample(const point_cloud& cloud, double size);
 /// cloud (deterministic). 0 for clouds of fewer than two distinct points.
 double estimate_resolution(const point_cloud& cloud, std::size_t max_samples = 20000);
 
+/// Quantiles `q` (each in [0, 1]) of the distance from a point to its k-th
+/// nearest point, the point itself counted first (knn:k's own radius, see
+/// neighborhood_spec), over up to `max_samples` points spread evenly
+/// through the cloud (deterministic): to choose K for --neighborhood.
+/// Throws std::invalid_argument for k < 1, k larger than the cloud, or a
+/// quantile outside [0, 1].
+std::vector<double> k_distance_quantiles(const point_cloud& cloud, std::size_t k, const std::vector<double>& q,
+                                         std::size_t max_samples = 20000);
+
 }  // namespace ced

@@ -98,7 +98,9 @@ std::vector<float> centroid_offsets_of(const point_cloud& cloud, const detect_pa
 precomputed_saliency bind_scaled(const point_cloud& cloud, const detect_params& params, double factor, double inner,
                                  const any_modality& base);
 
-/// `params` with the radius K times larger (the NMS radius too).
+/// `params` with the radius K times larger (the NMS radius too); under a
+/// knn or adaptive neighbourhood, each point's own radius K times larger
+/// (knn:k becomes adaptive:k,scale=K; adaptive's scale, min and max × K).
 detect_params scaled_params(const detect_params& params, double factor);
 std::string format_scale_factor(double factor);
 /// The end of a scaled modality's name: ",scale=K", then ",inner=J" when J > 0.

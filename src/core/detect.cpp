@@ -42,6 +42,15 @@ detection_context::~detection_context() = default;
 
 void detection_context::without_neighbor_lists() { m_impl->keep_lists = false; }
 
+void detection_context::scale_with_radius(const std::vector<double>& thresholds_at_twice) {
+  const auto& t = m_impl->result.thresholds;
+  if (thresholds_at_twice.size() != t.size())
+    throw std::invalid_argument("scale_with_radius: one threshold per modality expected");
+  m_impl->per_radius.assign(t.size(), 0);
+  for (std::size_t m = 0; m < t.size(); ++m)
+    m_impl->per_radius[m] = thresholds_at_twice[m] == 2 * t[m] && thresholds_at_twice[m] != t[m];
+}
+
 void detection_context::add_bind_ms(double ms) { m_impl->result.times.saliency_ms += ms; }
 
 detection_result detection_context::finish() {
@@ -107,6 +116,14 @@ detection_result detect(const point_cloud& cloud, const detect_params& params,
     thresholds.push_back(m.threshold(params));
   }
   detail::detection_context ctx(cloud, params, std::move(names), std::move(thresholds));
+  if (!params.neighborhood.fixed()) {
+    detect_params twice = params;
+    twice.radius *= 2;
+    twice.nms_radius *= 2;
+    std::vector<double> at_twice;
+    for (const auto& m : modalities) at_twice.push_back(m.threshold(twice));
+    ctx.scale_with_radius(at_twice);
+  }
   std::vector<std::unique_ptr<bound_modality>> bound;
   std::vector<channel_source> sources;
   const auto t_bind = detail::clock_type::now();

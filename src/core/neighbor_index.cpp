@@ -173,6 +173,86 @@ void neighbor_index::radius_search(const float c[3], double r, std::vector<std::
   }
 }
 
+void neighbor_index::k_nearest(const float c[3], std::size_t k, std::uint32_t self, std::vector<ranked_point>& out,
+                               std::size_t position) const {
+  out.clear();
+  if (m_n == 0 || k == 0) return;
+  auto before = [self](const ranked_point& a, const ranked_point& b) {
+    const bool a_self = a.index == self, b_self = b.index == self;
+    if (a_self != b_self) return a_self;
+    return a.d2 < b.d2 || (a.d2 == b.d2 && a.index < b.index);
+  };
+  // 1. A bound on the k-th distance: k points of the tree that holds self,
+  // or of every tree (when it is not known, or has fewer than k points).
+  const impl::part* home = nullptr;
+  const auto& parts = m_impl->parts;
+  if (position < m_n) {
+    // Tree t holds positions [n·t/trees, n·(t+1)/trees) of the order.
+    std::size_t t = position * parts.size() / m_n;
+    while (t + 1 < parts.size() && m_n * (t + 1) / parts.size() <= position) ++t;
+    while (t > 0 && m_n * t / parts.size() > position) --t;
+    if (parts[t]->tree.size() >= k) home = parts[t].get();
+  }
+  // One tree: its k + 1 nearest settle the answer unless the (k+1)-th is
+  // as near as the k-th (a tie, or CGAL's rounding of the distance, which
+  // may differ from ours by a few ulps): then the ball query below does.
+  const bool one_tree = parts.size() == 1;
+  const std::size_t ask = one_tree ? k + 1 : k;
+  for (const auto& part : parts) {
+    if (home && part.get() != home) continue;
+    const knn search(part->tree, at(c), static_cast<unsigned>(ask), 0.0f, true, distance(point_of{}), false);
+    for (const auto& hit : search) {
+      const float q[3] = {hit.first.p.x(), hit.first.p.y(), hit.first.p.z()};
+      out.push_back({squared_distance(q, c), hit.first.id});
+    }
+  }
+  if (one_tree && out.size() <= k) {  // the whole index
+    std::sort(out.begin(), out.end(), before);
+    return;
+  }
+  if (one_tree) {
+    std::sort(out.begin(), out.end(), before);
+    float kth = 0;
+    for (std::size_t q = 0; q < k; ++q) kth = std::max(kth, out[q].d2);
+    if (out[k].d2 > kth * (1 + 1e-5f) && (self == UINT32_MAX || out[0].index == self)) {
+      out.resize(k);
+      return;
+    }
+  }
+  if (out.size() > k) {
+    std::nth_element(out.begin(), out.begin() + std::ptrdiff_t(k - 1), out.end(), before);
+    out.resize(k);
+  }
+  float bound = 0;
+  for (const auto& p : out) bound = std::max(bound, p.d2);
+  // 2. Every point within that bound (the point itself is among them), in
+  // exact order; the first k are the answer.
+  out.clear();
+  const float rq = std::sqrt(bound) * 1.0001f + 1e-30f;
+  const float qlo[3] = {c[0] - rq, c[1] - rq, c[2] - rq}, qhi[3] = {c[0] + rq, c[1] + rq, c[2] + rq};
+  struct within_bound {
+    const float* c;
+    float bound;
+    std::vector<ranked_point>* out;
+    void operator()(const indexed_point& key) const {
+      const float q[3] = {key.p.x(), key.p.y(), key.p.z()};
+      const float d2 = squared_distance(q, c);
+      if (d2 <= bound) out->push_back({d2, key.id});
+    }
+  };
+  for (const auto& part : m_impl->parts) {
+    if (!boxes_meet(qlo, qhi, part->lo, part->hi)) continue;
+    auto sink = boost::make_function_output_iterator(within_bound{c, bound, &out});
+    part->tree.search(sink, sphere(at(c), rq, 0.0f, part->tree.traits()));
+  }
+  if (out.size() > k) {
+    std::partial_sort(out.begin(), out.begin() + std::ptrdiff_t(k), out.end(), before);
+    out.resize(k);
+  } else {
+    std::sort(out.begin(), out.end(), before);
+  }
+}
+
 float neighbor_index::nearest_other_distance(std::uint32_t i) const {
   if (i >= m_n) throw std::out_of_range("neighbor_index::nearest_other_distance: index out of range");
   const float* p = m_xyz + 3 * std::size_t(i);

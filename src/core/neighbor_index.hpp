@@ -3,6 +3,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -46,6 +47,22 @@ class neighbor_index {
   /// Replaces `out` with the indices j such that |p_j - c|² < r² (in the
   /// index's own order: deterministic, not sorted).
   void radius_search(const float c[3], double r, std::vector<std::uint32_t>& out) const;
+
+  /// A point found with its squared distance (float, as squared_distance()).
+  struct ranked_point {
+    float d2;
+    std::uint32_t index;
+  };
+  /// Replaces `out` with the k points nearest to c, nearest first: by
+  /// squared distance in float, ties to the smaller index, with point `self`
+  /// (an indexed point at c, or UINT32_MAX for none) always first. Exact
+  /// whatever the forest's shape: CGAL's k-nearest search in one tree bounds
+  /// the k-th distance, then a ball query over every tree settles the order.
+  /// Fewer than k points when the index has fewer. `position`, when known,
+  /// is self's position in the index's `order` (it picks the tree that
+  /// holds self, the one that bounds best).
+  void k_nearest(const float c[3], std::size_t k, std::uint32_t self, std::vector<ranked_point>& out,
+                 std::size_t position = SIZE_MAX) const;
 
   /// Distance from point i (an index of the indexed set) to its nearest
   /// other point (0 for a duplicate; +inf when it is alone).

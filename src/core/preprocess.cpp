@@ -116,4 +116,28 @@ double estimate_resolution(const point_cloud& cloud, std::size_t max_samples) {
   return d[d.size() / 2];
 }
 
+std::vector<double> k_distance_quantiles(const point_cloud& cloud, std::size_t k, const std::vector<double>& q,
+                                         std::size_t max_samples) {
+  const std::size_t n = cloud.size();
+  if (k < 1 || k > n)
+    throw std::invalid_argument("k-distance: K must be from 1 to the number of points (" + std::to_string(n) +
+                                "), got " + std::to_string(k));
+  for (double v : q)
+    if (!(v >= 0 && v <= 1)) throw std::invalid_argument("k-distance: a quantile must be in [0, 1]");
+  const float* xyz = cloud.positions().data();
+  const neighbor_index index(xyz, n, 32);
+  const std::size_t samples = std::max<std::size_t>(1, std::min(n, max_samples));
+  std::vector<double> d(samples);
+  std::vector<neighbor_index::ranked_point> found;
+  for (std::size_t s = 0; s < samples; ++s) {
+    const auto i = static_cast<std::uint32_t>(s * n / samples);
+    index.k_nearest(xyz + 3 * std::size_t(i), k, i, found);
+    d[s] = std::sqrt(double(found.back().d2));
+  }
+  std::sort(d.begin(), d.end());
+  std::vector<double> out;
+  for (double v : q) out.push_back(d[static_cast<std::size_t>(std::lround(v * double(samples - 1)))]);
+  return out;
+}
+
 }  // namespace ced

@@ -36,6 +36,17 @@ detect_params scaled_params(const detect_params& params, double factor) {
   detect_params p = params;
   p.radius *= factor;
   p.nms_radius *= factor;
+  // Under knn and adaptive, K × each point's own radius: knn:K becomes
+  // adaptive:K,scale=K (the ball of K times the k-th distance).
+  neighborhood_spec& n = p.neighborhood;
+  if (n.kind == neighborhood_kind::knn) {
+    n.kind = neighborhood_kind::adaptive;
+    n.scale = factor;
+  } else if (n.kind == neighborhood_kind::adaptive) {
+    n.scale *= factor;
+    n.min_radius *= factor;
+    n.max_radius *= factor;
+  }
   return p;
 }
 

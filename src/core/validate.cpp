@@ -18,6 +18,9 @@ void validate(const detect_params& p) {
   positive(p.radius, "radius");
   positive(p.nms_radius, "nms_radius");
   positive(p.block_scale, "block_scale");
+  validate(p.neighborhood);
+  if (p.search != search_kind::grid && p.search != search_kind::cgal)
+    throw std::invalid_argument("search must be grid or cgal");
   if (p.threads > 4096) throw std::invalid_argument("threads must be at most 4096, got " + std::to_string(p.threads));
 }
 
@@ -50,6 +53,9 @@ void check_inputs(const point_cloud& cloud, const detect_params& params, const s
         throw std::invalid_argument("point " + std::to_string(i / 3) +
                                     " has a non-finite coordinate (remove NaN/Inf points first)");
   }
+  if (!params.neighborhood.fixed() && params.neighborhood.k > cloud.size())
+    throw std::invalid_argument("neighbourhood " + to_string(params.neighborhood) + ": K is larger than the cloud (" +
+                                std::to_string(cloud.size()) + " points)");
   if (cloud.size() >= std::size_t(UINT32_MAX)) throw std::invalid_argument("too many points (at most 2^32-2)");
 }
 }  // namespace detail

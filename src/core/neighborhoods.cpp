@@ -1,0 +1,108 @@
+// SPDX-License-Identifier: MIT
+// The neighbourhood parameter: its text form and its checks.
+#include <charconv>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "ced/modality.hpp"  // parse_number
+#include "ced/params.hpp"
+#include "core/text.hpp"
+
+namespace ced {
+
+namespace {
+constexpr std::uint32_t k_max_k = 65535;
+
+std::uint32_t parse_k(std::string_view text, const std::string& spec) {
+  const std::string what = "K in neighbourhood '" + spec + "'";
+  const double v = parse_number(text, what);
+  if (v != std::floor(v) || v < 1 || v > k_max_k)
+    throw std::invalid_argument(what + " must be a whole number from 1 to 65535, got '" +
+                                std::string(detail::trim(text)) + "'");
+  return static_cast<std::uint32_t>(v);
+}
+}  // namespace
+
+neighborhood_spec parse_neighborhood(const std::string& text) {
+  const std::string t(detail::trim(text));
+  neighborhood_spec n;
+  if (t == "radius") return n;
+  const auto colon = t.find(':');
+  const std::string kind = t.substr(0, colon);
+  if (kind != "knn" && kind != "adaptive")
+    throw std::invalid_argument("neighbourhood must be radius, knn:K or adaptive:K[,scale=a][,min=r0][,max=r1], got '" +
+                                t + "'");
+  if (colon == std::string::npos)
+    throw std::invalid_argument("neighbourhood '" + t + "' needs K, e.g. '" + kind + ":16'");
+  n.kind = kind == "knn" ? neighborhood_kind::knn : neighborhood_kind::adaptive;
+  std::string_view rest(t);
+  rest.remove_prefix(colon + 1);
+  const auto comma = rest.find(',');
+  n.k = parse_k(rest.substr(0, comma), t);
+  if (comma == std::string_view::npos) return n;
+  if (n.kind == neighborhood_kind::knn)
+    throw std::invalid_argument("neighbourhood '" + t + "': knn takes only K (options are for adaptive)");
+  rest.remove_prefix(comma + 1);
+  bool seen[3] = {false, false, false};
+  while (!rest.empty()) {
+    const auto end = rest.find(',');
+    const std::string_view option = rest.substr(0, end);
+    rest.remove_prefix(end == std::string_view::npos ? rest.size() : end + 1);
+    const auto eq = option.find('=');
+    const std::string key(detail::trim(option.substr(0, eq)));
+    const int slot = key == "scale" ? 0 : key == "min" ? 1 : key == "max" ? 2 : -1;
+    if (eq == std::string_view::npos || slot < 0)
+      throw std::invalid_argument("neighbourhood '" + t + "': unknown option '" + std::string(option) +
+                                  "' (known: scale=, min=, max=)");
+    if (seen[slot]) throw std::invalid_argument("neighbourhood '" + t + "': " + key + "= given twice");
+    seen[slot] = true;
+    const double v = parse_number(option.substr(eq + 1), key + "= in neighbourhood '" + t + "'");
+    (slot == 0 ? n.scale : slot == 1 ? n.min_radius : n.max_radius) = v;
+  }
+  validate(n);
+  return n;
+}
+
+namespace {
+/// The shortest text that reads back as v.
+std::string shortest(double v) {
+  char text[32];
+  const auto r = std::to_chars(text, text + sizeof text, v);
+  return std::string(text, r.ptr);
+}
+}  // namespace
+
+std::string to_string(const neighborhood_spec& n) {
+  if (n.kind == neighborhood_kind::radius) return "radius";
+  std::string s = (n.kind == neighborhood_kind::knn ? "knn:" : "adaptive:") + std::to_string(n.k);
+  if (n.kind == neighborhood_kind::adaptive) {
+    if (n.scale != 1.0) s += ",scale=" + shortest(n.scale);
+    if (n.min_radius != 0.0) s += ",min=" + shortest(n.min_radius);
+    if (std::isfinite(n.max_radius)) s += ",max=" + shortest(n.max_radius);
+  }
+  return s;
+}
+
+void validate(const neighborhood_spec& n) {
+  if (n.kind == neighborhood_kind::radius) return;
+  const std::string name = n.kind == neighborhood_kind::knn ? "knn" : "adaptive";
+  if (n.k < 1 || n.k > k_max_k)
+    throw std::invalid_argument("neighbourhood " + name + ": K must be from 1 to 65535, got " + std::to_string(n.k));
+  if (n.kind == neighborhood_kind::knn) return;
+  if (!std::isfinite(n.scale) || !(n.scale > 0))
+    throw std::invalid_argument("neighbourhood adaptive: scale must be a positive finite number, got " +
+                                std::to_string(n.scale));
+  if (!std::isfinite(n.min_radius) || n.min_radius < 0)
+    throw std::invalid_argument("neighbourhood adaptive: min must be a finite number >= 0, got " +
+                                std::to_string(n.min_radius));
+  if (std::isnan(n.max_radius) || !(n.max_radius > 0))
+    throw std::invalid_argument("neighbourhood adaptive: max must be a positive number, got " +
+                                std::to_string(n.max_radius));
+  if (n.min_radius > n.max_radius)
+    throw std::invalid_argument("neighbourhood adaptive: min (" + std::to_string(n.min_radius) +
+                                ") is larger than max (" + std::to_string(n.max_radius) + ")");
+}
+
+}  // namespace ced

@@ -1,0 +1,394 @@
+// SPDX-License-Identifier: MIT
+// Neighbourhoods beyond the fixed ball: knn:K and adaptive:K (CGAL's
+// k-nearest search), and the CGAL reference path for the fixed radius,
+// each against an O(N²) brute-force oracle.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "ced/ced.hpp"
+#include "ced/io/io.hpp"
+#include "ced/tiled.hpp"
+#include "core/neighbor_index.hpp"
+#include "test_support.hpp"
+
+namespace {
+
+using lists = std::vector<std::vector<std::uint32_t>>;
+
+/// A room scanned from one corner: floor, two walls and a box, each point
+/// kept with a probability that falls with the square of its range, so the
+/// spacing grows from about 5 mm near the sensor to several cm far away.
+/// Coloured patches; a few exact duplicates (ties at distance 0).
+ced::point_cloud scanned_room(std::size_t n, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  ced::point_cloud c;
+  std::vector<double> red, green, blue;
+  while (c.size() < n) {
+    float p[3] = {u(rng) * 2.0f, u(rng) * 2.0f, u(rng) * 2.0f};
+    const int surface = int(u(rng) * 4);
+    if (surface == 0) p[2] = 0;
+    if (surface == 1) p[0] = 0;
+    if (surface == 2) p[1] = 0;
+    if (surface == 3) {  // a box face at z = 0.3 over [0.8, 1.2]²
+      p[0] = 0.8f + 0.4f * u(rng), p[1] = 0.8f + 0.4f * u(rng), p[2] = 0.3f;
+    }
+    const float range2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
+    if (u(rng) > std::min(1.0f, 0.15f / range2)) continue;
+    const bool patch = p[0] > 0.5f && p[0] < 1.0f && p[1] < 0.6f;
+    const int copies = c.size() % 97 == 0 ? 2 : 1;
+    for (int k = 0; k < copies && c.size() < n; ++k) {
+      c.push_back(p[0], p[1], p[2]);
+      red.push_back(patch ? 200 : 60);
+      green.push_back(patch ? 40 : 60 + (surface * 30));
+      blue.push_back(50);
+    }
+  }
+  c.add_field("red", ced::scalar_type::uint8, red);
+  c.add_field("green", ced::scalar_type::uint8, green);
+  c.add_field("blue", ced::scalar_type::uint8, blue);
+  return c;
+}
+
+float d2(const ced::point_cloud& c, std::size_t i, std::size_t j) {
+  const float* a = c.position(i);
+  const float* b = c.position(j);
+  const float dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
+  return dx * dx + dy * dy + dz * dz;
+}
+
+/// Every point's k nearest (itself first, then by squared distance in
+/// float, ties to the smaller index), by sorting all points.
+lists brute_knn(const ced::point_cloud& c, std::size_t k) {
+  lists out(c.size());
+  std::vector<std::uint32_t> all(c.size());
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    for (std::size_t j = 0; j < c.size(); ++j) all[j] = std::uint32_t(j);
+    std::sort(all.begin(), all.end(), [&](std::uint32_t a, std::uint32_t b) {
+      if ((a == i) != (b == i)) return a == i;
+      const float da = d2(c, i, a), db = d2(c, i, b);
+      return da < db || (da == db && a < b);
+    });
+    out[i].assign(all.begin(), all.begin() + std::ptrdiff_t(k));
+  }
+  return out;
+}
+
+/// The neighbourhoods the spec defines, and each point's own radius.
+lists brute_neighborhoods(const ced::point_cloud& c, const ced::neighborhood_spec& n, std::vector<double>& radius) {
+  const lists knn = brute_knn(c, n.k);
+  lists out(c.size());
+  radius.assign(c.size(), 0);
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    const double dk = std::sqrt(double(d2(c, i, knn[i].back())));
+    if (n.kind == ced::neighborhood_kind::knn) {
+      out[i] = knn[i];
+      std::sort(out[i].begin(), out[i].end());
+      radius[i] = dk;
+      continue;
+    }
+    radius[i] = std::min(std::max(n.scale * dk, n.min_radius), n.max_radius);
+    const float r2 = static_cast<float>(radius[i] * radius[i]);
+    for (std::size_t j = 0; j < c.size(); ++j)
+      if (d2(c, i, j) < r2 || j == i) out[i].push_back(std::uint32_t(j));
+  }
+  return out;
+}
+
+/// A list-reading modality that checks every list it is given against the
+/// expected one (ascending indices) and counts the mismatches.
+struct list_check {
+  const lists* expected;
+  std::atomic<int>* wrong;
+  std::string name() const { return "list_check"; }
+  double threshold(const ced::detect_params&) const { return 1e30; }
+  struct evaluator {
+    const lists* expected;
+    std::atomic<int>* wrong;
+    float operator()(const ced::neighborhood& nb) const {
+      const auto& e = (*expected)[nb.point];
+      if (!std::equal(nb.begin(), nb.end(), e.begin(), e.end())) ++*wrong;
+      return 0.0f;
+    }
+  };
+  evaluator bind(const ced::point_cloud&, const ced::detect_params&) const { return {expected, wrong}; }
+};
+
+std::vector<ced::neighborhood_spec> kinds() {
+  std::vector<ced::neighborhood_spec> out;
+  for (const char* text : {"knn:1", "knn:12", "knn:30", "adaptive:12", "adaptive:8,scale=0.7", "adaptive:10,scale=1.6",
+                           "adaptive:12,min=0.06", "adaptive:16,scale=2,max=0.05"})
+    out.push_back(ced::parse_neighborhood(text));
+  return out;
+}
+
+}  // namespace
+
+TEST(Neighborhoods, ParseReadsEveryFormAndRoundTrips) {
+  EXPECT_TRUE(ced::parse_neighborhood("radius").fixed());
+  const auto k = ced::parse_neighborhood("knn:16");
+  EXPECT_EQ(k.kind, ced::neighborhood_kind::knn);
+  EXPECT_EQ(k.k, 16u);
+  const auto a = ced::parse_neighborhood("adaptive:8,scale=1.5,min=0.01,max=0.2");
+  EXPECT_EQ(a.kind, ced::neighborhood_kind::adaptive);
+  EXPECT_EQ(a.k, 8u);
+  EXPECT_EQ(a.scale, 1.5);
+  EXPECT_EQ(a.min_radius, 0.01);
+  EXPECT_EQ(a.max_radius, 0.2);
+  EXPECT_EQ(ced::parse_neighborhood("adaptive:8").max_radius, std::numeric_limits<double>::infinity());
+  for (const char* text : {"radius", "knn:16", "adaptive:8", "adaptive:8,scale=1.5,min=0.01,max=0.2"}) {
+    const auto parsed = ced::parse_neighborhood(text);
+    EXPECT_EQ(ced::to_string(parsed), text);
+    const auto again = ced::parse_neighborhood(ced::to_string(parsed));
+    EXPECT_EQ(again.k, parsed.k);
+    EXPECT_EQ(again.scale, parsed.scale);
+    EXPECT_EQ(again.min_radius, parsed.min_radius);
+    EXPECT_EQ(again.max_radius, parsed.max_radius);
+  }
+}
+
+TEST(Neighborhoods, BadSpecsNameTheParameter) {
+  const std::pair<const char*, const char*> bad[] = {
+      {"knn", "needs K"},
+      {"knn:0", "K in"},
+      {"knn:65536", "K in"},
+      {"knn:2.5", "K in"},
+      {"knn:nan", "K in"},
+      {"knn:-3", "K in"},
+      {"knn:16,scale=2", "knn takes only K"},
+      {"adaptive:8,scale=0", "scale must be"},
+      {"adaptive:8,scale=-1", "scale must be"},
+      {"adaptive:8,scale=nan", "scale="},
+      {"adaptive:8,min=0.2,max=0.1", "is larger than max"},
+      {"adaptive:8,min=-1", "min must be"},
+      {"adaptive:8,max=0", "max must be"},
+      {"adaptive:8,foo=1", "unknown option"},
+      {"adaptive:8,scale=1,scale=2", "given twice"},
+      {"sphere", "must be radius, knn:K or adaptive"},
+  };
+  for (const auto& [text, what] : bad) {
+    try {
+      ced::parse_neighborhood(text);
+      ADD_FAILURE() << text << " was accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << text << ": " << e.what();
+    }
+  }
+  // Set directly, the same checks run in validate().
+  ced::detect_params p;
+  p.neighborhood.kind = ced::neighborhood_kind::adaptive;
+  p.neighborhood.k = 8;
+  p.neighborhood.max_radius = std::nan("");
+  EXPECT_THROW(ced::validate(p), std::invalid_argument);
+  p.neighborhood = ced::parse_neighborhood("knn:40");
+  const auto c = scanned_room(30, 1);
+  try {
+    ced::detect(c, p, ced::xyz{});
+    ADD_FAILURE() << "K > points accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("larger than the cloud"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Neighborhoods, KNearestIsExactWithTiesOnOneTreeAndOnAForest) {
+  // A lattice (many equal distances) with duplicates, in a shuffled order.
+  std::vector<float> xyz;
+  for (int x = 0; x < 12; ++x)
+    for (int y = 0; y < 12; ++y)
+      for (int z = 0; z < 3; ++z)
+        for (int copy = 0; copy < ((x + y + z) % 11 == 0 ? 3 : 1); ++copy)
+          xyz.insert(xyz.end(), {x * 0.01f, y * 0.01f, z * 0.01f});
+  const std::size_t n = xyz.size() / 3;
+  std::vector<std::uint32_t> order(n);
+  for (std::size_t i = 0; i < n; ++i) order[i] = std::uint32_t((i * 7919) % n);
+  ced::point_cloud c;
+  for (std::size_t i = 0; i < n; ++i) c.push_back(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
+  const ced::neighbor_index one(xyz.data(), n);
+  std::vector<ced::neighbor_index::ranked_point> got;
+  for (std::size_t k : {1u, 2u, 7u, 19u, 27u, 64u}) {
+    const lists expected = brute_knn(c, k);
+    for (std::size_t i = 0; i < n; ++i) {
+      one.k_nearest(&xyz[3 * i], k, std::uint32_t(i), got);
+      ASSERT_EQ(got.size(), k);
+      for (std::size_t q = 0; q < k; ++q) ASSERT_EQ(got[q].index, expected[i][q]) << "k " << k << " point " << i;
+    }
+  }
+  // A forest: trees over runs of an order (what ball queries use).
+  std::vector<float> big;
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<int> cell(0, 40);
+  for (int i = 0; i < 40000; ++i) big.insert(big.end(), {cell(rng) * 0.01f, cell(rng) * 0.01f, cell(rng) * 0.01f});
+  const std::size_t m = big.size() / 3;
+  std::vector<std::uint32_t> runs(m);
+  for (std::size_t i = 0; i < m; ++i) runs[i] = std::uint32_t(i);
+  std::sort(runs.begin(), runs.end(), [&](std::uint32_t a, std::uint32_t b) { return big[3 * a] < big[3 * b]; });
+  const ced::neighbor_index forest(big.data(), m, 32, 2, runs.data());
+  const ced::neighbor_index tree(big.data(), m);
+  std::vector<ced::neighbor_index::ranked_point> a, b;
+  for (std::size_t q = 0; q < m; q += 37) {
+    const std::uint32_t i = runs[q];
+    forest.k_nearest(&big[3 * i], 20, i, a, q);
+    tree.k_nearest(&big[3 * i], 20, i, b);
+    ASSERT_EQ(a.size(), 20u);
+    for (std::size_t t = 0; t < 20; ++t) ASSERT_EQ(a[t].index, b[t].index) << "point " << i;
+    ASSERT_EQ(a[0].index, i);
+    for (std::size_t t = 1; t + 1 < 20; ++t)
+      ASSERT_TRUE(a[t].d2 < a[t + 1].d2 || (a[t].d2 == a[t + 1].d2 && a[t].index < a[t + 1].index));
+  }
+}
+
+TEST(Neighborhoods, EveryKindMatchesTheBruteForceOracle) {
+  const auto c = scanned_room(1800, 11);
+  for (const auto& spec : kinds()) {
+    SCOPED_TRACE(ced::to_string(spec));
+    std::vector<double> radius;
+    const lists nb = brute_neighborhoods(c, spec, radius);
+    ced::detect_params p;
+    p.neighborhood = spec;
+    p.radius = 0.04;
+    p.nms_radius = 0.05;
+    std::atomic<int> wrong{0};
+    const auto r = ced::detect(c, p, ced::xyz{0.2}, ced::rgb{0.1}, list_check{&nb, &wrong});
+    EXPECT_EQ(wrong.load(), 0) << "neighbour lists differ";
+    std::vector<double> per_unit(c.size());
+    for (std::size_t i = 0; i < c.size(); ++i) per_unit[i] = radius[i] > 0 ? p.radius / radius[i] : 0.0;
+    ced_test::oracle_channel check;  // list_check's: never a candidate, saliency 0
+    check.values.assign(c.size(), {0.0});
+    check.scale = {1};
+    check.threshold = 1e30;
+    const auto o = ced_test::oracle_of_lists(c,
+                                             {ced_test::xyz_channel(c, 0.2, p.radius),
+                                              ced_test::field_channel(c, {"red", "green", "blue"}, 255, 0.1), check},
+                                             nb, p.nms_radius, p.min_neighbors, per_unit);
+    ASSERT_EQ(r.point_radius.size(), c.size());
+    for (std::size_t i = 0; i < c.size(); ++i) {
+      ASSERT_EQ(r.neighbor_count[i], nb[i].size()) << "point " << i;
+      ASSERT_EQ(r.point_radius[i], static_cast<float>(radius[i])) << "point " << i;
+      for (std::size_t m = 0; m < 2; ++m)
+        ASSERT_NEAR(r.saliency[m][i], o.saliency[m][i], 1e-5 * std::max(1.0, o.saliency[m][i]))
+            << "modality " << m << " point " << i;
+    }
+    EXPECT_EQ(std::vector<std::uint8_t>(r.candidate.begin(), r.candidate.end()), o.candidate);
+    EXPECT_EQ(r.keypoints, o.keypoints);
+    if (spec.k > 1) {
+      EXPECT_GT(o.keypoints.size(), 3u) << "fixture too easy";
+    }
+  }
+}
+
+TEST(Neighborhoods, AdaptiveRadiiFollowTheDensity) {
+  // Far points get larger radii, and every point keeps enough neighbours:
+  // the point of an adaptive neighbourhood on a scan.
+  const auto c = scanned_room(3000, 5);
+  ced::detect_params p;
+  p.radius = 0.03;
+  const auto fixed = ced::detect(c, p, ced::xyz{0.2});
+  p.neighborhood = ced::parse_neighborhood("adaptive:10");
+  const auto adaptive = ced::detect(c, p, ced::xyz{0.2});
+  double near_r = 0, far_r = 0;
+  std::size_t near_n = 0, far_n = 0, starved_fixed = 0, starved_adaptive = 0;
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    const float* q = c.position(i);
+    const double range = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
+    if (range < 0.5) near_r += adaptive.point_radius[i], ++near_n;
+    if (range > 1.5) far_r += adaptive.point_radius[i], ++far_n;
+    starved_fixed += fixed.neighbor_count[i] < p.min_neighbors;
+    starved_adaptive += adaptive.neighbor_count[i] < p.min_neighbors;
+  }
+  ASSERT_GT(near_n, 10u);
+  ASSERT_GT(far_n, 10u);
+  EXPECT_GT(far_r / double(far_n), 3 * near_r / double(near_n));
+  EXPECT_GT(starved_fixed, c.size() / 10);
+  EXPECT_EQ(starved_adaptive, 0u);
+}
+
+TEST(Neighborhoods, AnyThreadCountGivesBitwiseTheSameResult) {
+  const auto c = scanned_room(6000, 2);
+  std::vector<ced::neighborhood_spec> specs = kinds();
+  specs.push_back({});  // the fixed radius on CGAL
+  for (const auto& spec : specs) {
+    SCOPED_TRACE(ced::to_string(spec));
+    ced::detect_params p;
+    p.neighborhood = spec;
+    p.search = ced::search_kind::cgal;
+    p.threads = 1;
+    const auto one = ced::detect(c, p, {ced::make_modality("xyz"), ced::make_modality("rgb")});
+    for (unsigned t : {2u, 3u, 8u}) {
+      p.threads = t;
+      const auto many = ced::detect(c, p, ced::xyz{0.2}, ced::rgb{0.1});
+      EXPECT_EQ(many.saliency, one.saliency) << t << " threads";
+      EXPECT_EQ(many.keypoints, one.keypoints) << t << " threads";
+      EXPECT_EQ(many.point_radius, one.point_radius) << t << " threads";
+    }
+  }
+}
+
+TEST(Neighborhoods, CgalSearchGivesTheGridsKeypoints) {
+  std::vector<ced::point_cloud> clouds;
+  for (std::uint32_t seed : {1u, 2u, 3u}) clouds.push_back(ced_test::make_room(4000, seed));
+  clouds.push_back(scanned_room(4000, 9));
+  clouds.push_back(ced::io::read_cloud(CED_TEST_DATA_DIR "/apartment_mesh_214.ply"));
+  for (std::size_t k = 0; k < clouds.size(); ++k) {
+    for (const char* preset : {"ced6d", "ced3d", "robust6d"}) {
+      SCOPED_TRACE(std::to_string(k) + " " + preset);
+      ced::detect_params p;
+      p.refine = ced::preset_refines(preset);
+      const auto grid = ced::detect(clouds[k], p, ced::preset(preset));
+      p.search = ced::search_kind::cgal;
+      const auto tree = ced::detect(clouds[k], p, ced::preset(preset));
+      EXPECT_EQ(tree.keypoints, grid.keypoints);
+      EXPECT_EQ(tree.neighbor_count, grid.neighbor_count);
+      EXPECT_TRUE(tree.point_radius.empty());
+      for (std::size_t m = 0; m < grid.saliency.size(); ++m)
+        for (std::size_t i = 0; i < clouds[k].size(); ++i)
+          ASSERT_NEAR(tree.saliency[m][i], grid.saliency[m][i], 1e-5 * std::max(1.0f, grid.saliency[m][i]));
+    }
+  }
+}
+
+TEST(Neighborhoods, DistancesArePerUnitOfTheOwnRadiusOnly) {
+  // Under knn, xyz (threshold ∝ radius) is scaled by radius / r_i; rgb
+  // (threshold independent of it) is not; a scaled xyz is, at its own scale.
+  const auto c = scanned_room(2000, 4);
+  ced::detect_params p;
+  p.neighborhood = ced::parse_neighborhood("knn:12");
+  const auto r = ced::detect(c, p, {ced::make_modality("xyz"), ced::make_modality("rgb")});
+  std::atomic<int> wrong{0};
+  std::vector<double> radius;
+  const lists nb = brute_neighborhoods(c, p.neighborhood, radius);
+  const auto raw = ced::detect(c, p, ced::rgb{0.1}, list_check{&nb, &wrong});
+  EXPECT_EQ(wrong.load(), 0);
+  EXPECT_EQ(r.saliency[1], raw.saliency[0]);  // rgb untouched
+  std::size_t scaled = 0;
+  for (std::size_t i = 0; i < c.size(); ++i)
+    if (r.saliency[0][i] > 0 && std::abs(radius[i] - p.radius) > 1e-3) ++scaled;
+  EXPECT_GT(scaled, c.size() / 2);
+  // A modality spec with scale= measures over 2·r_i: its threshold doubles.
+  const auto s = ced::detect(c, p, {ced::make_modality("xyz:0.2,scale=2")});
+  EXPECT_DOUBLE_EQ(s.thresholds[0], 0.2 * 2 * p.radius);
+}
+
+TEST(Neighborhoods, TiledRunsRefuseThemClearly) {
+  ced::tiled_request q;
+  q.input = CED_TEST_DATA_DIR "/apartment_mesh_214.ply";
+  q.tile_size = 1;
+  q.modalities = {"xyz"};
+  q.params.neighborhood = ced::parse_neighborhood("knn:8");
+  try {
+    ced::plan_tiles(q);
+    ADD_FAILURE() << "knn tiled plan accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("knn:8"), std::string::npos) << e.what();
+  }
+  q.params.neighborhood = {};
+  q.params.search = ced::search_kind::cgal;
+  EXPECT_THROW(ced::plan_tiles(q), std::invalid_argument);
+}
