@@ -73,6 +73,9 @@ void check_html_input(std::size_t n, const std::vector<std::uint32_t>& keypoints
     if (l.saliency.size() != n)
       throw std::invalid_argument("html: layer '" + l.name + "' has " + std::to_string(l.saliency.size()) +
                                   " saliencies for " + std::to_string(n) + " points");
+  if (!options.point_radius.empty() && options.point_radius.size() != n)
+    throw std::invalid_argument("html: " + std::to_string(options.point_radius.size()) + " point radii for " +
+                                std::to_string(n) + " points");
 }
 
 /// The points the page draws: all finite ones, or every stride-th and the keypoints.
@@ -180,6 +183,11 @@ std::string html_page(const point_cloud& cloud, const std::vector<std::uint32_t>
   if (const auto colours = display_colours(cloud, d.shown)) j["rgb"] = base64_of(*colours);
   if (d.subset) j["index"] = base64_of(d.shown);
   j["keypoints"] = base64_of(d.keypoints);
+  if (!options.point_radius.empty()) {
+    std::vector<float> radius(d.shown.size());
+    for (std::size_t s = 0; s < d.shown.size(); ++s) radius[s] = options.point_radius[d.shown[s]];
+    j["radius"] = base64_of(radius);
+  }
   j["modalities"] = nlohmann::json::array();
   for (const auto& layer : layers) {
     std::vector<float> sal(d.shown.size());

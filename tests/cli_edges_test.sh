@@ -238,5 +238,20 @@ check "max-keypoints: from --config" cmp -s "$T/top17c.txt" "$T/top17.txt"
 "$CED" detect "$sample" --preset ced6d --max-keypoints 17 --tile-size 0.5 --indices "$T/top_t.txt" -q
 check "max-keypoints: tiles keep the same 17" cmp -s "$T/top_t.txt" "$T/top17.txt"
 
+# --- 12. --neighborhood and --search: parsed, checked, in a config file too ---
+expect_exit 2 "K in neighbourhood" "neighborhood: K 0" -- detect "$sample" --preset ced6d --neighborhood knn:0 -q
+expect_exit 2 "larger than max" "neighborhood: min > max" -- detect "$sample" --preset ced6d --neighborhood adaptive:8,min=0.2,max=0.1 -q
+expect_exit 2 "must be radius, knn:K or adaptive" "neighborhood: unknown kind" -- detect "$sample" --neighborhood ball -q
+expect_exit 2 "search must be grid or cgal" "search: unknown" -- detect "$sample" --search octree -q
+expect_exit 2 "fixed-radius neighbourhood only" "neighborhood: tiled refused" -- detect "$sample" --preset ced6d --neighborhood knn:8 --tile-size 0.5 -q
+"$CED" detect "$sample" --preset ced6d --search cgal -q > "$T/cgal.txt"
+check "search cgal: the grid's keypoints" cmp -s "$T/cgal.txt" "$T/all.txt"
+"$CED" detect "$sample" --preset ced6d --neighborhood knn:16 --indices "$T/knn.txt" --summary "$T/knn.json" -q
+check "neighborhood: in the summary" grep -q '"neighborhood": *"knn:16"' "$T/knn.json"
+check "neighborhood: other keypoints than the ball" bash -c "! cmp -s '$T/knn.txt' '$T/all.txt'"
+printf '{"preset": "ced6d", "neighborhood": "knn:16"}\n' > "$T/knn_conf.json"
+"$CED" detect "$sample" --config "$T/knn_conf.json" --indices "$T/knn_c.txt" -q
+check "neighborhood: from --config" cmp -s "$T/knn_c.txt" "$T/knn.txt"
+
 echo "cli_edges: $pass passed, $fail failed"
 [ "$fail" = 0 ]

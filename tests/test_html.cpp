@@ -171,6 +171,10 @@ TEST(HtmlPage, EscapesTextAndRejectsBadInput) {
   EXPECT_THROW(ced::html_page(c, {1}, {{"x", 0.5, std::vector<float>(3, 0.f)}}), std::invalid_argument);
   o.max_points = 0;
   EXPECT_THROW(ced::html_page(c, {1}, layers, o), std::invalid_argument);
+  o.max_points = 10;
+  o.point_radius.assign(5, 0.1f);  // not one a point
+  EXPECT_THROW(ced::html_page(c, {1}, layers, o), std::invalid_argument);
+  o.point_radius.clear();
   // An empty cloud is a valid (empty) page.
   EXPECT_NO_THROW(ced::html_page(ced::point_cloud{}, {}, {}));
   // A path that cannot be written: an error, no file.
@@ -287,6 +291,21 @@ TEST(HtmlPage, DrawsInHeadlessChromiumWithoutNetwork) {
   EXPECT_NE(dom.find(">keypoint<"), std::string::npos);
   const auto requests = page_requests(net);
   EXPECT_TRUE(requests.empty()) << "the page made a request: " << requests.front();
+
+  // Under a knn neighbourhood, a picked point's panel shows its own radius.
+  p.neighborhood = ced::parse_neighborhood("knn:16");
+  const auto knn = ced::detect(cloud, p, ced::preset("ced6d"));
+  ced::html_options with_radius;
+  with_radius.point_radius = knn.point_radius;
+  const std::string knn_page = (dir / "knn.html").string();
+  ced::write_html(knn_page, cloud, knn.keypoints, ced::html_layers(knn), with_radius);
+  const std::uint32_t k0 = knn.keypoints[0];
+  char shown[32];
+  std::snprintf(shown, sizeof shown, "%.4f", double(knn.point_radius[k0]));
+  const std::string knn_dom = run_chromium(chromium, "file://" + knn_page + "#pick=" + std::to_string(k0), "--dump-dom",
+                                           (dir / "profile4").string());
+  EXPECT_NE(knn_dom.find("<td>own radius</td><td>" + std::string(shown) + "</td>"), std::string::npos) << shown;
+  EXPECT_EQ(dom.find("<td>own radius</td><td>0"), std::string::npos) << "a fixed-radius page shows no own radius";
 
   // The check itself: a page that loads an image and fetches is caught.
   const std::string bad = (dir / "bad.html").string();

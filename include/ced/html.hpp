@@ -35,6 +35,9 @@ struct html_options {
   std::size_t max_points = 2000000;
   /// Point spacing in the cloud's unit, for the drawn sizes; 0 = estimated.
   double spacing = 0;
+  /// Each point's own radius (detection_result::point_radius under a knn or
+  /// adaptive neighbourhood), shown in a picked point's panel; empty: none.
+  std::vector<float> point_radius;
 };
 
 /// The page: the cloud (coloured by its red/green/blue fields when present,
@@ -43,8 +46,8 @@ struct html_options {
 /// per layer's candidates, and point picking that shows a point's index,
 /// absolute coordinates (origin() included) and every layer's saliency.
 /// Non-finite points are not drawn. Throws std::invalid_argument for a
-/// keypoint out of range, a layer whose saliency is not one value a point,
-/// or max_points == 0. Deterministic.
+/// keypoint out of range, a layer whose saliency (or options.point_radius,
+/// when given) is not one value a point, or max_points == 0. Deterministic.
 std::string html_page(const point_cloud& cloud, const std::vector<std::uint32_t>& keypoints,
                       const std::vector<html_layer>& layers, const html_options& options = {});
 

@@ -71,6 +71,14 @@ void check_numbers(const detect_options& o, detect_plan& plan) {
   if (o.max_keypoints < 0)
     throw usage_error("--max-keypoints must be >= 0 (0: no limit), got " + std::to_string(o.max_keypoints));
   params.max_keypoints = static_cast<std::size_t>(o.max_keypoints);
+  try {
+    params.neighborhood = ced::parse_neighborhood(o.neighborhood);
+  } catch (const std::invalid_argument& e) {
+    throw usage_error(std::string("--neighborhood: ") + e.what());
+  }
+  if (o.search != "grid" && o.search != "cgal")
+    throw usage_error("--search must be grid or cgal, got '" + o.search + "'");
+  params.search = o.search == "cgal" ? ced::search_kind::cgal : ced::search_kind::grid;
   ced::detect_params check = params;
   check.nms_radius = std::isnan(o.nms_radius) ? check.radius : o.nms_radius;
   try {
@@ -256,6 +264,13 @@ void add_detector_options(CLI::App* cmd, detect_options& o, const std::string& r
                 "Move each keypoint to the point nearest the score-weighted centroid of its NMS neighbourhood "
                 "(more repeatable under noise; default with the robust presets)");
   cmd->add_flag("--no-refine", o.no_refine, "Keep the NMS maxima themselves, as the paper (default with ced3d/ced6d)");
+  cmd->add_option("--neighborhood", o.neighborhood,
+                  "Neighbourhood: radius (default: the ball of --radius), knn:K (the K nearest points) or "
+                  "adaptive:K[,scale=a][,min=r0][,max=r1] (a x the distance to the K-th nearest, clamped); "
+                  "under knn/adaptive the xyz threshold is a ratio of each point's own radius");
+  cmd->add_option("--search", o.search,
+                  "How fixed-radius neighbours are gathered: grid (default, fastest) or cgal (CGAL's Kd_tree, "
+                  "the reference path; the same keypoints)");
   cmd->add_option("--max-keypoints", o.max_keypoints,
                   "Keep at most N keypoints: the highest scores (product of saliencies), ties to the smaller index "
                   "(default 0: no limit)");
@@ -319,8 +334,8 @@ command add_detect_command(CLI::App& app, std::function<int(const detect_options
   auto note_given = [det, o] {
     o->given_plan_options.clear();
     for (const char* name : {"--radius", "--preset", "--modality", "--nms-radius", "--min-neighbors", "--refine",
-                             "--no-refine", "--max-keypoints", "--format", "--columns", "--voxel", "--radius-factor",
-                             "--tile-size", "--memory-limit", "--work-dir", "--resume"})
+                             "--no-refine", "--max-keypoints", "--neighborhood", "--search", "--format", "--columns",
+                             "--voxel", "--radius-factor", "--tile-size", "--memory-limit", "--work-dir", "--resume"})
       if (det->count(name) > 0) o->given_plan_options.push_back(name);
   };
   if (run)

@@ -150,6 +150,8 @@ nlohmann::json summary_json(const detect_options& o, const detect_plan& plan, co
                  {"min_neighbors", params.min_neighbors},
                  {"refine", params.refine},
                  {"max_keypoints", params.max_keypoints},
+                 {"neighborhood", ced::to_string(params.neighborhood)},
+                 {"search", params.search == ced::search_kind::cgal ? "cgal" : "grid"},
                  {"voxel", o.voxel},
                  {"threads", ced::resolve_threads(params.threads)}};
   auto& mods = j["modalities"] = nlohmann::json::array();
@@ -202,12 +204,15 @@ ced::html_options html_options_of(const detect_options& o, const detect_plan& pl
   h.source = o.input;
   h.max_points = static_cast<std::size_t>(o.html_max_points);
   h.spacing = plan.resolution;
+  h.point_radius = r.point_radius;
   h.info.push_back(
       {"points", std::to_string(in.cloud.size()) + (o.voxel > 0 ? " (voxel " + number(o.voxel) + ")" : "")});
   for (std::size_t m = 0; m < r.names.size(); ++m)
     h.info.push_back({r.names[m], "t = " + number(r.thresholds[m]) + ", " + std::to_string(modality_candidates(r, m)) +
                                       " candidates"});
   h.info.push_back({"radius", number(plan.params.radius) + (plan.auto_radius ? " (auto)" : "")});
+  if (!plan.params.neighborhood.fixed()) h.info.push_back({"neighbourhood", ced::to_string(plan.params.neighborhood)});
+  if (plan.params.search == ced::search_kind::cgal) h.info.push_back({"search", "CGAL Kd_tree"});
   h.info.push_back({"NMS radius", number(plan.params.nms_radius)});
   h.info.push_back({"min neighbours", std::to_string(plan.params.min_neighbors)});
   if (plan.params.refine) h.info.push_back({"refine", "on"});
@@ -268,9 +273,21 @@ void print_report(const detect_options& o, const detect_plan& plan, const detect
     mods += (m ? " + " : "") + r.names[m] + " (t=" + std::to_string(r.thresholds[m]) + ")";
   const std::string limit =
       params.max_keypoints ? ", the " + std::to_string(params.max_keypoints) + " strongest" : std::string();
-  std::fprintf(stderr, "ced: modalities %s; radius %g, nms radius %g, min neighbours %u%s%s, %u thread(s)\n",
-               mods.c_str(), params.radius, params.nms_radius, params.min_neighbors, params.refine ? ", refined" : "",
-               limit.c_str(), ced::resolve_threads(params.threads));
+  std::string how;
+  if (!params.neighborhood.fixed()) how += ", neighbourhood " + ced::to_string(params.neighborhood);
+  if (params.search == ced::search_kind::cgal) how += ", search cgal";
+  std::fprintf(stderr, "ced: modalities %s; radius %g, nms radius %g, min neighbours %u%s%s%s, %u thread(s)\n",
+               mods.c_str(), params.radius, params.nms_radius, params.min_neighbors, how.c_str(),
+               params.refine ? ", refined" : "", limit.c_str(), ced::resolve_threads(params.threads));
+  if (!r.point_radius.empty()) {
+    std::vector<float> radii = r.point_radius;
+    auto at = [&](double q) {
+      const auto k = static_cast<std::ptrdiff_t>(q * double(radii.size() - 1));
+      std::nth_element(radii.begin(), radii.begin() + k, radii.end());
+      return radii[std::size_t(k)];
+    };
+    std::fprintf(stderr, "ced: each point's own radius: 5%% %g, median %g, 95%% %g\n", at(0.05), at(0.5), at(0.95));
+  }
   std::fprintf(stderr, "ced: %zu keypoints; detect %.1f ms (index %.1f, saliency %.1f, nms %.1f); total %.1f ms\n",
                r.keypoints.size(), r.times.total_ms(), r.times.index_ms, r.times.saliency_ms, r.times.nms_ms,
                ms_since(t_start));

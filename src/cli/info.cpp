@@ -5,6 +5,7 @@
 #include <iostream>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "ced/ced.hpp"
 #include "ced/io/io.hpp"
@@ -17,6 +18,7 @@ namespace {
 
 struct info_options {
   std::string input, format = "auto", columns;
+  std::vector<int> knn = {8, 16, 32};
 };
 
 /// The bounds (absolute coordinates) and the resolution of a cloud of finite points.
@@ -36,6 +38,19 @@ void print_extent(const ced::point_cloud& cloud) {
   std::cout << "resolution (median nearest-neighbour distance): " << res << "  -> --radius auto = " << 5 * res << "\n";
 }
 
+/// The distance to the K-th nearest point (knn:K's own radius) for a few K:
+/// how far a k-nearest neighbourhood reaches, and how much the density varies.
+void print_k_distances(const ced::point_cloud& cloud, const std::vector<int>& ks) {
+  std::cout << "k-distance (to the K-th nearest, the point first; 5% / median / 95%; --neighborhood knn:K):\n";
+  for (int k : ks) {
+    if (k < 1 || std::size_t(k) > cloud.size()) continue;
+    const auto d = ced::k_distance_quantiles(cloud, std::size_t(k), {0.05, 0.5, 0.95});
+    std::cout << "  K = " << k << ": " << d[0] << " / " << d[1] << " / " << d[2];
+    if (d[0] > 0) std::cout << "  (95% / 5% = " << d[2] / d[0] << ")";
+    std::cout << "\n";
+  }
+}
+
 /// Each field's name, type and range.
 void print_fields(const ced::point_cloud& cloud) {
   std::cout << "fields:\n";
@@ -49,9 +64,12 @@ void print_fields(const ced::point_cloud& cloud) {
   }
 }
 
-int run_info(const std::string& path, const std::string& format, const std::string& columns) {
+int run_info(const info_options& opt) {
+  for (int k : opt.knn)
+    if (k < 1 || k > 65535) throw usage_error("--knn: K must be from 1 to 65535, got " + std::to_string(k));
+  const std::string& path = opt.input;
   ced::io::read_report report;
-  ced::point_cloud cloud = ced::io::read_cloud(path, make_read_options(format, columns), &report);
+  ced::point_cloud cloud = ced::io::read_cloud(path, make_read_options(opt.format, opt.columns), &report);
   std::cout << path << ": " << cloud.size() << " points (" << report.details << ")\n";
   if (report.nonfinite_removed)
     std::cout << "non-finite points dropped while reading: " << report.nonfinite_removed << "\n";
@@ -62,6 +80,7 @@ int run_info(const std::string& path, const std::string& format, const std::stri
   ced::remove_nonfinite(cloud);
   if (cloud.size() != before) std::cout << "non-finite points: " << before - cloud.size() << "\n";
   if (!cloud.empty()) print_extent(cloud);
+  if (!cloud.empty()) print_k_distances(cloud, opt.knn);
   print_fields(cloud);
   std::cout << "colour: " << (cloud.has_rgb() ? "yes (default preset ced6d)" : "no (default preset ced3d)") << "\n";
   return exit_ok;
@@ -73,7 +92,8 @@ command add_info_command(CLI::App& app) {
   auto o = std::make_shared<info_options>();
   auto* info = app.add_subcommand("info", "Print a cloud's fields, point count, bounds and resolution");
   add_input_options(info, o->input, "Input point cloud", o->format, o->columns)->required();
-  return {info, [o] { return run_info(o->input, o->format, o->columns); }};
+  info->add_option("--knn", o->knn, "K values of the k-distance table (default 8 16 32)");
+  return {info, [o] { return run_info(*o); }};
 }
 
 }  // namespace ced_cli

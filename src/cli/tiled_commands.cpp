@@ -72,6 +72,11 @@ ced::tiled_request request_from(const detect_options& o, detect_plan& plan) {
   if (o.voxel > 0) throw usage_error("--voxel is not available with --tile-size or --memory-limit");
   if (plan.auto_radius)
     throw usage_error("--radius auto needs the whole cloud: give --radius (or --preset) with --tile-size");
+  if (!plan.params.neighborhood.fixed())
+    throw usage_error("tiled runs take the fixed-radius neighbourhood only, not --neighborhood " +
+                      ced::to_string(plan.params.neighborhood) + ": detect the whole cloud instead");
+  if (plan.params.search != ced::search_kind::grid)
+    throw usage_error("--search cgal is for whole clouds: tiled runs gather neighbours on the grid");
   ced::tiled_request r;
   r.input = o.input;
   r.read = plan.read_opts;

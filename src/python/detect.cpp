@@ -187,6 +187,15 @@ void bind_result(py::module_& m) {
           "neighbor_count", [](py::object self) { return view(self.cast<const result&>().r.neighbor_count, self); },
           "(N,) uint32: neighbours within the radius, the point itself included.")
       .def_property_readonly(
+          "point_radius",
+          [](py::object self) -> py::object {
+            const auto& r = self.cast<const result&>().r.point_radius;
+            if (r.empty()) return py::none();
+            return view(r, self);
+          },
+          "(N,) float32: each point's own radius under neighborhood='knn:K' or 'adaptive:...'; None for the "
+          "fixed radius.")
+      .def_property_readonly(
           "thresholds",
           [](const result& res) {
             py::dict d;
@@ -220,10 +229,19 @@ void bind_result(py::module_& m) {
 /// ced._detect (ced.detect's work, behind its Python signature).
 std::shared_ptr<result> detect_cloud(py::handle points, py::handle channels, py::handle modalities, py::handle radius,
                                      double radius_factor, std::optional<double> nms_radius, long long min_neighbors,
-                                     long long threads, py::handle refine, long long max_keypoints) {
+                                     long long threads, py::handle refine, long long max_keypoints,
+                                     const std::string& neighborhood, const std::string& search) {
   const cloud_ptr cloud = to_cloud(points, channels);
   if (cloud->empty()) throw py::value_error("points: the cloud is empty");
   ced::detect_params p = make_params(*cloud, radius, radius_factor, nms_radius, min_neighbors, threads);
+  try {
+    p.neighborhood = ced::parse_neighborhood(neighborhood);
+  } catch (const std::invalid_argument& e) {
+    throw py::value_error(std::string("neighborhood: ") + e.what());
+  }
+  if (search != "grid" && search != "cgal")
+    throw py::value_error("search: must be 'grid' or 'cgal', got '" + search + "'");
+  p.search = search == "cgal" ? ced::search_kind::cgal : ced::search_kind::grid;
   p.refine = refine_of(modalities, refine);
   if (max_keypoints < 0)
     throw py::value_error("max_keypoints: must be >= 0 (0: no limit), got " + std::to_string(max_keypoints));
@@ -256,7 +274,7 @@ void bind_detect(py::module_& m) {
   bind_result(m);
   m.def("_detect", &detect_cloud, py::arg("points"), py::arg("channels"), py::arg("modalities"), py::arg("radius"),
         py::arg("radius_factor"), py::arg("nms_radius"), py::arg("min_neighbors"), py::arg("threads"),
-        py::arg("refine"), py::arg("max_keypoints"));
+        py::arg("refine"), py::arg("max_keypoints"), py::arg("neighborhood"), py::arg("search"));
   m.def("release_cached_memory", &ced::release_cached_memory,
         "Frees the up to 32 MiB that detections keep cached for the next one.");
 }

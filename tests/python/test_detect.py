@@ -60,6 +60,31 @@ def test_max_keypoints_keeps_the_strongest_as_the_cli(cli, sample, sample_path):
         ced.detect(sample, modalities="ced6d", max_keypoints=2.5)
 
 
+def test_neighborhood_and_search_match_the_cli(cli, sample, sample_path):
+    for spec in ("knn:16", "adaptive:12,scale=1.5,max=0.08"):
+        got = ced.detect(sample, modalities="ced6d", neighborhood=spec)
+        expected = cli_keypoints(cli, sample_path, "--preset", "ced6d", "--neighborhood", spec)
+        assert len(expected) > 50
+        np.testing.assert_array_equal(got.keypoints, expected, err_msg=spec)
+        assert got.point_radius.shape == (len(sample.points),) and got.point_radius.dtype == np.float32
+        assert (got.point_radius > 0).all()
+    knn = ced.detect(sample, modalities="ced3d", neighborhood="knn:16")
+    assert (knn.neighbor_count == 16).all()
+    assert knn.point_radius.max() > 2 * knn.point_radius.min()
+    # The CGAL reference path gives the grid's keypoints.
+    grid = ced.detect(sample, modalities="ced6d")
+    assert grid.point_radius is None
+    np.testing.assert_array_equal(ced.detect(sample, modalities="ced6d", search="cgal").keypoints, grid.keypoints)
+    with pytest.raises(ValueError, match="neighborhood.*K"):
+        ced.detect(sample, neighborhood="knn:0")
+    with pytest.raises(ValueError, match="larger than max"):
+        ced.detect(sample, neighborhood="adaptive:8,min=0.2,max=0.1")
+    with pytest.raises(ValueError, match="search"):
+        ced.detect(sample, search="octree")
+    with pytest.raises(TypeError, match="neighborhood"):
+        ced.detect(sample, neighborhood=16)
+
+
 def test_auto_radius_matches_the_cli(cli, sample, sample_path):
     expected = cli_keypoints(cli, sample_path, "-m", "xyz:0.2", "-m", "rgb:0.1", "--radius", "auto")
     got = ced.detect(sample, modalities=["xyz:0.2", "rgb:0.1"], radius="auto")

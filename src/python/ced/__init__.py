@@ -168,7 +168,7 @@ def voxel_downsample(cloud, size):
 
 
 def detect(points, channels=None, modalities=None, radius=0.05, nms_radius=None, min_neighbors=5, threads=0,
-           radius_factor=5.0, refine=None, max_keypoints=0):
+           radius_factor=5.0, refine=None, max_keypoints=0, neighborhood="radius", search="grid"):
     """Detects keypoints.
 
     points: an (N, 3) float32/float64 array (any strides), a numpy structured array with X, Y, Z fields (PDAL's
@@ -184,6 +184,11 @@ def detect(points, channels=None, modalities=None, radius=0.05, nms_radius=None,
         repeatable under noise). None: the preset's (on for 'robust3d' and 'robust6d'), else off.
     max_keypoints: keep at most this many keypoints, the ones with the highest score (the product of their
         saliencies), ties to the smaller index; 0 (default): no limit.
+    neighborhood: 'radius' (default: the ball of `radius`), 'knn:K' (the K nearest points, itself included) or
+        'adaptive:K[,scale=a][,min=r0][,max=r1]' (each point's radius a x the distance to its K-th nearest,
+        clamped). Under knn/adaptive, xyz is measured per unit of each point's own radius (Result.point_radius).
+    search: 'grid' (default) or 'cgal': how fixed-radius neighbours are gathered (CGAL's Kd_tree is the
+        reference path; the same keypoints, slower).
 
     Returns a ced.Result. The GIL is released while detecting; Ctrl-C raises KeyboardInterrupt. Called while a
     ced.python_modality's function runs (from it, or from a thread it waits for), the detection runs on the calling
@@ -195,8 +200,11 @@ def detect(points, channels=None, modalities=None, radius=0.05, nms_radius=None,
     for name, value in (("min_neighbors", min_neighbors), ("threads", threads), ("max_keypoints", max_keypoints)):
         if isinstance(value, bool) or not isinstance(value, int):
             raise TypeError(f"{name}: expected an int, got {type(value).__name__}")
+    for name, value in (("neighborhood", neighborhood), ("search", search)):
+        if not isinstance(value, str):
+            raise TypeError(f"{name}: expected a str, got {type(value).__name__}")
     return _detect(points, channels, modalities, radius, float(radius_factor), nms_radius, min_neighbors, threads,
-                   refine, max_keypoints)
+                   refine, max_keypoints, neighborhood, search)
 
 
 def write(path, cloud, channels=None, format=None):

@@ -64,6 +64,9 @@ class Result:
     def neighbor_count(self) -> npt.NDArray[np.uint32]:
         """(N,): neighbours within the radius, the point itself included."""
     @property
+    def point_radius(self) -> Optional[npt.NDArray[np.float32]]:
+        """(N,): each point's own radius under a knn or adaptive neighbourhood; None for the fixed radius."""
+    @property
     def thresholds(self) -> Dict[str, float]:
         """Modality name -> absolute threshold (xyz: ratio x radius)."""
     @property
@@ -101,6 +104,8 @@ def detect(
     radius_factor: float = 5.0,
     refine: Optional[bool] = None,
     max_keypoints: int = 0,
+    neighborhood: str = "radius",
+    search: str = "grid",
 ) -> Result:
     """Detects keypoints (see docs/PYTHON.md). Releases the GIL; Ctrl-C raises KeyboardInterrupt."""
 
