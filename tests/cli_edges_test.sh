@@ -243,7 +243,12 @@ expect_exit 2 "K in neighbourhood" "neighborhood: K 0" -- detect "$sample" --pre
 expect_exit 2 "larger than max" "neighborhood: min > max" -- detect "$sample" --preset ced6d --neighborhood adaptive:8,min=0.2,max=0.1 -q
 expect_exit 2 "must be radius, knn:K or adaptive" "neighborhood: unknown kind" -- detect "$sample" --neighborhood ball -q
 expect_exit 2 "search must be grid or cgal" "search: unknown" -- detect "$sample" --search octree -q
-expect_exit 2 "fixed-radius neighbourhood only" "neighborhood: tiled refused" -- detect "$sample" --preset ced6d --neighborhood knn:8 --tile-size 0.5 -q
+expect_exit 2 "bounded reach" "neighborhood: knn tiled refused" -- detect "$sample" --preset ced6d --neighborhood knn:8 --tile-size 0.5 -q
+"$CED" detect "$sample" --preset ced6d --neighborhood adaptive:12,scale=1.5,max=0.08 --indices "$T/ad.txt" -q
+"$CED" detect "$sample" --preset ced6d --neighborhood adaptive:12,scale=1.5,max=0.08 --tile-size 0.5 --indices "$T/ad_t.txt" -q
+check "neighborhood: adaptive with max, tiled = whole" cmp -s "$T/ad_t.txt" "$T/ad.txt"
+"$CED" plan "$sample" --preset ced6d --neighborhood adaptive:12,scale=1.5,max=0.08 --search cgal --tile-size 0.5 -o "$T/ad_plan.json" -q
+check "neighborhood: the plan records it" grep -q '"neighborhood": *"adaptive:12,scale=1.5,max=0.08"' "$T/ad_plan.json"
 "$CED" detect "$sample" --preset ced6d --search cgal -q > "$T/cgal.txt"
 check "search cgal: the grid's keypoints" cmp -s "$T/cgal.txt" "$T/all.txt"
 "$CED" detect "$sample" --preset ced6d --neighborhood knn:16 --indices "$T/knn.txt" --summary "$T/knn.json" -q

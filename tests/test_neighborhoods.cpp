@@ -376,19 +376,49 @@ TEST(Neighborhoods, DistancesArePerUnitOfTheOwnRadiusOnly) {
   EXPECT_DOUBLE_EQ(s.thresholds[0], 0.2 * 2 * p.radius);
 }
 
-TEST(Neighborhoods, TiledRunsRefuseThemClearly) {
+TEST(Neighborhoods, TilesStayExactForNeighbourhoodsOfBoundedReach) {
+  // Far points of the scan have k-distances of several cm: adaptive radii
+  // up to max reach well past radius + block side, so a halo sized from
+  // the radius alone would cut their neighbourhoods.
+  const auto c = scanned_room(5000, 8);
+  const std::vector<ced::any_modality> mods = {ced::make_modality("xyz"), ced::make_modality("rgb")};
+  for (const char* spec :
+       {"adaptive:12,scale=1.5,max=0.3", "adaptive:64,scale=0.3,max=0.3", "adaptive:10,min=0.03,max=0.2", "radius"}) {
+    SCOPED_TRACE(spec);
+    ced::detect_params p;
+    p.radius = 0.02;
+    p.nms_radius = 0.03;
+    p.neighborhood = ced::parse_neighborhood(spec);
+    p.search = ced::search_kind::cgal;
+    const auto whole = ced::detect(c, p, mods);
+    ASSERT_GT(whole.keypoints.size(), 20u);
+    for (double tile : {0.35, 0.7}) EXPECT_EQ(ced::detect_tiled(c, p, mods, tile), whole.keypoints) << tile;
+    p.refine = true;
+    EXPECT_EQ(ced::detect_tiled(c, p, mods, 0.5), ced::detect(c, p, mods).keypoints) << "refined";
+  }
+}
+
+TEST(Neighborhoods, TilesRefuseUnboundedReachClearlyAndPlansKeepTheSpec) {
   ced::tiled_request q;
   q.input = CED_TEST_DATA_DIR "/apartment_mesh_214.ply";
   q.tile_size = 1;
   q.modalities = {"xyz"};
-  q.params.neighborhood = ced::parse_neighborhood("knn:8");
-  try {
-    ced::plan_tiles(q);
-    ADD_FAILURE() << "knn tiled plan accepted";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("knn:8"), std::string::npos) << e.what();
+  for (const char* spec : {"knn:8", "adaptive:8", "adaptive:8,scale=2"}) {
+    q.params.neighborhood = ced::parse_neighborhood(spec);
+    try {
+      ced::plan_tiles(q);
+      ADD_FAILURE() << spec << " tiled plan accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(spec), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("max="), std::string::npos) << e.what();
+    }
   }
-  q.params.neighborhood = {};
+  // A bounded one plans, and its plan file keeps the neighbourhood and search.
+  q.params.neighborhood = ced::parse_neighborhood("adaptive:8,scale=1.5,max=0.1");
   q.params.search = ced::search_kind::cgal;
-  EXPECT_THROW(ced::plan_tiles(q), std::invalid_argument);
+  const ced::tile_plan plan = ced::plan_tiles(q);
+  const ced::tile_plan back = ced::tile_plan::from_json(plan.to_json(), "plan.json");
+  EXPECT_EQ(ced::to_string(back.request.params.neighborhood), "adaptive:8,scale=1.5,max=0.1");
+  EXPECT_EQ(back.request.params.search, ced::search_kind::cgal);
+  EXPECT_GE(back.grid.halo, 0.1 * 1.001);
 }

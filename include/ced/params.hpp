@@ -25,8 +25,9 @@ enum class neighborhood_kind : std::uint8_t {
 ///   distance in float, ties to the smaller index; the point's own radius
 ///   r_i is the distance to the k-th of them.
 /// - adaptive: r_i = clamp(scale × d_k(i), min_radius, max_radius), d_k(i)
-///   the distance to the k-th nearest point (p_i is the first), and
-///   N(i) = { j : |p_j − p_i|² < r_i² }.
+///   the distance to the k-th nearest point (p_i is the first; infinite in a
+///   cloud of fewer than k points, which only a finite max_radius allows),
+///   and N(i) = { j : |p_j − p_i|² < r_i² } ∪ { i }.
 ///
 /// Under knn and adaptive, sums of positions are measured in units of the
 /// point's own radius (times detect_params::radius, so that they stay in

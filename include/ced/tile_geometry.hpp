@@ -54,9 +54,11 @@ struct tile_grid {
 };
 
 /// The halo that makes tiles exact under `params`: nms_radius (twice with
-/// `refine`) + block side (block_scale · radius) + radius, with a margin for
-/// float rounding of coordinates up to `max_abs_coordinate` (positions, the
-/// cloud's frame).
+/// `refine`) + block side (block_scale · radius) + the neighbourhood's reach
+/// (the radius; max(r1, r1 / scale) for adaptive:K,max=r1), with a margin
+/// for float rounding of coordinates up to `max_abs_coordinate` (positions,
+/// the cloud's frame). Throws std::invalid_argument for knn, or adaptive
+/// without max: their reach depends on the data.
 double exact_halo(const detect_params& params, double max_abs_coordinate = 0.0);
 
 /// Tiles of edge `size` covering the positions in the box [lo, hi], with the

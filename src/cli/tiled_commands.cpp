@@ -72,16 +72,16 @@ ced::tiled_request request_from(const detect_options& o, detect_plan& plan) {
   if (o.voxel > 0) throw usage_error("--voxel is not available with --tile-size or --memory-limit");
   if (plan.auto_radius)
     throw usage_error("--radius auto needs the whole cloud: give --radius (or --preset) with --tile-size");
-  if (!plan.params.neighborhood.fixed())
-    throw usage_error("tiled runs take the fixed-radius neighbourhood only, not --neighborhood " +
-                      ced::to_string(plan.params.neighborhood) + ": detect the whole cloud instead");
-  if (plan.params.search != ced::search_kind::grid)
-    throw usage_error("--search cgal is for whole clouds: tiled runs gather neighbours on the grid");
   ced::tiled_request r;
   r.input = o.input;
   r.read = plan.read_opts;
   r.params = plan.params;
   r.params.nms_radius = std::isnan(o.nms_radius) ? r.params.radius : o.nms_radius;
+  try {
+    ced::exact_halo(r.params);
+  } catch (const std::invalid_argument& e) {
+    throw usage_error(std::string("--neighborhood with tiles: ") + e.what());
+  }
   try {
     if (!o.preset.empty()) r.modalities = ced::preset_specs(o.preset);
   } catch (const std::invalid_argument& e) {

@@ -30,7 +30,8 @@ double list_block::gather(const neighbor_index& index, const float* xyz, std::ui
     index.radius_search(c, r, m_found);
   } else {
     index.k_nearest(c, n.k, i, m_ranked, position);
-    const double dk = std::sqrt(double(m_ranked.back().d2));
+    // Fewer than K points (adaptive with max only): the K-th is infinitely far.
+    const double dk = m_ranked.size() < n.k ? HUGE_VAL : std::sqrt(double(m_ranked.back().d2));
     if (n.kind == neighborhood_kind::knn) {
       m_found.clear();
       for (const auto& p : m_ranked) m_found.push_back(p.index);
@@ -38,7 +39,7 @@ double list_block::gather(const neighbor_index& index, const float* xyz, std::ui
     } else {
       r = std::min(std::max(n.scale * dk, n.min_radius), n.max_radius);
       const float r2 = squared_radius(r);
-      if (r2 <= m_ranked.back().d2) {
+      if (m_ranked.size() == n.k && r2 <= m_ranked.back().d2) {
         // Every point nearer than the k-th is in the list already.
         m_found.clear();
         for (const auto& p : m_ranked)

@@ -67,8 +67,16 @@ double exact_halo(const detect_params& params, double max_abs_coordinate) {
   // float steps of the largest coordinate, for rounding.
   // With refinement a core keypoint may come from a maximum up to nms_radius
   // outside the core, whose own competitors lie nms_radius further.
-  const double h =
-      (params.refine ? 2 : 1) * params.nms_radius + params.block_scale * params.radius + 1.001 * params.radius;
+  // Under adaptive:K,max=r1 a neighbourhood reaches r1, and the K nearest
+  // that set a radius below r1 lie within r1 / scale (farther ones clamp it
+  // to r1 whatever the tile holds). knn, and adaptive without max, reach as
+  // far as the data make them: no halo is exact for them.
+  const neighborhood_spec& n = params.neighborhood;
+  if (!n.fixed() && (n.kind == neighborhood_kind::knn || !std::isfinite(n.max_radius)))
+    throw std::invalid_argument("tiles need a neighbourhood of bounded reach: " + to_string(n) +
+                                " reaches as far as the data make it (use radius, or adaptive:K with max=)");
+  const double reach = n.fixed() ? params.radius : std::max(n.max_radius, n.max_radius / n.scale);
+  const double h = (params.refine ? 2 : 1) * params.nms_radius + params.block_scale * params.radius + 1.001 * reach;
   return 1.01 * h + 16.0 * std::ldexp(std::fabs(max_abs_coordinate), -23);
 }
 

@@ -53,7 +53,10 @@ void check_inputs(const point_cloud& cloud, const detect_params& params, const s
         throw std::invalid_argument("point " + std::to_string(i / 3) +
                                     " has a non-finite coordinate (remove NaN/Inf points first)");
   }
-  if (!params.neighborhood.fixed() && params.neighborhood.k > cloud.size())
+  // adaptive with max: fewer than K points make the K-th distance infinite,
+  // and every radius max (what a tile with few points needs).
+  const neighborhood_spec& nb = params.neighborhood;
+  if (!nb.fixed() && nb.k > cloud.size() && (nb.kind == neighborhood_kind::knn || !std::isfinite(nb.max_radius)))
     throw std::invalid_argument("neighbourhood " + to_string(params.neighborhood) + ": K is larger than the cloud (" +
                                 std::to_string(cloud.size()) + " points)");
   if (cloud.size() >= std::size_t(UINT32_MAX)) throw std::invalid_argument("too many points (at most 2^32-2)");

@@ -77,6 +77,15 @@ tiled_request request_from_json(const nlohmann::json& j) {
   r.params.refine = j.value("refine", false);  // plans written before refinement existed
   // Written only when set, so that plans without a limit keep their digest.
   if (j.contains("max_keypoints")) r.params.max_keypoints = count_of<std::size_t>(j, "max_keypoints");
+  if (j.contains("neighborhood")) {
+    if (!j.at("neighborhood").is_string()) throw std::invalid_argument("'neighborhood' must be a string");
+    r.params.neighborhood = parse_neighborhood(j.at("neighborhood").get<std::string>());
+  }
+  if (j.contains("search")) {
+    if (j.at("search") != "cgal" && j.at("search") != "grid")
+      throw std::invalid_argument("'search' must be \"grid\" or \"cgal\"");
+    r.params.search = j.at("search") == "cgal" ? search_kind::cgal : search_kind::grid;
+  }
   r.modalities = j.at("modalities").get<std::vector<std::string>>();
   r.tile_size = number_of(j, "tile_size");
   r.memory_limit = count_of<std::uint64_t>(j, "memory_limit");
@@ -185,6 +194,9 @@ nlohmann::json request_json(const tiled_request& r) {
   j["block_scale"] = r.params.block_scale;
   j["refine"] = r.params.refine;
   if (r.params.max_keypoints) j["max_keypoints"] = r.params.max_keypoints;
+  // Written only when not the default, so that other plans keep their digest.
+  if (!r.params.neighborhood.fixed()) j["neighborhood"] = to_string(r.params.neighborhood);
+  if (r.params.search == search_kind::cgal) j["search"] = "cgal";
   j["modalities"] = r.modalities;
   j["tile_size"] = r.tile_size;
   j["memory_limit"] = r.memory_limit;

@@ -24,13 +24,7 @@ namespace {
 /// Throws std::invalid_argument for a bad tile size, limit or modality.
 void check_request(const tiled_request& request) {
   validate(request.params);
-  // A knn or adaptive neighbourhood reaches as far as the data make it: the
-  // tiles' halo cannot be fixed from the radius alone (not yet supported).
-  if (!request.params.neighborhood.fixed())
-    throw std::invalid_argument("tiled runs take the fixed-radius neighbourhood only, not " +
-                                to_string(request.params.neighborhood) + ": detect the whole cloud instead");
-  if (request.params.search != search_kind::grid)
-    throw std::invalid_argument("tiled runs gather neighbours on the grid only (--search cgal is for whole clouds)");
+  exact_halo(request.params);  // a neighbourhood of unbounded reach (knn) fails here, clearly
   if (request.memory_limit == 0 && (!(request.tile_size > 0) || !std::isfinite(request.tile_size)))
     throw std::invalid_argument("tile size must be a positive number of metres, got " +
                                 std::to_string(request.tile_size));
