@@ -154,6 +154,23 @@ void bm_ced(benchmark::State& state, const std::string& name, const std::string&
   report(state, r, c.size());
 }
 
+/// ced6d with another neighbourhood or search (docs/ALGORITHM.md#neighbourhoods).
+void bm_neighborhood(benchmark::State& state, const std::string& name, const std::string& spec,
+                     ced::search_kind search) {
+  const auto& c = clouds().at(name);
+  ced::detect_params p;
+  p.threads = static_cast<unsigned>(state.range(0));
+  p.neighborhood = ced::parse_neighborhood(spec);
+  p.search = search;
+  const auto mods = ced::preset("ced6d");
+  ced::detection_result r;
+  for (auto _ : state) {
+    r = ced::detect(c, p, mods);
+    benchmark::DoNotOptimize(r.keypoints.data());
+  }
+  report(state, r, c.size());
+}
+
 void bm_ced_static(benchmark::State& state, const std::string& name) {
   const auto& c = clouds().at(name);
   ced::detect_params p;
@@ -376,6 +393,17 @@ int main(int argc, char** argv) {
           ->Arg(1)
           ->Unit(benchmark::kMillisecond)
           ->UseRealTime();
+    for (const char* spec : {"knn:16", "adaptive:16"})  // ≤ 3 × ced6d (#30)
+      benchmark::RegisterBenchmark(("ced6d_" + std::string(spec) + "/" + name).c_str(), bm_neighborhood, name,
+                                   std::string(spec), ced::search_kind::grid)
+          ->Arg(1)
+          ->Unit(benchmark::kMillisecond)
+          ->UseRealTime();
+    benchmark::RegisterBenchmark(("ced6d_search_cgal/" + name).c_str(), bm_neighborhood, name, std::string("radius"),
+                                 ced::search_kind::cgal)
+        ->Arg(1)
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime();
     benchmark::RegisterBenchmark(("five_modalities/" + name).c_str(), bm_ced, name, std::string("five"))
         ->Arg(1)
         ->Unit(benchmark::kMillisecond)
