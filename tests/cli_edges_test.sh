@@ -241,7 +241,7 @@ check "max-keypoints: tiles keep the same 17" cmp -s "$T/top_t.txt" "$T/top17.tx
 # --- 12. --neighborhood and --search: parsed, checked, in a config file too ---
 expect_exit 2 "K in neighbourhood" "neighborhood: K 0" -- detect "$sample" --preset ced6d --neighborhood knn:0 -q
 expect_exit 2 "larger than max" "neighborhood: min > max" -- detect "$sample" --preset ced6d --neighborhood adaptive:8,min=0.2,max=0.1 -q
-expect_exit 2 "must be radius, knn:K or adaptive" "neighborhood: unknown kind" -- detect "$sample" --neighborhood ball -q
+expect_exit 2 "must be radius, knn:K" "neighborhood: unknown kind" -- detect "$sample" --neighborhood ball -q
 expect_exit 2 "search must be grid or cgal" "search: unknown" -- detect "$sample" --search octree -q
 expect_exit 2 "bounded reach" "neighborhood: knn tiled refused" -- detect "$sample" --preset ced6d --neighborhood knn:8 --tile-size 0.5 -q
 "$CED" detect "$sample" --preset ced6d --neighborhood adaptive:12,scale=1.5,max=0.08 --indices "$T/ad.txt" -q

@@ -122,10 +122,18 @@ struct list_check {
   evaluator bind(const ced::point_cloud&, const ced::detect_params&) const { return {expected, wrong}; }
 };
 
+/// Each point's own NMS radius under nms=own, as the detector rounds it.
+std::vector<float> own_nms(const ced::detection_result& r, const ced::detect_params& p) {
+  std::vector<float> out;
+  for (float ri : r.point_radius) out.push_back(static_cast<float>(p.nms_radius / p.radius * double(ri)));
+  return out;
+}
+
 std::vector<ced::neighborhood_spec> kinds() {
   std::vector<ced::neighborhood_spec> out;
-  for (const char* text : {"knn:1", "knn:12", "knn:30", "adaptive:12", "adaptive:8,scale=0.7", "adaptive:10,scale=1.6",
-                           "adaptive:12,min=0.06", "adaptive:16,scale=2,max=0.05"})
+  for (const char* text :
+       {"knn:1", "knn:12", "knn:30", "adaptive:12", "adaptive:8,scale=0.7", "adaptive:10,scale=1.6",
+        "adaptive:12,min=0.06", "adaptive:16,scale=2,max=0.05", "knn:16,nms=own", "adaptive:12,scale=1.5,nms=own"})
     out.push_back(ced::parse_neighborhood(text));
   return out;
 }
@@ -144,7 +152,8 @@ TEST(Neighborhoods, ParseReadsEveryFormAndRoundTrips) {
   EXPECT_EQ(a.min_radius, 0.01);
   EXPECT_EQ(a.max_radius, 0.2);
   EXPECT_EQ(ced::parse_neighborhood("adaptive:8").max_radius, std::numeric_limits<double>::infinity());
-  for (const char* text : {"radius", "knn:16", "adaptive:8", "adaptive:8,scale=1.5,min=0.01,max=0.2"}) {
+  for (const char* text : {"radius", "knn:16", "adaptive:8", "adaptive:8,scale=1.5,min=0.01,max=0.2", "knn:4,nms=own",
+                           "adaptive:8,max=0.2,nms=own"}) {
     const auto parsed = ced::parse_neighborhood(text);
     EXPECT_EQ(ced::to_string(parsed), text);
     const auto again = ced::parse_neighborhood(ced::to_string(parsed));
@@ -152,7 +161,10 @@ TEST(Neighborhoods, ParseReadsEveryFormAndRoundTrips) {
     EXPECT_EQ(again.scale, parsed.scale);
     EXPECT_EQ(again.min_radius, parsed.min_radius);
     EXPECT_EQ(again.max_radius, parsed.max_radius);
+    EXPECT_EQ(again.nms_own, parsed.nms_own);
   }
+  EXPECT_TRUE(ced::parse_neighborhood("knn:4,nms=own").nms_own);
+  EXPECT_FALSE(ced::parse_neighborhood("knn:4,nms=fixed").nms_own);
 }
 
 TEST(Neighborhoods, BadSpecsNameTheParameter) {
@@ -163,7 +175,9 @@ TEST(Neighborhoods, BadSpecsNameTheParameter) {
       {"knn:2.5", "K in"},
       {"knn:nan", "K in"},
       {"knn:-3", "K in"},
-      {"knn:16,scale=2", "knn takes only K"},
+      {"knn:16,scale=2", "knn takes nms="},
+      {"knn:16,nms=big", "nms= must be own or fixed"},
+      {"adaptive:8,nms=own,nms=own", "given twice"},
       {"adaptive:8,scale=0", "scale must be"},
       {"adaptive:8,scale=-1", "scale must be"},
       {"adaptive:8,scale=nan", "scale="},
@@ -172,7 +186,7 @@ TEST(Neighborhoods, BadSpecsNameTheParameter) {
       {"adaptive:8,max=0", "max must be"},
       {"adaptive:8,foo=1", "unknown option"},
       {"adaptive:8,scale=1,scale=2", "given twice"},
-      {"sphere", "must be radius, knn:K or adaptive"},
+      {"sphere", "must be radius, knn:K"},
   };
   for (const auto& [text, what] : bad) {
     try {
@@ -253,21 +267,19 @@ TEST(Neighborhoods, EveryKindMatchesTheBruteForceOracle) {
     const lists nb = brute_neighborhoods(c, spec, radius);
     ced::detect_params p;
     p.neighborhood = spec;
-    p.radius = 0.04;
-    p.nms_radius = 0.05;
+    // nms=own: NMS balls of nms_radius / radius × r_i, far from nms_radius
+    // where r_i is far from the radius.
+    p.radius = spec.nms_own ? 0.05 : 0.04;
+    p.nms_radius = 0.12;  // several points apart even where the scan is sparse
     std::atomic<int> wrong{0};
-    const auto r = ced::detect(c, p, ced::xyz{0.2}, ced::rgb{0.1}, list_check{&nb, &wrong});
+    ced::detect(c, p, list_check{&nb, &wrong});  // (its saliency 0 would zero every NMS score)
     EXPECT_EQ(wrong.load(), 0) << "neighbour lists differ";
+    const auto r = ced::detect(c, p, ced::xyz{0.2}, ced::rgb{0.1});
     std::vector<double> per_unit(c.size());
     for (std::size_t i = 0; i < c.size(); ++i) per_unit[i] = radius[i] > 0 ? p.radius / radius[i] : 0.0;
-    ced_test::oracle_channel check;  // list_check's: never a candidate, saliency 0
-    check.values.assign(c.size(), {0.0});
-    check.scale = {1};
-    check.threshold = 1e30;
-    const auto o = ced_test::oracle_of_lists(c,
-                                             {ced_test::xyz_channel(c, 0.2, p.radius),
-                                              ced_test::field_channel(c, {"red", "green", "blue"}, 255, 0.1), check},
-                                             nb, p.nms_radius, p.min_neighbors, per_unit);
+    const auto o = ced_test::oracle_of_lists(
+        c, {ced_test::xyz_channel(c, 0.2, p.radius), ced_test::field_channel(c, {"red", "green", "blue"}, 255, 0.1)},
+        nb, p.nms_radius, p.min_neighbors, per_unit, spec.nms_own ? own_nms(r, p) : std::vector<float>{});
     ASSERT_EQ(r.point_radius.size(), c.size());
     for (std::size_t i = 0; i < c.size(); ++i) {
       ASSERT_EQ(r.neighbor_count[i], nb[i].size()) << "point " << i;
@@ -382,13 +394,13 @@ TEST(Neighborhoods, TilesStayExactForNeighbourhoodsOfBoundedReach) {
   // the radius alone would cut their neighbourhoods.
   const auto c = scanned_room(5000, 8);
   const std::vector<ced::any_modality> mods = {ced::make_modality("xyz"), ced::make_modality("rgb")};
-  for (const char* spec :
-       {"adaptive:12,scale=1.5,max=0.3", "adaptive:64,scale=0.3,max=0.3", "adaptive:10,min=0.03,max=0.2", "radius"}) {
+  for (const char* spec : {"adaptive:12,scale=1.5,max=0.3", "adaptive:64,scale=0.3,max=0.3",
+                           "adaptive:10,min=0.03,max=0.2", "adaptive:16,max=0.25,nms=own", "radius"}) {
     SCOPED_TRACE(spec);
     ced::detect_params p;
     p.radius = 0.02;
-    p.nms_radius = 0.03;
     p.neighborhood = ced::parse_neighborhood(spec);
+    p.nms_radius = p.neighborhood.nms_own ? 0.1 : 0.03;  // own NMS balls up to 0.1 / 0.02 × max
     p.search = ced::search_kind::cgal;
     const auto whole = ced::detect(c, p, mods);
     ASSERT_GT(whole.keypoints.size(), 20u);

@@ -153,7 +153,8 @@ struct oracle_result {
 /// has its saliency multiplied by per_unit[i] when `ch[m].per_radius`.
 inline oracle_result oracle_of_lists(const ced::point_cloud& c, const std::vector<oracle_channel>& ch,
                                      const std::vector<std::vector<std::uint32_t>>& nb, double nms_radius,
-                                     std::uint32_t min_neighbors, const std::vector<double>& per_unit = {}) {
+                                     std::uint32_t min_neighbors, const std::vector<double>& per_unit = {},
+                                     const std::vector<float>& point_nms = {}) {
   const std::size_t n = c.size();
   oracle_result r;
   for (const auto& v : nb) r.neighbor_count.push_back(static_cast<std::uint32_t>(v.size()));
@@ -179,12 +180,22 @@ inline oracle_result oracle_of_lists(const ced::point_cloud& c, const std::vecto
       if (r.saliency[m][i] >= ch[m].threshold) r.candidate[i] = 1;
       product[i] *= r.saliency[m][i];
     }
-  const auto nms = brute_neighbors(c, nms_radius);
+  const auto nms = point_nms.empty() ? brute_neighbors(c, nms_radius) : std::vector<std::vector<std::uint32_t>>{};
   for (std::size_t i = 0; i < n; ++i) {
     if (!r.candidate[i]) continue;
     bool maximum = true;
-    for (auto j : nms[i])
-      if (product[j] > product[i]) maximum = false;
+    if (point_nms.empty()) {
+      for (auto j : nms[i])
+        if (product[j] > product[i]) maximum = false;
+    } else {  // point i's own NMS radius (nms=own)
+      const float r2 = static_cast<float>(double(point_nms[i]) * double(point_nms[i]));
+      for (std::size_t j = 0; j < n; ++j) {
+        const float* a = c.position(i);
+        const float* b = c.position(j);
+        const float dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
+        if (dx * dx + dy * dy + dz * dz < r2 && product[j] > product[i]) maximum = false;
+      }
+    }
     if (maximum) r.keypoints.push_back(static_cast<std::uint32_t>(i));
   }
   return r;

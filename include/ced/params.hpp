@@ -42,11 +42,16 @@ struct neighborhood_spec {
   /// r0 ≥ 0 and r1 ≥ r0 (adaptive), metres; r1 may be +infinity.
   double min_radius = 0.0;
   double max_radius = std::numeric_limits<double>::infinity();
+  /// knn and adaptive: the NMS ball of point i has radius nms_radius × r_i /
+  /// radius (a ratio of its own radius, as the thresholds), not nms_radius
+  /// (option `nms=own`; default `nms=fixed`). Refinement keeps nms_radius.
+  bool nms_own = false;
 
   bool fixed() const noexcept { return kind == neighborhood_kind::radius; }
 };
 
-/// Parses "radius", "knn:K" or "adaptive:K[,scale=α][,min=r0][,max=r1]";
+/// Parses "radius", "knn:K[,nms=own]" or
+/// "adaptive:K[,scale=α][,min=r0][,max=r1][,nms=own]";
 /// throws std::invalid_argument naming the bad part.
 neighborhood_spec parse_neighborhood(const std::string& text);
 /// The spec in the form parse_neighborhood() reads ("knn:16", ...).

@@ -64,8 +64,16 @@ detection_result detection_context::finish() {
   for (const auto& s : r.saliency) columns.push_back(s.data());
   raw_vector<float> product(n);  // written in full below
   candidates_and_scores(columns, r.thresholds, n, threads, r.candidate.data(), product.data());
+  // nms=own: each point's NMS radius is the same ratio of its own radius.
+  std::vector<float> own_nms;
+  if (params.neighborhood.nms_own && !r.point_radius.empty()) {
+    own_nms.resize(n);
+    const double ratio = params.nms_radius / params.radius;
+    for (std::size_t i = 0; i < n; ++i) own_nms[i] = static_cast<float>(ratio * double(r.point_radius[i]));
+  }
   r.keypoints = non_maximum_suppression(m_impl->blocks, m_impl->cloud.positions().data(), product.data(),
-                                        r.candidate.data(), params.nms_radius, params.radius, m_impl->hits, threads);
+                                        r.candidate.data(), params.nms_radius, params.radius, m_impl->hits, threads,
+                                        own_nms.empty() ? nullptr : own_nms.data());
   if (params.refine)
     r.keypoints = refine_keypoints(m_impl->blocks, m_impl->cloud.positions().data(), product.data(), r.keypoints,
                                    params.nms_radius, threads);

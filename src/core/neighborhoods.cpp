@@ -32,8 +32,9 @@ neighborhood_spec parse_neighborhood(const std::string& text) {
   const auto colon = t.find(':');
   const std::string kind = t.substr(0, colon);
   if (kind != "knn" && kind != "adaptive")
-    throw std::invalid_argument("neighbourhood must be radius, knn:K or adaptive:K[,scale=a][,min=r0][,max=r1], got '" +
-                                t + "'");
+    throw std::invalid_argument(
+        "neighbourhood must be radius, knn:K[,nms=own] or adaptive:K[,scale=a][,min=r0][,max=r1][,nms=own], got '" + t +
+        "'");
   if (colon == std::string::npos)
     throw std::invalid_argument("neighbourhood '" + t + "' needs K, e.g. '" + kind + ":16'");
   n.kind = kind == "knn" ? neighborhood_kind::knn : neighborhood_kind::adaptive;
@@ -42,23 +43,29 @@ neighborhood_spec parse_neighborhood(const std::string& text) {
   const auto comma = rest.find(',');
   n.k = parse_k(rest.substr(0, comma), t);
   if (comma == std::string_view::npos) return n;
-  if (n.kind == neighborhood_kind::knn)
-    throw std::invalid_argument("neighbourhood '" + t + "': knn takes only K (options are for adaptive)");
   rest.remove_prefix(comma + 1);
-  bool seen[3] = {false, false, false};
+  const bool knn = n.kind == neighborhood_kind::knn;
+  bool seen[4] = {false, false, false, false};
   while (!rest.empty()) {
     const auto end = rest.find(',');
     const std::string_view option = rest.substr(0, end);
     rest.remove_prefix(end == std::string_view::npos ? rest.size() : end + 1);
     const auto eq = option.find('=');
     const std::string key(detail::trim(option.substr(0, eq)));
-    const int slot = key == "scale" ? 0 : key == "min" ? 1 : key == "max" ? 2 : -1;
+    const int slot = key == "nms" ? 3 : knn ? -1 : key == "scale" ? 0 : key == "min" ? 1 : key == "max" ? 2 : -1;
     if (eq == std::string_view::npos || slot < 0)
       throw std::invalid_argument("neighbourhood '" + t + "': unknown option '" + std::string(option) +
-                                  "' (known: scale=, min=, max=)");
+                                  (knn ? "' (knn takes nms=)" : "' (known: scale=, min=, max=, nms=)"));
     if (seen[slot]) throw std::invalid_argument("neighbourhood '" + t + "': " + key + "= given twice");
     seen[slot] = true;
-    const double v = parse_number(option.substr(eq + 1), key + "= in neighbourhood '" + t + "'");
+    const std::string value(detail::trim(option.substr(eq + 1)));
+    if (slot == 3) {
+      if (value != "own" && value != "fixed")
+        throw std::invalid_argument("neighbourhood '" + t + "': nms= must be own or fixed, got '" + value + "'");
+      n.nms_own = value == "own";
+      continue;
+    }
+    const double v = parse_number(value, key + "= in neighbourhood '" + t + "'");
     (slot == 0 ? n.scale : slot == 1 ? n.min_radius : n.max_radius) = v;
   }
   validate(n);
@@ -82,6 +89,7 @@ std::string to_string(const neighborhood_spec& n) {
     if (n.min_radius != 0.0) s += ",min=" + shortest(n.min_radius);
     if (std::isfinite(n.max_radius)) s += ",max=" + shortest(n.max_radius);
   }
+  if (n.nms_own) s += ",nms=own";
   return s;
 }
 

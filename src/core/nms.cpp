@@ -129,14 +129,19 @@ void nms_from_hits(const candidate_hits& ch, const float* xyz, const float* scor
 
 void nms_block_by_query(const block_partition& blocks, const float* xyz, const std::uint32_t* candidates,
                         std::size_t count, const float* score, double radius, std::uint8_t* keep,
-                        std::vector<std::uint32_t>& gathered) {
+                        std::vector<std::uint32_t>& gathered, const float* point_nms) {
   if (count == 0) return;
+  if (point_nms) {  // each candidate's own radius: the box holds the largest
+    radius = 0;
+    for (std::size_t k = 0; k < count; ++k) radius = std::max(radius, double(point_nms[candidates[k]]));
+  }
   float lo[3], hi[3];
   padded_bounds(xyz, candidates, count, radius, lo, hi);
   blocks.box_search(xyz, lo, hi, gathered);
-  const float r2 = squared_radius(radius);
+  const float fixed_r2 = squared_radius(radius);
   for (std::size_t k = 0; k < count; ++k) {
     const std::uint32_t i = candidates[k];
+    const float r2 = point_nms ? squared_radius(point_nms[i]) : fixed_r2;
     const float si = score[i];
     const float* pi = xyz + 3 * std::size_t(i);
     bool maximum = true;
@@ -151,7 +156,8 @@ void nms_block_by_query(const block_partition& blocks, const float* xyz, const s
 
 std::vector<std::uint32_t> non_maximum_suppression(const block_partition& blocks, const float* xyz, const float* score,
                                                    const std::uint8_t* candidate, double nms_radius, double radius,
-                                                   const std::vector<candidate_hits>& hits, unsigned threads) {
+                                                   const std::vector<candidate_hits>& hits, unsigned threads,
+                                                   const float* point_nms) {
   std::vector<std::uint8_t> keep(blocks.order().size(), 0);
   parallel_for(blocks.block_count(), threads, 16, [&](std::size_t b0, std::size_t b1) {
     std::vector<std::uint32_t> cand, gathered;
@@ -165,7 +171,7 @@ std::vector<std::uint32_t> non_maximum_suppression(const block_partition& blocks
       cand.clear();
       for (std::size_t k = 0; k < blocks.block_size(b); ++k)
         if (candidate[pts[k]]) cand.push_back(pts[k]);
-      nms_block_by_query(blocks, xyz, cand.data(), cand.size(), score, nms_radius, keep.data(), gathered);
+      nms_block_by_query(blocks, xyz, cand.data(), cand.size(), score, nms_radius, keep.data(), gathered, point_nms);
     }
   });
   return compact_flags(keep);

@@ -55,15 +55,18 @@ void collect_candidate_hits(const neighbor_block& block, const float* const* col
 /// `hits` (which is empty, or has one entry per block) is suppressed from
 /// them, without a query; `radius` is the radius they were found with.
 /// Deterministic for any thread count.
+/// `point_nms`, when given (neighborhood_spec::nms_own), is each point's own
+/// NMS radius, used instead of nms_radius (and `hits` must be empty).
 std::vector<std::uint32_t> non_maximum_suppression(const block_partition& blocks, const float* xyz, const float* score,
                                                    const std::uint8_t* candidate, double nms_radius, double radius,
-                                                   const std::vector<candidate_hits>& hits, unsigned threads);
+                                                   const std::vector<candidate_hits>& hits, unsigned threads,
+                                                   const float* point_nms = nullptr);
 
 /// NMS for `candidates[0..count)` of one spatial block, with one box query:
 /// sets keep[i] for each candidate i.
 void nms_block_by_query(const block_partition& blocks, const float* xyz, const std::uint32_t* candidates,
                         std::size_t count, const float* score, double radius, std::uint8_t* keep,
-                        std::vector<std::uint32_t>& gathered);
+                        std::vector<std::uint32_t>& gathered, const float* point_nms = nullptr);
 
 /// Keypoint refinement (detect_params::refine): each of `keypoints` moved to
 /// the point within `radius` (strict) nearest to the score-weighted centroid

@@ -76,7 +76,9 @@ double exact_halo(const detect_params& params, double max_abs_coordinate) {
     throw std::invalid_argument("tiles need a neighbourhood of bounded reach: " + to_string(n) +
                                 " reaches as far as the data make it (use radius, or adaptive:K with max=)");
   const double reach = n.fixed() ? params.radius : std::max(n.max_radius, n.max_radius / n.scale);
-  const double h = (params.refine ? 2 : 1) * params.nms_radius + params.block_scale * params.radius + 1.001 * reach;
+  // nms=own: an NMS ball of nms_radius × r_i / radius, r_i ≤ r1.
+  const double nms = n.nms_own ? params.nms_radius * std::max(1.0, n.max_radius / params.radius) : params.nms_radius;
+  const double h = (params.refine ? 2 : 1) * nms + params.block_scale * params.radius + 1.001 * reach;
   return 1.01 * h + 16.0 * std::ldexp(std::fabs(max_abs_coordinate), -23);
 }
 
