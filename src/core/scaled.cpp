@@ -62,7 +62,7 @@ std::vector<float> centroid_offsets_of(const point_cloud& cloud, const detect_pa
     // Blocks hold disjoint points: each writes only its own offsets.
     ctx.compute_saliency({src}, [&](const block_view& block, float* const* columns) {
       for (std::size_t k = 0; k < block.size(); ++k) {
-        columns[0][k] = 0;
+        columns[0][block.point(k)] = 0;  // (this pass ranks nothing)
         const std::uint32_t n = block.count(k);
         if (n < params.min_neighbors) continue;
         const double* sum = block.sums(k, 0);  // Σ (p_j − p_i)
