@@ -21,15 +21,14 @@ void list_block::set_channels(const std::vector<channel_source>& sources) {
   m_sum_stride = offset;
 }
 
-double list_block::gather(const neighbor_index& index, const float* xyz, std::uint32_t i, const detect_params& params,
-                          std::size_t position) {
+double list_block::gather(const neighbor_index& index, const float* xyz, std::uint32_t i, const detect_params& params) {
   const float* c = xyz + 3 * std::size_t(i);
   const neighborhood_spec& n = params.neighborhood;
   double r = params.radius;
   if (n.kind == neighborhood_kind::radius) {
     index.radius_search(c, r, m_found);
   } else {
-    index.k_nearest(c, n.k, i, m_ranked, position);
+    index.k_nearest(c, n.k, i, m_ranked);
     // Fewer than K points (adaptive with max only): the K-th is infinitely far.
     const double dk = m_ranked.size() < n.k ? HUGE_VAL : std::sqrt(double(m_ranked.back().d2));
     if (n.kind == neighborhood_kind::knn) {
@@ -77,7 +76,7 @@ void list_block::sum(const float* xyz, std::size_t k) {
 }
 
 void list_block::fill(const neighbor_index& index, const float* xyz, const std::uint32_t* points, std::size_t count,
-                      const detect_params& params, std::size_t first_position) {
+                      const detect_params& params) {
   m_points = points;
   m_count = count;
   m_counts.resize(count);
@@ -86,7 +85,7 @@ void list_block::fill(const neighbor_index& index, const float* xyz, const std::
   m_indices.clear();
   m_offsets[0] = 0;
   for (std::size_t k = 0; k < count; ++k) {
-    m_radii[k] = gather(index, xyz, points[k], params, first_position == SIZE_MAX ? SIZE_MAX : first_position + k);
+    m_radii[k] = gather(index, xyz, points[k], params);
     m_offsets[k + 1] = m_indices.size();
     m_counts[k] = static_cast<std::uint32_t>(m_offsets[k + 1] - m_offsets[k]);
   }

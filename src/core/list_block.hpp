@@ -25,10 +25,8 @@ class list_block {
   void set_channels(const std::vector<channel_source>& sources);
   /// The neighbourhoods of points[0..count) under `params` (its radius and
   /// neighbourhood), searched in `index` (built over `xyz`).
-  /// `first_position`: points[0]'s position in the index's order, when
-  /// points[] is a run of it (SIZE_MAX otherwise).
   void fill(const neighbor_index& index, const float* xyz, const std::uint32_t* points, std::size_t count,
-            const detect_params& params, std::size_t first_position = SIZE_MAX);
+            const detect_params& params);
 
   std::size_t size() const noexcept { return m_count; }
   std::uint32_t point(std::size_t k) const noexcept { return m_points[k]; }
@@ -46,8 +44,7 @@ class list_block {
  private:
   static neighborhood list_of(const void* block, std::size_t k) { return (*static_cast<const list_block*>(block))[k]; }
   /// Point i's neighbours (appended to m_indices, sorted) and its radius.
-  double gather(const neighbor_index& index, const float* xyz, std::uint32_t i, const detect_params& params,
-                std::size_t position);
+  double gather(const neighbor_index& index, const float* xyz, std::uint32_t i, const detect_params& params);
   void sum(const float* xyz, std::size_t k);
 
   std::vector<channel_source> m_sources;

@@ -135,9 +135,7 @@ void list_pass(Impl& s, const std::vector<channel_source>& sources, const salien
       return made;
     });
     for (std::size_t b = b0; b < b1; ++b) {
-      const std::uint32_t* points = blocks.block_points(b);
-      block->fill(index, xyz, points, blocks.block_size(b), params,
-                  fixed ? std::size_t(points - blocks.order().data()) : SIZE_MAX);
+      block->fill(index, xyz, blocks.block_points(b), blocks.block_size(b), params);
       for (std::size_t k = 0; k < block->size(); ++k) r.neighbor_count[block->point(k)] = block->count(k);
       f(block->view(), columns);
       if (fixed) continue;
