@@ -96,6 +96,13 @@ class detection_context {
   /// doubles with it (xyz: ratio × radius). Its test s ≥ t·radius is then
   /// s ≥ t·r_i. Without this call, saliencies are left as measured.
   void scale_with_radius(const std::vector<double>& thresholds_at_twice);
+  /// `params` with the radius (and the NMS radius) doubled: where
+  /// scale_with_radius()'s thresholds are read.
+  static detect_params twice_the_radius(detect_params params) noexcept {
+    params.radius *= 2;
+    params.nms_radius *= 2;
+    return params;
+  }
   /// Adds the time the modalities took to bind (their channels; a scaled
   /// modality's own neighbour pass) to the saliency stage.
   void add_bind_ms(double ms);
@@ -115,9 +122,7 @@ detection_result detect(const point_cloud& cloud, const detect_params& params, c
   detail::detection_context ctx(cloud, params, {std::string(modalities.name())...},
                                 {double(modalities.threshold(params))...});
   if (!params.neighborhood.fixed()) {
-    detect_params twice = params;
-    twice.radius *= 2;
-    twice.nms_radius *= 2;
+    const detect_params twice = detail::detection_context::twice_the_radius(params);
     ctx.scale_with_radius({double(modalities.threshold(twice))...});
   }
   {  // the evaluators (and their channels) end before the NMS: less peak memory

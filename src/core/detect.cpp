@@ -125,9 +125,7 @@ detection_result detect(const point_cloud& cloud, const detect_params& params,
   }
   detail::detection_context ctx(cloud, params, std::move(names), std::move(thresholds));
   if (!params.neighborhood.fixed()) {
-    detect_params twice = params;
-    twice.radius *= 2;
-    twice.nms_radius *= 2;
+    const detect_params twice = detail::detection_context::twice_the_radius(params);
     std::vector<double> at_twice;
     for (const auto& m : modalities) at_twice.push_back(m.threshold(twice));
     ctx.scale_with_radius(at_twice);
