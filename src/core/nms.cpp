@@ -127,9 +127,57 @@ void nms_from_hits(const candidate_hits& ch, const float* xyz, const float* scor
 
 }  // namespace
 
+namespace {
+/// The gathered points sorted into cells of at least `radius` over the box
+/// [lo, hi] (at most about two a point), their positions and scores copied
+/// into `scratch` in cell order.
+struct nms_cells {
+  double lo[3], inv = 1;
+  std::size_t dims[3] = {1, 1, 1};
+
+  nms_cells(const float* xyz, const float* score, const float box_lo[3], const float box_hi[3], double radius,
+            nms_scratch& scratch) {
+    const auto& gathered = scratch.gathered;
+    const std::size_t g = gathered.size();
+    double side = std::max(radius * (1 + 1e-6), 1e-30);  // a hair over: rounding never skips a cell
+    auto fit = [&] {
+      for (int a = 0; a < 3; ++a) dims[a] = std::size_t(std::min((double(box_hi[a]) - box_lo[a]) / side, 1e6)) + 1;
+      return dims[0] * dims[1] * dims[2];
+    };
+    while (fit() > 2 * g + 8) side *= 2;
+    for (int a = 0; a < 3; ++a) lo[a] = box_lo[a];
+    inv = 1 / side;
+    const std::size_t cells = dims[0] * dims[1] * dims[2];
+    auto& start = scratch.cell_start;
+    auto& of = scratch.cell_of;
+    start.assign(cells + 1, 0);
+    of.resize(g);
+    for (std::size_t t = 0; t < g; ++t) {
+      of[t] = static_cast<std::uint32_t>(key(xyz + 3 * std::size_t(gathered[t])));
+      ++start[of[t] + 1];
+    }
+    for (std::size_t c = 0; c < cells; ++c) start[c + 1] += start[c];
+    for (auto* v : {&scratch.x, &scratch.y, &scratch.z, &scratch.score}) v->resize(g);
+    for (std::size_t t = 0; t < g; ++t) {
+      const std::uint32_t j = gathered[t];
+      const std::uint32_t to = start[of[t]]++;
+      scratch.x[to] = xyz[3 * std::size_t(j)], scratch.y[to] = xyz[3 * std::size_t(j) + 1];
+      scratch.z[to] = xyz[3 * std::size_t(j) + 2], scratch.score[to] = score[j];
+    }
+    for (std::size_t c = cells; c > 0; --c) start[c] = start[c - 1];  // back to the starts
+    start[0] = 0;
+  }
+  std::size_t cell(const float* p, int a) const noexcept {
+    const double v = (double(p[a]) - lo[a]) * inv;
+    return std::size_t(std::min(std::max(v, 0.0), double(dims[a] - 1)));
+  }
+  std::size_t key(const float* p) const noexcept { return (cell(p, 2) * dims[1] + cell(p, 1)) * dims[0] + cell(p, 0); }
+};
+}  // namespace
+
 void nms_block_by_query(const block_partition& blocks, const float* xyz, const std::uint32_t* candidates,
-                        std::size_t count, const float* score, double radius, std::uint8_t* keep,
-                        std::vector<std::uint32_t>& gathered, const float* point_nms) {
+                        std::size_t count, const float* score, double radius, std::uint8_t* keep, nms_scratch& scratch,
+                        const float* point_nms) {
   if (count == 0) return;
   if (point_nms) {  // each candidate's own radius: the box holds the largest
     radius = 0;
@@ -137,18 +185,34 @@ void nms_block_by_query(const block_partition& blocks, const float* xyz, const s
   }
   float lo[3], hi[3];
   padded_bounds(xyz, candidates, count, radius, lo, hi);
-  blocks.box_search(xyz, lo, hi, gathered);
+  blocks.box_search(xyz, lo, hi, scratch.gathered);
+  const nms_cells grid(xyz, score, lo, hi, radius, scratch);
+  const auto& start = scratch.cell_start;
   const float fixed_r2 = squared_radius(radius);
   for (std::size_t k = 0; k < count; ++k) {
     const std::uint32_t i = candidates[k];
     const float r2 = point_nms ? squared_radius(point_nms[i]) : fixed_r2;
     const float si = score[i];
     const float* pi = xyz + 3 * std::size_t(i);
+    std::size_t c0[3], c1[3];
+    for (int a = 0; a < 3; ++a) {
+      const std::size_t c = grid.cell(pi, a);
+      c0[a] = c > 0 ? c - 1 : 0;
+      c1[a] = std::min(c + 1, grid.dims[a] - 1);
+    }
     bool maximum = true;
-    for (std::uint32_t j : gathered)
-      if (score[j] > si && squared_distance(xyz + 3 * std::size_t(j), pi) < r2) {
-        maximum = false;
-        break;
+    for (std::size_t cz = c0[2]; cz <= c1[2] && maximum; ++cz)
+      for (std::size_t cy = c0[1]; cy <= c1[1] && maximum; ++cy) {
+        // A row of up to three cells is one run of the arrays.
+        const std::size_t row = (cz * grid.dims[1] + cy) * grid.dims[0];
+        for (std::uint32_t t = start[row + c0[0]]; t < start[row + c1[0] + 1]; ++t) {
+          // squared_distance(p_j, p_i), term for term.
+          const float dx = scratch.x[t] - pi[0], dy = scratch.y[t] - pi[1], dz = scratch.z[t] - pi[2];
+          if (scratch.score[t] > si && dx * dx + dy * dy + dz * dz < r2) {
+            maximum = false;
+            break;
+          }
+        }
       }
     keep[i] = maximum;
   }
@@ -160,7 +224,8 @@ std::vector<std::uint32_t> non_maximum_suppression(const block_partition& blocks
                                                    const float* point_nms) {
   std::vector<std::uint8_t> keep(blocks.order().size(), 0);
   parallel_for(blocks.block_count(), threads, 16, [&](std::size_t b0, std::size_t b1) {
-    std::vector<std::uint32_t> cand, gathered;
+    std::vector<std::uint32_t> cand;
+    nms_scratch scratch;
     std::vector<float> local;
     for (std::size_t b = b0; b < b1; ++b) {
       if (!hits.empty() && hits[b].stored) {
@@ -171,7 +236,7 @@ std::vector<std::uint32_t> non_maximum_suppression(const block_partition& blocks
       cand.clear();
       for (std::size_t k = 0; k < blocks.block_size(b); ++k)
         if (candidate[pts[k]]) cand.push_back(pts[k]);
-      nms_block_by_query(blocks, xyz, cand.data(), cand.size(), score, nms_radius, keep.data(), gathered, point_nms);
+      nms_block_by_query(blocks, xyz, cand.data(), cand.size(), score, nms_radius, keep.data(), scratch, point_nms);
     }
   });
   return compact_flags(keep);

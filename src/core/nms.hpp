@@ -62,11 +62,18 @@ std::vector<std::uint32_t> non_maximum_suppression(const block_partition& blocks
                                                    const std::vector<candidate_hits>& hits, unsigned threads,
                                                    const float* point_nms = nullptr);
 
+/// Work buffers of nms_block_by_query, reused between blocks.
+struct nms_scratch {
+  std::vector<std::uint32_t> gathered, cell_start, cell_of;
+  std::vector<float> x, y, z, score;
+};
 /// NMS for `candidates[0..count)` of one spatial block, with one box query:
-/// sets keep[i] for each candidate i.
+/// sets keep[i] for each candidate i. The gathered points are sorted into
+/// cells one NMS radius wide, so each candidate reads only the 27 cells
+/// around its own.
 void nms_block_by_query(const block_partition& blocks, const float* xyz, const std::uint32_t* candidates,
-                        std::size_t count, const float* score, double radius, std::uint8_t* keep,
-                        std::vector<std::uint32_t>& gathered, const float* point_nms = nullptr);
+                        std::size_t count, const float* score, double radius, std::uint8_t* keep, nms_scratch& scratch,
+                        const float* point_nms = nullptr);
 
 /// Keypoint refinement (detect_params::refine): each of `keypoints` moved to
 /// the point within `radius` (strict) nearest to the score-weighted centroid
