@@ -366,6 +366,44 @@ TEST(Neighborhoods, CgalSearchGivesTheGridsKeypoints) {
   }
 }
 
+TEST(Neighborhoods, NearestOnTheGridAreCgalsOnEveryDensity) {
+  // The grid's k nearest (balls of a bound sampled with CGAL, asked again
+  // when short, then CGAL's own search) against CGAL's search for every
+  // point: a sensor-like falloff, a lattice of exact ties and duplicates,
+  // and a dense cluster among sparse points (every block's bound too small
+  // for some of its points).
+  std::vector<ced::point_cloud> clouds{scanned_room(6000, 21)};
+  ced::point_cloud lattice;
+  for (int x = 0; x < 30; ++x)
+    for (int y = 0; y < 30; ++y)
+      for (int copy = 0; copy < ((x + y) % 7 == 0 ? 2 : 1); ++copy) lattice.push_back(x * 0.01f, y * 0.01f, 0.0f);
+  clouds.push_back(lattice);
+  ced::point_cloud mixed;
+  std::mt19937 rng(5);
+  std::normal_distribution<float> tight(0.0f, 0.01f);
+  std::uniform_real_distribution<float> wide(-1.0f, 1.0f);
+  for (int i = 0; i < 3000; ++i)
+    if (i % 10 == 0)
+      mixed.push_back(wide(rng), wide(rng), wide(rng));
+    else
+      mixed.push_back(tight(rng), tight(rng), tight(rng));
+  clouds.push_back(mixed);
+  for (std::size_t c = 0; c < clouds.size(); ++c)
+    for (const char* spec : {"knn:1", "knn:2", "knn:9", "knn:24", "adaptive:16,min=0.02", "adaptive:5,scale=2"}) {
+      SCOPED_TRACE(std::to_string(c) + " " + spec);
+      ced::detect_params p;
+      p.neighborhood = ced::parse_neighborhood(spec);
+      p.min_neighbors = 1;
+      const auto grid = ced::detect(clouds[c], p, {ced::make_modality("xyz")});
+      p.search = ced::search_kind::cgal;
+      const auto tree = ced::detect(clouds[c], p, {ced::make_modality("xyz")});
+      EXPECT_EQ(grid.point_radius, tree.point_radius);
+      EXPECT_EQ(grid.neighbor_count, tree.neighbor_count);
+      EXPECT_EQ(grid.saliency, tree.saliency);  // the same lists, summed alike
+      EXPECT_EQ(grid.keypoints, tree.keypoints);
+    }
+}
+
 TEST(Neighborhoods, DistancesArePerUnitOfTheOwnRadiusOnly) {
   // Under knn, xyz (threshold ∝ radius) is scaled by radius / r_i; rgb
   // (threshold independent of it) is not; a scaled xyz is, at its own scale.

@@ -10,6 +10,7 @@
 
 #include "ced/neighborhood.hpp"
 #include "ced/params.hpp"
+#include "core/neighbor_block.hpp"
 #include "core/neighbor_index.hpp"
 
 namespace ced {
@@ -24,9 +25,11 @@ class list_block {
   /// The channels summed by fill(); slot s of the view's sums is sources[s].
   void set_channels(const std::vector<channel_source>& sources);
   /// The neighbourhoods of points[0..count) under `params` (its radius and
-  /// neighbourhood), searched in `index` (built over `xyz`).
-  void fill(const neighbor_index& index, const float* xyz, const std::uint32_t* points, std::size_t count,
-            const detect_params& params);
+  /// neighbourhood), searched in `index` (built over `xyz` with the order of
+  /// `grid`, whose block `points` is) or, with search = grid and a knn or
+  /// adaptive neighbourhood, mostly on `grid` (see fill_nearest).
+  void fill(const neighbor_index& index, const block_partition& grid, const float* xyz, const std::uint32_t* points,
+            std::size_t count, const detect_params& params);
 
   std::size_t size() const noexcept { return m_count; }
   std::uint32_t point(std::size_t k) const noexcept { return m_points[k]; }
@@ -43,9 +46,21 @@ class list_block {
 
  private:
   static neighborhood list_of(const void* block, std::size_t k) { return (*static_cast<const list_block*>(block))[k]; }
-  /// Point i's neighbours (appended to m_indices, sorted) and its radius.
-  double gather(const neighbor_index& index, const float* xyz, std::uint32_t i, const detect_params& params);
+  /// Point k's neighbours (appended to m_indices, sorted) and its radius.
+  double gather(const neighbor_index& index, const float* xyz, std::size_t k, const detect_params& params);
   void sum(const float* xyz, std::size_t k);
+  /// Every point's k nearest (m_near_k of them, the k-th last) into
+  /// m_ranked. With search = cgal, CGAL's k-nearest search for each point.
+  /// With search = grid: CGAL's k-nearest search for a sample of the block
+  /// bounds its k-distance by ρ, the grid gathers each point's ball of ρ
+  /// (neighbor_block), and the k nearest are selected from it; a point whose
+  /// ball holds fewer than k points falls back to CGAL. Both give the same
+  /// lists (the ball holds every point as near as the k-th).
+  void fill_nearest(const neighbor_index& index, const block_partition& grid, const float* xyz,
+                    const detect_params& params);
+  /// Point q's k nearest from its ball (m_balls' point `ball`, which holds
+  /// at least k points), into m_ranked; c its position.
+  void select_nearest(std::size_t ball, std::size_t q, const float* c);
 
   std::vector<channel_source> m_sources;
   std::vector<std::size_t> m_slot_offset;
@@ -56,7 +71,15 @@ class list_block {
   std::vector<std::size_t> m_offsets;
   std::vector<double> m_radii, m_sums;
   std::vector<std::uint32_t> m_found;
-  std::vector<neighbor_index::ranked_point> m_ranked;
+  /// The block's k nearest (knn, adaptive): m_near_k a point, the k-th last.
+  std::vector<neighbor_index::ranked_point> m_ranked, m_one;
+  std::size_t m_near_k = 0;
+  std::size_t m_position = 0;  // the block's first point's position in the grid's order
+  neighbor_block m_balls;
+  std::vector<std::int32_t> m_bits;
+  std::vector<std::uint32_t> m_ids;
+  std::vector<neighbor_index::ranked_point> m_tied;
+  std::vector<std::uint32_t> m_short, m_asked;  // positions still without their k nearest, and their points
 };
 
 }  // namespace ced

@@ -6,6 +6,7 @@
 #include <array>
 #include <atomic>
 #include <cmath>
+#include <cstring>
 #include <functional>
 #include <limits>
 #include <stdexcept>
@@ -322,6 +323,35 @@ void neighbor_block::run(const float* xyz, const std::uint32_t* points, std::siz
 void neighbor_block::neighbors(std::size_t k, std::uint32_t* out) const noexcept {
   active_kernels().compact(m_gathered.data(), m_ranges.data() + 2 * detail::kernel_ranges * k,
                            m_bits.data() + m_bit_offsets[k], m_counts[k], out);
+}
+
+std::size_t neighbor_block::neighbor_distances(std::size_t k, const float c[3], std::uint32_t self,
+                                               std::int32_t* d2_bits, std::uint32_t* ids) const noexcept {
+  const std::uint32_t* rg = m_ranges.data() + 2 * sweep_ranges * k;
+  const std::uint8_t* bits = m_bits.data() + m_bit_offsets[k];
+  // Local copies: the outputs could alias the members as far as the compiler knows.
+  const float* const gx = m_gx.data();
+  const float* const gy = m_gy.data();
+  const float* const gz = m_gz.data();
+  const std::uint32_t* const gathered = m_gathered.data();
+  const float cx = c[0], cy = c[1], cz = c[2];
+  std::size_t n = 0;
+  // Each range's bits follow those of the ranges before it, a byte per 8.
+  for (std::size_t q = 0; q < sweep_ranges; ++q) {
+    const std::uint32_t begin = rg[2 * q], end = rg[2 * q + 1];
+    for (std::uint32_t t = begin; t < end; t += 8) {
+      for (unsigned b = *bits++; b != 0; b &= b - 1) {
+        const std::uint32_t u = t + static_cast<std::uint32_t>(__builtin_ctz(b));
+        const float dx = gx[u] - cx, dy = gy[u] - cy, dz = gz[u] - cz;
+        const float d2 = dx * dx + dy * dy + dz * dz;
+        const std::uint32_t j = gathered[u];
+        std::memcpy(d2_bits + n, &d2, sizeof d2);
+        ids[n] = j;
+        n += j != self;
+      }
+    }
+  }
+  return n;
 }
 
 neighborhood neighbor_block::operator[](std::size_t k) const {

@@ -53,6 +53,13 @@ class neighbor_block {
   }
   /// Writes point k's count(k) neighbours to `out`, in the block's fixed order.
   void neighbors(std::size_t k, std::uint32_t* out) const noexcept;
+  /// Point k's neighbours other than `self` with their float squared
+  /// distances from `c` (as squared_distance(p_j, c) computes them), the
+  /// distances as their bits (which order as the distances do): writes them
+  /// to `d2_bits` and `ids` (room for count(k) each) in the block's fixed
+  /// order and returns how many. Reads the positions gathered in the block.
+  std::size_t neighbor_distances(std::size_t k, const float c[3], std::uint32_t self, std::int32_t* d2_bits,
+                                 std::uint32_t* ids) const noexcept;
   /// Point k's neighbourhood as a list (all lists are built on first use).
   neighborhood operator[](std::size_t k) const;
   /// The block as modalities see it (valid while the block is not refilled).

@@ -122,7 +122,7 @@ void list_pass(Impl& s, const std::vector<channel_source>& sources, const salien
   const bool fixed = params.neighborhood.fixed();
   // Ball queries run on a forest of trees over runs of the blocks' order
   // (cheap to build); k-nearest queries on one tree (one query a point).
-  const neighbor_index index(xyz, n, 32, threads, fixed ? blocks.order().data() : nullptr);
+  const neighbor_index index(xyz, n, 32, threads, blocks.order().data());
   r.times.index_ms += ms_since(t0);
   if (!fixed) r.point_radius.assign(n, 0.0f);
   s.hits.clear();  // the NMS queries its own neighbourhoods
@@ -135,7 +135,7 @@ void list_pass(Impl& s, const std::vector<channel_source>& sources, const salien
       return made;
     });
     for (std::size_t b = b0; b < b1; ++b) {
-      block->fill(index, xyz, blocks.block_points(b), blocks.block_size(b), params);
+      block->fill(index, blocks, xyz, blocks.block_points(b), blocks.block_size(b), params);
       for (std::size_t k = 0; k < block->size(); ++k) r.neighbor_count[block->point(k)] = block->count(k);
       f(block->view(), columns);
       if (fixed) continue;
