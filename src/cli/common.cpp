@@ -410,4 +410,14 @@ rgbd_frames load_rgbd_frames(const std::string& dir, const std::string& intrinsi
   return f;
 }
 
+void set_neighborhood(ced::detect_params& params, const std::string& neighborhood, const std::string& search) {
+  try {
+    params.neighborhood = ced::parse_neighborhood(neighborhood);
+  } catch (const std::invalid_argument& e) {
+    throw usage_error(std::string("--neighborhood: ") + e.what());
+  }
+  if (search != "grid" && search != "cgal") throw usage_error("--search must be grid or cgal, got '" + search + "'");
+  params.search = search == "cgal" ? ced::search_kind::cgal : ced::search_kind::grid;
+}
+
 }  // namespace ced_cli

@@ -18,6 +18,7 @@
 #include "ced/eval.hpp"
 #include "ced/io/io.hpp"
 #include "ced/io/output_file.hpp"
+#include "ced/params.hpp"
 
 namespace ced_cli {
 
@@ -76,6 +77,10 @@ void load_plugins(const std::vector<std::string>& plugins);
 /// usage_error on the first problem.
 std::vector<double> parse_number_list(const std::string& text, const std::string& option,
                                       const std::function<void(double)>& check);
+/// Sets params.neighborhood and params.search from the texts of
+/// --neighborhood (ced::parse_neighborhood) and --search (grid or cgal);
+/// usage_error naming the option otherwise.
+void set_neighborhood(ced::detect_params& params, const std::string& neighborhood, const std::string& search);
 /// Throws usage_error naming `option` unless `v` is a finite number >= 0;
 /// `zero`, when given, says what 0 means (for the message).
 void check_length(double v, const std::string& option, const std::string& zero = {});

@@ -71,14 +71,7 @@ void check_numbers(const detect_options& o, detect_plan& plan) {
   if (o.max_keypoints < 0)
     throw usage_error("--max-keypoints must be >= 0 (0: no limit), got " + std::to_string(o.max_keypoints));
   params.max_keypoints = static_cast<std::size_t>(o.max_keypoints);
-  try {
-    params.neighborhood = ced::parse_neighborhood(o.neighborhood);
-  } catch (const std::invalid_argument& e) {
-    throw usage_error(std::string("--neighborhood: ") + e.what());
-  }
-  if (o.search != "grid" && o.search != "cgal")
-    throw usage_error("--search must be grid or cgal, got '" + o.search + "'");
-  params.search = o.search == "cgal" ? ced::search_kind::cgal : ced::search_kind::grid;
+  set_neighborhood(params, o.neighborhood, o.search);
   ced::detect_params check = params;
   check.nms_radius = std::isnan(o.nms_radius) ? check.radius : o.nms_radius;
   try {

@@ -22,9 +22,26 @@ const char* const no_pcl_message =
     "needs ced's PCL component (ced_pcl), and this ced was built without it: install PCL (Debian: libpcl-dev) and "
     "reconfigure with -DCED_WITH_PCL=ON";
 
-eval_detector parse_detector(const std::string& text) {
+eval_detector parse_detector(const std::string& text, const ced::neighborhood_spec& neighborhood,
+                             ced::search_kind search) {
+  const std::size_t bar = text.find('|');
+  if (bar != std::string::npos) {  // DETECTOR|SPEC: a ced detector with its own neighbourhood
+    eval_detector d = parse_detector(text.substr(0, bar), neighborhood, search);
+    if (d.type != eval_detector::kind::ced)
+      throw std::invalid_argument("--detector '" + text +
+                                  "': a neighbourhood (|SPEC) applies to ced's detectors, not " + d.text);
+    try {
+      d.neighborhood = ced::parse_neighborhood(text.substr(bar + 1));
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument("--detector '" + text + "': " + e.what());
+    }
+    d.name = d.text = text;
+    return d;
+  }
   eval_detector d;
   d.name = d.text = text;
+  d.neighborhood = neighborhood;
+  d.search = search;
   if (text == "random") {
     d.type = eval_detector::kind::random;
     return d;
@@ -79,11 +96,14 @@ std::vector<std::string> expand_sweep(const std::string& text) {
   return out;
 }
 
-std::vector<eval_detector> parse_detectors(const std::vector<std::string>& names) {
+std::vector<eval_detector> parse_detectors(const std::vector<std::string>& names, const std::string& neighborhood,
+                                           const std::string& search) {
+  ced::detect_params shared;
+  set_neighborhood(shared, neighborhood, search);
   std::vector<eval_detector> out;
   try {
     for (const auto& spec : names)
-      for (const auto& d : expand_sweep(spec)) out.push_back(parse_detector(d));
+      for (const auto& d : expand_sweep(spec)) out.push_back(parse_detector(d, shared.neighborhood, shared.search));
   } catch (const std::invalid_argument& e) {
     throw usage_error(e.what());
   }
@@ -146,6 +166,8 @@ detection run_detector(const eval_detector& d, const ced::point_cloud& cloud, co
       ced::detect_params params = s.params;
       params.refine = d.refine;
       params.max_keypoints = d.count;
+      params.neighborhood = d.neighborhood;
+      params.search = d.search;
       const auto r = ced::detect(cloud, params, d.modalities);
       out.keypoints = r.keypoints;
       out.ms = r.times.total_ms();

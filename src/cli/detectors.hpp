@@ -31,16 +31,28 @@ struct eval_detector {
   /// At most this many keypoints, the strongest (--counts); 0: the detector's
   /// natural count. Random picks exactly this many.
   std::size_t count = 0;
+  /// ced's detectors: the neighbourhood (--neighborhood, or "DETECTOR|SPEC")
+  /// and how it is searched (--search).
+  ced::neighborhood_spec neighborhood;
+  ced::search_kind search = ced::search_kind::grid;
 };
 
-eval_detector parse_detector(const std::string& text);
+/// One detector; "DETECTOR|SPEC" gives a ced detector its own neighbourhood
+/// (ced::parse_neighborhood), overriding `neighborhood`.
+/// std::invalid_argument naming the problem.
+eval_detector parse_detector(const std::string& text, const ced::neighborhood_spec& neighborhood = {},
+                             ced::search_kind search = ced::search_kind::grid);
 /// A sweep: every setting of `text`'s brace lists, in order (the last list
 /// varies fastest): "xyz:{0.1,0.2},rgb:{0.1,0.5}" gives xyz:0.1,rgb:0.1,
 /// xyz:0.1,rgb:0.5, xyz:0.2,rgb:0.1, xyz:0.2,rgb:0.5. Text without braces is
 /// itself. std::invalid_argument for unbalanced or nested braces and empty
 /// values.
 std::vector<std::string> expand_sweep(const std::string& text);
-std::vector<eval_detector> parse_detectors(const std::vector<std::string>& names);
+/// Every detector of every sweep; `neighborhood` and `search` (the texts of
+/// --neighborhood and --search) apply to ced's detectors. usage_error.
+std::vector<eval_detector> parse_detectors(const std::vector<std::string>& names,
+                                           const std::string& neighborhood = "radius",
+                                           const std::string& search = "grid");
 
 /// --counts: comma-separated keypoint counts, each 1..10^9 (usage_error otherwise).
 std::vector<std::size_t> parse_counts(const std::string& text);

@@ -31,6 +31,7 @@ struct eval_options {
   std::string rgbd, intrinsics;           // or an Open3D RGB-D folder: frame 0 against each later one
   double depth_max = 3.0;
   std::vector<std::string> detectors{"ced6d", "ced3d", "random"};
+  std::string neighborhood = "radius", search = "grid";  // for ced's detectors
   int trials = 5;
   std::uint64_t seed = 1;
   std::string noise = "0,0.5";
@@ -349,7 +350,7 @@ int run_eval_synthetic(const eval_options& o, const std::vector<eval_detector>& 
 }
 
 int run_eval(const eval_options& o) {
-  std::vector<eval_detector> detectors = parse_detectors(o.detectors);
+  std::vector<eval_detector> detectors = parse_detectors(o.detectors, o.neighborhood, o.search);
   check_eval_numbers(o);
   if (!o.counts.empty()) {
     std::vector<std::string> natural;
@@ -393,7 +394,11 @@ command add_repeatability_command(CLI::App& eval) {
   rep->add_option(
       "-d,--detector", o->detectors,
       "Repeatable: ced6d, ced3d, random, iss3d, harris3d, harris6d, sift (PCL builds), or modality specs "
-      "joined by commas (default: ced6d ced3d random); a sweep: 'xyz:{0.1,0.2,0.3},rgb:0.1' is three detectors");
+      "joined by commas (default: ced6d ced3d random); a sweep: 'xyz:{0.1,0.2,0.3},rgb:0.1' is three detectors; "
+      "'ced3d|adaptive:16,max=0.2' gives a ced detector its own neighbourhood");
+  rep->add_option("--neighborhood", o->neighborhood,
+                  "Neighbourhood of ced's detectors, as in ced detect (default radius; 'DETECTOR|SPEC' overrides it)");
+  rep->add_option("--search", o->search, "grid (default) or cgal, as in ced detect");
   rep->add_option("--trials", o->trials, "Random transforms per noise level (default 5)");
   rep->add_option("--seed", o->seed, "Seed (default 1): the same seed gives the same numbers");
   auto* noise_opt =

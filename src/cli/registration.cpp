@@ -34,6 +34,7 @@ struct registration_options {
   std::string rgbd, intrinsics;           // consecutive RGB-D frames
   std::vector<std::string> detectors{"ced6d", "random", "ced3d", "iss3d", "harris3d", "harris6d", "sift"};
   std::string descriptor = "auto";
+  std::string neighborhood = "radius", search = "grid";  // for ced's detectors
   int trials = 5, iterations = 20000, min_neighbors = 5, threads = 0;
   std::uint64_t seed = 1;
   double overlap = 0.4, noise = 0, max_translation = 1.0;
@@ -259,7 +260,7 @@ void print_registration_summary(const std::vector<eval_detector>& detectors,
 }
 
 int run_registration(const registration_options& o) {
-  const std::vector<eval_detector> detectors = parse_detectors(o.detectors);
+  const std::vector<eval_detector> detectors = parse_detectors(o.detectors, o.neighborhood, o.search);
   check_registration_numbers(o);
   ced::pcl_bridge::require_pcl();  // registration is PCL's: a missing module stops here, before any work
   std::unique_ptr<ced::io::atomic_output_file> csv;
@@ -305,7 +306,11 @@ command add_registration_command(CLI::App& eval) {
   reg->add_option("--intrinsics", o->intrinsics, "Camera JSON for --rgbd (default DIR/camera_primesense.json)");
   reg->add_option("--depth-max", o->depth_max, "For --rgbd: drop depths beyond this, metres (default 3; 0 = none)");
   reg->add_option("-d,--detector", o->detectors,
-                  "Repeatable, as for repeatability (default: ced6d random ced3d iss3d harris3d harris6d sift)");
+                  "Repeatable, as for repeatability (default: ced6d random ced3d iss3d harris3d harris6d sift; "
+                  "'ced3d|knn:16' gives a ced detector its own neighbourhood)");
+  reg->add_option("--neighborhood", o->neighborhood,
+                  "Neighbourhood of ced's detectors, as in ced detect (default radius; 'DETECTOR|SPEC' overrides it)");
+  reg->add_option("--search", o->search, "grid (default) or cgal, as in ced detect");
   reg->add_option("--descriptor", o->descriptor, "fpfh, pfhrgb, or auto = pfhrgb when both clouds have colour");
   reg->add_option("--trials", o->trials, "Synthetic pairs for INPUT; runs per pair (new seeds) otherwise (default 5)");
   reg->add_option("--seed", o->seed, "Seed (default 1)");
