@@ -23,6 +23,14 @@ void list_block::set_channels(const std::vector<channel_source>& sources) {
   m_sum_stride = offset;
 }
 
+namespace {
+/// An adaptive point's own radius from its k-th distance dk (infinite when
+/// the cloud has fewer than K points).
+double adaptive_radius(const neighborhood_spec& n, double dk) noexcept {
+  return std::min(std::max(n.scale * dk, n.min_radius), n.max_radius);
+}
+}  // namespace
+
 double list_block::gather(const neighbor_index& index, const float* xyz, std::size_t k, const detect_params& params) {
   const std::uint32_t i = m_points[k];
   const float* c = xyz + 3 * std::size_t(i);
@@ -41,13 +49,17 @@ double list_block::gather(const neighbor_index& index, const float* xyz, std::si
       for (auto p = first; p != last; ++p) m_found.push_back(p->index);
       r = dk;
     } else {
-      r = std::min(std::max(n.scale * dk, n.min_radius), n.max_radius);
+      r = adaptive_radius(n, dk);
       const float r2 = squared_radius(r);
       if (m_near_k == n.k && r2 <= last[-1].d2) {
         // Every point nearer than the k-th is in the list already.
         m_found.clear();
         for (auto p = first; p != last; ++p)
           if (p->d2 < r2) m_found.push_back(p->index);
+      } else if (!m_own_first.empty() && m_own_first[k] != SIZE_MAX) {
+        // Its ball of ρ held it (fill_nearest).
+        m_found.assign(m_own.begin() + std::ptrdiff_t(m_own_first[k]),
+                       m_own.begin() + std::ptrdiff_t(m_own_first[k] + m_own_size[k]));
       } else {
         index.radius_search(c, r, m_found);
       }
@@ -69,17 +81,24 @@ void list_block::fill_nearest(const neighbor_index& index, const block_partition
     index.k_nearest(xyz + 3 * std::size_t(m_points[q]), k, m_points[q], m_one, m_position + q);
     std::copy(m_one.begin(), m_one.end(), m_ranked.begin() + std::ptrdiff_t(q * k));
   };
+  const neighborhood_spec& n = params.neighborhood;
+  m_own_first.assign(n.kind == neighborhood_kind::adaptive ? m_count : 0, SIZE_MAX);
+  m_own_size.resize(m_own_first.size());
+  m_own.clear();
   if (params.search == search_kind::cgal || k == 1) {
     for (std::size_t q = 0; q < m_count; ++q) by_cgal(q);
     return;
   }
-  // ρ: the largest k-distance of every 32nd point. Any ρ gives the same
-  // lists; a ball of fewer than k points is asked again with 2ρ (twice at
-  // most), then of CGAL.
+  // ρ: the largest k-distance of every 32nd point, or its adaptive radius
+  // if larger (so that the ball holds the point's own ball too). Any ρ
+  // gives the same lists; a ball of fewer than k points is asked again with
+  // 2ρ (twice at most), then of CGAL.
   double rho = 0;
   for (std::size_t q = 0; q < m_count; q += 32) {
     by_cgal(q);
-    rho = std::max(rho, std::sqrt(double(m_ranked[q * k + k - 1].d2)));
+    const double dk = std::sqrt(double(m_ranked[q * k + k - 1].d2));
+    rho = std::max(rho, dk);
+    if (n.kind == neighborhood_kind::adaptive) rho = std::max(rho, adaptive_radius(n, k < n.k ? HUGE_VAL : dk));
   }
   rho = rho * 1.25 + 1e-30;  // a quarter to spare: points between the samples may be sparser
   m_balls.set_keep_lists(true);
@@ -94,14 +113,15 @@ void list_block::fill_nearest(const neighbor_index& index, const block_partition
       if (m_balls.count(t) < k)
         m_short[still++] = m_short[t];
       else
-        select_nearest(t, m_short[t], xyz + 3 * std::size_t(m_asked[t]));
+        select_nearest(t, m_short[t], xyz + 3 * std::size_t(m_asked[t]), n, rho);
     }
     m_short.resize(still);
   }
   for (const std::uint32_t q : m_short) by_cgal(q);
 }
 
-void list_block::select_nearest(std::size_t ball, std::size_t q, const float* c) {
+void list_block::select_nearest(std::size_t ball, std::size_t q, const float* c, const neighborhood_spec& spec,
+                                double rho) {
   // The ball holds every point nearer than ρ, at least k of them, so every
   // point as near as the k-th.
   const std::size_t want = m_near_k - 1;  // besides the point itself
@@ -152,6 +172,24 @@ void list_block::select_nearest(std::size_t ball, std::size_t q, const float* c)
   std::sort(in_range, in_range + ranged,
             [](const auto& a, const auto& b) { return a.d2 < b.d2 || (a.d2 == b.d2 && a.index < b.index); });
   std::copy_n(in_range, want - n, to + n);
+  if (!m_own_first.empty()) own_ball(q, spec, rho, found);
+}
+
+void list_block::own_ball(std::size_t q, const neighborhood_spec& n, double rho, std::size_t found) {
+  // An adaptive radius beyond the k-th distance but within ρ: the ball of ρ
+  // holds its ball (the points nearer than it, and the point itself).
+  const float kth = m_ranked[q * m_near_k + m_near_k - 1].d2;
+  const double r = adaptive_radius(n, m_near_k < n.k ? HUGE_VAL : std::sqrt(double(kth)));
+  const float r2 = squared_radius(r);
+  if (!(r2 > kth) || r2 > squared_radius(rho)) return;
+  m_own_first[q] = m_own.size();
+  m_own.push_back(m_points[q]);
+  for (std::size_t t = 0; t < found; ++t) {
+    float d2;
+    std::memcpy(&d2, &m_bits[t], sizeof d2);
+    if (d2 < r2) m_own.push_back(m_ids[t]);
+  }
+  m_own_size[q] = static_cast<std::uint32_t>(m_own.size() - m_own_first[q]);
 }
 
 void list_block::sum(const float* xyz, std::size_t k) {

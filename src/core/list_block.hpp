@@ -58,9 +58,14 @@ class list_block {
   /// lists (the ball holds every point as near as the k-th).
   void fill_nearest(const neighbor_index& index, const block_partition& grid, const float* xyz,
                     const detect_params& params);
-  /// Point q's k nearest from its ball (m_balls' point `ball`, which holds
-  /// at least k points), into m_ranked; c its position.
-  void select_nearest(std::size_t ball, std::size_t q, const float* c);
+  /// Point q's k nearest from its ball of ρ (m_balls' point `ball`, which
+  /// holds at least k points), into m_ranked; c its position. Under
+  /// adaptive, also its own ball when the ball of ρ holds it (own_ball).
+  void select_nearest(std::size_t ball, std::size_t q, const float* c, const neighborhood_spec& spec, double rho);
+  /// Point q's own adaptive ball from the `found` distances of its ball of
+  /// ρ, into m_own, when its radius lies beyond its k-th distance and
+  /// within ρ (gather() queries CGAL otherwise).
+  void own_ball(std::size_t q, const neighborhood_spec& n, double rho, std::size_t found);
 
   std::vector<channel_source> m_sources;
   std::vector<std::size_t> m_slot_offset;
@@ -79,7 +84,11 @@ class list_block {
   std::vector<std::int32_t> m_bits;
   std::vector<std::uint32_t> m_ids;
   std::vector<neighbor_index::ranked_point> m_tied;
-  std::vector<std::uint32_t> m_short, m_asked;  // positions still without their k nearest, and their points
+  std::vector<std::uint32_t> m_short, m_asked;
+  /// adaptive: point q's own ball, m_own[m_own_first[q] ..][.. m_own_size[q]]
+  /// (SIZE_MAX: not made; gather() queries it).
+  std::vector<std::size_t> m_own_first;
+  std::vector<std::uint32_t> m_own_size, m_own;  // positions still without their k nearest, and their points
 };
 
 }  // namespace ced
