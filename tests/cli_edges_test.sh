@@ -244,6 +244,16 @@ expect_exit 2 "larger than max" "neighborhood: min > max" -- detect "$sample" --
 expect_exit 2 "must be radius, knn:K" "neighborhood: unknown kind" -- detect "$sample" --neighborhood ball -q
 expect_exit 2 "search must be grid or cgal" "search: unknown" -- detect "$sample" --search octree -q
 expect_exit 2 "bounded reach" "neighborhood: knn tiled refused" -- detect "$sample" --preset ced6d --neighborhood knn:8 --tile-size 0.5 -q
+expect_exit 2 "reach must be" "neighborhood: reach=0" -- detect "$sample" --neighborhood knn:8,reach=0 --tile-size 0.5 -q
+# knn with reach=: tiles equal the whole run, or a tile stops clearly,
+# writing nothing and leaving no tile cache behind (a rerun would fail again)
+"$CED" detect "$sample" --preset robust6d --neighborhood knn:12,reach=0.06 --indices "$T/kr.txt" -q
+"$CED" detect "$sample" --preset robust6d --neighborhood knn:12,reach=0.06 --tile-size 0.4 --indices "$T/kr_t.txt" -q
+check "neighborhood: knn with reach=, tiled = whole" cmp -s "$T/kr_t.txt" "$T/kr.txt"
+expect_exit 1 "beyond the neighbourhood's reach" "neighborhood: reach too short" -- detect "$sample" --preset ced6d \
+  --neighborhood knn:16,reach=0.02 --tile-size 0.5 --work-dir "$T/kr_wd" --indices "$T/kr_short.txt" -q
+check "neighborhood: reach too short writes nothing" test ! -e "$T/kr_short.txt"
+check "neighborhood: reach too short leaves no cache" test ! -e "$T/kr_wd"
 "$CED" detect "$sample" --preset ced6d --neighborhood adaptive:12,scale=1.5,max=0.08 --indices "$T/ad.txt" -q
 "$CED" detect "$sample" --preset ced6d --neighborhood adaptive:12,scale=1.5,max=0.08 --tile-size 0.5 --indices "$T/ad_t.txt" -q
 check "neighborhood: adaptive with max, tiled = whole" cmp -s "$T/ad_t.txt" "$T/ad.txt"

@@ -153,7 +153,7 @@ TEST(Neighborhoods, ParseReadsEveryFormAndRoundTrips) {
   EXPECT_EQ(a.max_radius, 0.2);
   EXPECT_EQ(ced::parse_neighborhood("adaptive:8").max_radius, std::numeric_limits<double>::infinity());
   for (const char* text : {"radius", "knn:16", "adaptive:8", "adaptive:8,scale=1.5,min=0.01,max=0.2", "knn:4,nms=own",
-                           "adaptive:8,max=0.2,nms=own"}) {
+                           "adaptive:8,max=0.2,nms=own", "knn:16,reach=0.35", "adaptive:8,scale=2,nms=own,reach=1.5"}) {
     const auto parsed = ced::parse_neighborhood(text);
     EXPECT_EQ(ced::to_string(parsed), text);
     const auto again = ced::parse_neighborhood(ced::to_string(parsed));
@@ -162,7 +162,9 @@ TEST(Neighborhoods, ParseReadsEveryFormAndRoundTrips) {
     EXPECT_EQ(again.min_radius, parsed.min_radius);
     EXPECT_EQ(again.max_radius, parsed.max_radius);
     EXPECT_EQ(again.nms_own, parsed.nms_own);
+    EXPECT_EQ(again.reach, parsed.reach);
   }
+  EXPECT_EQ(ced::parse_neighborhood("knn:16,reach=0.35").reach, 0.35);
   EXPECT_TRUE(ced::parse_neighborhood("knn:4,nms=own").nms_own);
   EXPECT_FALSE(ced::parse_neighborhood("knn:4,nms=fixed").nms_own);
 }
@@ -175,7 +177,11 @@ TEST(Neighborhoods, BadSpecsNameTheParameter) {
       {"knn:2.5", "K in"},
       {"knn:nan", "K in"},
       {"knn:-3", "K in"},
-      {"knn:16,scale=2", "knn takes nms="},
+      {"knn:16,scale=2", "knn takes nms=, reach="},
+      {"knn:16,reach=0", "reach must be"},
+      {"knn:16,reach=-1", "reach must be"},
+      {"adaptive:8,reach=nan", "reach="},
+      {"knn:8,reach=1,reach=2", "given twice"},
       {"knn:16,nms=big", "nms= must be own or fixed"},
       {"adaptive:8,nms=own,nms=own", "given twice"},
       {"adaptive:8,scale=0", "scale must be"},
@@ -448,6 +454,50 @@ TEST(Neighborhoods, TilesStayExactForNeighbourhoodsOfBoundedReach) {
   }
 }
 
+/// The farthest any point of `r` reaches under `spec` (what reach= must bound).
+double farthest_reach(const ced::detection_result& r, const ced::neighborhood_spec& spec) {
+  double far = 0;
+  for (float ri : r.point_radius)
+    far = std::max(far, spec.kind == ced::neighborhood_kind::knn ? double(ri) : std::max(double(ri), ri / spec.scale));
+  return far;
+}
+
+TEST(Neighborhoods, TilesWithAReachAreExactOrStopClearly) {
+  // A falloff scan: k-distances from a few mm to several cm. With reach=
+  // just above the farthest, every tiling equals the whole run; with half
+  // of it, a tile stops with an error that names the distance it needs.
+  const auto c = scanned_room(5000, 12);
+  const std::vector<ced::any_modality> mods = {ced::make_modality("xyz"), ced::make_modality("rgb")};
+  for (const char* spec : {"knn:12", "adaptive:10,scale=1.5", "adaptive:8,min=0.03", "knn:16,nms=own",
+                           "adaptive:12,nms=own"}) {
+    SCOPED_TRACE(spec);
+    ced::detect_params p;
+    p.radius = 0.02;
+    p.neighborhood = ced::parse_neighborhood(spec);
+    p.nms_radius = p.neighborhood.nms_own ? 0.05 : 0.03;
+    const auto whole = ced::detect(c, p, mods);
+    ASSERT_GT(whole.keypoints.size(), 20u);
+    const double far = farthest_reach(whole, p.neighborhood);
+    p.neighborhood.reach = far * 1.01;
+    for (double tile : {0.35, 0.7}) EXPECT_EQ(ced::detect_tiled(c, p, mods, tile), whole.keypoints) << tile;
+    p.refine = true;
+    EXPECT_EQ(ced::detect_tiled(c, p, mods, 0.5), ced::detect(c, p, mods).keypoints) << "refined";
+    p.neighborhood.reach = far / 2;
+    try {
+      ced::detect_tiled(c, p, mods, 0.5);
+      ADD_FAILURE() << "a reach of half the farthest was accepted";
+    } catch (const ced::tile_reach_error& e) {
+      EXPECT_NE(std::string(e.what()).find("beyond the neighbourhood's reach"), std::string::npos) << e.what();
+    }
+  }
+  // A tile of fewer than K points: its points reach farther than any bound.
+  ced::point_cloud sparse;
+  for (int i = 0; i < 40; ++i) sparse.push_back(float(i) * 0.2f, 0.0f, 0.0f);
+  ced::detect_params p;
+  p.neighborhood = ced::parse_neighborhood("knn:16,reach=0.5");
+  EXPECT_THROW(ced::detect_tiled(sparse, p, {ced::make_modality("xyz")}, 1.0), ced::tile_reach_error);
+}
+
 TEST(Neighborhoods, TilesRefuseUnboundedReachClearlyAndPlansKeepTheSpec) {
   ced::tiled_request q;
   q.input = CED_TEST_DATA_DIR "/apartment_mesh_214.ply";
@@ -461,6 +511,7 @@ TEST(Neighborhoods, TilesRefuseUnboundedReachClearlyAndPlansKeepTheSpec) {
     } catch (const std::invalid_argument& e) {
       EXPECT_NE(std::string(e.what()).find(spec), std::string::npos) << e.what();
       EXPECT_NE(std::string(e.what()).find("max="), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("reach="), std::string::npos) << e.what();
     }
   }
   // A bounded one plans, and its plan file keeps the neighbourhood and search.
@@ -471,4 +522,9 @@ TEST(Neighborhoods, TilesRefuseUnboundedReachClearlyAndPlansKeepTheSpec) {
   EXPECT_EQ(ced::to_string(back.request.params.neighborhood), "adaptive:8,scale=1.5,max=0.1");
   EXPECT_EQ(back.request.params.search, ced::search_kind::cgal);
   EXPECT_GE(back.grid.halo, 0.1 * 1.001);
+  // knn with reach= plans too, its halo covering the reach.
+  q.params.neighborhood = ced::parse_neighborhood("knn:12,reach=0.2");
+  const ced::tile_plan with_reach = ced::tile_plan::from_json(ced::plan_tiles(q).to_json(), "plan.json");
+  EXPECT_EQ(ced::to_string(with_reach.request.params.neighborhood), "knn:12,reach=0.2");
+  EXPECT_GE(with_reach.grid.halo, 0.2 * 1.001);
 }

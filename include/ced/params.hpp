@@ -46,18 +46,26 @@ struct neighborhood_spec {
   /// radius (a ratio of its own radius, as the thresholds), not nms_radius
   /// (option `nms=own`; default `nms=fixed`). Refinement keeps nms_radius.
   bool nms_own = false;
+  /// knn and adaptive: a bound on how far any neighbourhood reaches, metres
+  /// (option `reach=R`; default +infinity, none). Tiled runs take it for
+  /// their halo (knn:K, and adaptive without max, need it there) and check
+  /// it: a tile whose points reach farther (the K-th nearest, or an
+  /// adaptive radius) stops with an error naming the distance needed.
+  /// Whole runs do not use it.
+  double reach = std::numeric_limits<double>::infinity();
 
   bool fixed() const noexcept { return kind == neighborhood_kind::radius; }
 };
 
-/// Parses "radius", "knn:K[,nms=own]" or
-/// "adaptive:K[,scale=α][,min=r0][,max=r1][,nms=own]";
+/// Parses "radius", "knn:K[,nms=own][,reach=R]" or
+/// "adaptive:K[,scale=α][,min=r0][,max=r1][,nms=own][,reach=R]";
 /// throws std::invalid_argument naming the bad part.
 neighborhood_spec parse_neighborhood(const std::string& text);
 /// The spec in the form parse_neighborhood() reads ("knn:16", ...).
 std::string to_string(const neighborhood_spec& n);
-/// Throws std::invalid_argument naming the parameter when K, scale, min or
-/// max is out of range (K < 1 or > 65,535, scale ≤ 0, min > max, NaN, ...).
+/// Throws std::invalid_argument naming the parameter when K, scale, min,
+/// max or reach is out of range (K < 1 or > 65,535, scale ≤ 0, min > max,
+/// reach ≤ 0, NaN, ...).
 void validate(const neighborhood_spec& n);
 
 /// How fixed-radius neighbours are gathered. Both give the same

@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -58,7 +59,7 @@ struct tile_grid {
 /// (the radius; max(r1, r1 / scale) for adaptive:K,max=r1), with a margin
 /// for float rounding of coordinates up to `max_abs_coordinate` (positions,
 /// the cloud's frame). Throws std::invalid_argument for knn, or adaptive
-/// without max: their reach depends on the data.
+/// without max, unless they give reach= (their reach depends on the data).
 double exact_halo(const detect_params& params, double max_abs_coordinate = 0.0);
 
 /// Tiles of edge `size` covering the positions in the box [lo, hi], with the
@@ -86,6 +87,27 @@ cloud_tile extract_tile(const point_cloud& cloud, const tile_grid& grid, std::ui
 /// its core, as indices into the tile's cloud, ascending.
 std::vector<std::uint32_t> core_keypoints(const tile_grid& grid, std::uint64_t t, const point_cloud& tile_cloud,
                                           const detection_result& result);
+
+/// Whether tiles under `params` rest on the neighbourhood's reach= (knn:K,
+/// or adaptive without max, given reach=): then each tile checks it.
+bool tiles_check_reach(const detect_params& params) noexcept;
+
+/// A tile whose points reach beyond the neighbourhood's reach= (see
+/// check_tile_reach): a rerun with the same parameters fails again.
+struct tile_reach_error : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/// Under tiles_check_reach(params): throws tile_reach_error, naming the
+/// tile, the point and the distance needed, unless every point that tile
+/// t's core depends on (its core, and the points within the NMS reach of
+/// it) reaches no farther than reach= (its K-th nearest and, for adaptive,
+/// its own radius), the bound the tile's halo assumed. `result` is the
+/// detection on the tile's points (nullptr: before it, when the tile holds
+/// fewer than K points). Passing, the tile's results for its core are the
+/// whole cloud's. No-op for other neighbourhoods.
+void check_tile_reach(const tile_grid& grid, std::uint64_t t, const point_cloud& tile_cloud,
+                      const detection_result* result, const detect_params& params);
 
 /// Detects keypoints tile by tile (tiles of edge `tile_size`, one after the
 /// other, each with `params.threads`) and returns the indices into `cloud`,

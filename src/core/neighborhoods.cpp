@@ -33,8 +33,9 @@ neighborhood_spec parse_neighborhood(const std::string& text) {
   const std::string kind = t.substr(0, colon);
   if (kind != "knn" && kind != "adaptive")
     throw std::invalid_argument(
-        "neighbourhood must be radius, knn:K[,nms=own] or adaptive:K[,scale=a][,min=r0][,max=r1][,nms=own], got '" + t +
-        "'");
+        "neighbourhood must be radius, knn:K[,nms=own][,reach=R] or "
+        "adaptive:K[,scale=a][,min=r0][,max=r1][,nms=own][,reach=R], got '" +
+        t + "'");
   if (colon == std::string::npos)
     throw std::invalid_argument("neighbourhood '" + t + "' needs K, e.g. '" + kind + ":16'");
   n.kind = kind == "knn" ? neighborhood_kind::knn : neighborhood_kind::adaptive;
@@ -45,17 +46,23 @@ neighborhood_spec parse_neighborhood(const std::string& text) {
   if (comma == std::string_view::npos) return n;
   rest.remove_prefix(comma + 1);
   const bool knn = n.kind == neighborhood_kind::knn;
-  bool seen[4] = {false, false, false, false};
+  bool seen[5] = {false, false, false, false, false};
   while (!rest.empty()) {
     const auto end = rest.find(',');
     const std::string_view option = rest.substr(0, end);
     rest.remove_prefix(end == std::string_view::npos ? rest.size() : end + 1);
     const auto eq = option.find('=');
     const std::string key(detail::trim(option.substr(0, eq)));
-    const int slot = key == "nms" ? 3 : knn ? -1 : key == "scale" ? 0 : key == "min" ? 1 : key == "max" ? 2 : -1;
+    const int slot = key == "nms"     ? 3
+                     : key == "reach" ? 4
+                     : knn            ? -1
+                     : key == "scale" ? 0
+                     : key == "min"   ? 1
+                     : key == "max"   ? 2
+                                      : -1;
     if (eq == std::string_view::npos || slot < 0)
       throw std::invalid_argument("neighbourhood '" + t + "': unknown option '" + std::string(option) +
-                                  (knn ? "' (knn takes nms=)" : "' (known: scale=, min=, max=, nms=)"));
+                                  (knn ? "' (knn takes nms=, reach=)" : "' (known: scale=, min=, max=, nms=, reach=)"));
     if (seen[slot]) throw std::invalid_argument("neighbourhood '" + t + "': " + key + "= given twice");
     seen[slot] = true;
     const std::string value(detail::trim(option.substr(eq + 1)));
@@ -66,7 +73,7 @@ neighborhood_spec parse_neighborhood(const std::string& text) {
       continue;
     }
     const double v = parse_number(value, key + "= in neighbourhood '" + t + "'");
-    (slot == 0 ? n.scale : slot == 1 ? n.min_radius : n.max_radius) = v;
+    (slot == 0 ? n.scale : slot == 1 ? n.min_radius : slot == 2 ? n.max_radius : n.reach) = v;
   }
   validate(n);
   return n;
@@ -90,6 +97,7 @@ std::string to_string(const neighborhood_spec& n) {
     if (std::isfinite(n.max_radius)) s += ",max=" + shortest(n.max_radius);
   }
   if (n.nms_own) s += ",nms=own";
+  if (std::isfinite(n.reach)) s += ",reach=" + shortest(n.reach);
   return s;
 }
 
@@ -98,6 +106,9 @@ void validate(const neighborhood_spec& n) {
   const std::string name = n.kind == neighborhood_kind::knn ? "knn" : "adaptive";
   if (n.k < 1 || n.k > k_max_k)
     throw std::invalid_argument("neighbourhood " + name + ": K must be from 1 to 65535, got " + std::to_string(n.k));
+  if (std::isnan(n.reach) || !(n.reach > 0))
+    throw std::invalid_argument("neighbourhood " + name + ": reach must be a positive number, got " +
+                                std::to_string(n.reach));
   if (n.kind == neighborhood_kind::knn) return;
   if (!std::isfinite(n.scale) || !(n.scale > 0))
     throw std::invalid_argument("neighbourhood adaptive: scale must be a positive finite number, got " +

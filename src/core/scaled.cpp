@@ -47,6 +47,8 @@ detect_params scaled_params(const detect_params& params, double factor) {
     n.min_radius *= factor;
     n.max_radius *= factor;
   }
+  // Its K nearest still reach the k-th distance, its ball factor × r_i.
+  if (!n.fixed()) n.reach *= std::max(1.0, factor);
   return p;
 }
 

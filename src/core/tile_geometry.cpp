@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 
@@ -70,14 +71,22 @@ double exact_halo(const detect_params& params, double max_abs_coordinate) {
   // Under adaptive:K,max=r1 a neighbourhood reaches r1, and the K nearest
   // that set a radius below r1 lie within r1 / scale (farther ones clamp it
   // to r1 whatever the tile holds). knn, and adaptive without max, reach as
-  // far as the data make them: no halo is exact for them.
+  // far as the data make them: their reach= bounds it, and each tile checks
+  // that bound (check_tile_reach).
   const neighborhood_spec& n = params.neighborhood;
-  if (!n.fixed() && (n.kind == neighborhood_kind::knn || !std::isfinite(n.max_radius)))
+  double reach = params.radius, largest_own = params.radius;  // how far neighbourhoods reach; the largest r_i
+  if (n.kind == neighborhood_kind::adaptive && std::isfinite(n.max_radius)) {
+    reach = std::max(n.max_radius, n.max_radius / n.scale);
+    largest_own = n.max_radius;
+  } else if (!n.fixed() && std::isfinite(n.reach)) {
+    reach = largest_own = n.reach;
+  } else if (!n.fixed()) {
     throw std::invalid_argument("tiles need a neighbourhood of bounded reach: " + to_string(n) +
-                                " reaches as far as the data make it (use radius, or adaptive:K with max=)");
-  const double reach = n.fixed() ? params.radius : std::max(n.max_radius, n.max_radius / n.scale);
-  // nms=own: an NMS ball of nms_radius × r_i / radius, r_i ≤ r1.
-  const double nms = n.nms_own ? params.nms_radius * std::max(1.0, n.max_radius / params.radius) : params.nms_radius;
+                                " reaches as far as the data make it (give it reach=R, a bound that each tile "
+                                "checks, or use adaptive:K with max=; ced info --knn prints the k-distances)");
+  }
+  // nms=own: an NMS ball of nms_radius × r_i / radius.
+  const double nms = n.nms_own ? params.nms_radius * std::max(1.0, largest_own / params.radius) : params.nms_radius;
   const double h = (params.refine ? 2 : 1) * nms + params.block_scale * params.radius + 1.001 * reach;
   return 1.01 * h + 16.0 * std::ldexp(std::fabs(max_abs_coordinate), -23);
 }
@@ -170,6 +179,55 @@ std::vector<std::uint32_t> core_keypoints(const tile_grid& grid, std::uint64_t t
   return out;
 }
 
+bool tiles_check_reach(const detect_params& params) noexcept {
+  const neighborhood_spec& n = params.neighborhood;
+  return !n.fixed() && std::isfinite(n.reach) &&
+         !(n.kind == neighborhood_kind::adaptive && std::isfinite(n.max_radius));
+}
+
+namespace {
+[[noreturn]] void reach_exceeded(std::uint64_t t, const float* p, const point_cloud& c, double needed,
+                                 const neighborhood_spec& n) {
+  char where[160];
+  if (p)
+    std::snprintf(where, sizeof where, "the point at (%.9g, %.9g, %.9g) reaches %.6g", c.origin()[0] + p[0],
+                  c.origin()[1] + p[1], c.origin()[2] + p[2], needed);
+  else
+    std::snprintf(where, sizeof where, "it holds fewer than K = %u points", unsigned(n.k));
+  throw tile_reach_error("tile " + std::to_string(t) + ": " + where + ", beyond the neighbourhood's reach (" +
+                         to_string(n) +
+                         "): the tiles would not be exact. Give a larger reach= (ced info --knn prints the "
+                         "k-distances), or use adaptive:K with max=");
+}
+}  // namespace
+
+void check_tile_reach(const tile_grid& grid, std::uint64_t t, const point_cloud& tile_cloud,
+                      const detection_result* result, const detect_params& params) {
+  if (!tiles_check_reach(params)) return;
+  const neighborhood_spec& n = params.neighborhood;
+  if (!result) {
+    if (tile_cloud.size() < n.k) reach_exceeded(t, nullptr, tile_cloud, 0, n);
+    return;
+  }
+  // The points the core depends on: within the NMS term of exact_halo().
+  const double nms = n.nms_own ? params.nms_radius * std::max(1.0, n.reach / params.radius) : params.nms_radius;
+  const double inner = (params.refine ? 2 : 1) * nms;
+  const auto box = grid.core_box(t);
+  for (std::size_t i = 0; i < tile_cloud.size(); ++i) {
+    const float* p = tile_cloud.position(i);
+    double gap2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double e = std::max({box[a] - p[a], 0.0, p[a] - box[a + 3]});
+      gap2 += e * e;
+    }
+    if (gap2 > inner * inner * 1.0001) continue;
+    // knn: r_i is the K-th distance; adaptive: r_i = max(α·d_K, r0) ≥ α·d_K.
+    const double r = result->point_radius[i];
+    const double needed = n.kind == neighborhood_kind::knn ? r : std::max(r, r / n.scale);
+    if (needed > n.reach) reach_exceeded(t, p, tile_cloud, needed, n);
+  }
+}
+
 std::vector<std::uint32_t> detect_tiled(const point_cloud& cloud, const detect_params& params,
                                         const std::vector<any_modality>& modalities, double tile_size) {
   validate(params);
@@ -197,7 +255,9 @@ std::vector<std::uint32_t> detect_tiled(const point_cloud& cloud, const detect_p
   for (std::uint64_t t = 0; t < grid.count(); ++t) {
     if (!owns[t]) continue;
     const cloud_tile tile = make_tile(cloud, std::move(members[t]), ranges);
+    check_tile_reach(grid, t, tile.cloud, nullptr, params);
     const detection_result r = detect(tile.cloud, params, modalities);
+    check_tile_reach(grid, t, tile.cloud, &r, params);
     for (std::uint32_t k : core_keypoints(grid, t, tile.cloud, r)) out.push_back(tile.index[k]);
   }
   std::sort(out.begin(), out.end());

@@ -37,7 +37,9 @@ using namespace ced_cli;
 
 namespace {
 
-enum tag : int { tag_ready = 1, tag_tile = 2, tag_done = 3, tag_failed = 4 };
+// tag_beyond_reach: a tile's points reach beyond the neighbourhood's reach=
+// (ced::tile_reach_error), which a rerun cannot mend: the cache goes.
+enum tag : int { tag_ready = 1, tag_tile = 2, tag_done = 3, tag_failed = 4, tag_beyond_reach = 5 };
 
 /// Threads a rank uses unless -j says: the cores it may run on (mpirun may
 /// bind it to one), shared with the other ranks of its node when unbound.
@@ -106,6 +108,9 @@ int work(const detect_options& o, mpi::communicator& world, const prepared& r, u
     try {
       ced::detect_cached_tile(plan, r.work_dir, static_cast<std::uint64_t>(id), threads);
       world.send(0, tag_done, id);
+    } catch (const ced::tile_reach_error& e) {
+      world.send(0, tag_beyond_reach, std::string(e.what()));
+      return exit_failure;
     } catch (const std::exception& e) {
       world.send(0, tag_failed, "tile " + std::to_string(id) + ": " + e.what());
       return exit_failure;  // rank 0 aborts the run
@@ -121,9 +126,14 @@ void share_tiles(mpi::communicator& world, const ced::tile_plan& plan, const std
   std::size_t next = 0, done = 0;
   const std::size_t total = queue.size();
   if (world.size() == 1) {
-    for (; next < total; ++next) {
-      ced::detect_cached_tile(plan, work_dir, queue[next].id, threads);
-      report(++done);
+    try {
+      for (; next < total; ++next) {
+        ced::detect_cached_tile(plan, work_dir, queue[next].id, threads);
+        report(++done);
+      }
+    } catch (const ced::tile_reach_error&) {
+      ced::remove_work_dir(work_dir);  // a rerun with this reach fails again
+      throw;
     }
     return;
   }
@@ -138,6 +148,12 @@ void share_tiles(mpi::communicator& world, const ced::tile_plan& plan, const std
       long long id = 0;
       world.recv(s.source(), tag_done, id);
       report(++done);
+    } else if (s.tag() == tag_beyond_reach) {
+      std::string what;
+      world.recv(s.source(), tag_beyond_reach, what);
+      ced::remove_work_dir(work_dir);  // a rerun with this reach fails again
+      std::cerr << "ced-mpi: error: " << what << "\n";
+      world.abort(exit_failure);
     } else {
       std::string what;
       world.recv(s.source(), tag_failed, what);

@@ -186,7 +186,9 @@ tile_part detect_tile(const tile_plan& plan, const tile_points& points, unsigned
   part.candidates.assign(m, 0);
   part.keypoints = empty_cloud(plan, 0);
   if (points.cloud.empty()) return part;
+  check_tile_reach(plan.grid, points.tile, points.cloud, nullptr, params);
   const detection_result r = detect(points.cloud, params, modalities);
+  check_tile_reach(plan.grid, points.tile, points.cloud, &r, params);
   std::vector<std::uint32_t> kept;
   for (std::size_t i = 0; i < points.cloud.size(); ++i) {
     if (plan.grid.tile_of(points.cloud.position(i)) != points.tile) continue;

@@ -33,7 +33,7 @@ std::optional<std::vector<std::string>> detection_fields(const tile_plan& p) {
   // by their own rules): else every field goes through the cache.
   try {
     const point_cloud one = empty_cloud(slim, 1);
-    for (const auto& m : modalities) m.bind(one, p.request.params);
+    for (const auto& m : modalities) m.bind(one, probe_params(p.request.params));
   } catch (const std::exception&) {
     return std::nullopt;
   }

@@ -65,6 +65,12 @@ std::vector<any_modality> modalities_of(const std::vector<std::string>& specs);
 /// The parameters a tile's halo follows: the radius of the largest scale
 /// among the modalities (scale=).
 detect_params halo_params(const tiled_request& r);
+/// `params` for binding modalities to a one-point probe cloud (which only
+/// checks their fields): the fixed radius, since K nearest need K points.
+inline detect_params probe_params(detect_params params) {
+  params.neighborhood = neighborhood_spec{};
+  return params;
+}
 /// A part's modality names and absolute thresholds, from the plan's modalities.
 void name_modalities(const tile_plan& plan, const std::vector<any_modality>& modalities, tile_part& part);
 

@@ -61,7 +61,7 @@ void check_point_count(const tile_plan& p) {
 void bind_modalities(tile_plan& p, const point_cloud& probe) {
   if (p.request.modalities.empty()) p.request.modalities = preset_specs(probe.has_rgb() ? "ced6d" : "ced3d");
   const point_cloud one = empty_cloud(p, 1);
-  for (const auto& m : modalities_of(p.request.modalities)) m.bind(one, p.request.params);
+  for (const auto& m : modalities_of(p.request.modalities)) m.bind(one, probe_params(p.request.params));
 }
 
 /// The absolute box [lo, hi] relative to the plan's origin, into [plo, phi].

@@ -152,17 +152,25 @@ tile_part run_tiled(const tiled_request& request, const tiled_run_options& o, ti
     return std::async(std::launch::async, [&, k] { return load_cached(plan, o.work_dir, plan.tiles[k].id); });
   };
   std::future<tile_points> next;
-  for (std::size_t k = 0; k < plan.tiles.size(); ++k) {
-    if (needs_work(k)) {
-      const tile_points pts = next.valid() ? next.get() : load(k).get();
-      std::size_t after = k + 1;
-      while (after < plan.tiles.size() && !needs_work(after)) ++after;
-      if (after < plan.tiles.size()) next = load(after);
-      detect_and_keep(plan, o.work_dir, pts, o.threads);
+  try {
+    for (std::size_t k = 0; k < plan.tiles.size(); ++k) {
+      if (needs_work(k)) {
+        const tile_points pts = next.valid() ? next.get() : load(k).get();
+        std::size_t after = k + 1;
+        while (after < plan.tiles.size() && !needs_work(after)) ++after;
+        if (after < plan.tiles.size()) next = load(after);
+        detect_and_keep(plan, o.work_dir, pts, o.threads);
+      }
+      if (o.tile_done)
+        o.tile_done(k + 1, plan.tiles.size(),
+                    std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     }
-    if (o.tile_done)
-      o.tile_done(k + 1, plan.tiles.size(),
-                  std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  } catch (const tile_reach_error&) {
+    // Resuming cannot help (the same reach fails again): ced's files go,
+    // kept or not (keep_work_dir keeps them for outputs still to commit).
+    if (next.valid()) next.wait();
+    remove_work_dir(o.work_dir);
+    throw;
   }
   const auto t_merge = std::chrono::steady_clock::now();
   tile_part merged = merge_work_dir(plan, o.work_dir, o.sink);
