@@ -19,6 +19,9 @@ namespace py = pybind11;
 /// `refine=` of detect and plan_tiles: a bool, or None for the preset's
 /// (robust3d/robust6d refine; anything else does not).
 bool refine_of(py::handle modalities, py::handle refine);
+/// Sets p.neighborhood and p.search from the arguments `neighborhood` and
+/// `search` (ValueError naming the argument).
+void set_neighborhood(ced::detect_params& p, const std::string& neighborhood, const std::string& search);
 
 /// True while the function of a ced.python_modality runs, on any thread.
 /// A TBB worker of that detection then waits outside TBB (for the GIL, or

@@ -15,6 +15,18 @@
 #include "ced/preprocess.hpp"
 
 namespace ced_python {
+
+void set_neighborhood(ced::detect_params& p, const std::string& neighborhood, const std::string& search) {
+  try {
+    p.neighborhood = ced::parse_neighborhood(neighborhood);
+  } catch (const std::invalid_argument& e) {
+    throw py::value_error(std::string("neighborhood: ") + e.what());
+  }
+  if (search != "grid" && search != "cgal")
+    throw py::value_error("search: must be 'grid' or 'cgal', got '" + search + "'");
+  p.search = search == "cgal" ? ced::search_kind::cgal : ced::search_kind::grid;
+}
+
 namespace {
 
 /// What a cancelled detection throws from its progress callback.
@@ -234,14 +246,7 @@ std::shared_ptr<result> detect_cloud(py::handle points, py::handle channels, py:
   const cloud_ptr cloud = to_cloud(points, channels);
   if (cloud->empty()) throw py::value_error("points: the cloud is empty");
   ced::detect_params p = make_params(*cloud, radius, radius_factor, nms_radius, min_neighbors, threads);
-  try {
-    p.neighborhood = ced::parse_neighborhood(neighborhood);
-  } catch (const std::invalid_argument& e) {
-    throw py::value_error(std::string("neighborhood: ") + e.what());
-  }
-  if (search != "grid" && search != "cgal")
-    throw py::value_error("search: must be 'grid' or 'cgal', got '" + search + "'");
-  p.search = search == "cgal" ? ced::search_kind::cgal : ced::search_kind::grid;
+  set_neighborhood(p, neighborhood, search);
   p.refine = refine_of(modalities, refine);
   if (max_keypoints < 0)
     throw py::value_error("max_keypoints: must be >= 0 (0: no limit), got " + std::to_string(max_keypoints));

@@ -227,8 +227,10 @@ void bind_tiled(py::module_& m) {
       "plan_tiles",
       [](const std::string& input, py::object tile_size, py::object memory_limit, py::object modalities,
          py::object radius, py::object nms_radius, py::object min_neighbors, const std::string& format,
-         py::object refine, py::object max_keypoints, bool scan) {
+         py::object refine, py::object max_keypoints, bool scan, const std::string& neighborhood,
+         const std::string& search) {
         ced::tiled_request r;
+        set_neighborhood(r.params, neighborhood, search);
         r.input = input;
         r.scan = scan;
         r.read.format = ced::io::parse_format(format);
@@ -266,13 +268,16 @@ void bind_tiled(py::module_& m) {
       py::arg("input"), py::arg("tile_size") = py::none(), py::arg("memory_limit") = py::none(),
       py::arg("modalities") = py::none(), py::arg("radius") = 0.05, py::arg("nms_radius") = py::none(),
       py::arg("min_neighbors") = 5, py::arg("format") = "auto", py::arg("refine") = py::none(),
-      py::arg("max_keypoints") = 0, py::arg("scan") = false,
+      py::arg("max_keypoints") = 0, py::arg("scan") = false, py::arg("neighborhood") = "radius",
+      py::arg("search") = "grid",
       "Plans the tiles of a cloud file (two passes over it), as `ced plan`. A COPC file is planned from its "
       "index and header without a pass over the points (plan.indexed), unless scan=True or memory_limit is "
       "given. modalities: spec strings or a preset "
       "name (default: ced6d when the file has colour, else ced3d). refine: keypoint refinement (None: the "
       "preset's, on for robust3d/robust6d). max_keypoints: the merge keeps the strongest of all tiles' "
-      "keypoints, as detect(max_keypoints=...) (0: no limit).");
+      "keypoints, as detect(max_keypoints=...) (0: no limit). neighborhood, search: as detect()'s; tiles take "
+      "'radius', 'adaptive:K,...,max=r1', and 'knn:K,reach=R' or 'adaptive:K,...,reach=R' (each tile checks the "
+      "reach, detect_tile raising RuntimeError when a point reaches farther).");
   m.def(
       "detect_tile",
       [](const ced::tile_plan& plan, const py::object& tile_arg, const py::object& part,

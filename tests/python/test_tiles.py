@@ -80,6 +80,25 @@ def test_tiles_keep_the_strongest_as_the_whole_run(las, tmp_path):
         ced.plan_tiles(las, tile_size=0.8, max_keypoints=-1)
 
 
+def test_neighbourhood_tiles_give_the_whole_result_or_stop_clearly(las):
+    cloud = ced.read(las)
+    for spec in ["adaptive:12,scale=1.5,max=0.08", "knn:12,reach=0.06"]:
+        whole = ced.detect(cloud, modalities="ced6d", neighborhood=spec)
+        plan = pickle.loads(pickle.dumps(ced.plan_tiles(las, tile_size=0.8, modalities="ced6d", neighborhood=spec)))
+        merged = ced.merge_parts(plan, [ced.detect_tile(plan, t) for t, _, _ in plan.tiles])
+        assert np.array_equal(merged.keypoints, np.asarray(whole.keypoints, dtype=np.uint64)), spec
+    with pytest.raises(ValueError, match="reach="):
+        ced.plan_tiles(las, tile_size=0.8, neighborhood="knn:12")
+    with pytest.raises(ValueError, match="neighborhood"):
+        ced.plan_tiles(las, tile_size=0.8, neighborhood="knn:0")
+    with pytest.raises(ValueError, match="search"):
+        ced.plan_tiles(las, tile_size=0.8, search="octree")
+    short = ced.plan_tiles(las, tile_size=0.8, modalities="ced6d", neighborhood="knn:16,reach=0.02")
+    with pytest.raises(RuntimeError, match="beyond the neighbourhood's reach"):
+        for t, _, _ in short.tiles:
+            ced.detect_tile(short, t)
+
+
 def test_tiles_bad_input(las, tmp_path):
     with pytest.raises(ValueError, match="tile_size"):
         ced.plan_tiles(las)

@@ -240,10 +240,13 @@ class TilePart:
 def plan_tiles(input: str, tile_size: Optional[float] = None, memory_limit: Optional[float] = None,
                modalities: Union[None, str, Sequence[str]] = None, radius: float = 0.05,
                nms_radius: Optional[float] = None, min_neighbors: int = 5, format: str = "auto",
-               refine: Optional[bool] = None, max_keypoints: int = 0, scan: bool = False) -> TilePlan:
+               refine: Optional[bool] = None, max_keypoints: int = 0, scan: bool = False,
+               neighborhood: str = "radius", search: str = "grid") -> TilePlan:
     """Plans the tiles of a cloud file (two passes over it), as `ced plan`. tile_size (metres, > 0) or
     memory_limit (bytes, 1 .. 1e18), not both. A COPC file is planned from its index and header without a
-    pass over the points (plan.indexed), unless scan=True or memory_limit is given."""
+    pass over the points (plan.indexed), unless scan=True or memory_limit is given. neighborhood and search
+    as detect()'s; tiles need a bounded reach: 'adaptive:K,...,max=r1', or 'knn:K,reach=R' /
+    'adaptive:K,...,reach=R', which detect_tile checks (RuntimeError when a point reaches farther)."""
 
 
 def detect_tile(plan: TilePlan, tile: int, part: Union[None, str, PathLike[str]] = None,
