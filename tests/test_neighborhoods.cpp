@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <random>
 #include <stdexcept>
@@ -410,6 +411,46 @@ TEST(Neighborhoods, NearestOnTheGridAreCgalsOnEveryDensity) {
     }
 }
 
+TEST(Neighborhoods, NormalsAreEstimatedOverTheNeighbourhood) {
+  // Under knn:K the K nearest, under adaptive the ball of factor × r_i:
+  // bitwise the normals of the brute-force lists (sorted by index).
+  const auto c = scanned_room(2500, 14);
+  const float* xyz = c.positions().data();
+  for (const auto& [spec, factor] : std::vector<std::pair<const char*, double>>{
+           {"knn:12", 1.0}, {"adaptive:10,scale=1.5", 1.0}, {"knn:16", 0.6}, {"adaptive:8,min=0.03", 0.5}}) {
+    SCOPED_TRACE(std::string(spec) + " factor " + std::to_string(factor));
+    ced::detect_params p;
+    p.radius = 0.02;
+    p.neighborhood = ced::parse_neighborhood(spec);
+    const auto got = ced::estimate_normals(c, p, factor);
+    const auto scaled = factor == 1 ? p : ced::scaled_params(p, factor);
+    std::vector<double> radius;
+    const lists nb = brute_neighborhoods(c, scaled.neighborhood, radius);
+    int wrong = 0;
+    for (std::size_t i = 0; i < c.size(); ++i) {
+      float want[3];
+      ced::normal_from_neighbors(xyz, std::uint32_t(i), nb[i].data(), std::uint32_t(nb[i].size()), want);
+      wrong += std::memcmp(want, &got[3 * i], sizeof want) != 0;
+    }
+    EXPECT_EQ(wrong, 0);
+  }
+  // The fixed radius: as before. Far, sparse points: none within r, but
+  // their K nearest give them a normal.
+  ced::detect_params p;
+  p.radius = 0.02;
+  EXPECT_EQ(ced::estimate_normals(c, p, 0.5), ced::estimate_normals(c, 0.01));
+  const auto fixed = ced::estimate_normals(c, 0.02);
+  p.neighborhood = ced::parse_neighborhood("knn:12");
+  const auto knn = ced::estimate_normals(c, p);
+  std::size_t none_fixed = 0, none_knn = 0;
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    none_fixed += fixed[3 * i] == 0 && fixed[3 * i + 1] == 0 && fixed[3 * i + 2] == 0;
+    none_knn += knn[3 * i] == 0 && knn[3 * i + 1] == 0 && knn[3 * i + 2] == 0;
+  }
+  EXPECT_GT(none_fixed, 100u);
+  EXPECT_LT(none_knn, none_fixed / 10);
+}
+
 TEST(Neighborhoods, DistancesArePerUnitOfTheOwnRadiusOnly) {
   // Under knn, xyz (threshold ∝ radius) is scaled by radius / r_i; rgb
   // (threshold independent of it) is not; a scaled xyz is, at its own scale.
@@ -437,7 +478,8 @@ TEST(Neighborhoods, TilesStayExactForNeighbourhoodsOfBoundedReach) {
   // up to max reach well past radius + block side, so a halo sized from
   // the radius alone would cut their neighbourhoods.
   const auto c = scanned_room(5000, 8);
-  const std::vector<ced::any_modality> mods = {ced::make_modality("xyz"), ced::make_modality("rgb")};
+  const std::vector<ced::any_modality> mods = {ced::make_modality("xyz"), ced::make_modality("rgb"),
+                                               ced::make_modality("normals")};
   for (const char* spec : {"adaptive:12,scale=1.5,max=0.3", "adaptive:64,scale=0.3,max=0.3",
                            "adaptive:10,min=0.03,max=0.2", "adaptive:16,max=0.25,nms=own", "radius"}) {
     SCOPED_TRACE(spec);
@@ -467,9 +509,11 @@ TEST(Neighborhoods, TilesWithAReachAreExactOrStopClearly) {
   // just above the farthest, every tiling equals the whole run; with half
   // of it, a tile stops with an error that names the distance it needs.
   const auto c = scanned_room(5000, 12);
-  const std::vector<ced::any_modality> mods = {ced::make_modality("xyz"), ced::make_modality("rgb")};
-  for (const char* spec : {"knn:12", "adaptive:10,scale=1.5", "adaptive:8,min=0.03", "knn:16,nms=own",
-                           "adaptive:12,nms=own"}) {
+  // Normals under knn: each neighbour's own K nearest, one hop farther.
+  const std::vector<ced::any_modality> mods = {ced::make_modality("xyz"), ced::make_modality("rgb"),
+                                               ced::make_modality("normals")};
+  for (const char* spec :
+       {"knn:12", "adaptive:10,scale=1.5", "adaptive:8,min=0.03", "knn:16,nms=own", "adaptive:12,nms=own"}) {
     SCOPED_TRACE(spec);
     ced::detect_params p;
     p.radius = 0.02;
@@ -489,6 +533,21 @@ TEST(Neighborhoods, TilesWithAReachAreExactOrStopClearly) {
     } catch (const ced::tile_reach_error& e) {
       EXPECT_NE(std::string(e.what()).find("beyond the neighbourhood's reach"), std::string::npos) << e.what();
     }
+  }
+  // A reach well past the blocks' part of the halo (a small radius): the
+  // normals' second hop must come from the reach itself.
+  for (const char* spec : {"knn:16", "adaptive:12,max=0.15"}) {
+    SCOPED_TRACE(std::string("small radius ") + spec);
+    ced::detect_params p;
+    p.radius = 0.003;
+    p.nms_radius = 0.005;
+    p.neighborhood = ced::parse_neighborhood(spec);
+    const std::vector<ced::any_modality> normals = {ced::make_modality("normals:0.05")};
+    const auto whole = ced::detect(c, p, normals);
+    ASSERT_GT(whole.keypoints.size(), 20u);
+    if (p.neighborhood.kind == ced::neighborhood_kind::knn)
+      p.neighborhood.reach = farthest_reach(whole, p.neighborhood) * 1.01;
+    for (double tile : {0.2, 0.45}) EXPECT_EQ(ced::detect_tiled(c, p, normals, tile), whole.keypoints) << tile;
   }
   // A tile of fewer than K points: its points reach farther than any bound.
   ced::point_cloud sparse;

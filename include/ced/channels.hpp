@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "ced/cloud.hpp"
+#include "ced/params.hpp"
 
 namespace ced {
 
@@ -91,6 +92,13 @@ std::vector<float> lab_values(const std::array<const field*, 3>& f, const std::a
 /// same for any thread count and in any tile that holds them. `threads`: 0 =
 /// all cores. Throws std::invalid_argument unless radius > 0.
 std::vector<float> estimate_normals(const point_cloud& cloud, double radius, unsigned threads = 0);
+/// The same over each point's neighbourhood under `params` (its radius,
+/// neighbourhood, search and threads), scaled by `factor` in (0, 1]: under
+/// the fixed radius the ball of factor × radius, as above; under knn:K the
+/// K nearest (factor 1) or the ball of factor × the K-th distance; under
+/// adaptive the ball of factor × each point's own radius. Throws
+/// std::invalid_argument for bad parameters.
+std::vector<float> estimate_normals(const point_cloud& cloud, const detect_params& params, double factor = 1.0);
 /// One point's normal as estimate_normals computes it, from its `n`
 /// neighbours (indices into `xyz`, N×3 floats) in the given order.
 void normal_from_neighbors(const float* xyz, std::uint32_t point, const std::uint32_t* neighbors, std::uint32_t n,

@@ -136,4 +136,19 @@ any_modality scaled_modality(any_modality base, double factor, double inner = 0)
 /// tile's halo grows with it.
 double max_scale_factor(const std::vector<any_modality>& modalities);
 
+/// Whether one of `modalities` reads a channel made over each point's own
+/// neighbourhood (normals, estimated under knn or adaptive): a neighbour's
+/// channel then depends on the neighbour's neighbourhood, one hop farther.
+bool reads_neighbourhood_channels(const std::vector<any_modality>& modalities, const detect_params& params);
+
+/// What a tile's halo is sized for (exact_halo): `params` at the largest
+/// scale among `modalities`, and twice as far reaching under knn or adaptive
+/// when reads_neighbourhood_channels().
+detect_params tile_halo_params(const detect_params& params, const std::vector<any_modality>& modalities);
+
+/// How much farther than the NMS term tiles check the reach
+/// (check_tile_reach): the neighbourhood's scaled reach when
+/// reads_neighbourhood_channels(), else 0.
+double tile_check_extra(const detect_params& params, const std::vector<any_modality>& modalities);
+
 }  // namespace ced

@@ -106,8 +106,10 @@ struct tile_reach_error : std::runtime_error {
 /// detection on the tile's points (nullptr: before it, when the tile holds
 /// fewer than K points). Passing, the tile's results for its core are the
 /// whole cloud's. No-op for other neighbourhoods.
+/// `extra`: how much farther the checked points reach (tile_check_extra():
+/// normals estimated over each neighbour's own neighbourhood).
 void check_tile_reach(const tile_grid& grid, std::uint64_t t, const point_cloud& tile_cloud,
-                      const detection_result* result, const detect_params& params);
+                      const detection_result* result, const detect_params& params, double extra = 0);
 
 /// Detects keypoints tile by tile (tiles of edge `tile_size`, one after the
 /// other, each with `params.threads`) and returns the indices into `cloud`,

@@ -10,6 +10,7 @@
 
 #include "ced/channels.hpp"
 #include "ced/detect.hpp"
+#include "ced/scaled.hpp"
 
 namespace ced {
 
@@ -97,12 +98,23 @@ std::vector<float> estimate_normals(const point_cloud& cloud, double radius, uns
   if (!(radius > 0) || !std::isfinite(radius))
     throw std::invalid_argument("estimate_normals: the radius must be a finite number > 0, got " +
                                 std::to_string(radius));
-  std::vector<float> normals(3 * cloud.size(), 0.0f);
-  if (cloud.empty()) return normals;
   detect_params p;
   p.radius = p.nms_radius = radius;
-  p.min_neighbors = 1;
   p.threads = threads;
+  return estimate_normals(cloud, p);
+}
+
+std::vector<float> estimate_normals(const point_cloud& cloud, const detect_params& params, double factor) {
+  if (!(factor > 0 && factor <= 1))
+    throw std::invalid_argument("estimate_normals: the factor must be in (0, 1], got " + std::to_string(factor));
+  // knn:K itself at factor 1; otherwise factor × each point's radius.
+  detect_params p = factor == 1 ? params : scaled_params(params, factor);
+  p.min_neighbors = 1;
+  p.max_keypoints = 0;
+  p.refine = false;
+  p.progress = nullptr;  // a stage of the caller's detection, not one of its own
+  std::vector<float> normals(3 * cloud.size(), 0.0f);
+  if (cloud.empty()) return normals;
   detail::detection_context ctx(cloud, p, {"normals"}, {std::numeric_limits<double>::max()});
   const float* xyz = cloud.positions().data();
   ctx.compute_saliency({channel_source{}}, [&](const block_view& block, float* const*) {

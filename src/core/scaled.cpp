@@ -128,6 +128,27 @@ any_modality scaled_modality(any_modality base, double factor, double inner) {
   return scaled_any{std::move(base), factor, inner};
 }
 
+bool reads_neighbourhood_channels(const std::vector<any_modality>& modalities, const detect_params& params) {
+  if (params.neighborhood.fixed()) return false;  // normals within r: inside the blocks' part of the halo
+  return std::any_of(modalities.begin(), modalities.end(),
+                     [](const any_modality& m) { return m.name().rfind("normals", 0) == 0; });
+}
+
+detect_params tile_halo_params(const detect_params& params, const std::vector<any_modality>& modalities) {
+  detect_params p = scaled_params(params, max_scale_factor(modalities));
+  if (reads_neighbourhood_channels(modalities, params)) {
+    neighborhood_spec& n = p.neighborhood;
+    n.reach *= 2;
+    if (n.kind == neighborhood_kind::adaptive) n.max_radius *= 2;
+  }
+  return p;
+}
+
+double tile_check_extra(const detect_params& params, const std::vector<any_modality>& modalities) {
+  if (!reads_neighbourhood_channels(modalities, params)) return 0;
+  return params.neighborhood.reach * std::max(1.0, max_scale_factor(modalities));
+}
+
 double max_scale_factor(const std::vector<any_modality>& modalities) {
   double k = 1;
   for (const auto& m : modalities) {

@@ -202,7 +202,7 @@ namespace {
 }  // namespace
 
 void check_tile_reach(const tile_grid& grid, std::uint64_t t, const point_cloud& tile_cloud,
-                      const detection_result* result, const detect_params& params) {
+                      const detection_result* result, const detect_params& params, double extra) {
   if (!tiles_check_reach(params)) return;
   const neighborhood_spec& n = params.neighborhood;
   if (!result) {
@@ -211,7 +211,7 @@ void check_tile_reach(const tile_grid& grid, std::uint64_t t, const point_cloud&
   }
   // The points the core depends on: within the NMS term of exact_halo().
   const double nms = n.nms_own ? params.nms_radius * std::max(1.0, n.reach / params.radius) : params.nms_radius;
-  const double inner = (params.refine ? 2 : 1) * nms;
+  const double inner = (params.refine ? 2 : 1) * nms + extra;
   const auto box = grid.core_box(t);
   for (std::size_t i = 0; i < tile_cloud.size(); ++i) {
     const float* p = tile_cloud.position(i);
@@ -240,7 +240,8 @@ std::vector<std::uint32_t> detect_tiled(const point_cloud& cloud, const detect_p
       hi[k] = std::max(hi[k], double(cloud.position(i)[k]));
     }
   // A modality at a larger scale (scale=) reads farther: the halo grows with it.
-  const tile_grid grid = make_tile_grid(lo, hi, tile_size, scaled_params(params, max_scale_factor(modalities)));
+  const tile_grid grid = make_tile_grid(lo, hi, tile_size, tile_halo_params(params, modalities));
+  const double check_extra = tile_check_extra(params, modalities);
   const std::vector<value_range> ranges = field_ranges(cloud);
   // Each tile's points, and which tiles own a point: only those are detected.
   std::vector<std::vector<std::uint32_t>> members(grid.count());
@@ -257,7 +258,7 @@ std::vector<std::uint32_t> detect_tiled(const point_cloud& cloud, const detect_p
     const cloud_tile tile = make_tile(cloud, std::move(members[t]), ranges);
     check_tile_reach(grid, t, tile.cloud, nullptr, params);
     const detection_result r = detect(tile.cloud, params, modalities);
-    check_tile_reach(grid, t, tile.cloud, &r, params);
+    check_tile_reach(grid, t, tile.cloud, &r, params, check_extra);
     for (std::uint32_t k : core_keypoints(grid, t, tile.cloud, r)) out.push_back(tile.index[k]);
   }
   std::sort(out.begin(), out.end());

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "ced/detect.hpp"
+#include "ced/scaled.hpp"
 #include "tiled/internal.hpp"
 
 namespace ced {
@@ -188,7 +189,7 @@ tile_part detect_tile(const tile_plan& plan, const tile_points& points, unsigned
   if (points.cloud.empty()) return part;
   check_tile_reach(plan.grid, points.tile, points.cloud, nullptr, params);
   const detection_result r = detect(points.cloud, params, modalities);
-  check_tile_reach(plan.grid, points.tile, points.cloud, &r, params);
+  check_tile_reach(plan.grid, points.tile, points.cloud, &r, params, tile_check_extra(params, modalities));
   std::vector<std::uint32_t> kept;
   for (std::size_t i = 0; i < points.cloud.size(); ++i) {
     if (plan.grid.tile_of(points.cloud.position(i)) != points.tile) continue;

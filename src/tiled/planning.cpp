@@ -331,9 +331,7 @@ std::vector<any_modality> modalities_of(const std::vector<std::string>& specs) {
   return out;
 }
 
-detect_params halo_params(const tiled_request& r) {
-  return scaled_params(r.params, max_scale_factor(modalities_of(r.modalities)));
-}
+detect_params halo_params(const tiled_request& r) { return tile_halo_params(r.params, modalities_of(r.modalities)); }
 
 void name_modalities(const tile_plan& plan, const std::vector<any_modality>& modalities, tile_part& part) {
   for (const auto& mod : modalities) {

@@ -61,7 +61,7 @@ struct normals {
       return interleave(f, params.threads);
     }
     check_radius(radius_factor);
-    return estimate_normals(cloud, radius_factor * params.radius, params.threads);
+    return estimate_normals(cloud, params, radius_factor);
   }
   static normals from_spec(modality_spec& s) {
     normals m;
