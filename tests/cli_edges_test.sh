@@ -271,7 +271,7 @@ check "neighborhood: from --config" cmp -s "$T/knn_c.txt" "$T/knn.txt"
 expect_exit 2 "K in neighbourhood" "eval: DETECTOR|knn:0" -- eval repeatability "$sample" -d 'ced3d|knn:0' -q
 expect_exit 2 "applies to ced's detectors" "eval: random|SPEC" -- eval repeatability "$sample" -d 'random|knn:8' -q
 expect_exit 2 "K in neighbourhood" "eval: --neighborhood knn:0" -- eval repeatability "$sample" --neighborhood knn:0 -q
-expect_exit 2 "search must be grid or cgal" "eval: --search" -- eval registration "$sample" --search kd -q
+expect_exit 2 "search must be grid or cgal" "eval: --search" -- eval repeatability "$sample" --search kd -q
 numbers() { "$CED" eval repeatability "$sample" --trials 1 --noise 0.5 -q "$@" | tail -n 1 | awk '{print $2, $3, $4, $5}'; }  # not the name, nor the time
 numbers -d 'ced3d|knn:16' > "$T/ev_bar.txt"
 numbers -d ced3d --neighborhood knn:16 > "$T/ev_global.txt"
