@@ -2,6 +2,7 @@
 # No IO; consumers need no Eigen, and never see CGAL or TBB.
 ced_library(ced_core core
   src/core/cloud.cpp
+  src/core/cloud_arrays.cpp
   src/core/channels.cpp
   src/core/lab.cpp
   src/core/normals.cpp

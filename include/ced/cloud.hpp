@@ -436,6 +436,27 @@ std::array<double, 3> choose_origin(const double lo[3], const double hi[3]) noex
 /// The same from per-axis coordinate arrays of n points (non-finite skipped).
 std::array<double, 3> choose_origin(const double* x, const double* y, const double* z, std::size_t n) noexcept;
 
+/// Building a cloud from arrays (the Python module, ced/eigen.hpp, ced/pcl.hpp).
+///
+/// Sets `cloud`'s positions to `n` points read from three coordinate arrays
+/// of `type` (float32 or float64), `stride` bytes from one point to the
+/// next: float offsets from the origin the file readers choose
+/// (choose_origin(); 0 for float input). Throws std::invalid_argument,
+/// naming `what` and the point, for a NaN or infinite coordinate, for 2^32 − 1
+/// points or more, and for another type.
+void set_positions(point_cloud& cloud, scalar_type type, const void* x, const void* y, const void* z,
+                   std::ptrdiff_t stride, std::size_t n, std::string_view what = "points");
+/// `n` values of `type` starting at `data`, `stride` bytes apart, copied
+/// into a column (no alignment needed).
+column copy_strided(scalar_type type, const void* data, std::ptrdiff_t stride, std::size_t n);
+/// The field names of an N×k channel called `name`, as ced's Python module
+/// names them: "a,b,c" names each column; "rgb", "color(s)" or "colour(s)"
+/// (any case) with k = 3 give red, green, blue; k = 1 keeps `name`; else
+/// name_0 … name_{k−1}. Throws std::invalid_argument naming `what` when a
+/// list names another number of columns or a name is empty.
+std::vector<std::string> channel_field_names(const std::string& name, std::size_t k,
+                                             std::string_view what = "channels");
+
 /// The red, green and blue fields of a cloud: exact names red/green/blue, then
 /// r/g/b, any case. Returns nullptrs when absent.
 std::array<const field*, 3> find_rgb_fields(const point_cloud& cloud) noexcept;

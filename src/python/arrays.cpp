@@ -88,42 +88,12 @@ ced::column to_column(const py::array& a, ced::scalar_type type, py::ssize_t j) 
   const std::size_t size = ced::size_of(type);
   if ((stride == py::ssize_t(size) || n <= 1) && reinterpret_cast<std::uintptr_t>(base) % size == 0)
     return ced::column::view(type, base, n, keep_alive(a));
-  ced::column c(type, n);
-  unsigned char* out = c.bytes();
-  for (std::size_t i = 0; i < n; ++i) std::memcpy(out + i * size, base + py::ssize_t(i) * stride, size);
-  return c;
+  return ced::copy_strided(type, base, stride, n);
 }
 
 std::string lower(std::string s) {
   for (char& c : s) c = char(std::tolower(static_cast<unsigned char>(c)));
   return s;
-}
-
-/// The field names of an (N, k) channel called `name`: "rgb"/"colors" with
-/// k = 3 give red, green, blue; "a,b,c" names each column; else name_0 ...
-std::vector<std::string> column_names(const std::string& name, py::ssize_t k, const std::string& argument) {
-  std::vector<std::string> names;
-  if (name.find(',') != std::string::npos) {
-    std::string cur;
-    for (char c : name + ",") {
-      if (c != ',') {
-        cur += c;
-        continue;
-      }
-      names.push_back(cur);
-      cur.clear();
-    }
-    if (py::ssize_t(names.size()) != k)
-      throw py::value_error(argument + ": the key names " + std::to_string(names.size()) +
-                            " columns but the array has " + std::to_string(k));
-    return names;
-  }
-  const std::string l = lower(name);
-  if (k == 3 && (l == "rgb" || l == "colors" || l == "colours" || l == "color" || l == "colour"))
-    return {"red", "green", "blue"};
-  if (k == 1) return {name};
-  for (py::ssize_t j = 0; j < k; ++j) names.push_back(name + "_" + std::to_string(j));
-  return names;
 }
 
 void add_channel(ced::point_cloud& cloud, const std::string& name, py::handle value, const std::string& argument) {
@@ -135,52 +105,15 @@ void add_channel(ced::point_cloud& cloud, const std::string& name, py::handle va
                           std::to_string(cloud.size()) + " points");
   const ced::scalar_type type = storage_type(a, argument);
   const py::ssize_t k = a.ndim() == 2 ? a.shape(1) : 1;
-  const auto names = column_names(name, k, argument);
-  for (py::ssize_t j = 0; j < k; ++j) {
-    if (names[std::size_t(j)].empty()) throw py::value_error(argument + ": empty field name");
-    cloud.add_field(names[std::size_t(j)], to_column(a, type, j));
-  }
-}
-
-/// Positions from three coordinate columns (float or double, any strides):
-/// float offsets from the origin the file readers would choose.
-template <class T>
-void set_positions(ced::point_cloud& cloud, const char* x, const char* y, const char* z, py::ssize_t stride,
-                   std::size_t n, const std::string& argument) {
-  const char* axis[3] = {x, y, z};
-  const auto at = [&](int d, std::size_t i) {
-    T v;
-    std::memcpy(&v, axis[d] + py::ssize_t(i) * stride, sizeof v);
-    return v;
-  };
-  for (std::size_t i = 0; i < n; ++i)
-    for (int d = 0; d < 3; ++d)
-      if (!std::isfinite(double(at(d, i))))
-        throw py::value_error(argument + ": point " + std::to_string(i) + " has a " +
-                              (std::isnan(double(at(d, i))) ? "NaN" : "infinite") + " coordinate");
-  std::array<double, 3> origin{0, 0, 0};
-  if constexpr (std::is_same_v<T, double>) {
-    double lo[3], hi[3];
-    for (int d = 0; d < 3; ++d) lo[d] = hi[d] = n ? at(d, 0) : 0.0;
-    for (std::size_t i = 0; i < n; ++i)
-      for (int d = 0; d < 3; ++d) lo[d] = std::min(lo[d], at(d, i)), hi[d] = std::max(hi[d], at(d, i));
-    origin = ced::choose_origin(lo, hi);
-  }
-  cloud.set_origin(origin);
-  cloud.resize(n);
-  float* p = cloud.positions().data();
-  for (std::size_t i = 0; i < n; ++i)
-    for (int d = 0; d < 3; ++d) p[3 * i + d] = static_cast<float>(double(at(d, i)) - origin[std::size_t(d)]);
+  const auto names = ced::channel_field_names(name, std::size_t(k), argument);
+  for (py::ssize_t j = 0; j < k; ++j) cloud.add_field(names[std::size_t(j)], to_column(a, type, j));
 }
 
 void positions_from(ced::point_cloud& cloud, const py::array& a, const char* x, const char* y, const char* z,
                     py::ssize_t stride, const std::string& argument) {
-  const auto n = static_cast<std::size_t>(a.shape(0));
-  if (n >= std::size_t(UINT32_MAX)) throw py::value_error(argument + ": more than 2^32 - 1 points");
-  if (a.dtype().kind() == 'f' && a.dtype().itemsize() == 4)
-    set_positions<float>(cloud, x, y, z, stride, n, argument);
-  else
-    set_positions<double>(cloud, x, y, z, stride, n, argument);
+  const bool single = a.dtype().kind() == 'f' && a.dtype().itemsize() == 4;
+  ced::set_positions(cloud, single ? ced::scalar_type::float32 : ced::scalar_type::float64, x, y, z, stride,
+                     static_cast<std::size_t>(a.shape(0)), argument);
 }
 
 /// An (N, 3) array of float32 or float64, any strides.
