@@ -150,6 +150,6 @@ TEST(Modality, Normalisation) {
   // perpendicular planes. Estimated normals (collinear points) are no test here.
   EXPECT_NEAR(sal("normals"), std::sqrt(0.5), 1e-6);
   EXPECT_NEAR(sal("normals,from=fields"), std::sqrt(0.5), 1e-6);
-  EXPECT_EQ(ced::normals{}.fields(), (std::vector<std::string>{"nx", "ny", "nz"}));
+  EXPECT_EQ(ced::normals{}.fields(), (std::vector<std::string>{"nx", "ny", "nz", "normal_x", "normal_y", "normal_z"}));
   EXPECT_TRUE(ced::normals(0.2, ced::normals::source::estimate).fields().empty());
 }

@@ -10,10 +10,9 @@
 //
 // (0 on a plane; about 0.71 on the crease of two perpendicular planes).
 // Normals come from the fields nx, ny, nz (any case) when the cloud has all
-// three, else they are estimated by PCA over the neighbours within
-// `radius=K` × the detection radius (0 < K ≤ 1, default 1): `from=fields`
-// or `from=estimate` forces either. The estimate reads at most K·r around
-// a neighbour, so tiled runs stay exact with the usual halo.
+// three, or else from PCL's normal_x, normal_y, normal_z; otherwise they are estimated by PCA over the neighbours
+// within `radius=K` × the detection radius (0 < K ≤ 1, default 1): `from=fields` or `from=estimate` forces either. The
+// estimate reads at most K·r around a neighbour, so tiled runs stay exact with the usual halo.
 #pragma once
 
 #include <cmath>
@@ -44,7 +43,7 @@ struct normals {
   /// The fields bind() reads (none when it estimates).
   std::vector<std::string> fields() const {
     if (from == source::estimate) return {};
-    return {"nx", "ny", "nz"};
+    return {"nx", "ny", "nz", "normal_x", "normal_y", "normal_z"};
   }
   centroid_distance<6> bind(const point_cloud& cloud, const detect_params& params) const {
     const double r2 = std::sqrt(2.0);
@@ -52,12 +51,13 @@ struct normals {
   }
   /// The normals bind() uses: read or estimated (N×3).
   std::vector<float> unit_normals(const point_cloud& cloud, const detect_params& params) const {
-    const field* nx = cloud.find_field_icase("nx");
-    const field* ny = cloud.find_field_icase("ny");
-    const field* nz = cloud.find_field_icase("nz");
-    const bool present = nx && ny && nz;
-    if (from == source::fields || (from == source::automatic && present)) {
-      const auto f = require_fields(cloud, {"nx", "ny", "nz"}, "normals");
+    const auto has = [&](const char* x, const char* y, const char* z) {
+      return cloud.find_field_icase(x) && cloud.find_field_icase(y) && cloud.find_field_icase(z);
+    };
+    const bool pcl_names = !has("nx", "ny", "nz") && has("normal_x", "normal_y", "normal_z");
+    if (from == source::fields || (from == source::automatic && (pcl_names || has("nx", "ny", "nz")))) {
+      const auto f = pcl_names ? require_fields(cloud, {"normal_x", "normal_y", "normal_z"}, "normals")
+                               : require_fields(cloud, {"nx", "ny", "nz"}, "normals");
       return interleave(f, params.threads);
     }
     check_radius(radius_factor);
