@@ -7,6 +7,7 @@ foreach(lib common kdtree io_ply io keypoints features search octree filters sam
   find_library(CED_PCL_${LIB} pcl_${lib})
 endforeach()
 find_library(CED_FLANN flann_cpp)
+find_library(CED_LZ4 lz4)  # FLANN's headers call LZ4 (programs that define PCL_NO_PRECOMPILE)
 find_package(Boost QUIET)
 find_package(Eigen3 3.3 QUIET NO_MODULE)  # only the PCL pieces use Eigen
 set(CED_PCL_FOUND OFF)

@@ -9,7 +9,7 @@ install(TARGETS ced_core ced_io ced ced_plugin_api EXPORT cedTargets
   ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
   LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
   RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
-foreach(header ${CED_CORE_HEADERS} ${CED_IO_HEADERS} ${CED_EXTRA_HEADERS})
+foreach(header ${CED_CORE_HEADERS} ${CED_IO_HEADERS} ${CED_EXTRA_HEADERS} ${CED_ADAPTOR_HEADERS})
   string(REGEX REPLACE "^(include|modalities)/" "" relative ${header})
   get_filename_component(folder ${relative} DIRECTORY)
   install(FILES ${header} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/${folder})
@@ -23,5 +23,5 @@ configure_package_config_file(cmake/cedConfig.cmake.in ${PROJECT_BINARY_DIR}/ced
   INSTALL_DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/ced)
 write_basic_package_version_file(${PROJECT_BINARY_DIR}/cedConfigVersion.cmake COMPATIBILITY SameMinorVersion)
 install(FILES ${PROJECT_BINARY_DIR}/cedConfig.cmake ${PROJECT_BINARY_DIR}/cedConfigVersion.cmake
-  ${PROJECT_SOURCE_DIR}/cmake/cedPlugins.cmake
+  ${PROJECT_SOURCE_DIR}/cmake/cedPlugins.cmake ${PROJECT_SOURCE_DIR}/cmake/find_pcl.cmake
   DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/ced)

@@ -1,10 +1,11 @@
-// Compiles against ced::core alone: detection without IO, no CGAL, TBB or
-// Eigen include path.
+// Compiles against ced::core alone: detection without IO, no CGAL, TBB,
+// Eigen, PCL or Open3D include path (the adaptors are separate headers).
 #include <ced/core.hpp>
 #include <iostream>
 
-#if defined(CGAL_VERSION) || defined(TBB_VERSION_MAJOR) || defined(EIGEN_WORLD_VERSION)
-#error "ced's public headers must not include CGAL, TBB or Eigen"
+#if defined(CGAL_VERSION) || defined(TBB_VERSION_MAJOR) || defined(EIGEN_WORLD_VERSION) || \
+    defined(PCL_MAJOR_VERSION) || defined(OPEN3D_VERSION)
+#error "ced's core headers must not include CGAL, TBB, Eigen, PCL or Open3D"
 #endif
 
 int main() {
