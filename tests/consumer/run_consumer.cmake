@@ -3,7 +3,9 @@
 #                     checks the installed headers (exactly the API list, no
 #                     private or third-party include), compiles each on its
 #                     own, and loads an out-of-tree plugin into the installed
-#                     `ced`.
+#                     `ced`; then configures the consumer again as if PCL and
+#                     Open3D were not installed: it must configure, say so,
+#                     and build the adaptors that remain.
 #   add_subdirectory: builds ced from source inside the consumer: the
 #                     libraries the consumer programs link (ced::core,
 #                     ced::io, ced::ced), not ced's optional parts (Python
@@ -78,4 +80,25 @@ if(MODE STREQUAL "find_package" AND EXISTS ${WORK_DIR}/prefix/bin/ced)
     message(FATAL_ERROR "the installed ced did not load the out-of-tree plugin (exit ${rc}): ${out}${err}")
   endif()
   message(STATUS "installed ced loaded the out-of-tree plugin: ndvi listed")
+endif()
+
+# As if PCL and Open3D were not installed: find_package(ced ...
+# OPTIONAL_COMPONENTS pcl open3d) still configures, and says what is missing.
+if(MODE STREQUAL "find_package")
+  set(bare ${args} -DCMAKE_DISABLE_FIND_PACKAGE_Open3D=ON)
+  if(PCL_INCLUDE)  # ced's build's (cmake/find_pcl.cmake): hidden from the consumer
+    list(APPEND bare -DCMAKE_IGNORE_PATH=${PCL_INCLUDE})
+  endif()
+  execute_process(COMMAND ${CMAKE_COMMAND} -S ${CED_SOURCE_DIR}/tests/consumer -B ${WORK_DIR}/bare ${bare}
+                  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(rc OR NOT out MATCHES "no ced::pcl \\(its library is not installed\\)"
+     OR NOT out MATCHES "no ced::open3d \\(its library is not installed\\)")
+    message(FATAL_ERROR "without PCL and Open3D the consumer must configure and say so (exit ${rc}): ${out}${err}")
+  endif()
+  execute_process(COMMAND ${CMAKE_COMMAND} --build ${WORK_DIR}/bare --target consumer_adaptors RESULT_VARIABLE rc)
+  execute_process(COMMAND ${WORK_DIR}/bare/consumer_adaptors RESULT_VARIABLE run OUTPUT_VARIABLE out)
+  if(rc OR run OR out MATCHES "pcl|open3d")
+    message(FATAL_ERROR "without PCL and Open3D: consumer_adaptors failed (build ${rc}, run ${run}): ${out}")
+  endif()
+  message(STATUS "without PCL and Open3D the consumer configures, says so, and runs: ${out}")
 endif()
