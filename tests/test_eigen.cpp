@@ -13,6 +13,7 @@
 
 #include "ced/eigen.hpp"
 #include "ced/io/io.hpp"
+#include "ced/plugin.hpp"
 #include "file_support.hpp"
 #include "ndvi_modality.hpp"  // examples/: a user's modality
 
@@ -201,6 +202,10 @@ TEST(Eigen, IntensityNormalsAndAUserModalityAsTheFile) {
               ced::detect(file, p, ced::xyz{}, ced::intensity{}, ced::normals{0.1, ced::normals::source::fields}, ndvi),
               "file");
   EXPECT_GT(mine.keypoints.size(), 20u);
+  // The same modality from a plugin (examples/plugin/ndvi_plugin.cpp), chosen at run time.
+  ced::load_plugin(CED_NDVI_PLUGIN);
+  const auto plugged = ced::detect(pts, {{"nir,red", nir_red}}, p, {ced::make_modality("ndvi:0.05")});
+  EXPECT_EQ(plugged.saliency[0], mine.saliency[3]);
   for (std::size_t m = 1; m < 4; ++m)  // every modality sees something
     EXPECT_GT(*std::max_element(mine.saliency[m].begin(), mine.saliency[m].end()), 0.0f) << mine.names[m];
 }

@@ -14,6 +14,7 @@
 
 #include "ced/io/io.hpp"
 #include "ced/open3d.hpp"
+#include "hue_modality.hpp"  // examples/: a user's modality (neighbour lists)
 
 namespace {
 
@@ -48,6 +49,10 @@ TEST(Open3d, RedwoodScansAsTheirFiles) {
     }
   }
   const auto pcd = read_open3d(data("apartment_mesh_214.ply"));
+  // A modality written against ced::core alone works unchanged.
+  expect_same(
+      ced::detect(pcd, ced::detect_params{}, ced::xyz{}, example::hue{}),
+      ced::detect(ced::io::read_ply(data("apartment_mesh_214.ply")), ced::detect_params{}, ced::xyz{}, example::hue{}));
   const auto r = ced::detect(pcd, ced::detect_params{}, ced::xyz{}, ced::rgb{});
   const auto kp = ced::keypoint_cloud(pcd, r);
   ASSERT_EQ(kp->points_.size(), r.keypoints.size());
