@@ -6,6 +6,7 @@
 #include <functional>
 #include <limits>
 #include <string>
+#include <string_view>
 
 namespace ced {
 
@@ -74,6 +75,11 @@ enum class search_kind : std::uint8_t {
   grid,  ///< ced's block grid (default, the fastest)
   cgal,  ///< CGAL's Kd_tree, one ball query per point: the reference
 };
+/// Parses "grid" or "cgal"; throws std::invalid_argument ("must be grid or
+/// cgal, got '...'") otherwise.
+search_kind parse_search_kind(std::string_view text);
+/// "grid" or "cgal".
+const char* to_string(search_kind s) noexcept;
 
 /// Parameters shared by all modalities. Defaults are the paper's, for clouds
 /// at about 1 cm resolution.

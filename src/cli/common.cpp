@@ -416,8 +416,11 @@ void set_neighborhood(ced::detect_params& params, const std::string& neighborhoo
   } catch (const std::invalid_argument& e) {
     throw usage_error(std::string("--neighborhood: ") + e.what());
   }
-  if (search != "grid" && search != "cgal") throw usage_error("--search must be grid or cgal, got '" + search + "'");
-  params.search = search == "cgal" ? ced::search_kind::cgal : ced::search_kind::grid;
+  try {
+    params.search = ced::parse_search_kind(search);
+  } catch (const std::invalid_argument& e) {
+    throw usage_error(std::string("--search ") + e.what());
+  }
 }
 
 }  // namespace ced_cli

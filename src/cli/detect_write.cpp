@@ -151,7 +151,7 @@ nlohmann::json summary_json(const detect_options& o, const detect_plan& plan, co
                  {"refine", params.refine},
                  {"max_keypoints", params.max_keypoints},
                  {"neighborhood", ced::to_string(params.neighborhood)},
-                 {"search", params.search == ced::search_kind::cgal ? "cgal" : "grid"},
+                 {"search", ced::to_string(params.search)},
                  {"voxel", o.voxel},
                  {"threads", ced::resolve_threads(params.threads)}};
   auto& mods = j["modalities"] = nlohmann::json::array();

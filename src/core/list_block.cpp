@@ -85,8 +85,12 @@ void list_block::fill_nearest(const neighbor_index& index, const block_partition
   m_own_first.assign(n.kind == neighborhood_kind::adaptive ? m_count : 0, SIZE_MAX);
   m_own_size.resize(m_own_first.size());
   m_own.clear();
-  if (params.search == search_kind::cgal || k == 1) {
+  if (params.search == search_kind::cgal) {
     for (std::size_t q = 0; q < m_count; ++q) by_cgal(q);
+    return;
+  }
+  if (k == 1) {  // the point itself comes first: its only nearest
+    for (std::size_t q = 0; q < m_count; ++q) m_ranked[q] = {0.0f, m_points[q]};
     return;
   }
   // ρ: the largest k-distance of every 32nd point, or its adaptive radius
@@ -101,8 +105,7 @@ void list_block::fill_nearest(const neighbor_index& index, const block_partition
     if (n.kind == neighborhood_kind::adaptive) rho = std::max(rho, adaptive_radius(n, k < n.k ? HUGE_VAL : dk));
   }
   rho = rho * 1.25 + 1e-30;  // a quarter to spare: points between the samples may be sparser
-  m_balls.set_keep_lists(true);
-  m_short.resize(m_count);
+  m_short.resize(m_count);  // m_balls keeps its lists (neighbor_block's default)
   for (std::size_t q = 0; q < m_count; ++q) m_short[q] = static_cast<std::uint32_t>(q);
   for (int round = 0; round < 3 && !m_short.empty(); ++round, rho *= 2) {
     m_asked.resize(m_short.size());

@@ -88,6 +88,14 @@ std::string shortest(double v) {
 }
 }  // namespace
 
+search_kind parse_search_kind(std::string_view text) {
+  if (text == "grid") return search_kind::grid;
+  if (text == "cgal") return search_kind::cgal;
+  throw std::invalid_argument("must be grid or cgal, got '" + std::string(text) + "'");
+}
+
+const char* to_string(search_kind s) noexcept { return s == search_kind::cgal ? "cgal" : "grid"; }
+
 std::string to_string(const neighborhood_spec& n) {
   if (n.kind == neighborhood_kind::radius) return "radius";
   std::string s = (n.kind == neighborhood_kind::knn ? "knn:" : "adaptive:") + std::to_string(n.k);

@@ -18,6 +18,16 @@ std::int64_t cell_index(double x, double lo, double size, std::uint32_t dims) no
   if (!(c > 0)) return 0;  // also NaN
   return static_cast<std::int64_t>(std::min(c, double(dims - 1)));
 }
+
+/// How far beyond a core the points that its keypoints depend on through the
+/// NMS can lie: the NMS radius (under nms=own, nms_radius × the largest own
+/// radius `largest_own` / radius), twice with refinement. exact_halo() sizes
+/// the halo with it and check_tile_reach() checks the points within it.
+double nms_term(const detect_params& params, double largest_own) noexcept {
+  const double nms =
+      params.neighborhood.nms_own ? params.nms_radius * std::max(1.0, largest_own / params.radius) : params.nms_radius;
+  return (params.refine ? 2 : 1) * nms;
+}
 }  // namespace
 
 std::array<std::uint32_t, 3> tile_grid::coords(std::uint64_t t) const noexcept {
@@ -85,9 +95,7 @@ double exact_halo(const detect_params& params, double max_abs_coordinate) {
                                 " reaches as far as the data make it (give it reach=R, a bound that each tile "
                                 "checks, or use adaptive:K with max=; ced info --knn prints the k-distances)");
   }
-  // nms=own: an NMS ball of nms_radius × r_i / radius.
-  const double nms = n.nms_own ? params.nms_radius * std::max(1.0, largest_own / params.radius) : params.nms_radius;
-  const double h = (params.refine ? 2 : 1) * nms + params.block_scale * params.radius + 1.001 * reach;
+  const double h = nms_term(params, largest_own) + params.block_scale * params.radius + 1.001 * reach;
   return 1.01 * h + 16.0 * std::ldexp(std::fabs(max_abs_coordinate), -23);
 }
 
@@ -210,8 +218,7 @@ void check_tile_reach(const tile_grid& grid, std::uint64_t t, const point_cloud&
     return;
   }
   // The points the core depends on: within the NMS term of exact_halo().
-  const double nms = n.nms_own ? params.nms_radius * std::max(1.0, n.reach / params.radius) : params.nms_radius;
-  const double inner = (params.refine ? 2 : 1) * nms + extra;
+  const double inner = nms_term(params, n.reach) + extra;
   const auto box = grid.core_box(t);
   for (std::size_t i = 0; i < tile_cloud.size(); ++i) {
     const float* p = tile_cloud.position(i);

@@ -22,9 +22,11 @@ void set_neighborhood(ced::detect_params& p, const std::string& neighborhood, co
   } catch (const std::invalid_argument& e) {
     throw py::value_error(std::string("neighborhood: ") + e.what());
   }
-  if (search != "grid" && search != "cgal")
-    throw py::value_error("search: must be 'grid' or 'cgal', got '" + search + "'");
-  p.search = search == "cgal" ? ced::search_kind::cgal : ced::search_kind::grid;
+  try {
+    p.search = ced::parse_search_kind(search);
+  } catch (const std::invalid_argument& e) {
+    throw py::value_error(std::string("search: ") + e.what());
+  }
 }
 
 namespace {

@@ -82,9 +82,12 @@ tiled_request request_from_json(const nlohmann::json& j) {
     r.params.neighborhood = parse_neighborhood(j.at("neighborhood").get<std::string>());
   }
   if (j.contains("search")) {
-    if (j.at("search") != "cgal" && j.at("search") != "grid")
-      throw std::invalid_argument("'search' must be \"grid\" or \"cgal\"");
-    r.params.search = j.at("search") == "cgal" ? search_kind::cgal : search_kind::grid;
+    if (!j.at("search").is_string()) throw std::invalid_argument("'search' must be a string");
+    try {
+      r.params.search = parse_search_kind(j.at("search").get<std::string>());
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(std::string("'search' ") + e.what());
+    }
   }
   r.modalities = j.at("modalities").get<std::vector<std::string>>();
   r.tile_size = number_of(j, "tile_size");
@@ -196,7 +199,7 @@ nlohmann::json request_json(const tiled_request& r) {
   if (r.params.max_keypoints) j["max_keypoints"] = r.params.max_keypoints;
   // Written only when not the default, so that other plans keep their digest.
   if (!r.params.neighborhood.fixed()) j["neighborhood"] = to_string(r.params.neighborhood);
-  if (r.params.search == search_kind::cgal) j["search"] = "cgal";
+  if (r.params.search == search_kind::cgal) j["search"] = to_string(r.params.search);
   j["modalities"] = r.modalities;
   j["tile_size"] = r.tile_size;
   j["memory_limit"] = r.memory_limit;
