@@ -587,3 +587,47 @@ TEST(Neighborhoods, TilesRefuseUnboundedReachClearlyAndPlansKeepTheSpec) {
   EXPECT_EQ(ced::to_string(with_reach.request.params.neighborhood), "knn:12,reach=0.2");
   EXPECT_GE(with_reach.grid.halo, 0.2 * 1.001);
 }
+
+// A modality that reads its neighbours' neighbourhoods (normals under knn)
+// makes a tile depend on points one reach beyond its NMS term: the tile
+// checks those too (tile_check_extra), so that a tile detected on its own
+// (ced detect --plan --tile, one MPI rank) stops clearly instead of giving a
+// wrong part. Here a lone point X, far from its K nearest, lies beyond the
+// NMS term of tile 0's core but within one reach of it.
+TEST(Neighborhoods, TilesCheckOneReachFartherForNeighbourhoodChannels) {
+  ced::point_cloud c;
+  for (int i = 0; i <= 200; ++i)  // a strip x in [0, 1], 5 mm spacing
+    for (int j = 0; j < 5; ++j) c.push_back(0.005f * float(i), 0.005f * float(j), 0.0f);
+  const float x[3] = {0.535f, 0.01f, 0.2f};  // in tile 1's core; 0.035 from tile 0's; 0.2 from the strip
+  c.push_back(x[0], x[1], x[2]);
+  ced::detect_params p;
+  p.radius = p.nms_radius = 0.01;
+  p.min_neighbors = 1;
+  p.neighborhood = ced::parse_neighborhood("knn:4,reach=0.05");
+  const std::vector<ced::any_modality> mods = {ced::make_modality("xyz"), ced::make_modality("normals")};
+  const double extra = ced::tile_check_extra(p, mods);
+  EXPECT_EQ(extra, 0.05);  // one reach
+  EXPECT_EQ(ced::tile_check_extra(p, {ced::make_modality("xyz")}), 0.0);
+
+  const double lo[3] = {0, 0, 0}, hi[3] = {1.0, 0.02, 0.2};
+  const ced::tile_grid grid = ced::make_tile_grid(lo, hi, 0.5, ced::tile_halo_params(p, mods));
+  ASSERT_EQ(grid.tile_of(x), 1u);
+  ced::point_cloud tile0;  // tile 0's core and halo
+  std::vector<std::uint64_t> near;
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    grid.tiles_near(c.position(i), near);
+    if (near.front() == 0) tile0.push_back(c.position(i)[0], c.position(i)[1], c.position(i)[2]);
+  }
+  ASSERT_EQ(tile0.position(tile0.size() - 1)[2], x[2]);  // X is in tile 0's halo
+  const auto r = ced::detect(tile0, p, mods);
+  ASSERT_GT(r.point_radius.back(), 0.05f);  // X reaches farther than reach=
+  EXPECT_THROW(ced::check_tile_reach(grid, 0, tile0, &r, p, extra), ced::tile_reach_error);
+  EXPECT_NO_THROW(ced::check_tile_reach(grid, 0, tile0, &r, p, 0.0));  // the NMS term alone misses X
+  // The whole run stops too (tile 0 first), and names the distance X needs.
+  try {
+    ced::detect_tiled(c, p, mods, 0.5);
+    ADD_FAILURE() << "no error";
+  } catch (const ced::tile_reach_error& e) {
+    EXPECT_NE(std::string(e.what()).find("tile 0"), std::string::npos) << e.what();
+  }
+}
