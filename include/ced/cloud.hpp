@@ -63,6 +63,22 @@ constexpr scalar_type scalar_type_of() noexcept {
   }
 }
 
+/// The storage type that keeps values of any arithmetic type T: T itself
+/// when it is one; else the <cstdint> integer of T's size and signedness
+/// (long long, char, ...), uint8 for bool, double for other floating types.
+/// What the C++ adaptors (ced/eigen.hpp, ced/pcl.hpp) store a channel in.
+template <class T>
+using storage_type_t = std::conditional_t<
+    std::is_same_v<T, bool>, std::uint8_t,
+    std::conditional_t<
+        std::is_floating_point_v<T>, std::conditional_t<std::is_same_v<T, float>, float, double>,
+        std::conditional_t<
+            sizeof(T) == 1, std::conditional_t<std::is_signed_v<T>, std::int8_t, std::uint8_t>,
+            std::conditional_t<
+                sizeof(T) == 2, std::conditional_t<std::is_signed_v<T>, std::int16_t, std::uint16_t>,
+                std::conditional_t<sizeof(T) == 4, std::conditional_t<std::is_signed_v<T>, std::int32_t, std::uint32_t>,
+                                   std::conditional_t<std::is_signed_v<T>, std::int64_t, std::uint64_t>>>>>>;
+
 /// Calls `f(tag)` with `tag` a value of the C++ type that stores `t`
 /// (`decltype(tag)` is std::uint8_t for uint8, ...).
 template <class F>

@@ -37,23 +37,11 @@
 namespace ced {
 
 namespace detail {
-/// The storage type a channel of Eigen scalar T is kept in: T itself when it
-/// is one, else the integer of its size and signedness, uint8 for bool,
-/// double for other floating types.
+/// The storage type a channel of Eigen scalar T is kept in (storage_type_t).
 template <class T>
 struct eigen_storage {
   static_assert(std::is_arithmetic_v<T>, "ced: a channel's scalar must be an integer, bool or floating type");
-  using type = std::conditional_t<
-      std::is_same_v<T, bool>, std::uint8_t,
-      std::conditional_t<
-          std::is_floating_point_v<T>, std::conditional_t<std::is_same_v<T, float>, float, double>,
-          std::conditional_t<
-              sizeof(T) == 1, std::conditional_t<std::is_signed_v<T>, std::int8_t, std::uint8_t>,
-              std::conditional_t<
-                  sizeof(T) == 2, std::conditional_t<std::is_signed_v<T>, std::int16_t, std::uint16_t>,
-                  std::conditional_t<sizeof(T) == 4,
-                                     std::conditional_t<std::is_signed_v<T>, std::int32_t, std::uint32_t>,
-                                     std::conditional_t<std::is_signed_v<T>, std::int64_t, std::uint64_t>>>>>>;
+  using type = storage_type_t<T>;
 };
 
 template <class Derived>

@@ -30,13 +30,21 @@
 namespace ced {
 
 namespace detail {
-/// Open3D's colours as 8-bit values when each is an exact multiple of 1/255
-/// in [0, 1], else none.
-inline bool open3d_colours_are_8bit(const std::vector<Eigen::Vector3d>& colours) {
-  for (const auto& c : colours)
+/// Open3D's colours as uint8 red, green, blue columns when every value is an
+/// exact multiple of 1/255 in [0, 1] (checked while converting); false, with
+/// `out` unfilled, at the first that is not.
+inline bool open3d_colours_as_8bit(const std::vector<Eigen::Vector3d>& colours, column out[3]) {
+  const std::size_t n = colours.size();
+  std::uint8_t* v[3];
+  for (int k = 0; k < 3; ++k) {
+    out[k] = column(scalar_type::uint8, n);
+    v[k] = out[k].data<std::uint8_t>();
+  }
+  for (std::size_t i = 0; i < n; ++i)
     for (int k = 0; k < 3; ++k) {
-      const double v = std::rint(c[k] * 255.0);
-      if (!(v >= 0 && v <= 255 && v / 255.0 == c[k])) return false;
+      const double c = colours[i][k], r = std::rint(c * 255.0);
+      if (!(r >= 0 && r <= 255 && r / 255.0 == c)) return false;
+      v[k][i] = std::uint8_t(r);
     }
   return true;
 }
@@ -54,26 +62,21 @@ inline point_cloud from_open3d(const open3d::geometry::PointCloud& in) {
   set_positions(cloud, scalar_type::float64, p, p + 1, p + 2, std::ptrdiff_t(sizeof(Eigen::Vector3d)), n,
                 "Open3D cloud");
   const auto add = [&](const std::vector<Eigen::Vector3d>& values, const char* what, const char* const names[3],
-                       bool as_8bit) {
+                       bool may_be_8bit) {
     if (values.empty()) return;
     if (values.size() != n)
       throw std::invalid_argument(std::string("Open3D cloud: ") + std::to_string(values.size()) + " " + what + " for " +
                                   std::to_string(n) + " points");
-    for (int k = 0; k < 3; ++k) {
-      if (!as_8bit) {
-        cloud.add_field(names[k], copy_strided(scalar_type::float64, values.front().data() + k,
-                                               std::ptrdiff_t(sizeof(Eigen::Vector3d)), n));
-        continue;
-      }
-      column c(scalar_type::uint8, n);
-      std::uint8_t* v = c.data<std::uint8_t>();
-      for (std::size_t i = 0; i < n; ++i) v[i] = std::uint8_t(std::rint(values[i][k] * 255.0));
-      cloud.add_field(names[k], std::move(c));
-    }
+    column as8[3];
+    const bool is_8bit = may_be_8bit && detail::open3d_colours_as_8bit(values, as8);
+    for (int k = 0; k < 3; ++k)
+      cloud.add_field(names[k], is_8bit ? std::move(as8[k])
+                                        : copy_strided(scalar_type::float64, values.front().data() + k,
+                                                       std::ptrdiff_t(sizeof(Eigen::Vector3d)), n));
   };
   static const char* const colour_names[3] = {"red", "green", "blue"};
   static const char* const normal_names[3] = {"nx", "ny", "nz"};
-  add(in.colors_, "colours", colour_names, detail::open3d_colours_are_8bit(in.colors_));
+  add(in.colors_, "colours", colour_names, true);
   add(in.normals_, "normals", normal_names, false);
   return cloud;
 }

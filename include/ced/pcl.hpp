@@ -78,7 +78,7 @@ struct pcl_field_adder {
     }
     if constexpr (std::is_same_v<T, float> || std::is_same_v<T, double> ||
                   (std::is_integral_v<T> && !std::is_same_v<T, bool>)) {
-      const scalar_type type = scalar_type_of<fixed_width_t<T>>();
+      const scalar_type type = scalar_type_of<storage_type_t<T>>();
       for (std::size_t j = 0; j < count; ++j) {
         const std::string field = count == 1 ? name : name + "_" + std::to_string(j);
         out->add_field(field, copy_strided(type, base + j * sizeof(T), std::ptrdiff_t(sizeof(PointT)), n));
@@ -100,17 +100,6 @@ struct pcl_field_adder {
       out->add_field(names[c], std::move(col));
     }
   }
-
-  /// The <cstdint> type of an integer S (long long is int64_t's twin), or S.
-  template <class S>
-  using fixed_width_t = std::conditional_t<
-      std::is_floating_point_v<S>, S,
-      std::conditional_t<
-          sizeof(S) == 1, std::conditional_t<std::is_signed_v<S>, std::int8_t, std::uint8_t>,
-          std::conditional_t<
-              sizeof(S) == 2, std::conditional_t<std::is_signed_v<S>, std::int16_t, std::uint16_t>,
-              std::conditional_t<sizeof(S) == 4, std::conditional_t<std::is_signed_v<S>, std::int32_t, std::uint32_t>,
-                                 std::conditional_t<std::is_signed_v<S>, std::int64_t, std::uint64_t>>>>>;
 };
 }  // namespace detail
 
@@ -225,7 +214,7 @@ class CEDKeypoint : public ::pcl::Keypoint<PointInT, PointOutT> {
 
   bool initCompute() override {
     if (!::pcl::PCLBase<PointInT>::initCompute()) return false;
-    const double nms = m_non_max_radius > 0 ? m_non_max_radius : search_radius_;
+    const double nms = non_max_radius();
     const char* problem = nullptr;
     if (k_ != 0)
       problem = "k nearest neighbours are set with setNeighborhood(\"knn:K\"), not setKSearch";
@@ -249,7 +238,7 @@ class CEDKeypoint : public ::pcl::Keypoint<PointInT, PointOutT> {
     try {
       detect_params p = m_params;
       p.radius = search_radius_;
-      p.nms_radius = m_non_max_radius > 0 ? m_non_max_radius : search_radius_;
+      p.nms_radius = non_max_radius();
       p.min_neighbors = std::uint32_t(m_min_neighbors);
       m_result = run(p);
     } catch (const std::exception& e) {
@@ -272,6 +261,9 @@ class CEDKeypoint : public ::pcl::Keypoint<PointInT, PointOutT> {
   }
 
  private:
+  /// The NMS radius: setNonMaxRadius's, or the search radius when it is 0.
+  double non_max_radius() const noexcept { return m_non_max_radius > 0 ? m_non_max_radius : search_radius_; }
+
   /// Detection on the finite points, mapped back to the input's indices.
   detection_result run(const detect_params& p) const {
     const PointCloudIn& in = *input_;

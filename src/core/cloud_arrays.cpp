@@ -4,7 +4,6 @@
 // the Python module and the header-only Eigen and PCL adaptors.
 #include <algorithm>
 #include <array>
-#include <cctype>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -13,6 +12,7 @@
 #include <vector>
 
 #include "ced/cloud.hpp"
+#include "core/text.hpp"
 
 namespace ced {
 namespace {
@@ -42,11 +42,6 @@ void positions_of(point_cloud& cloud, const char* const axis[3], std::ptrdiff_t 
   float* p = cloud.positions().data();
   for (std::size_t i = 0; i < n; ++i)
     for (int d = 0; d < 3; ++d) p[3 * i + std::size_t(d)] = static_cast<float>(at(d, i) - origin[std::size_t(d)]);
-}
-
-std::string lower(std::string s) {
-  for (char& c : s) c = char(std::tolower(static_cast<unsigned char>(c)));
-  return s;
 }
 
 }  // namespace
@@ -93,8 +88,8 @@ std::vector<std::string> channel_field_names(const std::string& name, std::size_
       throw std::invalid_argument(std::string(what) + ": the key names " + std::to_string(names.size()) +
                                   " columns but the array has " + std::to_string(k));
   } else {
-    const std::string l = lower(name);
-    if (k == 3 && (l == "rgb" || l == "colors" || l == "colours" || l == "color" || l == "colour"))
+    const auto is = [&](std::string_view w) { return detail::iequal(name, w); };
+    if (k == 3 && (is("rgb") || is("colors") || is("colours") || is("color") || is("colour")))
       names = {"red", "green", "blue"};
     else if (k == 1)
       names = {name};
