@@ -6,11 +6,17 @@
 #include <open3d/io/PointCloudIO.h>
 
 #include <ced/open3d.hpp>
+#include <filesystem>
 #include <iostream>
 
 int main(int argc, char** argv) {
   if (argc < 3) {
     std::cerr << "usage: example_open3d_keypoints CLOUD KEYPOINTS.ply\n";
+    return 2;
+  }
+  std::error_code same;
+  if (std::filesystem::equivalent(argv[1], argv[2], same)) {  // never overwrite the input
+    std::cerr << "example_open3d_keypoints: the output " << argv[2] << " is the input\n";
     return 2;
   }
   open3d::geometry::PointCloud pcd;
