@@ -243,7 +243,22 @@ expect_exit 2 "K in neighbourhood" "neighborhood: K 0" -- detect "$sample" --pre
 expect_exit 2 "larger than max" "neighborhood: min > max" -- detect "$sample" --preset ced6d --neighborhood adaptive:8,min=0.2,max=0.1 -q
 expect_exit 2 "must be radius, knn:K" "neighborhood: unknown kind" -- detect "$sample" --neighborhood ball -q
 expect_exit 2 "search must be grid or cgal" "search: unknown" -- detect "$sample" --search octree -q
-expect_exit 2 "bounded reach" "neighborhood: knn tiled refused" -- detect "$sample" --preset ced6d --neighborhood knn:8 --tile-size 0.5 -q
+# knn without reach=: the tiles take a reach of ced's own, grown when short
+"$CED" detect "$sample" --preset ced6d --neighborhood knn:8 --indices "$T/k8.txt" -q
+"$CED" detect "$sample" --preset ced6d --neighborhood knn:8 --tile-size 0.5 --indices "$T/k8_t.txt" 2> "$T/k8_t.err"
+check "neighborhood: knn without reach=, tiled = whole" cmp -s "$T/k8_t.txt" "$T/k8.txt"
+check "neighborhood: knn without reach= says the reach it takes" grep -q "the tiles take reach=0.047" "$T/k8_t.err"
+# A dense patch among sparse points: the reach from the mean density is short
+falloff=$DATA/falloff_patch.ply
+"$CED" detect "$falloff" --preset ced3d --neighborhood knn:16 --indices "$T/fo.txt" -q
+"$CED" detect "$falloff" --preset ced3d --neighborhood knn:16 --tile-size 1 --work-dir "$T/fo_wd" \
+  --indices "$T/fo_t.txt" 2> "$T/fo_t.err"
+check "neighborhood: a short reach of ced's own grows, tiled = whole" cmp -s "$T/fo_t.txt" "$T/fo.txt"
+check "neighborhood: the growth is said" grep -q "reach=0.74 was short (the tiles' points reach up to 2.01): every tile again with reach=2.1" "$T/fo_t.err"
+check "neighborhood: the grown run leaves no work directory" test ! -e "$T/fo_wd"
+"$CED" plan "$falloff" --preset ced3d --neighborhood knn:16 --tile-size 1 -o "$T/fo_plan.json" -q
+check "neighborhood: a plan records ced's own reach" grep -q '"neighborhood": *"knn:16,reach=0.74"' "$T/fo_plan.json"
+check "neighborhood: ... and says it is ced's" grep -q '"reach_estimated": *true' "$T/fo_plan.json"
 expect_exit 2 "reach must be" "neighborhood: reach=0" -- detect "$sample" --neighborhood knn:8,reach=0 --tile-size 0.5 -q
 # knn with reach=: tiles equal the whole run, or a tile stops clearly,
 # writing nothing and leaving no tile cache behind (a rerun would fail again)

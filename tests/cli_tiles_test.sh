@@ -245,6 +245,13 @@ else
   run_mpi 3 "$MPI" detect "$T/mid.las" --preset ced6d --tile-size 1 --work-dir "$T/wdm" --indices "$T/mk.txt" \
     --resume -q
   check "ced-mpi: resumed" cmp -s "$T/mid_whole.txt" "$T/mk.txt"
+  # A reach of ced's own that proves short: ced-mpi stops, says what to do, writes nothing
+  run_mpi 2 "$MPI" detect "$DATA/falloff_patch.ply" --preset ced3d --neighborhood knn:16 --tile-size 1 \
+    --work-dir "$T/wdf" --indices "$T/mf.txt" -q > "$T/mpi_err" 2>&1
+  check "ced-mpi: a short reach of ced's own fails the run" test $? -ne 0
+  check "ced-mpi: ... naming the reach a tile needs" grep -q "this tile's points need" "$T/mpi_err"
+  check "ced-mpi: ... and that the reach was ced's" grep -q "reach=0.74 was ced's estimate" "$T/mpi_err"
+  check "ced-mpi: ... with no output and no work directory" test ! -e "$T/mf.txt" -a ! -e "$T/wdf"
   run_mpi 2 "$MPI" detect "$T/mid.las" --preset ced6d --indices "$T/x.txt" > "$T/mpi_err" 2>&1
   check "ced-mpi without a tile size: usage error" grep -q "needs --tile-size or --memory-limit" "$T/mpi_err"
 fi

@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <limits>
 #include <random>
 #include <stdexcept>
@@ -19,6 +20,7 @@
 #include "ced/tiled.hpp"
 #include "core/neighbor_index.hpp"
 #include "test_support.hpp"
+#include "tiled_support.hpp"
 
 namespace {
 
@@ -504,16 +506,27 @@ double farthest_reach(const ced::detection_result& r, const ced::neighborhood_sp
   return far;
 }
 
-TEST(Neighborhoods, TilesWithAReachAreExactOrStopClearly) {
-  // A falloff scan: k-distances from a few mm to several cm. With reach=
-  // just above the farthest, every tiling equals the whole run; with half
-  // of it, a tile stops with an error that names the distance it needs.
+TEST(Neighborhoods, TilesWithOrWithoutAReachAreExactOrStopClearly) {
+  // A falloff scan: k-distances from a few mm to several cm. Without
+  // reach=, the tiles take one of their own, which a guess from the mean
+  // density makes short for some neighbourhoods: they grow it, and every
+  // tiling equals the whole run. With reach= just above the farthest, so do
+  // they; with half of it, a tile stops with an error that names the
+  // distance it needs.
   const auto c = scanned_room(5000, 12);
+  double lo[3], hi[3];
+  for (int k = 0; k < 3; ++k) lo[k] = hi[k] = c.position(0)[k];
+  for (std::size_t i = 0; i < c.size(); ++i)
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], double(c.position(i)[k]));
+      hi[k] = std::max(hi[k], double(c.position(i)[k]));
+    }
   // Normals under knn: each neighbour's own K nearest, one hop farther.
   const std::vector<ced::any_modality> mods = {ced::make_modality("xyz"), ced::make_modality("rgb"),
                                                ced::make_modality("normals")};
+  int grown = 0;
   for (const char* spec :
-       {"knn:12", "adaptive:10,scale=1.5", "adaptive:8,min=0.03", "knn:16,nms=own", "adaptive:12,nms=own"}) {
+       {"knn:12", "knn:32", "adaptive:10,scale=1.5", "adaptive:8,min=0.03", "knn:16,nms=own", "adaptive:12,nms=own"}) {
     SCOPED_TRACE(spec);
     ced::detect_params p;
     p.radius = 0.02;
@@ -522,6 +535,12 @@ TEST(Neighborhoods, TilesWithAReachAreExactOrStopClearly) {
     const auto whole = ced::detect(c, p, mods);
     ASSERT_GT(whole.keypoints.size(), 20u);
     const double far = farthest_reach(whole, p.neighborhood);
+    for (double tile : {0.35, 0.7}) {
+      double used = 0;
+      EXPECT_EQ(ced::detect_tiled(c, p, mods, tile, &used), whole.keypoints) << "no reach=, " << tile;
+      EXPECT_GE(used, far) << tile;  // every point is some tile's core
+      grown += used > ced::estimated_reach(p, lo, hi, c.size());
+    }
     p.neighborhood.reach = far * 1.01;
     for (double tile : {0.35, 0.7}) EXPECT_EQ(ced::detect_tiled(c, p, mods, tile), whole.keypoints) << tile;
     p.refine = true;
@@ -549,43 +568,141 @@ TEST(Neighborhoods, TilesWithAReachAreExactOrStopClearly) {
       p.neighborhood.reach = farthest_reach(whole, p.neighborhood) * 1.01;
     for (double tile : {0.2, 0.45}) EXPECT_EQ(ced::detect_tiled(c, p, normals, tile), whole.keypoints) << tile;
   }
+  EXPECT_GT(grown, 0) << "no neighbourhood needed a second try: the test misses the growth";
   // A tile of fewer than K points: its points reach farther than any bound.
+  // Without reach= it measures nothing, and the reach grows fourfold until
+  // the tiles hold enough.
   ced::point_cloud sparse;
   for (int i = 0; i < 40; ++i) sparse.push_back(float(i) * 0.2f, 0.0f, 0.0f);
   ced::detect_params p;
+  const std::vector<ced::any_modality> xyz = {ced::make_modality("xyz")};
   p.neighborhood = ced::parse_neighborhood("knn:16,reach=0.5");
-  EXPECT_THROW(ced::detect_tiled(sparse, p, {ced::make_modality("xyz")}, 1.0), ced::tile_reach_error);
+  EXPECT_THROW(ced::detect_tiled(sparse, p, xyz, 1.0), ced::tile_reach_error);
+  p.neighborhood = ced::parse_neighborhood("knn:16");
+  double used = 0;
+  EXPECT_EQ(ced::detect_tiled(sparse, p, xyz, 1.0, &used), ced::detect(sparse, p, xyz).keypoints);
+  EXPECT_GE(used, 3.0 - 1e-6);  // the ends' 16th nearest is 15 steps of 0.2 away
+  p.neighborhood = ced::parse_neighborhood("knn:41");
+  EXPECT_THROW(ced::detect_tiled(sparse, p, xyz, 1.0), std::invalid_argument);
 }
 
-TEST(Neighborhoods, TilesRefuseUnboundedReachClearlyAndPlansKeepTheSpec) {
+TEST(Neighborhoods, TheReachTilesTakeIsRoundedUpAndGrown) {
+  // Two significant digits, never below what was measured.
+  EXPECT_EQ(ced::grown_reach(1.3, 5.026), 5.1);
+  EXPECT_EQ(ced::grown_reach(0.1, 0.43), 0.43);
+  EXPECT_EQ(ced::grown_reach(0.1, 0.4300001), 0.44);
+  EXPECT_EQ(ced::grown_reach(10, 123.4), 130);
+  EXPECT_EQ(ced::grown_reach(0.001, 0.0123), 0.013);
+  EXPECT_EQ(ced::grown_reach(0.5, std::numeric_limits<double>::infinity()), 2.0);  // a tile of < K points
+  EXPECT_EQ(ced::grown_reach(0.5, 0.4), 2.0);                                      // measured no farther
+  EXPECT_EQ(ced::grown_reach(0.5, 3.01, true), 3.1);  // a tile unmeasured, another measured farther
+  EXPECT_EQ(ced::grown_reach(0.5, 0.61, true), 2.0);  // a tile unmeasured: at least four times
+  // A first guess from the density: N points on a 1 m × 2 m face lie
+  // sqrt(2 / N) apart; K of them fill a disc of sqrt(K · 2 / (π N)).
+  ced::detect_params p;
+  p.neighborhood = ced::parse_neighborhood("knn:16");
+  const double lo[3] = {0, 0, 0}, hi[3] = {1, 2, 0.1};
+  const double d = std::sqrt(16 * 2.0 / (3.141592653589793 * 20000));
+  EXPECT_EQ(ced::estimated_reach(p, lo, hi, 20000), ced::grown_reach(0, 3 * d));
+  p.neighborhood = ced::parse_neighborhood("adaptive:16,scale=0.5");  // reaches 3d, radius 1.5d
+  EXPECT_EQ(ced::estimated_reach(p, lo, hi, 20000), ced::grown_reach(0, 3 * d));
+  p.neighborhood = ced::parse_neighborhood("adaptive:16,min=0.5");
+  EXPECT_EQ(ced::estimated_reach(p, lo, hi, 20000), 0.5);
+  const double line[3] = {0, 0, 0}, one[3] = {0, 0, 0}, far[3] = {4, 0, 0};
+  p.neighborhood = ced::parse_neighborhood("knn:8");
+  EXPECT_EQ(ced::estimated_reach(p, line, far, 100), ced::grown_reach(0, 3 * 8 * 4.0 / 200));
+  EXPECT_GT(ced::estimated_reach(p, one, one, 100), 0.0);  // all at one place: still a reach
+  EXPECT_TRUE(ced::unbounded_reach(ced::parse_neighborhood("knn:8")));
+  EXPECT_TRUE(ced::unbounded_reach(ced::parse_neighborhood("adaptive:8,min=0.1")));
+  EXPECT_FALSE(ced::unbounded_reach(ced::parse_neighborhood("adaptive:8,max=0.1")));
+  EXPECT_FALSE(ced::unbounded_reach(ced::parse_neighborhood("knn:8,reach=0.1")));
+  EXPECT_FALSE(ced::unbounded_reach(ced::parse_neighborhood("radius")));
+}
+
+TEST(Neighborhoods, TilesWithoutAReachPlanOneAndPlansKeepTheSpec) {
   ced::tiled_request q;
   q.input = CED_TEST_DATA_DIR "/apartment_mesh_214.ply";
   q.tile_size = 1;
   q.modalities = {"xyz"};
   for (const char* spec : {"knn:8", "adaptive:8", "adaptive:8,scale=2"}) {
+    SCOPED_TRACE(spec);
     q.params.neighborhood = ced::parse_neighborhood(spec);
-    try {
-      ced::plan_tiles(q);
-      ADD_FAILURE() << spec << " tiled plan accepted";
-    } catch (const std::invalid_argument& e) {
-      EXPECT_NE(std::string(e.what()).find(spec), std::string::npos) << e.what();
-      EXPECT_NE(std::string(e.what()).find("max="), std::string::npos) << e.what();
-      EXPECT_NE(std::string(e.what()).find("reach="), std::string::npos) << e.what();
-    }
+    const ced::tile_plan plan = ced::plan_tiles(q);
+    const ced::tile_plan back = ced::tile_plan::from_json(plan.to_json(), "plan.json");
+    EXPECT_TRUE(back.request.reach_estimated);
+    const ced::neighborhood_spec& n = back.request.params.neighborhood;
+    ASSERT_TRUE(std::isfinite(n.reach));
+    EXPECT_EQ(ced::to_string(n).rfind(std::string(spec) + ",reach=", 0), 0u) << ced::to_string(n);
+    EXPECT_EQ(back.digest(), plan.digest());
+    EXPECT_GE(back.grid.halo, n.reach * 1.001);
   }
+  // "reach_estimated" without a reach is not a plan ced writes.
+  std::string text = ced::plan_tiles(q).to_json();
+  const std::size_t at = text.find(",reach=");
+  ASSERT_NE(at, std::string::npos);
+  text.erase(at, text.find('"', at) - at);
+  EXPECT_THROW(ced::tile_plan::from_json(text, "plan.json"), ced::io::io_error);
   // A bounded one plans, and its plan file keeps the neighbourhood and search.
   q.params.neighborhood = ced::parse_neighborhood("adaptive:8,scale=1.5,max=0.1");
   q.params.search = ced::search_kind::cgal;
   const ced::tile_plan plan = ced::plan_tiles(q);
   const ced::tile_plan back = ced::tile_plan::from_json(plan.to_json(), "plan.json");
   EXPECT_EQ(ced::to_string(back.request.params.neighborhood), "adaptive:8,scale=1.5,max=0.1");
+  EXPECT_FALSE(back.request.reach_estimated);
   EXPECT_EQ(back.request.params.search, ced::search_kind::cgal);
   EXPECT_GE(back.grid.halo, 0.1 * 1.001);
   // knn with reach= plans too, its halo covering the reach.
   q.params.neighborhood = ced::parse_neighborhood("knn:12,reach=0.2");
   const ced::tile_plan with_reach = ced::tile_plan::from_json(ced::plan_tiles(q).to_json(), "plan.json");
   EXPECT_EQ(ced::to_string(with_reach.request.params.neighborhood), "knn:12,reach=0.2");
+  EXPECT_FALSE(with_reach.request.reach_estimated);
   EXPECT_GE(with_reach.grid.halo, 0.2 * 1.001);
+}
+
+TEST(Neighborhoods, TiledRunsGrowTheirOwnReachAndResumeWithIt) {
+  // A file of the falloff scan, run in a work directory: the first reach is
+  // short, every tile runs again with the one they measured, and the
+  // result is the whole run's. A run stopped after planning resumes
+  // without reach=, taking the plan's.
+  const auto c = scanned_room(5000, 12);
+  ced::tiled_request r;
+  r.input = ced_test::temp_file("falloff_room.ply");
+  ced::io::write_cloud(r.input, c);
+  r.tile_size = 0.35;
+  r.modalities = {"xyz:0.1", "rgb:0.1"};
+  r.params.radius = 0.02;
+  r.params.nms_radius = 0.03;
+  r.params.neighborhood = ced::parse_neighborhood("knn:32");
+  const auto whole = ced::detect(ced::io::read_cloud(r.input), r.params, ced_test::specs(r.modalities)).keypoints;
+  ASSERT_GT(whole.size(), 20u);
+  ced::tiled_run_options o;
+  o.work_dir = ced_test::temp_file("falloff_work");
+  std::vector<double> tried;
+  o.reach_grown = [&](double t, double needed, double next) {
+    tried.push_back(t);
+    EXPECT_GT(needed, t);  // +infinity: a tile of fewer than K points
+    EXPECT_GE(next, std::isfinite(needed) ? needed : 4 * t);
+  };
+  ced::tile_plan plan;
+  const ced::tile_part merged = ced::run_tiled(r, o, &plan);
+  EXPECT_EQ(merged.index, std::vector<std::uint64_t>(whole.begin(), whole.end()));
+  ASSERT_EQ(tried.size(), 1u) << "the first reach was not short: the test misses the growth";
+  EXPECT_TRUE(plan.request.reach_estimated);
+  EXPECT_GT(plan.request.params.neighborhood.reach, tried.front());
+  EXPECT_FALSE(std::filesystem::exists(o.work_dir));
+  // Stopped after the plan and cache (prepare_tiled), then resumed with the request as asked.
+  const ced::tile_plan first = ced::prepare_tiled(r, o);
+  EXPECT_TRUE(first.request.reach_estimated);
+  o.resume = true;
+  tried.clear();
+  EXPECT_EQ(ced::run_tiled(r, o).index, std::vector<std::uint64_t>(whole.begin(), whole.end()));
+  EXPECT_EQ(tried.size(), 1u);
+  EXPECT_FALSE(std::filesystem::exists(o.work_dir));
+  // A reach the caller gives is a promise: short, the run stops and says so.
+  r.params.neighborhood = ced::parse_neighborhood("knn:32,reach=0.01");
+  o.resume = false;
+  EXPECT_THROW(ced::run_tiled(r, o), ced::tile_reach_error);
+  EXPECT_FALSE(std::filesystem::exists(o.work_dir));
 }
 
 // A modality that reads its neighbours' neighbourhoods (normals under knn)

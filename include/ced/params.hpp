@@ -49,10 +49,11 @@ struct neighborhood_spec {
   bool nms_own = false;
   /// knn and adaptive: a bound on how far any neighbourhood reaches, metres
   /// (option `reach=R`; default +infinity, none). Tiled runs take it for
-  /// their halo (knn:K, and adaptive without max, need it there) and check
-  /// it: a tile whose points reach farther (the K-th nearest, or an
-  /// adaptive radius) stops with an error naming the distance needed.
-  /// Whole runs do not use it.
+  /// their halo and check it: a tile whose points reach farther (the K-th
+  /// nearest, or an adaptive radius) stops with an error naming the
+  /// distance needed. Without it (knn:K, adaptive without max), tiled runs
+  /// take a reach of their own and grow it (estimated_reach(),
+  /// grown_reach()). Whole runs do not use it.
   double reach = std::numeric_limits<double>::infinity();
 
   bool fixed() const noexcept { return kind == neighborhood_kind::radius; }

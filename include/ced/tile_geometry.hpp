@@ -59,8 +59,30 @@ struct tile_grid {
 /// (the radius; max(r1, r1 / scale) for adaptive:K,max=r1), with a margin
 /// for float rounding of coordinates up to `max_abs_coordinate` (positions,
 /// the cloud's frame). Throws std::invalid_argument for knn, or adaptive
-/// without max, unless they give reach= (their reach depends on the data).
+/// without max, unless they give reach= (their reach depends on the data:
+/// tiled runs set one, estimated_reach()).
 double exact_halo(const detect_params& params, double max_abs_coordinate = 0.0);
+
+/// Whether `n` reaches as far as the data make it: knn:K, or adaptive:K
+/// without max, with no reach= given. A tiled run then takes a reach of its
+/// own (estimated_reach()) and grows it when a tile finds it too short
+/// (grown_reach()), so that tiles stay exact.
+bool unbounded_reach(const neighborhood_spec& n) noexcept;
+
+/// A first reach for the neighbourhood of `params` over `points` finite
+/// points in the box [lo, hi]: three times the distance to the K-th nearest point
+/// at the mean density of a surface as large as the box's largest face (a
+/// line: its longest edge), for adaptive the radius and K-th distance that
+/// gives (at least min=), rounded up to two significant digits. A guess: a
+/// tile whose points reach farther says how far (tile_reach_error::needed).
+double estimated_reach(const detect_params& params, const double lo[3], const double hi[3], std::uint64_t points);
+
+/// The reach to try after `tried` proved too short, given the farthest
+/// reach the tiles measured (the largest finite tile_reach_error::needed):
+/// that distance rounded up to two significant digits; at least four times
+/// `tried` when it is no farther or a tile could not measure it
+/// (`unmeasured`: a tile of fewer than K points).
+double grown_reach(double tried, double needed, bool unmeasured = false) noexcept;
 
 /// Tiles of edge `size` covering the positions in the box [lo, hi], with the
 /// exact halo for `params`. Throws std::invalid_argument when `size` is not
@@ -95,7 +117,12 @@ bool tiles_check_reach(const detect_params& params) noexcept;
 /// A tile whose points reach beyond the neighbourhood's reach= (see
 /// check_tile_reach): a rerun with the same parameters fails again.
 struct tile_reach_error : std::runtime_error {
-  using std::runtime_error::runtime_error;
+  tile_reach_error(const std::string& what, double needed_reach) : std::runtime_error(what), needed(needed_reach) {}
+  /// The farthest any point of the tile's core reaches among the tile's
+  /// points: at least as far as it reaches in the whole cloud (the tile
+  /// holds part of it), so a reach past the largest over every tile makes
+  /// every tile pass. +infinity when the tile holds fewer than K points.
+  double needed;
 };
 
 /// Under tiles_check_reach(params): throws tile_reach_error, naming the
@@ -113,10 +140,14 @@ void check_tile_reach(const tile_grid& grid, std::uint64_t t, const point_cloud&
 
 /// Detects keypoints tile by tile (tiles of edge `tile_size`, one after the
 /// other, each with `params.threads`) and returns the indices into `cloud`,
-/// ascending: exactly detect(cloud, params, modalities).keypoints. For
+/// ascending: exactly detect(cloud, params, modalities).keypoints. Under a
+/// neighbourhood of unbounded reach the tiles take estimated_reach(), and
+/// when a tile finds it too short every tile is detected again with
+/// grown_reach() (`reach_used`, when given, is the reach that passed). For
 /// clouds that fit in memory (tests, and a check of the tiling); the CLI's
 /// --tile-size streams files instead.
 std::vector<std::uint32_t> detect_tiled(const point_cloud& cloud, const detect_params& params,
-                                        const std::vector<any_modality>& modalities, double tile_size);
+                                        const std::vector<any_modality>& modalities, double tile_size,
+                                        double* reach_used = nullptr);
 
 }  // namespace ced

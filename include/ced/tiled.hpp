@@ -37,6 +37,13 @@ struct tiled_request {
   /// plan_tiles() plans a COPC file from its index (tile_plan::indexed), and
   /// run_tiled() a LAS or LAZ file from its header (then one pass fills the cache).
   bool scan = false;
+  /// The neighbourhood's reach= is ced's, not the caller's: knn:K, or
+  /// adaptive:K without max, asked without reach= (unbounded_reach()). The
+  /// plan then sets one (estimated_reach(), from the cloud's bounds and
+  /// count), and run_tiled() grows it when a tile finds it too short
+  /// (grown_reach()): every tile again, so the run stays exact. A run
+  /// resumed without reach= takes the plan's. Set by the planners.
+  bool reach_estimated = false;
 };
 
 /// One tile of a plan that owns points.
@@ -216,6 +223,10 @@ struct tiled_run_options {
   /// Once the plan is known (made or, with resume, read), before the tiles.
   std::function<void(const tile_plan&)> planned;
   std::function<void(std::size_t done, std::size_t total, double elapsed_ms)> tile_done;
+  /// When ced's own reach (tiled_request::reach_estimated) proved too short
+  /// and every tile is detected again: the reach tried, the one the tiles
+  /// measured (+infinity when a tile held fewer than K points), the next.
+  std::function<void(double tried, double needed, double next)> reach_grown;
   /// Filled by run_tiled when set.
   struct tiled_times* times = nullptr;
   /// When set, the merge streams into it (merge_part_files) and run_tiled

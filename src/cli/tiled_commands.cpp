@@ -78,7 +78,7 @@ ced::tiled_request request_from(const detect_options& o, detect_plan& plan) {
   r.params = plan.params;
   r.params.nms_radius = std::isnan(o.nms_radius) ? r.params.radius : o.nms_radius;
   try {
-    ced::exact_halo(r.params);
+    if (!ced::unbounded_reach(r.params.neighborhood)) ced::exact_halo(r.params);  // else the plan finds a reach
   } catch (const std::invalid_argument& e) {
     throw usage_error(std::string("--neighborhood with tiles: ") + e.what());
   }
@@ -160,6 +160,11 @@ void report_plan(const ced::tile_plan& p, bool quiet) {
                  "ced: planned from %s's COPC index and header, without a pass over the points: the tiles' counts "
                  "below are estimates (ced plan --scan counts them)\n",
                  p.request.input.c_str());
+  if (p.request.reach_estimated)
+    std::fprintf(stderr,
+                 "ced: the neighbourhood reaches as far as the data make it, and no reach= was given: the tiles take "
+                 "reach=%.4g, ced's own (a tile that finds it short has every tile detected again, farther)\n",
+                 p.request.params.neighborhood.reach);
   std::fprintf(stderr,
                "ced: %zu tiles of %.4g (halo %.4g) own %s%llu points; %.2f points read a point, the largest tile reads "
                "%s%llu\n",
@@ -274,6 +279,20 @@ int run_detect_tiled(const detect_options& o) {
     const double left = done ? ms / double(done) * double(total - done) : 0;
     std::fprintf(stderr, "ced: tile %zu/%zu done; %.1f s elapsed, about %.0f s left\n", done, total, ms / 1000,
                  left / 1000);
+  };
+  ro.reach_grown = [&](double tried, double needed, double next) {
+    if (o.quiet) return;
+    bar.done();
+    if (std::isfinite(needed))
+      std::fprintf(stderr,
+                   "ced: reach=%.4g was short (the tiles' points reach up to %.4g): every tile again with "
+                   "reach=%.4g\n",
+                   tried, needed, next);
+    else
+      std::fprintf(stderr,
+                   "ced: reach=%.4g was short (a tile held fewer than K points): every tile again with "
+                   "reach=%.4g\n",
+                   tried, next);
   };
   ced::tile_plan p;
   ced::tiled_times times;

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -187,6 +189,47 @@ std::vector<std::uint32_t> core_keypoints(const tile_grid& grid, std::uint64_t t
   return out;
 }
 
+bool unbounded_reach(const neighborhood_spec& n) noexcept {
+  return !n.fixed() && !std::isfinite(n.reach) &&
+         !(n.kind == neighborhood_kind::adaptive && std::isfinite(n.max_radius));
+}
+
+namespace {
+/// x rounded up to two significant digits (x > 0, finite).
+double round_up_2(double x) noexcept {
+  const int e = static_cast<int>(std::floor(std::log10(x))) - 1;
+  const double unit = std::pow(10.0, std::abs(e));
+  auto at = [&](double m) { return e < 0 ? m / unit : m * unit; };
+  double m = std::ceil(e < 0 ? x * unit : x / unit);
+  while (at(m) < x) ++m;
+  return at(m);
+}
+}  // namespace
+
+double estimated_reach(const detect_params& params, const double lo[3], const double hi[3], std::uint64_t points) {
+  const neighborhood_spec& n = params.neighborhood;
+  double e[3];
+  for (int k = 0; k < 3; ++k) e[k] = std::isfinite(hi[k] - lo[k]) ? std::max(hi[k] - lo[k], 0.0) : 0.0;
+  std::sort(e, e + 3);
+  const double k = std::max<double>(n.k, 1), count = std::max<double>(double(points), 1);
+  double d = params.radius;  // one point, or all at one place
+  if (e[1] > 0)
+    d = std::sqrt(k * e[1] * e[2] / (3.141592653589793 * count));  // a surface the size of the largest face
+  else if (e[2] > 0)
+    d = k * e[2] / (2 * count);  // a line
+  d *= 3;                        // density falls with range, and at an edge the K nearest fill half a disc
+  if (n.kind == neighborhood_kind::adaptive) {
+    const double r = std::max(n.scale * d, n.min_radius);
+    d = std::max(r, r / n.scale);
+  }
+  return round_up_2(std::max(d, 1e-9));
+}
+
+double grown_reach(double tried, double needed, bool unmeasured) noexcept {
+  const double measured = std::isfinite(needed) && needed > tried ? round_up_2(needed) : 0.0;
+  return unmeasured || measured == 0.0 ? std::max(measured, 4 * tried) : measured;
+}
+
 bool tiles_check_reach(const detect_params& params) noexcept {
   const neighborhood_spec& n = params.neighborhood;
   return !n.fixed() && std::isfinite(n.reach) &&
@@ -194,18 +237,40 @@ bool tiles_check_reach(const detect_params& params) noexcept {
 }
 
 namespace {
-[[noreturn]] void reach_exceeded(std::uint64_t t, const float* p, const point_cloud& c, double needed,
-                                 const neighborhood_spec& n) {
+/// How far a point of radius r (result::point_radius) reaches under `n`:
+/// knn's r_i is its K-th distance; adaptive's r_i = max(α·d_K, r0) ≥ α·d_K.
+double reach_of(double r, const neighborhood_spec& n) noexcept {
+  return n.kind == neighborhood_kind::knn ? r : std::max(r, r / n.scale);
+}
+
+/// The farthest any point of tile t's core reaches among the tile's points
+/// (tile_reach_error::needed); +infinity without a detection.
+double core_needs(const tile_grid& grid, std::uint64_t t, const point_cloud& c, const detection_result* result,
+                  const neighborhood_spec& n) {
+  if (!result) return std::numeric_limits<double>::infinity();
+  double far = 0;
+  for (std::size_t i = 0; i < c.size(); ++i)
+    if (grid.tile_of(c.position(i)) == t) far = std::max(far, reach_of(result->point_radius[i], n));
+  return far;
+}
+
+[[noreturn]] void reach_exceeded(const tile_grid& grid, std::uint64_t t, const float* p, const point_cloud& c,
+                                 const detection_result* result, double needed, const neighborhood_spec& n) {
   char where[160];
   if (p)
     std::snprintf(where, sizeof where, "the point at (%.9g, %.9g, %.9g) reaches %.6g", c.origin()[0] + p[0],
                   c.origin()[1] + p[1], c.origin()[2] + p[2], needed);
   else
     std::snprintf(where, sizeof where, "it holds fewer than K = %u points", unsigned(n.k));
+  const double core = core_needs(grid, t, c, result, n);
+  char need[48] = "";
+  if (std::isfinite(core))
+    std::snprintf(need, sizeof need, "this tile's points need %.3g; ", grown_reach(0, std::max(core, needed)));
   throw tile_reach_error("tile " + std::to_string(t) + ": " + where + ", beyond the neighbourhood's reach (" +
-                         to_string(n) +
-                         "): the tiles would not be exact. Give a larger reach= (ced info --knn prints the "
-                         "k-distances), or use adaptive:K with max=");
+                             to_string(n) + "): the tiles would not be exact. Give a larger reach= (" + need +
+                             "ced info --knn prints the k-distances), or use adaptive:K with max= (without reach=, "
+                             "ced detect --tile-size finds a reach itself)",
+                         core);
 }
 }  // namespace
 
@@ -214,7 +279,7 @@ void check_tile_reach(const tile_grid& grid, std::uint64_t t, const point_cloud&
   if (!tiles_check_reach(params)) return;
   const neighborhood_spec& n = params.neighborhood;
   if (!result) {
-    if (tile_cloud.size() < n.k) reach_exceeded(t, nullptr, tile_cloud, 0, n);
+    if (tile_cloud.size() < n.k) reach_exceeded(grid, t, nullptr, tile_cloud, nullptr, 0, n);
     return;
   }
   // The points the core depends on: within the NMS term of exact_halo().
@@ -228,24 +293,19 @@ void check_tile_reach(const tile_grid& grid, std::uint64_t t, const point_cloud&
       gap2 += e * e;
     }
     if (gap2 > inner * inner * 1.0001) continue;
-    // knn: r_i is the K-th distance; adaptive: r_i = max(α·d_K, r0) ≥ α·d_K.
-    const double r = result->point_radius[i];
-    const double needed = n.kind == neighborhood_kind::knn ? r : std::max(r, r / n.scale);
-    if (needed > n.reach) reach_exceeded(t, p, tile_cloud, needed, n);
+    const double needed = reach_of(result->point_radius[i], n);
+    if (needed > n.reach) reach_exceeded(grid, t, p, tile_cloud, result, needed, n);
   }
 }
 
-std::vector<std::uint32_t> detect_tiled(const point_cloud& cloud, const detect_params& params,
-                                        const std::vector<any_modality>& modalities, double tile_size) {
-  validate(params);
-  if (cloud.empty()) throw std::invalid_argument("detect_tiled: the cloud is empty");
-  double lo[3], hi[3];
-  for (std::size_t k = 0; k < 3; ++k) lo[k] = hi[k] = cloud.position(0)[k];
-  for (std::size_t i = 0; i < cloud.size(); ++i)
-    for (std::size_t k = 0; k < 3; ++k) {
-      lo[k] = std::min(lo[k], double(cloud.position(i)[k]));
-      hi[k] = std::max(hi[k], double(cloud.position(i)[k]));
-    }
+namespace {
+/// detect_tiled() at one reach. With `grow` (the reach is ced's own), a tile
+/// that finds it too short does not stop the others: `needed` gathers how
+/// far every such tile's core reaches, and there is no result.
+std::optional<std::vector<std::uint32_t>> tiles_at(const point_cloud& cloud, const detect_params& params,
+                                                   const std::vector<any_modality>& modalities, double tile_size,
+                                                   const double lo[3], const double hi[3], bool grow, double& needed,
+                                                   bool& unmeasured) {
   // A modality at a larger scale (scale=) reads farther: the halo grows with it.
   const tile_grid grid = make_tile_grid(lo, hi, tile_size, tile_halo_params(params, modalities));
   const double check_extra = tile_check_extra(params, modalities);
@@ -260,16 +320,63 @@ std::vector<std::uint32_t> detect_tiled(const point_cloud& cloud, const detect_p
     for (std::uint64_t t : near) members[t].push_back(static_cast<std::uint32_t>(i));
   }
   std::vector<std::uint32_t> out;
+  bool short_reach = false;
   for (std::uint64_t t = 0; t < grid.count(); ++t) {
     if (!owns[t]) continue;
     const cloud_tile tile = make_tile(cloud, std::move(members[t]), ranges);
-    check_tile_reach(grid, t, tile.cloud, nullptr, params);
-    const detection_result r = detect(tile.cloud, params, modalities);
-    check_tile_reach(grid, t, tile.cloud, &r, params, check_extra);
-    for (std::uint32_t k : core_keypoints(grid, t, tile.cloud, r)) out.push_back(tile.index[k]);
+    try {
+      check_tile_reach(grid, t, tile.cloud, nullptr, params);
+      const detection_result r = detect(tile.cloud, params, modalities);
+      check_tile_reach(grid, t, tile.cloud, &r, params, check_extra);
+      for (std::uint32_t k : core_keypoints(grid, t, tile.cloud, r)) out.push_back(tile.index[k]);
+    } catch (const tile_reach_error& e) {
+      if (!grow) throw;
+      short_reach = true;
+      if (std::isfinite(e.needed))
+        needed = std::max(needed, e.needed);
+      else
+        unmeasured = true;
+    }
   }
+  if (short_reach) return std::nullopt;
   std::sort(out.begin(), out.end());
   return out;
+}
+}  // namespace
+
+std::vector<std::uint32_t> detect_tiled(const point_cloud& cloud, const detect_params& params,
+                                        const std::vector<any_modality>& modalities, double tile_size,
+                                        double* reach_used) {
+  validate(params);
+  if (cloud.empty()) throw std::invalid_argument("detect_tiled: the cloud is empty");
+  double lo[3], hi[3];
+  for (std::size_t k = 0; k < 3; ++k) lo[k] = hi[k] = cloud.position(0)[k];
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    for (std::size_t k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], double(cloud.position(i)[k]));
+      hi[k] = std::max(hi[k], double(cloud.position(i)[k]));
+    }
+  detect_params p = params;
+  const bool grow = unbounded_reach(p.neighborhood);
+  if (grow) {
+    if (cloud.size() < p.neighborhood.k)
+      throw std::invalid_argument("neighbourhood " + to_string(p.neighborhood) + ": K is larger than the cloud (" +
+                                  std::to_string(cloud.size()) + " points)");
+    p.neighborhood.reach = estimated_reach(p, lo, hi, cloud.size());
+  }
+  // Each try that finds the reach short measures how far the tiles' points
+  // reach (at least how far they do in the whole cloud): the next passes.
+  // Only a tile of fewer than K points measures nothing; its reach grows
+  // fourfold, until the halo holds the whole cloud.
+  for (;;) {
+    double needed = 0;
+    bool unmeasured = false;
+    if (auto out = tiles_at(cloud, p, modalities, tile_size, lo, hi, grow, needed, unmeasured)) {
+      if (reach_used) *reach_used = p.neighborhood.reach;
+      return std::move(*out);
+    }
+    p.neighborhood.reach = grown_reach(p.neighborhood.reach, needed, unmeasured);
+  }
 }
 
 }  // namespace ced

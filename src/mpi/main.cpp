@@ -118,6 +118,16 @@ int work(const detect_options& o, mpi::communicator& world, const prepared& r, u
   }
 }
 
+/// What to do when the reach ced estimated proves short: ced-mpi does not
+/// detect every tile again, as `ced detect --tile-size` does.
+std::string estimated_reach_note(const ced::tile_plan& plan) {
+  char reach[32];
+  std::snprintf(reach, sizeof reach, "%.4g", plan.request.params.neighborhood.reach);
+  return "ced-mpi: reach=" + std::string(reach) +
+         " was ced's estimate from the cloud's density (no reach= was given): run again with a reach= at least what "
+         "the failing tile says it needs, or let one process grow it: ced detect --tile-size\n";
+}
+
 /// Rank 0: hands out the tiles of `queue` to the other ranks (or, alone,
 /// detects them itself); report(done) after each tile. Aborts the run when
 /// a rank fails.
@@ -133,6 +143,7 @@ void share_tiles(mpi::communicator& world, const ced::tile_plan& plan, const std
       }
     } catch (const ced::tile_reach_error&) {
       ced::remove_work_dir(work_dir);  // a rerun with this reach fails again
+      if (plan.request.reach_estimated) std::cerr << estimated_reach_note(plan);
       throw;
     }
     return;
@@ -153,6 +164,7 @@ void share_tiles(mpi::communicator& world, const ced::tile_plan& plan, const std
       world.recv(s.source(), tag_beyond_reach, what);
       ced::remove_work_dir(work_dir);  // a rerun with this reach fails again
       std::cerr << "ced-mpi: error: " << what << "\n";
+      if (plan.request.reach_estimated) std::cerr << estimated_reach_note(plan);
       world.abort(exit_failure);
     } else {
       std::string what;

@@ -148,6 +148,13 @@ void bind_tiled(py::module_& m) {
       .def_property_readonly("input", [](const ced::tile_plan& p) { return p.request.input; })
       .def_property_readonly("modalities", [](const ced::tile_plan& p) { return p.request.modalities; })
       .def_property_readonly("radius", [](const ced::tile_plan& p) { return p.request.params.radius; })
+      .def_property_readonly(
+          "neighborhood", [](const ced::tile_plan& p) { return ced::to_string(p.request.params.neighborhood); },
+          "The tiles' neighbourhood spec, with the reach they take ('knn:16,reach=0.43').")
+      .def_property_readonly(
+          "reach_estimated", [](const ced::tile_plan& p) { return p.request.reach_estimated; },
+          "True when the neighbourhood's reach= is ced's estimate from the cloud's density (knn:K, or "
+          "adaptive:K without max, planned without reach=)")
       .def_property_readonly("tile_size", [](const ced::tile_plan& p) { return p.grid.size; })
       .def_property_readonly("halo", [](const ced::tile_plan& p) { return p.grid.halo; })
       .def_property_readonly("points", [](const ced::tile_plan& p) { return p.file_points; })
@@ -275,9 +282,11 @@ void bind_tiled(py::module_& m) {
       "given. modalities: spec strings or a preset "
       "name (default: ced6d when the file has colour, else ced3d). refine: keypoint refinement (None: the "
       "preset's, on for robust3d/robust6d). max_keypoints: the merge keeps the strongest of all tiles' "
-      "keypoints, as detect(max_keypoints=...) (0: no limit). neighborhood, search: as detect()'s; tiles take "
-      "'radius', 'adaptive:K,...,max=r1', and 'knn:K,reach=R' or 'adaptive:K,...,reach=R' (each tile checks the "
-      "reach, detect_tile raising RuntimeError when a point reaches farther).");
+      "keypoints, as detect(max_keypoints=...) (0: no limit). neighborhood, search: as detect()'s. Under "
+      "'knn:K,reach=R' or 'adaptive:K,...,reach=R' each tile checks the reach, detect_tile raising RuntimeError "
+      "(naming the reach the tile needs) when a point reaches farther; without reach= (and, for adaptive, "
+      "max=) the plan estimates one from the cloud's density (plan.reach_estimated, plan.neighborhood): a "
+      "tile that finds it short raises the same error, and a new plan with the reach it names runs.");
   m.def(
       "detect_tile",
       [](const ced::tile_plan& plan, const py::object& tile_arg, const py::object& part,

@@ -93,6 +93,7 @@ tiled_request request_from_json(const nlohmann::json& j) {
   r.tile_size = number_of(j, "tile_size");
   r.memory_limit = count_of<std::uint64_t>(j, "memory_limit");
   r.scan = j.value("scan", false);
+  r.reach_estimated = j.value("reach_estimated", false);
   validate(r.params);
   if (r.modalities.empty()) throw std::invalid_argument("'modalities' is empty");
   modalities_of(r.modalities);  // each spec parses
@@ -204,6 +205,7 @@ nlohmann::json request_json(const tiled_request& r) {
   j["tile_size"] = r.tile_size;
   j["memory_limit"] = r.memory_limit;
   if (r.scan) j["scan"] = true;
+  if (r.reach_estimated) j["reach_estimated"] = true;
   return j;
 }
 

@@ -24,7 +24,8 @@ namespace {
 /// Throws std::invalid_argument for a bad tile size, limit or modality.
 void check_request(const tiled_request& request) {
   validate(request.params);
-  exact_halo(request.params);  // a neighbourhood of unbounded reach (knn) fails here, clearly
+  if (request.reach_estimated && unbounded_reach(request.params.neighborhood))
+    throw std::invalid_argument("tiled request: reach_estimated without a reach");
   if (request.memory_limit == 0 && (!(request.tile_size > 0) || !std::isfinite(request.tile_size)))
     throw std::invalid_argument("tile size must be a positive number of metres, got " +
                                 std::to_string(request.tile_size));
@@ -62,6 +63,19 @@ void bind_modalities(tile_plan& p, const point_cloud& probe) {
   if (p.request.modalities.empty()) p.request.modalities = preset_specs(probe.has_rgb() ? "ced6d" : "ced3d");
   const point_cloud one = empty_cloud(p, 1);
   for (const auto& m : modalities_of(p.request.modalities)) m.bind(one, probe_params(p.request.params));
+}
+
+/// A neighbourhood that reaches as far as the data make it (knn:K, or
+/// adaptive:K without max) asked without reach=: the plan takes one from
+/// the box [lo, hi] of its finite points (tiled_request::reach_estimated).
+void settle_reach(tile_plan& p, const double lo[3], const double hi[3]) {
+  neighborhood_spec& n = p.request.params.neighborhood;
+  if (!unbounded_reach(n)) return;
+  if (p.finite_points < n.k)
+    throw std::invalid_argument("neighbourhood " + to_string(n) + ": K is larger than the cloud (" +
+                                std::to_string(p.finite_points) + " finite points)");
+  n.reach = estimated_reach(p.request.params, lo, hi, p.finite_points);
+  p.request.reach_estimated = true;
 }
 
 /// The absolute box [lo, hi] relative to the plan's origin, into [plo, phi].
@@ -321,7 +335,8 @@ std::optional<tile_plan> plan_from_header(const tiled_request& request, io::poin
       if (is_las_flag(f.name)) return std::nullopt;
   double plo[3], phi[3];
   relative_box(p, box, box + 3, plo, phi);
-  p.grid = make_tile_grid(plo, phi, request.tile_size, halo_params(request));
+  settle_reach(p, plo, phi);
+  p.grid = make_tile_grid(plo, phi, request.tile_size, halo_params(p.request));
   return p;
 }
 
@@ -348,9 +363,10 @@ tile_plan plan_grid(const tiled_request& request, io::point_stream& s, const til
   plan_fields(p, s, scan);
   double plo[3], phi[3];
   relative_box(p, lo, hi, plo, phi);
+  settle_reach(p, plo, phi);
   const double size = request.memory_limit > 0 ? size_for_memory(s, p, plo, phi, progress) : request.tile_size;
   s.rewind();
-  p.grid = make_tile_grid(plo, phi, size, halo_params(request));
+  p.grid = make_tile_grid(plo, phi, size, halo_params(p.request));
   return p;
 }
 

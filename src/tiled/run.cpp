@@ -7,7 +7,9 @@
 #include <csignal>
 #include <cstdlib>
 #include <future>
+#include <limits>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <system_error>
@@ -34,6 +36,10 @@ tile_plan resumed_plan(const tiled_request& request, const tiled_run_options& o,
   tile_plan plan = tile_plan::from_json(io::detail::read_whole_file(plan_path.string()), plan_path.string());
   tiled_request asked = request;
   if (asked.modalities.empty()) asked.modalities = plan.request.modalities;
+  if (plan.request.reach_estimated && unbounded_reach(asked.params.neighborhood)) {
+    asked.params.neighborhood.reach = plan.request.params.neighborhood.reach;  // the reach the run found
+    asked.reach_estimated = true;
+  }
   if (request_json(asked) != request_json(plan.request))
     throw io::io_error(o.work_dir, "holds the tiles of another run (" + request_json(plan.request).dump() +
                                        "): remove it or choose another work directory");
@@ -135,7 +141,15 @@ tile_part finish_tiled(const tile_plan& plan, const std::string& work_dir, const
   return merged;
 }
 
-tile_part run_tiled(const tiled_request& request, const tiled_run_options& o, tile_plan* plan_out) {
+namespace {
+
+/// run_tiled() with the plan of `request`. When a tile finds the reach that
+/// ced estimated too short, the other tiles still run, to measure how far
+/// theirs reach; then the plan and tiles go and `grow` is set to the reach
+/// they need (the largest finite tile_reach_error::needed; `unmeasured`
+/// when a tile held fewer than K points).
+std::optional<tile_part> run_once(const tiled_request& request, const tiled_run_options& o, tile_plan* plan_out,
+                                  double& grow, bool& unmeasured) {
   using clock = std::chrono::steady_clock;
   auto ms = [](clock::time_point a, clock::time_point b) {
     return std::chrono::duration<double, std::milli>(b - a).count();
@@ -152,6 +166,9 @@ tile_part run_tiled(const tiled_request& request, const tiled_run_options& o, ti
     return std::async(std::launch::async, [&, k] { return load_cached(plan, o.work_dir, plan.tiles[k].id); });
   };
   std::future<tile_points> next;
+  bool short_reach = false;
+  grow = 0;
+  unmeasured = false;
   try {
     for (std::size_t k = 0; k < plan.tiles.size(); ++k) {
       if (needs_work(k)) {
@@ -159,7 +176,18 @@ tile_part run_tiled(const tiled_request& request, const tiled_run_options& o, ti
         std::size_t after = k + 1;
         while (after < plan.tiles.size() && !needs_work(after)) ++after;
         if (after < plan.tiles.size()) next = load(after);
-        detect_and_keep(plan, o.work_dir, pts, o.threads);
+        try {
+          detect_and_keep(plan, o.work_dir, pts, o.threads);
+        } catch (const tile_reach_error& e) {
+          if (!plan.request.reach_estimated) throw;
+          short_reach = true;
+          if (std::isfinite(e.needed))
+            grow = std::max(grow, e.needed);
+          else
+            unmeasured = true;
+          std::error_code gone;
+          fs::remove(cache_file(o.work_dir, pts.tile), gone);
+        }
       }
       if (o.tile_done)
         o.tile_done(k + 1, plan.tiles.size(),
@@ -172,11 +200,43 @@ tile_part run_tiled(const tiled_request& request, const tiled_run_options& o, ti
     remove_work_dir(o.work_dir);
     throw;
   }
+  if (short_reach) {
+    // The parts of a plan with another reach are of no use: the next try
+    // plans again (the marker stays: the directory is still ced's).
+    const fs::path dir(o.work_dir);
+    clear_tiles(dir);
+    fs::remove(dir / "plan.json", ec);
+    return std::nullopt;
+  }
   const auto t_merge = std::chrono::steady_clock::now();
   tile_part merged = merge_work_dir(plan, o.work_dir, o.sink);
   if (!o.keep_work_dir) remove_work_dir(o.work_dir);
   if (o.times) *o.times = {ms(t_plan, t0), ms(t0, t_merge), ms(t_merge, clock::now())};
   return merged;
+}
+
+}  // namespace
+
+tile_part run_tiled(const tiled_request& request, const tiled_run_options& o, tile_plan* plan_out) {
+  tiled_request r = request;
+  tile_plan plan;
+  for (;;) {
+    double needed = 0;
+    bool unmeasured = false;
+    if (auto merged = run_once(r, o, &plan, needed, unmeasured)) {
+      if (plan_out) *plan_out = std::move(plan);
+      return std::move(*merged);
+    }
+    // Each try measures how far the tiles' points reach (at least as far as
+    // they do in the whole cloud), so the next passes; only a tile of fewer
+    // than K points measures nothing: its reach grows fourfold, until the
+    // halo holds the whole cloud.
+    r = plan.request;
+    const double tried = r.params.neighborhood.reach;
+    r.params.neighborhood.reach = grown_reach(tried, needed, unmeasured);
+    if (o.reach_grown)
+      o.reach_grown(tried, unmeasured ? std::numeric_limits<double>::infinity() : needed, r.params.neighborhood.reach);
+  }
 }
 
 }  // namespace ced

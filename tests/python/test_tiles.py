@@ -87,14 +87,19 @@ def test_neighbourhood_tiles_give_the_whole_result_or_stop_clearly(las):
         plan = pickle.loads(pickle.dumps(ced.plan_tiles(las, tile_size=0.8, modalities="ced6d", neighborhood=spec)))
         merged = ced.merge_parts(plan, [ced.detect_tile(plan, t) for t, _, _ in plan.tiles])
         assert np.array_equal(merged.keypoints, np.asarray(whole.keypoints, dtype=np.uint64)), spec
-    with pytest.raises(ValueError, match="reach="):
-        ced.plan_tiles(las, tile_size=0.8, neighborhood="knn:12")
+    # Without reach= the plan takes one of its own, from the density.
+    own = ced.plan_tiles(las, tile_size=0.8, modalities="ced6d", neighborhood="knn:12")
+    assert own.reach_estimated and own.neighborhood.startswith("knn:12,reach=")
+    assert not ced.plan_tiles(las, tile_size=0.8, neighborhood="knn:12,reach=0.06").reach_estimated
+    whole = ced.detect(cloud, modalities="ced6d", neighborhood="knn:12")
+    merged = ced.merge_parts(own, [ced.detect_tile(own, t) for t, _, _ in own.tiles])
+    assert np.array_equal(merged.keypoints, np.asarray(whole.keypoints, dtype=np.uint64))
     with pytest.raises(ValueError, match="neighborhood"):
         ced.plan_tiles(las, tile_size=0.8, neighborhood="knn:0")
     with pytest.raises(ValueError, match="search"):
         ced.plan_tiles(las, tile_size=0.8, search="octree")
     short = ced.plan_tiles(las, tile_size=0.8, modalities="ced6d", neighborhood="knn:16,reach=0.02")
-    with pytest.raises(RuntimeError, match="beyond the neighbourhood's reach"):
+    with pytest.raises(RuntimeError, match="beyond the neighbourhood's reach.*this tile's points need"):
         for t, _, _ in short.tiles:
             ced.detect_tile(short, t)
 
