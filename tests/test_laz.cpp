@@ -684,6 +684,39 @@ TEST(Copc, RunsWithinABoxHoldItsPoints) {
     for (int k = 0; k < 3; ++k) ASSERT_EQ(c.position(i)[k], all.position(r.first + i)[k]);
 }
 
+TEST(Las, PointsReadAtRandomAreTheWholeFilesPoints) {
+  // Uncompressed LAS reads only the records asked (the fetch of tiled runs'
+  // keypoints); each point as the whole read gives it, the flags named.
+  for (const char* name : {"autzen_trim.las", "1_4_w_evlr.las", "simple.las"}) {
+    SCOPED_TRACE(name);
+    const ced::point_cloud all = ced::io::read_cloud(data_path(name));
+    std::vector<std::string> names;
+    for (const auto& f : all.fields()) names.push_back(f.name);
+    std::vector<std::uint64_t> at;  // ends, a dense run, gaps of every size
+    for (std::uint64_t i = 0; i < all.size(); i += 1 + i / 3) at.push_back(i);
+    for (std::uint64_t i :
+         {std::uint64_t(all.size() / 2), std::uint64_t(all.size() / 2 + 1), std::uint64_t(all.size() - 1)})
+      if (i > at.back()) at.push_back(i);
+    auto s = ced::io::open_point_stream(data_path(name));
+    ced::point_cloud c;
+    ASSERT_TRUE(s->read_points(at, names, all.origin(), c));
+    ASSERT_EQ(c.size(), at.size());
+    ASSERT_EQ(c.fields().size(), all.fields().size());
+    for (std::size_t j = 0; j < at.size(); ++j) {
+      ASSERT_EQ(0, std::memcmp(c.position(j), all.position(at[j]), 12)) << j;
+      for (std::size_t f = 0; f < c.fields().size(); ++f) {
+        ASSERT_EQ(c.fields()[f].name, all.fields()[f].name);
+        ASSERT_EQ(c.fields()[f].values[j], all.fields()[f].values[at[j]]) << c.fields()[f].name << " " << j;
+      }
+    }
+  }
+  // LAZ decodes whole chunks: it says no, reading nothing.
+  auto laz = ced::io::open_point_stream(data_path("autzen_trim.laz"));
+  ced::point_cloud c;
+  EXPECT_FALSE(laz->read_points({0, 5}, {}, {0, 0, 0}, c));
+  EXPECT_TRUE(c.empty());
+}
+
 TEST(Copc, DamagedHierarchy) {
   const std::string file = read_bytes(data_path("1.2-with-color.copc.laz"));
   EXPECT_CONTAINS(runs_error(copc_with_root(file.size() - 10, 64)), "outside the file");

@@ -1403,9 +1403,50 @@ class las_stream final : public point_stream {
     return las_header_box(m_header.min.data(), m_header.max.data(), m_header.scale.data(), growth, box);
   }
 
+  bool read_points(const std::vector<std::uint64_t>& at, const std::vector<std::string>& fields,
+                   const std::array<double, 3>& origin, point_cloud& out) override {
+    if (m_header.compressed) return false;
+    take_flags(fields);
+    if (at.empty()) {
+      out = point_cloud();
+      return true;
+    }
+    // The records, read in windows: a gap of less than a page is read
+    // through (cheaper than another read), a window holds at most 1 MiB.
+    const std::size_t stride = m_header.record_length;
+    const std::uint64_t gap = std::max<std::uint64_t>(1, 4096 / stride),
+                        most = std::max<std::uint64_t>(1, (1u << 20) / stride);
+    std::string gathered(at.size() * stride, '\0');
+    std::string window;
+    for (std::size_t j = 0; j < at.size();) {
+      if (at[j] >= m_header.count || (j > 0 && at[j] <= at[j - 1]))
+        throw std::logic_error("las_stream::read_points: indices not ascending within the file's points");
+      std::size_t e = j + 1;
+      while (e < at.size() && at[e] > at[e - 1] && at[e] - at[e - 1] <= gap && at[e] - at[j] < most) ++e;
+      const std::uint64_t first = at[j], span = at[e - 1] - first + 1;
+      window.resize(static_cast<std::size_t>(span * stride));
+      m_file.read_at(m_header.point_offset + first * stride, window.size(), window.data());
+      for (; j < e; ++j)
+        std::memcpy(&gathered[j * stride], &window[static_cast<std::size_t>((at[j] - first) * stride)], stride);
+    }
+    const record_source src(reinterpret_cast<const unsigned char*>(gathered.data()), stride);
+    out = decode_records(src, at.size(), m_header, origin, plan_columns(m_header, m_extras, m_fields, m_scan.flags));
+    return true;
+  }
+
   void read_run(const point_run& r, const std::vector<std::string>& fields, const std::array<double, 3>& origin,
                 point_cloud& out) override {
-    // The flags the whole file has, from their names, as a complete pass decides them.
+    take_flags(fields);
+    m_next = r.first;
+    if (r.first > m_header.count || r.count > m_header.count - r.first)
+      throw std::logic_error("las_stream::read_run: a run past the file's points");
+    read(static_cast<std::size_t>(r.count), origin, out);
+  }
+
+ private:
+  /// The flags the whole file has, from their names (`fields`), as a
+  /// complete pass decides them: the pass is then spent.
+  void take_flags(const std::vector<std::string>& fields) {
     record_scan named;
     const format_layout& layout = *m_header.layout;
     for (const std::string& f : fields)
@@ -1414,13 +1455,8 @@ class las_stream final : public point_stream {
     m_scan.flags[0] = named.flags[0];
     m_scan.flags[1] = named.flags[1];
     m_first_pass_done = true;
-    m_next = r.first;
-    if (r.first > m_header.count || r.count > m_header.count - r.first)
-      throw std::logic_error("las_stream::read_run: a run past the file's points");
-    read(static_cast<std::size_t>(r.count), origin, out);
   }
 
- private:
   /// LAZ: the records [m_next, m_next + n) in memory, from the chunks that hold
   /// them, decoded (the last ones are kept for the next call).
   record_source window(std::size_t n) {

@@ -43,6 +43,12 @@ std::optional<std::vector<std::string>> detection_fields(const tile_plan& p) {
 record_fetcher::record_fetcher(const tile_plan& plan) : m_plan(plan) {
   check_plan_input(plan);
   m_stream = io::open_point_stream(plan.request.input, plan.request.read);
+  for (const plan_field& f : plan.fields) m_field_names.push_back(f.name);
+  // Every point finite: a keypoint's index among the finite points is its file index.
+  point_cloud none;
+  m_records = plan.finite_points == plan.file_points && m_stream->declared_points() == plan.file_points &&
+              m_stream->read_points({}, m_field_names, plan.origin, none);
+  if (m_records) return;
   m_reading =
       std::async(std::launch::async, [this] { m_next_size = m_stream->read(chunk_points, m_plan.origin, m_next); });
 }
@@ -74,7 +80,40 @@ bool record_fetcher::advance() {
   return true;
 }
 
+void record_fetcher::fetch_records(tile_part& c) {
+  for (std::size_t j = 0; j < c.index.size(); ++j) {
+    if (c.file_index[j] < m_last) changed("keypoints out of order");
+    if (c.file_index[j] >= m_plan.file_points)
+      changed("it has fewer points than the plan's " + std::to_string(m_plan.file_points));
+    if (c.index[j] != c.file_index[j])
+      changed("point " + std::to_string(c.file_index[j]) + " is not the one detected as keypoint " +
+              std::to_string(c.index[j]));
+    m_last = c.file_index[j] + 1;
+  }
+  point_cloud read;
+  m_stream->read_points(c.file_index, m_field_names, m_plan.origin, read);
+  point_cloud full = record_cloud(m_plan, c.index.size());
+  for (auto& f : full.fields()) f.whole_range.reset();
+  std::vector<column> keep;
+  const field_bytes from = conform_fields(read, m_plan.fields, keep);
+  for (std::size_t j = 0; j < c.index.size(); ++j) {
+    const float* p = read.position(j);
+    if (std::memcmp(p, c.keypoints.position(j), 3 * sizeof(float)) != 0)
+      changed("point " + std::to_string(c.file_index[j]) + " is not the one detected as keypoint " +
+              std::to_string(c.index[j]));
+  }
+  std::copy_n(read.positions().data(), 3 * c.index.size(), full.positions().data());
+  std::size_t f = 0;
+  for (auto& to : full.fields()) {
+    const std::size_t w = size_of(to.type());
+    std::memcpy(to.values.bytes(), from[f].first, w * c.index.size());
+    ++f;
+  }
+  c.keypoints = std::move(full);
+}
+
 void record_fetcher::fetch(tile_part& c) {
+  if (m_records) return fetch_records(c);
   point_cloud full = record_cloud(m_plan, c.index.size());
   for (auto& f : full.fields()) f.whole_range.reset();
   std::vector<column> keep;
@@ -102,6 +141,7 @@ void record_fetcher::fetch(tile_part& c) {
 }
 
 void record_fetcher::finish() {
+  if (m_records) return;  // the counts are the header's (checked when opened), every point finite
   while (advance()) {
   }
   if (m_base != m_plan.file_points || m_finite != m_plan.finite_points)

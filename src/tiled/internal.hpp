@@ -344,9 +344,11 @@ std::optional<std::vector<std::string>> detection_fields(const tile_plan& p);
 
 /// The last pass of a run whose parts carry only the tile fields: the
 /// keypoints' whole records, read from the input in one sequential pass (a
-/// merge join: the keypoints come in ascending file index). Every keypoint's
-/// index and position must be the input's, and the input's counts the
-/// plan's: else io_error, the input changed since the plan.
+/// merge join: the keypoints come in ascending file index), or, from an
+/// uncompressed LAS file (whose points are all finite), only their records
+/// (point_stream::read_points). Every keypoint's index and position must be
+/// the input's, and the input's counts the plan's: else io_error, the input
+/// changed since the plan.
 class record_fetcher {
  public:
   explicit record_fetcher(const tile_plan& plan);
@@ -360,9 +362,13 @@ class record_fetcher {
 
  private:
   bool advance();
+  void fetch_records(tile_part& c);
   void changed(const std::string& what) const;
   const tile_plan& m_plan;
   std::unique_ptr<io::point_stream> m_stream;
+  bool m_records = false;                  ///< reading only the keypoints' records
+  std::vector<std::string> m_field_names;  ///< of the plan
+  std::uint64_t m_last = 0;                ///< records: file index past the last keypoint fetched
   point_cloud m_chunk, m_next;
   std::size_t m_next_size = 0;
   std::future<void> m_reading;
