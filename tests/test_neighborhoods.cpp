@@ -705,6 +705,18 @@ TEST(Neighborhoods, TiledRunsGrowTheirOwnReachAndResumeWithIt) {
   EXPECT_FALSE(std::filesystem::exists(o.work_dir));
 }
 
+/// A modality whose channel (here the point's own radius, as a stand-in)
+/// comes from each point's neighbourhood, and says so.
+struct neighbourhood_channel {
+  std::string name() const { return "neighbourhood_channel"; }
+  double threshold(const ced::detect_params&) const { return 0.1; }
+  std::vector<std::string> fields() const { return {}; }
+  bool channels_from_neighborhoods() const { return true; }
+  ced::centroid_distance<1> bind(const ced::point_cloud& c, const ced::detect_params&) const {
+    return ced::centroid_distance<1>(std::vector<float>(c.size(), 0.0f), {1.0}, ced::norm_type::l1);
+  }
+};
+
 // A modality that reads its neighbours' neighbourhoods (normals under knn)
 // makes a tile depend on points one reach beyond its NMS term: the tile
 // checks those too (tile_check_extra), so that a tile detected on its own
@@ -725,6 +737,17 @@ TEST(Neighborhoods, TilesCheckOneReachFartherForNeighbourhoodChannels) {
   const double extra = ced::tile_check_extra(p, mods);
   EXPECT_EQ(extra, 0.05);  // one reach
   EXPECT_EQ(ced::tile_check_extra(p, {ced::make_modality("xyz")}), 0.0);
+  // Read normals depend on the point alone; any modality that says its
+  // channel comes from each point's neighbourhood reaches farther, scaled too.
+  EXPECT_EQ(ced::tile_check_extra(p, {ced::make_modality("normals:0.2,from=fields")}), 0.0);
+  EXPECT_EQ(ced::tile_check_extra(p, {ced::make_modality("normals:0.2,from=estimate")}), 0.05);
+  EXPECT_EQ(ced::tile_check_extra(p, {neighbourhood_channel{}}), 0.05);
+  EXPECT_EQ(ced::tile_check_extra(p, {ced::scaled<neighbourhood_channel>{{}, 2.0}}), 0.1);
+  EXPECT_EQ(ced::tile_check_extra(p, {ced::scaled_modality(neighbourhood_channel{}, 2.0)}), 0.1);
+  EXPECT_EQ(ced::tile_halo_params(p, {neighbourhood_channel{}}).neighborhood.reach, 0.1);  // twice the reach
+  ced::detect_params fixed = p;
+  fixed.neighborhood = ced::neighborhood_spec{};
+  EXPECT_EQ(ced::tile_check_extra(fixed, {neighbourhood_channel{}}), 0.0);  // within the radius: the usual halo
 
   const double lo[3] = {0, 0, 0}, hi[3] = {1.0, 0.02, 0.2};
   const ced::tile_grid grid = ced::make_tile_grid(lo, hi, 0.5, ced::tile_halo_params(p, mods));

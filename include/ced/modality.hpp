@@ -53,6 +53,15 @@ namespace ced {
 //   std::vector<std::string> fields() const;        // {} for positions only
 // Without it, every field is read.
 //
+// Optionally, M declares that bind() makes a point's channel from that
+// point's own neighbourhood under detect_params::neighborhood (as the
+// normals modality's estimate under knn or adaptive):
+//   bool channels_from_neighborhoods() const;
+// A neighbour's channel then depends on the neighbour's neighbourhood, one
+// hop farther, and tiles grow their halo and their reach check for it
+// (tile_halo_params, tile_check_extra). Without it: false, a channel that
+// depends on the point alone or on a fixed ball within the detection radius.
+//
 // To be usable from strings (CLI, config, plugins), M also provides
 //   static constexpr const char* spec_name = "rgb";
 //   static M from_spec(modality_spec&);
@@ -91,6 +100,12 @@ struct declares_fields<M, std::void_t<decltype(std::vector<std::string>(std::dec
     : std::true_type {};
 
 template <class M, class = void>
+struct declares_neighborhood_channels : std::false_type {};
+template <class M>
+struct declares_neighborhood_channels<
+    M, std::void_t<decltype(bool(std::declval<const M&>().channels_from_neighborhoods()))>> : std::true_type {};
+
+template <class M, class = void>
 struct is_modality : std::false_type {};
 template <class M>
 struct is_modality<
@@ -124,6 +139,16 @@ std::optional<std::vector<std::string>> fields_of(const M& m) {
     return std::vector<std::string>(m.fields());
   else
     return std::nullopt;
+}
+
+/// Whether modality `m` makes a point's channel from the point's own
+/// neighbourhood (its channels_from_neighborhoods(); false when it does not say).
+template <class M>
+bool channels_from_neighborhoods_of(const M& m) {
+  if constexpr (detail::declares_neighborhood_channels<M>::value)
+    return bool(m.channels_from_neighborhoods());
+  else
+    return false;
 }
 
 /// True when M models the Modality concept above.
@@ -205,6 +230,8 @@ class any_modality {
   double threshold(const detect_params& p) const { return m_self->threshold(p); }
   /// The fields it reads (matched ignoring case), or nullopt: any.
   std::optional<std::vector<std::string>> fields() const { return m_self->fields(); }
+  /// Whether it makes a point's channel from the point's own neighbourhood.
+  bool channels_from_neighborhoods() const { return m_self->channels_from_neighborhoods(); }
   std::unique_ptr<bound_modality> bind(const point_cloud& c, const detect_params& p) const {
     return m_self->bind(c, p);
   }
@@ -215,6 +242,7 @@ class any_modality {
     virtual std::string name() const = 0;
     virtual double threshold(const detect_params&) const = 0;
     virtual std::optional<std::vector<std::string>> fields() const = 0;
+    virtual bool channels_from_neighborhoods() const = 0;
     virtual std::unique_ptr<bound_modality> bind(const point_cloud&, const detect_params&) const = 0;
   };
   template <class M>
@@ -231,6 +259,7 @@ class any_modality {
     std::string name() const override { return std::string(modality.name()); }
     double threshold(const detect_params& p) const override { return modality.threshold(p); }
     std::optional<std::vector<std::string>> fields() const override { return fields_of(modality); }
+    bool channels_from_neighborhoods() const override { return channels_from_neighborhoods_of(modality); }
     std::unique_ptr<bound_modality> bind(const point_cloud& c, const detect_params& p) const override {
       return std::make_unique<bound>(modality.bind(c, p));
     }

@@ -30,8 +30,9 @@
 /// plugins see changes (any_modality, bound_modality, block_view, point_cloud,
 /// field, modality_spec, detect_params...).
 // 2: column views (ced::column::view); 3: field::whole_range;
-// 4: detect_params::max_keypoints; 5: precomputed_saliency (the centroid shift).
-#define CED_PLUGIN_ABI_VERSION 5
+// 4: detect_params::max_keypoints; 5: precomputed_saliency (the centroid shift);
+// 6: any_modality::channels_from_neighborhoods (and detect_params::neighborhood, search).
+#define CED_PLUGIN_ABI_VERSION 6
 
 #define CED_PLUGIN_STR_(x) #x
 #define CED_PLUGIN_STR(x) CED_PLUGIN_STR_(x)

@@ -121,6 +121,7 @@ struct scaled {
     else
       return {};
   }
+  bool channels_from_neighborhoods() const { return channels_from_neighborhoods_of(base); }
   precomputed_saliency bind(const point_cloud& cloud, const detect_params& p) const {
     return bind_scaled(cloud, p, factor, inner, any_modality(base));
   }
@@ -137,8 +138,9 @@ any_modality scaled_modality(any_modality base, double factor, double inner = 0)
 double max_scale_factor(const std::vector<any_modality>& modalities);
 
 /// Whether one of `modalities` reads a channel made over each point's own
-/// neighbourhood (normals, estimated under knn or adaptive): a neighbour's
-/// channel then depends on the neighbour's neighbourhood, one hop farther.
+/// neighbourhood (any_modality::channels_from_neighborhoods(): normals,
+/// estimated) under knn or adaptive: a neighbour's channel then depends on
+/// the neighbour's neighbourhood, one hop farther.
 bool reads_neighbourhood_channels(const std::vector<any_modality>& modalities, const detect_params& params);
 
 /// What a tile's halo is sized for (exact_halo): `params` at the largest

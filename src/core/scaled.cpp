@@ -113,6 +113,7 @@ struct scaled_any {
 
   std::string name() const { return base.name() + scale_suffix(factor, inner); }
   double threshold(const detect_params& p) const { return base.threshold(scaled_params(p, factor)); }
+  bool channels_from_neighborhoods() const { return base.channels_from_neighborhoods(); }
   precomputed_saliency bind(const point_cloud& cloud, const detect_params& p) const {
     return bind_scaled(cloud, p, factor, inner, base);
   }
@@ -131,7 +132,7 @@ any_modality scaled_modality(any_modality base, double factor, double inner) {
 bool reads_neighbourhood_channels(const std::vector<any_modality>& modalities, const detect_params& params) {
   if (params.neighborhood.fixed()) return false;  // normals within r: inside the blocks' part of the halo
   return std::any_of(modalities.begin(), modalities.end(),
-                     [](const any_modality& m) { return m.name().rfind("normals", 0) == 0; });
+                     [](const any_modality& m) { return m.channels_from_neighborhoods(); });
 }
 
 detect_params tile_halo_params(const detect_params& params, const std::vector<any_modality>& modalities) {

@@ -49,6 +49,10 @@ struct normals {
     const double r2 = std::sqrt(2.0);
     return centroid_distance<6>(normal_tensors(unit_normals(cloud, params)), {1, 1, 1, r2, r2, r2}, norm_type::l2);
   }
+  /// Estimated normals come from each point's own neighbourhood (under knn
+  /// or adaptive; within K·r of it under the fixed radius): tiles reach one
+  /// neighbourhood farther for them. Read ones depend on the point alone.
+  bool channels_from_neighborhoods() const { return from != source::fields; }
   /// The normals bind() uses: read or estimated (N×3).
   std::vector<float> unit_normals(const point_cloud& cloud, const detect_params& params) const {
     const auto has = [&](const char* x, const char* y, const char* z) {
