@@ -5,8 +5,10 @@
 // gives index for index the keypoints of the whole cloud.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -123,6 +125,22 @@ struct tile_reach_error : std::runtime_error {
   /// holds part of it), so a reach past the largest over every tile makes
   /// every tile pass. +infinity when the tile holds fewer than K points.
   double needed;
+};
+
+/// What the tiles that found a reach short measured, gathered over them
+/// (tile_reach_error::needed): the next reach is grown_reach(tried,
+/// needed, unmeasured).
+struct reach_shortfall {
+  double needed = 0;        ///< the largest finite measure
+  bool unmeasured = false;  ///< a tile held fewer than K points
+  bool any = false;         ///< some tile found the reach short
+  void add(const tile_reach_error& e) noexcept {
+    any = true;
+    if (e.needed <= std::numeric_limits<double>::max())
+      needed = std::max(needed, e.needed);
+    else
+      unmeasured = true;
+  }
 };
 
 /// Under tiles_check_reach(params): throws tile_reach_error, naming the

@@ -143,8 +143,10 @@ ced::tiled_request request_from(const detect_options& o, detect_plan& plan);
 /// A default work directory: in $TMPDIR, named after the input and the
 /// outputs, so that --resume finds the same one.
 std::string default_work_dir(const detect_options& o);
-/// Points read per point owned, and a warning when the halo outweighs the core.
-void report_plan(const ced::tile_plan& p, bool quiet);
+/// Points read per point owned, and a warning when the halo outweighs the
+/// core; a reach of ced's own, and what a short one does (`grows_reach`:
+/// run_tiled grows it; a plan's tiles run elsewhere stop).
+void report_plan(const ced::tile_plan& p, bool quiet, bool grows_reach);
 /// The outputs of a merged run (indices, original indices, keypoints,
 /// summary), written as the merge streams: sink() for the merge, then
 /// finish() writes the summary and commits every file. Without output

@@ -135,7 +135,7 @@ std::string default_work_dir(const detect_options& o) {
   return (fs::temp_directory_path(ec) / name).string();
 }
 
-void report_plan(const ced::tile_plan& p, bool quiet) {
+void report_plan(const ced::tile_plan& p, bool quiet, bool grows_reach) {
   std::uint64_t owned = 0, read = 0, largest = 0;
   for (const auto& t : p.tiles) {
     owned += t.core_points;
@@ -163,8 +163,10 @@ void report_plan(const ced::tile_plan& p, bool quiet) {
   if (p.request.reach_estimated)
     std::fprintf(stderr,
                  "ced: the neighbourhood reaches as far as the data make it, and no reach= was given: the tiles take "
-                 "reach=%.4g, ced's own (a tile that finds it short has every tile detected again, farther)\n",
-                 p.request.params.neighborhood.reach);
+                 "reach=%.4g, ced's own (%s)\n",
+                 p.request.params.neighborhood.reach,
+                 grows_reach ? "a tile that finds it short has every tile detected again, farther"
+                             : "a tile that finds it short stops, naming the reach= to give");
   std::fprintf(stderr,
                "ced: %zu tiles of %.4g (halo %.4g) own %s%llu points; %.2f points read a point, the largest tile reads "
                "%s%llu\n",
@@ -267,7 +269,7 @@ int run_detect_tiled(const detect_options& o) {
   ro.progress = bar_progress(bar);
   ro.planned = [&](const ced::tile_plan& p) {
     bar.done();
-    report_plan(p, o.quiet);
+    report_plan(p, o.quiet, /*grows_reach=*/true);
   };
   double last_print = -1e9;
   ro.tile_done = [&](std::size_t done, std::size_t total, double ms) {
@@ -406,7 +408,7 @@ command add_plan_command(CLI::App& app) {
             bar.done();
             out.stream() << p.to_json();
             out.commit();
-            report_plan(p, o->quiet);
+            report_plan(p, o->quiet, /*grows_reach=*/false);
             return exit_ok;
           }};
 }

@@ -300,12 +300,12 @@ void check_tile_reach(const tile_grid& grid, std::uint64_t t, const point_cloud&
 
 namespace {
 /// detect_tiled() at one reach. With `grow` (the reach is ced's own), a tile
-/// that finds it too short does not stop the others: `needed` gathers how
+/// that finds it too short does not stop the others: `shortfall` gathers how
 /// far every such tile's core reaches, and there is no result.
 std::optional<std::vector<std::uint32_t>> tiles_at(const point_cloud& cloud, const detect_params& params,
                                                    const std::vector<any_modality>& modalities, double tile_size,
-                                                   const double lo[3], const double hi[3], bool grow, double& needed,
-                                                   bool& unmeasured) {
+                                                   const double lo[3], const double hi[3], bool grow,
+                                                   reach_shortfall& shortfall) {
   // A modality at a larger scale (scale=) reads farther: the halo grows with it.
   const tile_grid grid = make_tile_grid(lo, hi, tile_size, tile_halo_params(params, modalities));
   const double check_extra = tile_check_extra(params, modalities);
@@ -320,7 +320,6 @@ std::optional<std::vector<std::uint32_t>> tiles_at(const point_cloud& cloud, con
     for (std::uint64_t t : near) members[t].push_back(static_cast<std::uint32_t>(i));
   }
   std::vector<std::uint32_t> out;
-  bool short_reach = false;
   for (std::uint64_t t = 0; t < grid.count(); ++t) {
     if (!owns[t]) continue;
     const cloud_tile tile = make_tile(cloud, std::move(members[t]), ranges);
@@ -331,14 +330,10 @@ std::optional<std::vector<std::uint32_t>> tiles_at(const point_cloud& cloud, con
       for (std::uint32_t k : core_keypoints(grid, t, tile.cloud, r)) out.push_back(tile.index[k]);
     } catch (const tile_reach_error& e) {
       if (!grow) throw;
-      short_reach = true;
-      if (std::isfinite(e.needed))
-        needed = std::max(needed, e.needed);
-      else
-        unmeasured = true;
+      shortfall.add(e);
     }
   }
-  if (short_reach) return std::nullopt;
+  if (shortfall.any) return std::nullopt;
   std::sort(out.begin(), out.end());
   return out;
 }
@@ -369,13 +364,12 @@ std::vector<std::uint32_t> detect_tiled(const point_cloud& cloud, const detect_p
   // Only a tile of fewer than K points measures nothing; its reach grows
   // fourfold, until the halo holds the whole cloud.
   for (;;) {
-    double needed = 0;
-    bool unmeasured = false;
-    if (auto out = tiles_at(cloud, p, modalities, tile_size, lo, hi, grow, needed, unmeasured)) {
+    reach_shortfall shortfall;
+    if (auto out = tiles_at(cloud, p, modalities, tile_size, lo, hi, grow, shortfall)) {
       if (reach_used) *reach_used = p.neighborhood.reach;
       return std::move(*out);
     }
-    p.neighborhood.reach = grown_reach(p.neighborhood.reach, needed, unmeasured);
+    p.neighborhood.reach = grown_reach(p.neighborhood.reach, shortfall.needed, shortfall.unmeasured);
   }
 }
 

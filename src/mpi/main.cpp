@@ -71,7 +71,7 @@ void prepare(const detect_options& o, prepared& r) {
     if (!wants_tiles(o)) throw usage_error("ced-mpi needs --tile-size or --memory-limit");
     r.setup = setup_tiled(o);
     r.work_dir = r.setup.run.work_dir;
-    r.setup.run.planned = [&](const ced::tile_plan& p) { report_plan(p, o.quiet); };
+    r.setup.run.planned = [&](const ced::tile_plan& p) { report_plan(p, o.quiet, /*grows_reach=*/false); };
     r.plan_json =
         naming_file_fields(o, r.setup.plan, [&] { return ced::prepare_tiled(r.setup.request, r.setup.run).to_json(); });
   } catch (const usage_error& e) {

@@ -81,6 +81,11 @@ bool record_fetcher::advance() {
 }
 
 void record_fetcher::fetch_records(tile_part& c) {
+  if (c.index.empty()) {
+    c.keypoints = record_cloud(m_plan, 0);
+    for (auto& f : c.keypoints.fields()) f.whole_range.reset();
+    return;
+  }
   for (std::size_t j = 0; j < c.index.size(); ++j) {
     if (c.file_index[j] < m_last) changed("keypoints out of order");
     if (c.file_index[j] >= m_plan.file_points)

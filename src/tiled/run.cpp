@@ -145,11 +145,10 @@ namespace {
 
 /// run_tiled() with the plan of `request`. When a tile finds the reach that
 /// ced estimated too short, the other tiles still run, to measure how far
-/// theirs reach; then the plan and tiles go and `grow` is set to the reach
-/// they need (the largest finite tile_reach_error::needed; `unmeasured`
-/// when a tile held fewer than K points).
+/// theirs reach; then the plan and tiles go and `shortfall` says how far
+/// they reach.
 std::optional<tile_part> run_once(const tiled_request& request, const tiled_run_options& o, tile_plan* plan_out,
-                                  double& grow, bool& unmeasured) {
+                                  reach_shortfall& shortfall) {
   using clock = std::chrono::steady_clock;
   auto ms = [](clock::time_point a, clock::time_point b) {
     return std::chrono::duration<double, std::milli>(b - a).count();
@@ -166,9 +165,6 @@ std::optional<tile_part> run_once(const tiled_request& request, const tiled_run_
     return std::async(std::launch::async, [&, k] { return load_cached(plan, o.work_dir, plan.tiles[k].id); });
   };
   std::future<tile_points> next;
-  bool short_reach = false;
-  grow = 0;
-  unmeasured = false;
   try {
     for (std::size_t k = 0; k < plan.tiles.size(); ++k) {
       if (needs_work(k)) {
@@ -180,11 +176,7 @@ std::optional<tile_part> run_once(const tiled_request& request, const tiled_run_
           detect_and_keep(plan, o.work_dir, pts, o.threads);
         } catch (const tile_reach_error& e) {
           if (!plan.request.reach_estimated) throw;
-          short_reach = true;
-          if (std::isfinite(e.needed))
-            grow = std::max(grow, e.needed);
-          else
-            unmeasured = true;
+          shortfall.add(e);
           std::error_code gone;
           fs::remove(cache_file(o.work_dir, pts.tile), gone);
         }
@@ -200,7 +192,7 @@ std::optional<tile_part> run_once(const tiled_request& request, const tiled_run_
     remove_work_dir(o.work_dir);
     throw;
   }
-  if (short_reach) {
+  if (shortfall.any) {
     // The parts of a plan with another reach are of no use: the next try
     // plans again (the marker stays: the directory is still ced's).
     const fs::path dir(o.work_dir);
@@ -221,9 +213,8 @@ tile_part run_tiled(const tiled_request& request, const tiled_run_options& o, ti
   tiled_request r = request;
   tile_plan plan;
   for (;;) {
-    double needed = 0;
-    bool unmeasured = false;
-    if (auto merged = run_once(r, o, &plan, needed, unmeasured)) {
+    reach_shortfall shortfall;
+    if (auto merged = run_once(r, o, &plan, shortfall)) {
       if (plan_out) *plan_out = std::move(plan);
       return std::move(*merged);
     }
@@ -233,9 +224,10 @@ tile_part run_tiled(const tiled_request& request, const tiled_run_options& o, ti
     // halo holds the whole cloud.
     r = plan.request;
     const double tried = r.params.neighborhood.reach;
-    r.params.neighborhood.reach = grown_reach(tried, needed, unmeasured);
+    r.params.neighborhood.reach = grown_reach(tried, shortfall.needed, shortfall.unmeasured);
     if (o.reach_grown)
-      o.reach_grown(tried, unmeasured ? std::numeric_limits<double>::infinity() : needed, r.params.neighborhood.reach);
+      o.reach_grown(tried, shortfall.unmeasured ? std::numeric_limits<double>::infinity() : shortfall.needed,
+                    r.params.neighborhood.reach);
   }
 }
 
