@@ -288,7 +288,7 @@ int run_detect_tiled(const detect_options& o) {
     if (std::isfinite(needed))
       std::fprintf(stderr,
                    "ced: reach=%.4g was short (the tiles' points reach up to %.4g): every tile again with "
-                   "reach=%.4g\n",
+                   "reach=%.4g (give it in --neighborhood to start there next time)\n",
                    tried, needed, next);
     else
       std::fprintf(stderr,
