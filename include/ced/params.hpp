@@ -125,7 +125,8 @@ struct detect_params {
   std::function<void(double)> progress;
 };
 
-/// The number of worker threads a request of `threads` means (0 = all cores).
+/// The number of worker threads a request of `threads` means (0 = every core
+/// this process may run on: its CPU affinity, as taskset and mpirun set it).
 unsigned resolve_threads(unsigned threads) noexcept;
 
 /// Throws std::invalid_argument naming the parameter when one is out of range

@@ -9,6 +9,10 @@
 #include <thread>
 #include <vector>
 
+#ifdef __linux__
+#include <sched.h>
+#endif
+
 #ifdef CED_HAS_TBB
 #include <oneapi/tbb/blocked_range.h>
 #include <oneapi/tbb/parallel_for.h>
@@ -18,6 +22,13 @@
 namespace ced {
 unsigned resolve_threads(unsigned threads) noexcept {
   if (threads != 0) return threads;
+#ifdef __linux__
+  // The cores this process may run on (mpirun and taskset bind to fewer
+  // than the machine has; TBB warns at every arena wider than that).
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (sched_getaffinity(0, sizeof set, &set) == 0 && CPU_COUNT(&set) > 0) return unsigned(CPU_COUNT(&set));
+#endif
   const unsigned hw = std::thread::hardware_concurrency();
   return hw == 0 ? 1u : hw;
 }
