@@ -45,10 +45,7 @@ enum tag : int { tag_ready = 1, tag_tile = 2, tag_done = 3, tag_failed = 4, tag_
 /// bind it to one), shared with the other ranks of its node when unbound.
 unsigned threads_per_rank(int asked) {
   if (asked > 0) return static_cast<unsigned>(asked);
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  const unsigned cores =
-      sched_getaffinity(0, sizeof set, &set) == 0 ? unsigned(CPU_COUNT(&set)) : std::thread::hardware_concurrency();
+  const unsigned cores = ced::resolve_threads(0);  // its CPU affinity
   const char* local = std::getenv("OMPI_COMM_WORLD_LOCAL_SIZE");
   const unsigned ranks = local ? static_cast<unsigned>(std::max(1, std::atoi(local))) : 1u;
   const unsigned all = std::max(1u, std::thread::hardware_concurrency());

@@ -40,6 +40,16 @@ std::optional<std::vector<std::string>> detection_fields(const tile_plan& p) {
   return slim.tile_fields;
 }
 
+namespace {
+/// n records of every field of the plan, with no whole_range: the merge's
+/// keypoints, whose ranges are their own.
+point_cloud keypoint_records(const tile_plan& plan, std::size_t n) {
+  point_cloud c = record_cloud(plan, n);
+  for (auto& f : c.fields()) f.whole_range.reset();
+  return c;
+}
+}  // namespace
+
 record_fetcher::record_fetcher(const tile_plan& plan) : m_plan(plan) {
   check_plan_input(plan);
   m_stream = io::open_point_stream(plan.request.input, plan.request.read);
@@ -62,6 +72,10 @@ void record_fetcher::changed(const std::string& what) const {
                      "the file changed since the plan was made (" + what + "): run again without --resume");
 }
 
+void record_fetcher::not_the_keypoint(std::uint64_t file_index, std::uint64_t index) const {
+  changed("point " + std::to_string(file_index) + " is not the one detected as keypoint " + std::to_string(index));
+}
+
 /// The next chunk of the input; false at its end.
 bool record_fetcher::advance() {
   for (; m_scan < m_chunk.size(); ++m_scan) m_finite += finite3(m_chunk.position(m_scan));
@@ -82,30 +96,24 @@ bool record_fetcher::advance() {
 
 void record_fetcher::fetch_records(tile_part& c) {
   if (c.index.empty()) {
-    c.keypoints = record_cloud(m_plan, 0);
-    for (auto& f : c.keypoints.fields()) f.whole_range.reset();
+    c.keypoints = keypoint_records(m_plan, 0);
     return;
   }
   for (std::size_t j = 0; j < c.index.size(); ++j) {
     if (c.file_index[j] < m_last) changed("keypoints out of order");
     if (c.file_index[j] >= m_plan.file_points)
       changed("it has fewer points than the plan's " + std::to_string(m_plan.file_points));
-    if (c.index[j] != c.file_index[j])
-      changed("point " + std::to_string(c.file_index[j]) + " is not the one detected as keypoint " +
-              std::to_string(c.index[j]));
+    if (c.index[j] != c.file_index[j]) not_the_keypoint(c.file_index[j], c.index[j]);
     m_last = c.file_index[j] + 1;
   }
   point_cloud read;
   m_stream->read_points(c.file_index, m_field_names, m_plan.origin, read);
-  point_cloud full = record_cloud(m_plan, c.index.size());
-  for (auto& f : full.fields()) f.whole_range.reset();
+  point_cloud full = keypoint_records(m_plan, c.index.size());
   std::vector<column> keep;
   const field_bytes from = conform_fields(read, m_plan.fields, keep);
   for (std::size_t j = 0; j < c.index.size(); ++j) {
     const float* p = read.position(j);
-    if (std::memcmp(p, c.keypoints.position(j), 3 * sizeof(float)) != 0)
-      changed("point " + std::to_string(c.file_index[j]) + " is not the one detected as keypoint " +
-              std::to_string(c.index[j]));
+    if (std::memcmp(p, c.keypoints.position(j), 3 * sizeof(float)) != 0) not_the_keypoint(c.file_index[j], c.index[j]);
   }
   std::copy_n(read.positions().data(), 3 * c.index.size(), full.positions().data());
   std::size_t f = 0;
@@ -119,8 +127,7 @@ void record_fetcher::fetch_records(tile_part& c) {
 
 void record_fetcher::fetch(tile_part& c) {
   if (m_records) return fetch_records(c);
-  point_cloud full = record_cloud(m_plan, c.index.size());
-  for (auto& f : full.fields()) f.whole_range.reset();
+  point_cloud full = keypoint_records(m_plan, c.index.size());
   std::vector<column> keep;
   field_bytes from;
   std::vector<std::pair<unsigned char*, std::size_t>> to;
@@ -136,7 +143,7 @@ void record_fetcher::fetch(tile_part& c) {
     for (; m_scan < i; ++m_scan) m_finite += finite3(m_chunk.position(m_scan));
     const float* p = m_chunk.position(i);
     if (!finite3(p) || m_finite != c.index[j] || std::memcmp(p, c.keypoints.position(j), 3 * sizeof(float)) != 0)
-      changed("point " + std::to_string(fi) + " is not the one detected as keypoint " + std::to_string(c.index[j]));
+      not_the_keypoint(fi, c.index[j]);
     if (from.empty()) from = conform_fields(m_chunk, m_plan.fields, keep);
     std::copy_n(p, 3, full.positions().data() + 3 * j);
     for (std::size_t f = 0; f < to.size(); ++f)
@@ -158,8 +165,7 @@ merge_sink fetching_sink(const tile_plan& plan, record_fetcher& f, const merge_s
   merge_sink s;
   s.begin = [&plan, &to](const tile_part& totals, std::uint64_t n) {
     tile_part t = totals;
-    t.keypoints = record_cloud(plan, 0);
-    for (auto& fl : t.keypoints.fields()) fl.whole_range.reset();
+    t.keypoints = keypoint_records(plan, 0);
     if (to.begin) to.begin(t, n);
   };
   s.chunk = [&f, &to](const tile_part& c) {

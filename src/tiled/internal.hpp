@@ -363,7 +363,9 @@ class record_fetcher {
  private:
   bool advance();
   void fetch_records(tile_part& c);
-  void changed(const std::string& what) const;
+  [[noreturn]] void changed(const std::string& what) const;
+  /// changed(): file point `file_index` is not keypoint `index` as detected.
+  [[noreturn]] void not_the_keypoint(std::uint64_t file_index, std::uint64_t index) const;
   const tile_plan& m_plan;
   std::unique_ptr<io::point_stream> m_stream;
   bool m_records = false;                  ///< reading only the keypoints' records
