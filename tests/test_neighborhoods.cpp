@@ -18,6 +18,7 @@
 #include "ced/ced.hpp"
 #include "ced/io/io.hpp"
 #include "ced/tiled.hpp"
+#include "core/neighbor_block.hpp"
 #include "core/neighbor_index.hpp"
 #include "test_support.hpp"
 #include "tiled_support.hpp"
@@ -380,7 +381,8 @@ TEST(Neighborhoods, NearestOnTheGridAreCgalsOnEveryDensity) {
   // when short, then CGAL's own search) against CGAL's search for every
   // point: a sensor-like falloff, a lattice of exact ties and duplicates,
   // and a dense cluster among sparse points (every block's bound too small
-  // for some of its points).
+  // for some of its points). The grid's selection runs on the AVX2 build
+  // (where the CPU has it) and on the generic one, alike.
   std::vector<ced::point_cloud> clouds{scanned_room(6000, 21)};
   ced::point_cloud lattice;
   for (int x = 0; x < 30; ++x)
@@ -398,18 +400,24 @@ TEST(Neighborhoods, NearestOnTheGridAreCgalsOnEveryDensity) {
       mixed.push_back(tight(rng), tight(rng), tight(rng));
   clouds.push_back(mixed);
   for (std::size_t c = 0; c < clouds.size(); ++c)
-    for (const char* spec : {"knn:1", "knn:2", "knn:9", "knn:24", "adaptive:16,min=0.02", "adaptive:5,scale=2"}) {
+    for (const char* spec :
+         {"knn:1", "knn:2", "knn:9", "knn:24", "knn:40", "adaptive:16,min=0.02", "adaptive:5,scale=2"}) {
       SCOPED_TRACE(std::to_string(c) + " " + spec);
       ced::detect_params p;
       p.neighborhood = ced::parse_neighborhood(spec);
       p.min_neighbors = 1;
       const auto grid = ced::detect(clouds[c], p, {ced::make_modality("xyz")});
+      ced::detail::force_generic_kernel(true);
+      const auto generic = ced::detect(clouds[c], p, {ced::make_modality("xyz")});
+      ced::detail::force_generic_kernel(false);
       p.search = ced::search_kind::cgal;
       const auto tree = ced::detect(clouds[c], p, {ced::make_modality("xyz")});
-      EXPECT_EQ(grid.point_radius, tree.point_radius);
-      EXPECT_EQ(grid.neighbor_count, tree.neighbor_count);
-      EXPECT_EQ(grid.saliency, tree.saliency);  // the same lists, summed alike
-      EXPECT_EQ(grid.keypoints, tree.keypoints);
+      for (const auto* r : {&grid, &generic}) {
+        EXPECT_EQ(r->point_radius, tree.point_radius);
+        EXPECT_EQ(r->neighbor_count, tree.neighbor_count);
+        EXPECT_EQ(r->saliency, tree.saliency);  // the same lists, summed alike
+        EXPECT_EQ(r->keypoints, tree.keypoints);
+      }
     }
 }
 

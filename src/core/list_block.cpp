@@ -8,7 +8,8 @@
 namespace ced {
 
 void list_block::set_channels(const std::vector<channel_source>& sources) {
-  m_balls.set_channels({});  // positions only: the balls are for their lists
+  m_balls.set_channels({});          // positions only: the balls are for their lists,
+  m_balls.set_keep_distances(true);  // kept with their distances
   m_sources = sources;
   m_slot_offset.clear();
   std::size_t offset = 3;  // the position sums come first (block_view::position_sums)
@@ -28,6 +29,28 @@ namespace {
 /// the cloud has fewer than K points).
 double adaptive_radius(const neighborhood_spec& n, double dk) noexcept {
   return std::min(std::max(n.scale * dk, n.min_radius), n.max_radius);
+}
+
+/// Sorts a[0..n) of distinct keys without a branch to mispredict (each key
+/// goes to its rank), through `scratch` (room for n); std::sort beyond 32.
+template <class T>
+void sort_distinct(T* a, std::size_t n, T* scratch) {
+  if (n > 32) {
+    std::sort(a, a + n);
+    return;
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    T rank = 0;  // as wide as the keys: one vector lane each
+    for (std::size_t j = 0; j < n; ++j) rank += a[j] < a[i];
+    scratch[rank] = a[i];
+  }
+  std::copy_n(scratch, n, a);
+}
+
+float float_of(std::int32_t bits) noexcept {
+  float f;
+  std::memcpy(&f, &bits, sizeof f);
+  return f;
 }
 }  // namespace
 
@@ -68,7 +91,8 @@ double list_block::gather(const neighbor_index& index, const float* xyz, std::si
       if (!(squared_radius(r) > 0)) m_found.assign(1, i);
     }
   }
-  std::sort(m_found.begin(), m_found.end());
+  if (m_scratch.size() < m_found.size()) m_scratch.resize(2 * m_found.size());
+  sort_distinct(m_found.data(), m_found.size(), m_scratch.data());
   m_indices.insert(m_indices.end(), m_found.begin(), m_found.end());
   return r;
 }
@@ -93,19 +117,20 @@ void list_block::fill_nearest(const neighbor_index& index, const block_partition
     for (std::size_t q = 0; q < m_count; ++q) m_ranked[q] = {0.0f, m_points[q]};
     return;
   }
-  // ρ: the largest k-distance of every 32nd point, or its adaptive radius
-  // if larger (so that the ball holds the point's own ball too). Any ρ
+  // ρ: the largest k-distance of every 32nd point (bounded by CGAL's k
+  // nearest within the tree that holds it), or its adaptive radius if
+  // larger (so that the ball holds the point's own ball too). Any ρ
   // gives the same lists; a ball of fewer than k points is asked again with
   // 2ρ (twice at most), then of CGAL.
   double rho = 0;
   for (std::size_t q = 0; q < m_count; q += 32) {
-    by_cgal(q);
-    const double dk = std::sqrt(double(m_ranked[q * k + k - 1].d2));
+    const double dk =
+        std::sqrt(double(index.k_distance_bound(xyz + 3 * std::size_t(m_points[q]), k, m_position + q, m_one)));
     rho = std::max(rho, dk);
     if (n.kind == neighborhood_kind::adaptive) rho = std::max(rho, adaptive_radius(n, k < n.k ? HUGE_VAL : dk));
   }
   rho = rho * 1.25 + 1e-30;  // a quarter to spare: points between the samples may be sparser
-  m_short.resize(m_count);  // m_balls keeps its lists (neighbor_block's default)
+  m_short.resize(m_count);   // m_balls keeps its lists (neighbor_block's default)
   for (std::size_t q = 0; q < m_count; ++q) m_short[q] = static_cast<std::uint32_t>(q);
   for (int round = 0; round < 3 && !m_short.empty(); ++round, rho *= 2) {
     m_asked.resize(m_short.size());
@@ -113,72 +138,91 @@ void list_block::fill_nearest(const neighbor_index& index, const block_partition
     m_balls.fill(grid, xyz, m_asked.data(), m_asked.size(), rho);
     std::size_t still = 0;
     for (std::size_t t = 0; t < m_short.size(); ++t) {
-      if (m_balls.count(t) < k)
+      const neighbor_block::ball_view ball = m_balls.ball(t);
+      if (ball.count < k)
         m_short[still++] = m_short[t];
       else
-        select_nearest(t, m_short[t], xyz + 3 * std::size_t(m_asked[t]), n, rho);
+        select_nearest(ball, m_short[t], n, rho);
     }
     m_short.resize(still);
   }
   for (const std::uint32_t q : m_short) by_cgal(q);
 }
 
-void list_block::select_nearest(std::size_t ball, std::size_t q, const float* c, const neighborhood_spec& spec,
+void list_block::select_nearest(const neighbor_block::ball_view& the_ball, std::size_t q, const neighborhood_spec& spec,
                                 double rho) {
-  // The ball holds every point nearer than ρ, at least k of them, so every
-  // point as near as the k-th.
-  const std::size_t want = m_near_k - 1;  // besides the point itself
-  const std::uint32_t self = m_points[q];
-  if (m_bits.size() < m_balls.count(ball)) {
-    m_bits.resize(2 * m_balls.count(ball));
-    m_ids.resize(2 * m_balls.count(ball));
-    m_tied.resize(2 * m_balls.count(ball));
+  // The ball holds every point nearer than ρ, at least k of them (the point
+  // itself, whose distance reads −1, among them), so every point as near as
+  // the k-th.
+  const std::size_t want = m_near_k;
+  const std::size_t found = the_ball.count;
+  const std::int32_t* bits = the_ball.d2_bits;
+  const std::size_t room = found + 8;
+  if (m_keys.size() < 2 * room) {  // the keys in [lo, hi] and their sort's scratch
+    m_keys.resize(4 * room);
+    m_split_bits.resize(4 * room);  // below lo, then from `room` on those in [lo, hi]
+    m_split_ids.resize(4 * room);
   }
-  const std::size_t found = m_balls.neighbor_distances(ball, c, self, m_bits.data(), m_ids.data());
-  const std::int32_t* bits = m_bits.data();
   // Narrow [lo, hi] around the want-th smallest distance (as bits: non-
-  // negative floats order as their bits do) by bisection on counts, until
-  // it holds at most 8 points: branch-free, vectorised passes, where a
-  // selection by comparisons mispredicts half its branches.
-  std::int32_t lo = bits[0], hi = bits[0];
-  for (std::size_t t = 1; t < found; ++t) lo = std::min(lo, bits[t]), hi = std::max(hi, bits[t]);
+  // negative floats order as their bits do) until it holds at most 12
+  // points, with branch-free, vectorised counting passes (a selection by
+  // comparisons mispredicts half its branches). Each pass counts below two
+  // cuts aimed, by interpolation, a few points either side of the want-th:
+  // on a surface the count grows as d², so evenly in the distances' values.
+  // After three passes the cuts halve the range, so it always ends.
+  std::int32_t lo = -1;
+  std::int32_t hi;
+  const float rho2 = squared_radius(rho);
+  std::memcpy(&hi, &rho2, sizeof hi);    // every distance is below ρ²
   std::size_t below = 0, up_to = found;  // points nearer than lo, and not farther than hi
-  while (up_to - below > 8 && lo < hi) {
-    const std::int32_t mid = lo + (hi - lo) / 2;
-    std::int32_t at_most = 0;
-    for (std::size_t t = 0; t < found; ++t) at_most += bits[t] <= mid;
-    const bool enough = std::size_t(at_most) >= want;
-    hi = enough ? mid : hi;
-    up_to = enough ? std::size_t(at_most) : up_to;
-    lo = enough ? lo : mid + 1;
-    below = enough ? below : std::size_t(at_most);
+  for (int pass = 0; up_to - below > 12 && lo < hi; ++pass) {
+    std::int32_t a = lo + (hi - lo) / 2, b = a;
+    if (pass < 3) {
+      const double v0 = lo < 0 ? 0.0 : double(float_of(lo)), v1 = float_of(hi);
+      auto aim = [&](double count) {
+        const double f = std::min(std::max((count - double(below)) / double(up_to - below), 0.0), 1.0);
+        const float v = static_cast<float>(v0 + (v1 - v0) * f);
+        std::int32_t m;
+        std::memcpy(&m, &v, sizeof m);
+        return std::min(std::max(m, lo), hi - 1);
+      };
+      a = aim(double(want) - 4.5);
+      b = std::max(a, aim(double(want) + 3.5));
+    }
+    std::int32_t to_a = 0, to_b = 0;
+    for (std::size_t t = 0; t < found; ++t) to_a += bits[t] <= a, to_b += bits[t] <= b;
+    if (std::size_t(to_a) >= want) {
+      hi = a, up_to = std::size_t(to_a);
+    } else if (std::size_t(to_b) >= want) {
+      lo = a + 1, below = std::size_t(to_a), hi = b, up_to = std::size_t(to_b);
+    } else {
+      lo = b + 1, below = std::size_t(to_b);
+    }
   }
   // The points nearer than lo (fewer than want), then those in [lo, hi] by
   // distance and index: the k-th nearest, the last of the list, is the
   // largest of those taken.
   neighbor_index::ranked_point* to = m_ranked.data() + q * m_near_k;
-  auto at = [&](std::size_t t) {
-    float d2;
-    std::memcpy(&d2, &bits[t], sizeof d2);
-    return neighbor_index::ranked_point{d2, m_ids[t]};
-  };
-  *to++ = {0.0f, self};
-  neighbor_index::ranked_point* const in_range = m_tied.data();
-  std::size_t n = 0, ranged = 0;
-  for (std::size_t t = 0; t < found; ++t) {  // without a branch to mispredict
-    const neighbor_index::ranked_point p = at(t);
-    to[n] = p;
-    in_range[ranged] = p;
-    n += bits[t] < lo;
-    ranged += bits[t] >= lo && bits[t] <= hi;
+  std::int32_t* const below_bits = m_split_bits.data();
+  std::uint32_t* const below_ids = m_split_ids.data();
+  std::uint32_t ranged = 0;
+  std::size_t n = detail::split_distances(bits, the_ball.ids, static_cast<std::uint32_t>(found), lo, hi, below_bits,
+                                          below_ids, below_bits + room, below_ids + room, &ranged);
+  for (std::size_t t = 0; t < n; ++t) to[t] = {float_of(std::max(below_bits[t], 0)), below_ids[t]};  // itself at 0
+  // (distance, index), the point itself first (its −1 as 0, the rest + 1)
+  std::uint64_t* const in_range = m_keys.data();
+  for (std::size_t t = 0; t < ranged; ++t)
+    in_range[t] = std::uint64_t(std::uint32_t(below_bits[room + t] + 1)) << 32 | below_ids[room + t];
+  sort_distinct(in_range, ranged, in_range + ranged);
+  for (std::size_t t = 0; n < want; ++t, ++n) {
+    const auto d = static_cast<std::int32_t>(std::max<std::int64_t>(std::int64_t(in_range[t] >> 32) - 1, 0));
+    to[n] = {float_of(d), static_cast<std::uint32_t>(in_range[t])};
   }
-  std::sort(in_range, in_range + ranged,
-            [](const auto& a, const auto& b) { return a.d2 < b.d2 || (a.d2 == b.d2 && a.index < b.index); });
-  std::copy_n(in_range, want - n, to + n);
-  if (!m_own_first.empty()) own_ball(q, spec, rho, found);
+  if (!m_own_first.empty()) own_ball(q, spec, rho, the_ball);
 }
 
-void list_block::own_ball(std::size_t q, const neighborhood_spec& n, double rho, std::size_t found) {
+void list_block::own_ball(std::size_t q, const neighborhood_spec& n, double rho,
+                          const neighbor_block::ball_view& ball) {
   // An adaptive radius beyond the k-th distance but within ρ: the ball of ρ
   // holds its ball (the points nearer than it, and the point itself).
   const float kth = m_ranked[q * m_near_k + m_near_k - 1].d2;
@@ -187,11 +231,8 @@ void list_block::own_ball(std::size_t q, const neighborhood_spec& n, double rho,
   if (!(r2 > kth) || r2 > squared_radius(rho)) return;
   m_own_first[q] = m_own.size();
   m_own.push_back(m_points[q]);
-  for (std::size_t t = 0; t < found; ++t) {
-    float d2;
-    std::memcpy(&d2, &m_bits[t], sizeof d2);
-    if (d2 < r2) m_own.push_back(m_ids[t]);
-  }
+  for (std::size_t t = 0; t < ball.count; ++t)  // the point itself reads −1
+    if (ball.d2_bits[t] >= 0 && float_of(ball.d2_bits[t]) < r2) m_own.push_back(ball.ids[t]);
   m_own_size[q] = static_cast<std::uint32_t>(m_own.size() - m_own_first[q]);
 }
 

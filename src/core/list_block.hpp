@@ -58,14 +58,14 @@ class list_block {
   /// lists (the ball holds every point as near as the k-th).
   void fill_nearest(const neighbor_index& index, const block_partition& grid, const float* xyz,
                     const detect_params& params);
-  /// Point q's k nearest from its ball of ρ (m_balls' point `ball`, which
-  /// holds at least k points), into m_ranked; c its position. Under
-  /// adaptive, also its own ball when the ball of ρ holds it (own_ball).
-  void select_nearest(std::size_t ball, std::size_t q, const float* c, const neighborhood_spec& spec, double rho);
-  /// Point q's own adaptive ball from the `found` distances of its ball of
-  /// ρ, into m_own, when its radius lies beyond its k-th distance and
-  /// within ρ (gather() queries CGAL otherwise).
-  void own_ball(std::size_t q, const neighborhood_spec& n, double rho, std::size_t found);
+  /// Point q's k nearest from its ball of ρ (which holds at least k
+  /// points), into m_ranked. Under adaptive, also its own ball when the
+  /// ball of ρ holds it (own_ball).
+  void select_nearest(const neighbor_block::ball_view& ball, std::size_t q, const neighborhood_spec& spec, double rho);
+  /// Point q's own adaptive ball from its ball of ρ, into m_own, when its
+  /// radius lies beyond its k-th distance and within ρ (gather() queries
+  /// CGAL otherwise).
+  void own_ball(std::size_t q, const neighborhood_spec& n, double rho, const neighbor_block::ball_view& ball);
 
   std::vector<channel_source> m_sources;
   std::vector<std::size_t> m_slot_offset;
@@ -81,9 +81,9 @@ class list_block {
   std::size_t m_near_k = 0;
   std::size_t m_position = 0;  // the block's first point's position in the grid's order
   neighbor_block m_balls;
-  std::vector<std::int32_t> m_bits;
-  std::vector<std::uint32_t> m_ids;
-  std::vector<neighbor_index::ranked_point> m_tied;
+  std::vector<std::uint64_t> m_keys;  // (distance bits + 1, index) of the points in [lo, hi], and scratch
+  std::vector<std::uint32_t> m_scratch, m_split_ids;
+  std::vector<std::int32_t> m_split_bits;
   std::vector<std::uint32_t> m_short, m_asked;
   /// adaptive: point q's own ball, m_own[m_own_first[q] ..][.. m_own_size[q]]
   /// (SIZE_MAX: not made; gather() queries it).

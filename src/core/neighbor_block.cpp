@@ -26,13 +26,19 @@ struct kernel_set {
   void (*pass)(const detail::block_kernel_input&, const detail::block_kernel_output&) noexcept;
   void (*compact)(const std::uint32_t*, const std::uint32_t*, const std::uint8_t*, std::uint32_t,
                   std::uint32_t*) noexcept;
+  std::uint32_t (*balls)(const detail::block_kernel_input&, const std::uint32_t*, const std::uint32_t*, std::size_t,
+                         std::int32_t*, std::uint32_t*) noexcept;
+  std::uint32_t (*split)(const std::int32_t*, const std::uint32_t*, std::uint32_t, std::int32_t, std::int32_t,
+                         std::int32_t*, std::uint32_t*, std::int32_t*, std::uint32_t*, std::uint32_t*) noexcept;
   const char* name;
 };
-constexpr kernel_set generic_kernels{detail::block_kernel_generic, detail::compact_generic, "generic"};
+constexpr kernel_set generic_kernels{detail::block_kernel_generic, detail::compact_generic, detail::balls_generic,
+                                     detail::split_generic, "generic"};
 
 kernel_set best_kernels() noexcept {
 #if defined(CED_HAS_AVX2_KERNEL)
-  if (__builtin_cpu_supports("avx2")) return {detail::block_kernel_avx2, detail::compact_avx2, "avx2"};
+  if (__builtin_cpu_supports("avx2"))
+    return {detail::block_kernel_avx2, detail::compact_avx2, detail::balls_avx2, detail::split_avx2, "avx2"};
 #endif
   return generic_kernels;
 }
@@ -76,6 +82,11 @@ constexpr std::uint64_t max_counted_cells = 1u << 14;
 
 namespace detail {
 const char* kernel_isa() noexcept { return active_kernels().name; }
+std::uint32_t split_distances(const std::int32_t* d2_bits, const std::uint32_t* ids, std::uint32_t n, std::int32_t lo,
+                              std::int32_t hi, std::int32_t* below_bits, std::uint32_t* below_ids,
+                              std::int32_t* range_bits, std::uint32_t* range_ids, std::uint32_t* in_range) noexcept {
+  return active_kernels().split(d2_bits, ids, n, lo, hi, below_bits, below_ids, range_bits, range_ids, in_range);
+}
 void force_generic_kernel(bool on) noexcept { g_force_generic.store(on); }
 }  // namespace detail
 
@@ -307,8 +318,9 @@ void neighbor_block::run(const float* xyz, const std::uint32_t* points, std::siz
 
   const std::size_t stride = copy_channels_in(points, count);
   set_up_rows(xyz, points, count, r);
-  // The kernel skips the bits only for positions alone (no channels).
-  const bool bits = m_keep_lists || m_channels != 0;
+  // The kernel skips the bits only for positions alone (no channels), and
+  // the balls' distances replace them.
+  const bool bits = (m_keep_lists || m_channels != 0) && !m_keep_distances;
   if (bits) grow(m_bits, m_bit_offsets[count]);
   grow(m_counts, count);
   grow(m_sums, m_sum_stride * count);
@@ -316,6 +328,8 @@ void neighbor_block::run(const float* xyz, const std::uint32_t* points, std::siz
   const detail::block_kernel_input in{
       m_gx.data(), m_gy.data(),     m_gz.data(),  m_channel_values.data(), stride,           m_channels,
       count,       m_centre.data(), m_own.data(), m_ranges.data(),         squared_radius(r)};
+  m_r2 = squared_radius(r);
+  if (m_keep_distances) return;  // ball() sweeps a point at a time
   const detail::block_kernel_output out{m_counts.data(), m_sums.data(), bits ? m_bits.data() : nullptr};
   active_kernels().pass(in, out);
 }
@@ -325,33 +339,15 @@ void neighbor_block::neighbors(std::size_t k, std::uint32_t* out) const noexcept
                            m_bits.data() + m_bit_offsets[k], m_counts[k], out);
 }
 
-std::size_t neighbor_block::neighbor_distances(std::size_t k, const float c[3], std::uint32_t self,
-                                               std::int32_t* d2_bits, std::uint32_t* ids) const noexcept {
-  const std::uint32_t* rg = m_ranges.data() + 2 * sweep_ranges * k;
-  const std::uint8_t* bits = m_bits.data() + m_bit_offsets[k];
-  // Local copies: the outputs could alias the members as far as the compiler knows.
-  const float* const gx = m_gx.data();
-  const float* const gy = m_gy.data();
-  const float* const gz = m_gz.data();
-  const std::uint32_t* const gathered = m_gathered.data();
-  const float cx = c[0], cy = c[1], cz = c[2];
-  std::size_t n = 0;
-  // Each range's bits follow those of the ranges before it, a byte per 8.
-  for (std::size_t q = 0; q < sweep_ranges; ++q) {
-    const std::uint32_t begin = rg[2 * q], end = rg[2 * q + 1];
-    for (std::uint32_t t = begin; t < end; t += 8) {
-      for (unsigned b = *bits++; b != 0; b &= b - 1) {
-        const std::uint32_t u = t + static_cast<std::uint32_t>(__builtin_ctz(b));
-        const float dx = gx[u] - cx, dy = gy[u] - cy, dz = gz[u] - cz;
-        const float d2 = dx * dx + dy * dy + dz * dz;
-        const std::uint32_t j = gathered[u];
-        std::memcpy(d2_bits + n, &d2, sizeof d2);
-        ids[n] = j;
-        n += j != self;
-      }
-    }
-  }
-  return n;
+neighbor_block::ball_view neighbor_block::ball(std::size_t k) {
+  const std::size_t room = 8 * std::size_t(m_bit_offsets[k + 1] - m_bit_offsets[k]);
+  grow(m_ball_bits, room);
+  grow(m_ball_ids, room);
+  const detail::block_kernel_input in{m_gx.data(), m_gy.data(),     m_gz.data(), nullptr,         0,   0,
+                                      m_count,     m_centre.data(), nullptr,     m_ranges.data(), m_r2};
+  const std::size_t n =
+      active_kernels().balls(in, m_gathered.data(), m_points, k, m_ball_bits.data(), m_ball_ids.data());
+  return {m_ball_bits.data(), m_ball_ids.data(), n};
 }
 
 neighborhood neighbor_block::operator[](std::size_t k) const {

@@ -33,6 +33,11 @@ class neighbor_block {
   /// and sweep() must not be called: a pass that needs no lists and has no
   /// candidates (a scaled modality's own pass) skips that work.
   void set_keep_lists(bool keep) noexcept { m_keep_lists = keep; }
+  /// Whether fill() only prepares each point's ball for ball(), instead of
+  /// making counts, sums and lists (default false; only for positions
+  /// alone, no channels). Then only size(), point() and ball() may be
+  /// called.
+  void set_keep_distances(bool keep) noexcept { m_keep_distances = keep; }
 
   /// Runs the pass for points `points[0..count)`, gathering from the blocks'
   /// grid (in an order that does not depend on the rest of the cloud: a
@@ -53,13 +58,17 @@ class neighbor_block {
   }
   /// Writes point k's count(k) neighbours to `out`, in the block's fixed order.
   void neighbors(std::size_t k, std::uint32_t* out) const noexcept;
-  /// Point k's neighbours other than `self` with their float squared
-  /// distances from `c` (as squared_distance(p_j, c) computes them), the
-  /// distances as their bits (which order as the distances do): writes them
-  /// to `d2_bits` and `ids` (room for count(k) each) in the block's fixed
-  /// order and returns how many. Reads the positions gathered in the block.
-  std::size_t neighbor_distances(std::size_t k, const float c[3], std::uint32_t self, std::int32_t* d2_bits,
-                                 std::uint32_t* ids) const noexcept;
+  /// Point k's ball (set_keep_distances), swept now: its neighbours in the
+  /// block's fixed order, with their float squared distances from it (as
+  /// squared_distance() computes them) as bits, which order as the
+  /// distances do, and −1 for the point itself. Valid until the next call;
+  /// both arrays are readable 8 entries past `count`.
+  struct ball_view {
+    const std::int32_t* d2_bits;
+    const std::uint32_t* ids;
+    std::size_t count;
+  };
+  ball_view ball(std::size_t k);
   /// Point k's neighbourhood as a list (all lists are built on first use).
   neighborhood operator[](std::size_t k) const;
   /// The block as modalities see it (valid while the block is not refilled).
@@ -129,7 +138,11 @@ class neighbor_block {
   std::vector<std::uint8_t> m_bits;
   // Lists, built on demand.
   mutable bool m_lists_built = false;
-  bool m_keep_lists = true;
+  bool m_keep_lists = true, m_keep_distances = false;
+  // The balls with their distances (set_keep_distances).
+  std::vector<std::int32_t> m_ball_bits;
+  std::vector<std::uint32_t> m_ball_ids;
+  float m_r2 = 0;
   mutable std::vector<std::uint32_t> m_offsets, m_indices;
 };
 
@@ -137,6 +150,13 @@ namespace detail {
 /// Which build of the neighbour pass runs: "avx2" when the CPU has it,
 /// otherwise "generic". Both give bitwise identical results; tests force one.
 const char* kernel_isa() noexcept;
+/// Splits n distances (as bits, with their ids) by [lo, hi] on the chosen
+/// build: those below lo to below_*[0..returned), those within to
+/// range_*[0..*in_range), each in order. Reads up to 8 entries past n and
+/// writes up to 8 past each count.
+std::uint32_t split_distances(const std::int32_t* d2_bits, const std::uint32_t* ids, std::uint32_t n, std::int32_t lo,
+                              std::int32_t hi, std::int32_t* below_bits, std::uint32_t* below_ids,
+                              std::int32_t* range_bits, std::uint32_t* range_ids, std::uint32_t* in_range) noexcept;
 /// Forces the generic build (true) or restores the automatic choice (false).
 void force_generic_kernel(bool on) noexcept;
 }  // namespace detail

@@ -173,6 +173,34 @@ void neighbor_index::radius_search(const float c[3], double r, std::vector<std::
   }
 }
 
+std::size_t neighbor_index::home_tree(std::size_t position, std::size_t k) const noexcept {
+  const auto& parts = m_impl->parts;
+  if (position >= m_n) return SIZE_MAX;
+  // Tree t holds positions [n·t/trees, n·(t+1)/trees) of the order.
+  std::size_t t = position * parts.size() / m_n;
+  while (t + 1 < parts.size() && m_n * (t + 1) / parts.size() <= position) ++t;
+  while (t > 0 && m_n * t / parts.size() > position) --t;
+  return parts[t]->tree.size() >= k ? t : SIZE_MAX;
+}
+
+float neighbor_index::k_distance_bound(const float c[3], std::size_t k, std::size_t position,
+                                       std::vector<ranked_point>& scratch) const {
+  const std::size_t t = k > 0 ? home_tree(position, k) : SIZE_MAX;
+  float bound = 0;
+  if (t == SIZE_MAX) {  // no tree of k points known: the exact k nearest
+    k_nearest(c, k, UINT32_MAX, scratch, position);
+    for (const auto& p : scratch) bound = std::max(bound, p.d2);
+    return scratch.size() < k ? HUGE_VALF : bound;
+  }
+  // Any k points bound the k-th distance by their farthest: take the home tree's k nearest.
+  const knn search(m_impl->parts[t]->tree, at(c), static_cast<unsigned>(k), 0.0f, true, distance(point_of{}), false);
+  for (const auto& hit : search) {
+    const float q[3] = {hit.first.p.x(), hit.first.p.y(), hit.first.p.z()};
+    bound = std::max(bound, squared_distance(q, c));
+  }
+  return bound;
+}
+
 void neighbor_index::k_nearest(const float c[3], std::size_t k, std::uint32_t self, std::vector<ranked_point>& out,
                                std::size_t position) const {
   out.clear();
@@ -184,15 +212,9 @@ void neighbor_index::k_nearest(const float c[3], std::size_t k, std::uint32_t se
   };
   // 1. A bound on the k-th distance: k points of the tree that holds self,
   // or of every tree (when it is not known, or has fewer than k points).
-  const impl::part* home = nullptr;
   const auto& parts = m_impl->parts;
-  if (position < m_n) {
-    // Tree t holds positions [n·t/trees, n·(t+1)/trees) of the order.
-    std::size_t t = position * parts.size() / m_n;
-    while (t + 1 < parts.size() && m_n * (t + 1) / parts.size() <= position) ++t;
-    while (t > 0 && m_n * t / parts.size() > position) --t;
-    if (parts[t]->tree.size() >= k) home = parts[t].get();
-  }
+  const std::size_t t_home = home_tree(position, k);
+  const impl::part* home = t_home == SIZE_MAX ? nullptr : parts[t_home].get();
   // One tree: its k + 1 nearest settle the answer unless the (k+1)-th is
   // as near as the k-th (a tie, or CGAL's rounding of the distance, which
   // may differ from ours by a few ulps): then the ball query below does.

@@ -64,6 +64,14 @@ class neighbor_index {
   void k_nearest(const float c[3], std::size_t k, std::uint32_t self, std::vector<ranked_point>& out,
                  std::size_t position = SIZE_MAX) const;
 
+  /// An upper bound on the squared distance from c to its k-th nearest
+  /// indexed point, cheaper than k_nearest(): the farthest of the k nearest
+  /// within the tree that holds position `position` of the order (or, when
+  /// that tree has fewer than k points or none is known, the exact k-th;
+  /// +inf when the index has fewer than k points). `scratch` is work space.
+  float k_distance_bound(const float c[3], std::size_t k, std::size_t position,
+                         std::vector<ranked_point>& scratch) const;
+
   /// Distance from point i (an index of the indexed set) to its nearest
   /// other point (0 for a duplicate; +inf when it is alone).
   float nearest_other_distance(std::uint32_t i) const;
@@ -82,6 +90,9 @@ class neighbor_index {
 
  private:
   struct impl;
+  /// The tree that holds position `position` of the order, if it has at
+  /// least k points (SIZE_MAX otherwise, or when position is unknown).
+  std::size_t home_tree(std::size_t position, std::size_t k) const noexcept;
   std::unique_ptr<impl> m_impl;
   const float* m_xyz = nullptr;
   std::size_t m_n = 0;

@@ -64,6 +64,26 @@ void compact_generic(const std::uint32_t* gathered, const std::uint32_t* ranges,
 void compact_avx2(const std::uint32_t* gathered, const std::uint32_t* ranges, const std::uint8_t* bits, std::uint32_t n,
                   std::uint32_t* out) noexcept;
 
+/// The ball of the block's point k (positions alone): the gathered points
+/// nearer than the radius, in sweep order, to ids[0..returned), with their
+/// float squared distances ((dx² + dy²) + dz², as the pass computes them)
+/// as bits at the same places of d2_bits, and −1 for the point itself
+/// (points[k]). Needs room for 8 × (its groups of 8 tested) entries.
+std::uint32_t balls_generic(const block_kernel_input& in, const std::uint32_t* gathered, const std::uint32_t* points,
+                            std::size_t k, std::int32_t* d2_bits, std::uint32_t* ids) noexcept;
+std::uint32_t balls_avx2(const block_kernel_input& in, const std::uint32_t* gathered, const std::uint32_t* points,
+                         std::size_t k, std::int32_t* d2_bits, std::uint32_t* ids) noexcept;
+
+/// Splits n distances (as bits) and their ids by [lo, hi]: those below lo
+/// to below_*[0..returned), those within to range_*[0..*in_range), each in
+/// order. Reads up to 8 entries past n; writes up to 8 past each count.
+std::uint32_t split_generic(const std::int32_t* d2_bits, const std::uint32_t* ids, std::uint32_t n, std::int32_t lo,
+                            std::int32_t hi, std::int32_t* below_bits, std::uint32_t* below_ids,
+                            std::int32_t* range_bits, std::uint32_t* range_ids, std::uint32_t* in_range) noexcept;
+std::uint32_t split_avx2(const std::int32_t* d2_bits, const std::uint32_t* ids, std::uint32_t n, std::int32_t lo,
+                         std::int32_t hi, std::int32_t* below_bits, std::uint32_t* below_ids, std::int32_t* range_bits,
+                         std::uint32_t* range_ids, std::uint32_t* in_range) noexcept;
+
 /// Both compute exactly the same numbers (same lanes, same order, no FMA).
 void block_kernel_generic(const block_kernel_input& in, const block_kernel_output& out) noexcept;
 void block_kernel_avx2(const block_kernel_input& in, const block_kernel_output& out) noexcept;

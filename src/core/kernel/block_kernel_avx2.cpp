@@ -2,4 +2,6 @@
 // The block kernel for AVX2 (compiled with -mavx2, chosen at run time).
 #define CED_KERNEL_NAME block_kernel_avx2
 #define CED_KERNEL_NAME_COMPACT compact_avx2
+#define CED_KERNEL_NAME_BALLS balls_avx2
+#define CED_KERNEL_NAME_SPLIT split_avx2
 #include "core/kernel/block_kernel.inc"
