@@ -686,15 +686,21 @@ TEST(Neighborhoods, TiledRunsGrowTheirOwnReachAndResumeWithIt) {
   ced::tiled_run_options o;
   o.work_dir = ced_test::temp_file("falloff_work");
   std::vector<double> tried;
-  o.reach_grown = [&](double t, double needed, double next) {
+  std::size_t short_tiles = 0;
+  o.reach_grown = [&](double t, double needed, double next, std::size_t tiles) {
     tried.push_back(t);
+    short_tiles = tiles;
     EXPECT_GT(needed, t);  // +infinity: a tile of fewer than K points
     EXPECT_GE(next, std::isfinite(needed) ? needed : 4 * t);
   };
   ced::tile_plan plan;
   const ced::tile_part merged = ced::run_tiled(r, o, &plan);
+  // The tiles that passed the first try kept their parts (the second
+  // detects only the short ones), and the merge is still the whole run's.
   EXPECT_EQ(merged.index, std::vector<std::uint64_t>(whole.begin(), whole.end()));
   ASSERT_EQ(tried.size(), 1u) << "the first reach was not short: the test misses the growth";
+  EXPECT_GE(short_tiles, 1u);
+  EXPECT_LT(short_tiles, plan.tiles.size()) << "every tile was short: the test misses the kept parts";
   EXPECT_TRUE(plan.request.reach_estimated);
   EXPECT_GT(plan.request.params.neighborhood.reach, tried.front());
   EXPECT_FALSE(std::filesystem::exists(o.work_dir));

@@ -134,8 +134,10 @@ struct reach_shortfall {
   double needed = 0;        ///< the largest finite measure
   bool unmeasured = false;  ///< a tile held fewer than K points
   bool any = false;         ///< some tile found the reach short
+  std::size_t tiles = 0;    ///< how many
   void add(const tile_reach_error& e) noexcept {
     any = true;
+    ++tiles;
     if (e.needed <= std::numeric_limits<double>::max())
       needed = std::max(needed, e.needed);
     else
@@ -160,8 +162,9 @@ void check_tile_reach(const tile_grid& grid, std::uint64_t t, const point_cloud&
 /// other, each with `params.threads`) and returns the indices into `cloud`,
 /// ascending: exactly detect(cloud, params, modalities).keypoints. Under a
 /// neighbourhood of unbounded reach the tiles take estimated_reach(), and
-/// when a tile finds it too short every tile is detected again with
-/// grown_reach() (`reach_used`, when given, is the reach that passed). For
+/// when a tile finds it too short the short tiles are detected again with
+/// grown_reach(), the others keeping their keypoints (`reach_used`, when
+/// given, is the reach that passed). For
 /// clouds that fit in memory (tests, and a check of the tiling); the CLI's
 /// --tile-size streams files instead.
 std::vector<std::uint32_t> detect_tiled(const point_cloud& cloud, const detect_params& params,

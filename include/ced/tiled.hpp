@@ -41,7 +41,7 @@ struct tiled_request {
   /// adaptive:K without max, asked without reach= (unbounded_reach()). The
   /// plan then sets one (estimated_reach(), from the cloud's bounds and
   /// count), and run_tiled() grows it when a tile finds it too short
-  /// (grown_reach()): every tile again, so the run stays exact. A run
+  /// (grown_reach()): the short tiles again, so the run stays exact. A run
   /// resumed without reach= takes the plan's. Set by the planners.
   bool reach_estimated = false;
 };
@@ -224,9 +224,10 @@ struct tiled_run_options {
   std::function<void(const tile_plan&)> planned;
   std::function<void(std::size_t done, std::size_t total, double elapsed_ms)> tile_done;
   /// When ced's own reach (tiled_request::reach_estimated) proved too short
-  /// and every tile is detected again: the reach tried, the one the tiles
-  /// measured (+infinity when a tile held fewer than K points), the next.
-  std::function<void(double tried, double needed, double next)> reach_grown;
+  /// and the tiles it was short for are detected again (the others keep
+  /// their parts): the reach tried, the one the tiles measured (+infinity
+  /// when a tile held fewer than K points), the next, and how many tiles.
+  std::function<void(double tried, double needed, double next, std::size_t tiles)> reach_grown;
   /// Filled by run_tiled when set.
   struct tiled_times* times = nullptr;
   /// When set, the merge streams into it (merge_part_files) and run_tiled

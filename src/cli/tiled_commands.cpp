@@ -165,7 +165,7 @@ void report_plan(const ced::tile_plan& p, bool quiet, bool grows_reach) {
                  "ced: the neighbourhood reaches as far as the data make it, and no reach= was given: the tiles take "
                  "reach=%.4g, ced's own (%s)\n",
                  p.request.params.neighborhood.reach,
-                 grows_reach ? "a tile that finds it short has every tile detected again, farther"
+                 grows_reach ? "a tile that finds it short is detected again, farther"
                              : "a tile that finds it short stops, naming the reach= to give");
   std::fprintf(stderr,
                "ced: %zu tiles of %.4g (halo %.4g) own %s%llu points; %.2f points read a point, the largest tile reads "
@@ -282,19 +282,20 @@ int run_detect_tiled(const detect_options& o) {
     std::fprintf(stderr, "ced: tile %zu/%zu done; %.1f s elapsed, about %.0f s left\n", done, total, ms / 1000,
                  left / 1000);
   };
-  ro.reach_grown = [&](double tried, double needed, double next) {
+  ro.reach_grown = [&](double tried, double needed, double next, std::size_t tiles) {
     if (o.quiet) return;
     bar.done();
+    const char* noun = tiles == 1 ? "tile" : "tiles";
     if (std::isfinite(needed))
       std::fprintf(stderr,
-                   "ced: reach=%.4g was short (the tiles' points reach up to %.4g): every tile again with "
+                   "ced: reach=%.4g was short for %zu %s (their points reach up to %.4g): those again with "
                    "reach=%.4g (give it in --neighborhood to start there next time)\n",
-                   tried, needed, next);
+                   tried, tiles, noun, needed, next);
     else
       std::fprintf(stderr,
-                   "ced: reach=%.4g was short (a tile held fewer than K points): every tile again with "
+                   "ced: reach=%.4g was short for %zu %s (one held fewer than K points): those again with "
                    "reach=%.4g\n",
-                   tried, next);
+                   tried, tiles, noun, next);
   };
   ced::tile_plan p;
   ced::tiled_times times;

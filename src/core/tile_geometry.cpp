@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <map>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -299,15 +300,26 @@ void check_tile_reach(const tile_grid& grid, std::uint64_t t, const point_cloud&
 }
 
 namespace {
+/// The keypoints of the tiles that passed an earlier try (an exact tile's
+/// are the same under any longer reach), by tile, and that try's grid.
+struct passed_tiles {
+  std::optional<tile_grid> grid;
+  std::map<std::uint64_t, std::vector<std::uint32_t>> keypoints;
+};
+
 /// detect_tiled() at one reach. With `grow` (the reach is ced's own), a tile
 /// that finds it too short does not stop the others: `shortfall` gathers how
-/// far every such tile's core reaches, and there is no result.
+/// far every such tile's core reaches, and there is no result; `passed`
+/// keeps the keypoints of the tiles that passed, for the next try.
 std::optional<std::vector<std::uint32_t>> tiles_at(const point_cloud& cloud, const detect_params& params,
                                                    const std::vector<any_modality>& modalities, double tile_size,
                                                    const double lo[3], const double hi[3], bool grow,
-                                                   reach_shortfall& shortfall) {
+                                                   reach_shortfall& shortfall, passed_tiles& passed) {
   // A modality at a larger scale (scale=) reads farther: the halo grows with it.
   const tile_grid grid = make_tile_grid(lo, hi, tile_size, tile_halo_params(params, modalities));
+  if (!passed.grid || passed.grid->lo != grid.lo || passed.grid->size != grid.size || passed.grid->dims != grid.dims)
+    passed.keypoints.clear();  // other cores
+  passed.grid = grid;
   const double check_extra = tile_check_extra(params, modalities);
   const std::vector<value_range> ranges = field_ranges(cloud);
   // Each tile's points, and which tiles own a point: only those are detected.
@@ -322,12 +334,18 @@ std::optional<std::vector<std::uint32_t>> tiles_at(const point_cloud& cloud, con
   std::vector<std::uint32_t> out;
   for (std::uint64_t t = 0; t < grid.count(); ++t) {
     if (!owns[t]) continue;
+    if (const auto done = passed.keypoints.find(t); done != passed.keypoints.end()) {
+      out.insert(out.end(), done->second.begin(), done->second.end());
+      continue;
+    }
     const cloud_tile tile = make_tile(cloud, std::move(members[t]), ranges);
     try {
       check_tile_reach(grid, t, tile.cloud, nullptr, params);
       const detection_result r = detect(tile.cloud, params, modalities);
       check_tile_reach(grid, t, tile.cloud, &r, params, check_extra);
-      for (std::uint32_t k : core_keypoints(grid, t, tile.cloud, r)) out.push_back(tile.index[k]);
+      std::vector<std::uint32_t>& kept = passed.keypoints[t];
+      for (std::uint32_t k : core_keypoints(grid, t, tile.cloud, r)) kept.push_back(tile.index[k]);
+      out.insert(out.end(), kept.begin(), kept.end());
     } catch (const tile_reach_error& e) {
       if (!grow) throw;
       shortfall.add(e);
@@ -360,12 +378,14 @@ std::vector<std::uint32_t> detect_tiled(const point_cloud& cloud, const detect_p
     p.neighborhood.reach = estimated_reach(p, lo, hi, cloud.size());
   }
   // Each try that finds the reach short measures how far the tiles' points
-  // reach (at least how far they do in the whole cloud): the next passes.
+  // reach (at least how far they do in the whole cloud): the next passes,
+  // and detects only the tiles that did not.
   // Only a tile of fewer than K points measures nothing; its reach grows
   // fourfold, until the halo holds the whole cloud.
+  passed_tiles passed;
   for (;;) {
     reach_shortfall shortfall;
-    if (auto out = tiles_at(cloud, p, modalities, tile_size, lo, hi, grow, shortfall)) {
+    if (auto out = tiles_at(cloud, p, modalities, tile_size, lo, hi, grow, shortfall, passed)) {
       if (reach_used) *reach_used = p.neighborhood.reach;
       return std::move(*out);
     }

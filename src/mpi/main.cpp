@@ -116,7 +116,7 @@ int work(const detect_options& o, mpi::communicator& world, const prepared& r, u
 }
 
 /// What to do when the reach ced estimated proves short: ced-mpi does not
-/// detect every tile again, as `ced detect --tile-size` does.
+/// detect the short tiles again, as `ced detect --tile-size` does.
 std::string estimated_reach_note(const ced::tile_plan& plan) {
   char reach[32];
   std::snprintf(reach, sizeof reach, "%.4g", plan.request.params.neighborhood.reach);

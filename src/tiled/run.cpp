@@ -2,6 +2,7 @@
 // Tiled runs in a work directory: prepare (the plan and the tile cache, or a
 // run to resume), detect each cached tile into its part, merge the parts
 // (run_tiled; ced-mpi shares the steps between ranks).
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <csignal>
@@ -143,12 +144,49 @@ tile_part finish_tiled(const tile_plan& plan, const std::string& work_dir, const
 
 namespace {
 
+/// Whether tile ids name the same cores in plans `a` and `b` of one input
+/// (which differ in the reach), and their parts carry the same fields.
+bool same_cores(const tile_plan& a, const tile_plan& b) {
+  auto names = [](const tile_plan& p) {
+    std::vector<std::string> n;
+    for (const auto& f : p.fields) n.push_back(f.name + "/" + std::to_string(int(f.type)));
+    return n;
+  };
+  return a.grid.lo == b.grid.lo && a.grid.size == b.grid.size && a.grid.dims == b.grid.dims && a.origin == b.origin &&
+         a.fingerprint == b.fingerprint && a.file_points == b.file_points && a.tile_fields == b.tile_fields &&
+         names(a) == names(b) && a.request.modalities == b.request.modalities;
+}
+
+/// The parts kept from a try of plan `before` whose reach was short
+/// (keep_parts()), made parts of `now`: a tile whose check passed is
+/// exact, and its part the same under any longer reach. Returns how many.
+std::size_t adopt_kept_parts(const tile_plan& before, const tile_plan& now, const std::string& work_dir) {
+  const fs::path kept = fs::path(work_dir) / "kept";
+  std::size_t adopted = 0;
+  if (same_cores(before, now))
+    for (const auto& t : now.tiles) {
+      const std::string from = (kept / ("t" + std::to_string(t.id) + ".part")).string();
+      std::error_code ec;
+      if (!fs::exists(from, ec) || fs::exists(part_file(work_dir, t.id), ec)) continue;
+      const auto was = std::lower_bound(before.tiles.begin(), before.tiles.end(), t.id,
+                                        [](const tile_entry& e, std::uint64_t id) { return e.id < id; });
+      if (was == before.tiles.end() || was->id != t.id || was->core_points != t.core_points) continue;
+      tile_part part = read_part(from, before);
+      part.plan = now.digest();
+      write_part(part_file(work_dir, t.id), now, part);
+      ++adopted;
+    }
+  clear_kept(fs::path(work_dir));
+  return adopted;
+}
+
 /// run_tiled() with the plan of `request`. When a tile finds the reach that
 /// ced estimated too short, the other tiles still run, to measure how far
-/// theirs reach; then the plan and tiles go and `shortfall` says how far
-/// they reach.
+/// theirs reach; then the plan and cache go, the parts are kept, and
+/// `shortfall` says how far they reach. `before`: the plan of the try
+/// whose parts were kept.
 std::optional<tile_part> run_once(const tiled_request& request, const tiled_run_options& o, tile_plan* plan_out,
-                                  reach_shortfall& shortfall) {
+                                  reach_shortfall& shortfall, const tile_plan* before) {
   using clock = std::chrono::steady_clock;
   auto ms = [](clock::time_point a, clock::time_point b) {
     return std::chrono::duration<double, std::milli>(b - a).count();
@@ -156,6 +194,7 @@ std::optional<tile_part> run_once(const tiled_request& request, const tiled_run_
   const auto t_plan = clock::now();
   const tile_plan plan = prepare_tiled(request, o);
   if (plan_out) *plan_out = plan;
+  if (before) adopt_kept_parts(*before, plan, o.work_dir);
   // The tiles one after the other, threads within each; the next tile's
   // cache is read while this one is detected.
   const auto t0 = std::chrono::steady_clock::now();
@@ -193,10 +232,11 @@ std::optional<tile_part> run_once(const tiled_request& request, const tiled_run_
     throw;
   }
   if (shortfall.any) {
-    // The parts of a plan with another reach are of no use: the next try
-    // plans again (the marker stays: the directory is still ced's).
+    // The next try plans again with a longer reach (the marker stays: the
+    // directory is still ced's) and takes over the parts of the tiles
+    // that passed.
     const fs::path dir(o.work_dir);
-    clear_tiles(dir);
+    keep_parts(dir);
     fs::remove(dir / "plan.json", ec);
     return std::nullopt;
   }
@@ -212,9 +252,10 @@ std::optional<tile_part> run_once(const tiled_request& request, const tiled_run_
 tile_part run_tiled(const tiled_request& request, const tiled_run_options& o, tile_plan* plan_out) {
   tiled_request r = request;
   tile_plan plan;
+  std::optional<tile_plan> before;  // the short try's, whose passed parts are kept
   for (;;) {
     reach_shortfall shortfall;
-    if (auto merged = run_once(r, o, &plan, shortfall)) {
+    if (auto merged = run_once(r, o, &plan, shortfall, before ? &*before : nullptr)) {
       if (plan_out) *plan_out = std::move(plan);
       return std::move(*merged);
     }
@@ -223,11 +264,12 @@ tile_part run_tiled(const tiled_request& request, const tiled_run_options& o, ti
     // than K points measures nothing: its reach grows fourfold, until the
     // halo holds the whole cloud.
     r = plan.request;
+    before = plan;
     const double tried = r.params.neighborhood.reach;
     r.params.neighborhood.reach = grown_reach(tried, shortfall.needed, shortfall.unmeasured);
     if (o.reach_grown)
       o.reach_grown(tried, shortfall.unmeasured ? std::numeric_limits<double>::infinity() : shortfall.needed,
-                    r.params.neighborhood.reach);
+                    r.params.neighborhood.reach, shortfall.tiles);
   }
 }
 

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 // Tiled runs: the work directory. ced claims it (a marker file), fills it
-// (plan.json, cache/, parts/) and removes only what it made.
+// (plan.json, cache/, parts/, and kept/ while a longer reach is tried) and
+// removes only what it made.
 #include <exception>
 #include <string>
 #include <system_error>
@@ -76,6 +77,18 @@ void tiled_detail::clear_tiles(const fs::path& dir) {
   remove_ced_files(dir / "parts", "", ".part");
 }
 
+bool tiled_detail::keep_parts(const fs::path& dir) {
+  clear_kept(dir);
+  remove_ced_files(dir / "cache", "", ".bin");
+  std::error_code ec;
+  fs::rename(dir / "parts", dir / "kept", ec);
+  if (!ec) return true;
+  remove_ced_files(dir / "parts", "", ".part");
+  return false;
+}
+
+void tiled_detail::clear_kept(const fs::path& dir) { remove_ced_files(dir / "kept", "", ".part"); }
+
 void tiled_detail::claim_work_dir(const std::string& work_dir) {
   const fs::path dir(work_dir);
   std::error_code ec;
@@ -111,6 +124,7 @@ void remove_work_dir(const std::string& work_dir) noexcept {
     }
     const bool created = marker.find("\ncreated yes\n") != std::string::npos;
     clear_tiles(dir);
+    clear_kept(dir);
     remove_ced_files(dir, "plan.json", "");
     fs::remove(dir / work_dir_marker, ec);
     if (created) fs::remove(dir, ec);  // only when empty: a file someone put there keeps it
