@@ -256,6 +256,15 @@ falloff=$DATA/falloff_patch.ply
 check "neighborhood: a short reach of ced's own grows, tiled = whole" cmp -s "$T/fo_t.txt" "$T/fo.txt"
 check "neighborhood: the growth is said" grep -Eq "reach=0.74 was short for [0-9]+ tiles? \(their points reach up to 2.01\): those again with reach=2.1" "$T/fo_t.err"
 check "neighborhood: the grown run leaves no work directory" test ! -e "$T/fo_wd"
+# Tiles of 0.7: 61 of 64 are short. The test hook counts the tiles detected
+# into a part: the 3 that passed, then the 61 short ones again (the 3 keep
+# their parts). Detecting all 64 again would reach the 65th, which kills
+# the process.
+CED_TEST_KILL_AFTER_TILES=65 "$CED" detect "$falloff" --preset ced3d --neighborhood knn:16 --tile-size 0.7 \
+  --work-dir "$T/fo_wd7" --indices "$T/fo_t7.txt" 2> "$T/fo_t7.err"
+check "neighborhood: the tiles that passed are not detected again" grep -q "short for 61 tiles" "$T/fo_t7.err"
+check "neighborhood: ... and the run is still the whole run" cmp -s "$T/fo_t7.txt" "$T/fo.txt"
+check "neighborhood: ... and leaves no work directory (kept parts included)" test ! -e "$T/fo_wd7"
 "$CED" plan "$falloff" --preset ced3d --neighborhood knn:16 --tile-size 1 -o "$T/fo_plan.json" -q
 check "neighborhood: a plan records ced's own reach" grep -q '"neighborhood": *"knn:16,reach=0.74"' "$T/fo_plan.json"
 check "neighborhood: ... and says it is ced's" grep -q '"reach_estimated": *true' "$T/fo_plan.json"
