@@ -245,12 +245,22 @@ else
   run_mpi 3 "$MPI" detect "$T/mid.las" --preset ced6d --tile-size 1 --work-dir "$T/wdm" --indices "$T/mk.txt" \
     --resume -q
   check "ced-mpi: resumed" cmp -s "$T/mid_whole.txt" "$T/mk.txt"
-  # A reach of ced's own that proves short: ced-mpi stops, says what to do, writes nothing
-  run_mpi 2 "$MPI" detect "$DATA/falloff_patch.ply" --preset ced3d --neighborhood knn:16 --tile-size 1 \
+  # A reach of ced's own that proves short: ced-mpi grows it, as ced detect
+  # does, detecting only the short tiles again (61 of 64 in tiles of 0.7).
+  "$CED" detect "$DATA/falloff_patch.ply" --preset ced3d --neighborhood knn:16 --indices "$T/fw.txt" -q
+  for np in 1 3; do
+    run_mpi $np "$MPI" detect "$DATA/falloff_patch.ply" --preset ced3d --neighborhood knn:16 --tile-size 0.7 \
+      --work-dir "$T/wdf" --indices "$T/mf.txt" > "$T/mpi_err" 2>&1
+    check "ced-mpi -np $np: a short reach of ced's own grows, tiled = whole" cmp -s "$T/mf.txt" "$T/fw.txt"
+    check "ced-mpi -np $np: ... saying so" grep -q "ced-mpi: reach=0.74 was short for 61 tiles" "$T/mpi_err"
+    check "ced-mpi -np $np: ... and leaves no work directory" test ! -e "$T/wdf"
+    rm -f "$T/mf.txt"
+  done
+  # A reach the caller gives is a promise: short, the run stops, writes nothing
+  run_mpi 2 "$MPI" detect "$DATA/falloff_patch.ply" --preset ced3d --neighborhood knn:16,reach=0.5 --tile-size 1 \
     --work-dir "$T/wdf" --indices "$T/mf.txt" -q > "$T/mpi_err" 2>&1
-  check "ced-mpi: a short reach of ced's own fails the run" test $? -ne 0
+  check "ced-mpi: a short reach= given fails the run" test $? -ne 0
   check "ced-mpi: ... naming the reach a tile needs" grep -q "this tile's points need" "$T/mpi_err"
-  check "ced-mpi: ... and that the reach was ced's" grep -q "reach=0.74 was ced's estimate" "$T/mpi_err"
   check "ced-mpi: ... with no output and no work directory" test ! -e "$T/mf.txt" -a ! -e "$T/wdf"
   run_mpi 2 "$MPI" detect "$T/mid.las" --preset ced6d --indices "$T/x.txt" > "$T/mpi_err" 2>&1
   check "ced-mpi without a tile size: usage error" grep -q "needs --tile-size or --memory-limit" "$T/mpi_err"

@@ -135,11 +135,13 @@ struct reach_shortfall {
   bool unmeasured = false;  ///< a tile held fewer than K points
   bool any = false;         ///< some tile found the reach short
   std::size_t tiles = 0;    ///< how many
-  void add(const tile_reach_error& e) noexcept {
+  void add(const tile_reach_error& e) noexcept { add(e.needed); }
+  /// A tile that measured `tile_needed` (+infinity: nothing measured).
+  void add(double tile_needed) noexcept {
     any = true;
     ++tiles;
-    if (e.needed <= std::numeric_limits<double>::max())
-      needed = std::max(needed, e.needed);
+    if (tile_needed <= std::numeric_limits<double>::max())
+      needed = std::max(needed, tile_needed);
     else
       unmeasured = true;
   }

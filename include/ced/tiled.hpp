@@ -249,6 +249,13 @@ tile_plan prepare_tiled(const tiled_request& request, const tiled_run_options& o
 /// directory (or read from there when it is already) ...
 tile_part detect_cached_tile(const tile_plan& plan, const std::string& work_dir, std::uint64_t id, unsigned threads = 0,
                              bool* was_done = nullptr);
+/// ... when some tiles found ced's own reach (reach_estimated) short (their
+/// detect_cached_tile() threw tile_reach_error, gathered in `shortfall`),
+/// the plan of the next try: the reach grown (grown_reach(); reach_grown is
+/// called), the cache filled again, and the parts of the tiles that passed
+/// taken over, so that only the short tiles are left to detect. Throws
+/// std::invalid_argument when the plan's reach is the caller's ...
+tile_plan grow_tiled_reach(const tile_plan& plan, const reach_shortfall& shortfall, const tiled_run_options& options);
 /// ... every tile's part from the work directory merged (into `sink` when
 /// given: then the totals only are returned, as run_tiled); the directory is
 /// then removed, unless `keep_work_dir`.

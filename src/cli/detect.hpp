@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -147,6 +148,9 @@ std::string default_work_dir(const detect_options& o);
 /// core; a reach of ced's own, and what a short one does (`grows_reach`:
 /// run_tiled grows it; a plan's tiles run elsewhere stop).
 void report_plan(const ced::tile_plan& p, bool quiet, bool grows_reach);
+/// tiled_run_options::reach_grown for `program` ("ced", "ced-mpi"): says
+/// on stderr which reach was short for how many tiles, and the next.
+std::function<void(double, double, double, std::size_t)> reach_grown_report(const char* program, bool quiet);
 /// The outputs of a merged run (indices, original indices, keypoints,
 /// summary), written as the merge streams: sink() for the merge, then
 /// finish() writes the summary and commits every file. Without output

@@ -135,6 +135,23 @@ std::string default_work_dir(const detect_options& o) {
   return (fs::temp_directory_path(ec) / name).string();
 }
 
+std::function<void(double, double, double, std::size_t)> reach_grown_report(const char* program, bool quiet) {
+  return [program, quiet](double tried, double needed, double next, std::size_t tiles) {
+    if (quiet) return;
+    const char* noun = tiles == 1 ? "tile" : "tiles";
+    if (std::isfinite(needed))
+      std::fprintf(stderr,
+                   "%s: reach=%.4g was short for %zu %s (their points reach up to %.4g): those again with "
+                   "reach=%.4g (give it in --neighborhood to start there next time)\n",
+                   program, tried, tiles, noun, needed, next);
+    else
+      std::fprintf(stderr,
+                   "%s: reach=%.4g was short for %zu %s (one held fewer than K points): those again with "
+                   "reach=%.4g\n",
+                   program, tried, tiles, noun, next);
+  };
+}
+
 void report_plan(const ced::tile_plan& p, bool quiet, bool grows_reach) {
   std::uint64_t owned = 0, read = 0, largest = 0;
   for (const auto& t : p.tiles) {
@@ -282,20 +299,10 @@ int run_detect_tiled(const detect_options& o) {
     std::fprintf(stderr, "ced: tile %zu/%zu done; %.1f s elapsed, about %.0f s left\n", done, total, ms / 1000,
                  left / 1000);
   };
-  ro.reach_grown = [&](double tried, double needed, double next, std::size_t tiles) {
-    if (o.quiet) return;
+  ro.reach_grown = [&, say = reach_grown_report("ced", o.quiet)](double tried, double needed, double next,
+                                                                 std::size_t tiles) {
     bar.done();
-    const char* noun = tiles == 1 ? "tile" : "tiles";
-    if (std::isfinite(needed))
-      std::fprintf(stderr,
-                   "ced: reach=%.4g was short for %zu %s (their points reach up to %.4g): those again with "
-                   "reach=%.4g (give it in --neighborhood to start there next time)\n",
-                   tried, tiles, noun, needed, next);
-    else
-      std::fprintf(stderr,
-                   "ced: reach=%.4g was short for %zu %s (one held fewer than K points): those again with "
-                   "reach=%.4g\n",
-                   tried, tiles, noun, next);
+    say(tried, needed, next, tiles);
   };
   ced::tile_plan p;
   ced::tiled_times times;

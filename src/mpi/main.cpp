@@ -39,7 +39,9 @@ namespace {
 
 // tag_beyond_reach: a tile's points reach beyond the neighbourhood's reach=
 // (ced::tile_reach_error), which a rerun cannot mend: the cache goes.
-enum tag : int { tag_ready = 1, tag_tile = 2, tag_done = 3, tag_failed = 4, tag_beyond_reach = 5 };
+// tag_short: the same when the reach was ced's own estimate, with how far
+// the tile's points reach: rank 0 grows it for the next round.
+enum tag : int { tag_ready = 1, tag_tile = 2, tag_done = 3, tag_failed = 4, tag_beyond_reach = 5, tag_short = 6 };
 
 /// Threads a rank uses unless -j says: the cores it may run on (mpirun may
 /// bind it to one), shared with the other ranks of its node when unbound.
@@ -68,7 +70,8 @@ void prepare(const detect_options& o, prepared& r) {
     if (!wants_tiles(o)) throw usage_error("ced-mpi needs --tile-size or --memory-limit");
     r.setup = setup_tiled(o);
     r.work_dir = r.setup.run.work_dir;
-    r.setup.run.planned = [&](const ced::tile_plan& p) { report_plan(p, o.quiet, /*grows_reach=*/false); };
+    r.setup.run.planned = [&](const ced::tile_plan& p) { report_plan(p, o.quiet, /*grows_reach=*/true); };
+    r.setup.run.reach_grown = reach_grown_report("ced-mpi", o.quiet);
     r.plan_json =
         naming_file_fields(o, r.setup.plan, [&] { return ced::prepare_tiled(r.setup.request, r.setup.run).to_json(); });
   } catch (const usage_error& e) {
@@ -83,65 +86,69 @@ void prepare(const detect_options& o, prepared& r) {
   }
 }
 
-/// A rank other than 0: asks for a tile, detects it, reports, until told to stop.
+/// A rank other than 0: asks for a tile, detects it, reports, until told to
+/// stop; then learns from rank 0 whether a round with a longer reach follows.
 int work(const detect_options& o, mpi::communicator& world, const prepared& r, unsigned threads) {
   ced::tile_plan plan;
+  std::string plan_json = r.plan_json;
   try {
     load_plugins(o.plugins);  // rank 0 loaded them in make_plan(); the plan's modalities may need them
-    // Every rank reads the plan from the same text: the same digest in every part.
-    plan = ced::tile_plan::from_json(r.plan_json, r.work_dir + "/plan.json");
   } catch (const std::exception& e) {
     world.send(0, tag_ready);
     long long id = -1;
     world.recv(0, tag_tile, id);
-    world.send(0, tag_failed, "loading plugins or the plan: " + std::string(e.what()));
+    world.send(0, tag_failed, "loading plugins: " + std::string(e.what()));
     return exit_failure;
   }
   for (;;) {
-    world.send(0, tag_ready);
-    long long id = -1;
-    world.recv(0, tag_tile, id);
-    if (id < 0) return exit_ok;
-    try {
-      ced::detect_cached_tile(plan, r.work_dir, static_cast<std::uint64_t>(id), threads);
-      world.send(0, tag_done, id);
-    } catch (const ced::tile_reach_error& e) {
-      world.send(0, tag_beyond_reach, std::string(e.what()));
-      return exit_failure;
-    } catch (const std::exception& e) {
-      world.send(0, tag_failed, "tile " + std::to_string(id) + ": " + e.what());
-      return exit_failure;  // rank 0 aborts the run
+    // Every rank reads the plan from the same text: the same digest in every part.
+    plan = ced::tile_plan::from_json(plan_json, r.work_dir + "/plan.json");
+    for (;;) {
+      world.send(0, tag_ready);
+      long long id = -1;
+      world.recv(0, tag_tile, id);
+      if (id < 0) break;
+      try {
+        ced::detect_cached_tile(plan, r.work_dir, static_cast<std::uint64_t>(id), threads);
+        world.send(0, tag_done, id);
+      } catch (const ced::tile_reach_error& e) {
+        if (plan.request.reach_estimated) {
+          world.send(0, tag_short, e.needed);
+          continue;
+        }
+        world.send(0, tag_beyond_reach, std::string(e.what()));
+        return exit_failure;
+      } catch (const std::exception& e) {
+        world.send(0, tag_failed, "tile " + std::to_string(id) + ": " + e.what());
+        return exit_failure;  // rank 0 aborts the run
+      }
     }
+    mpi::broadcast(world, plan_json, 0);  // the next round's plan, or none
+    if (plan_json.empty()) return exit_ok;
   }
 }
 
-/// What to do when the reach ced estimated proves short: ced-mpi does not
-/// detect the short tiles again, as `ced detect --tile-size` does.
-std::string estimated_reach_note(const ced::tile_plan& plan) {
-  char reach[32];
-  std::snprintf(reach, sizeof reach, "%.4g", plan.request.params.neighborhood.reach);
-  return "ced-mpi: reach=" + std::string(reach) +
-         " was ced's estimate from the cloud's density (no reach= was given): run again with a reach= at least what "
-         "the failing tile says it needs, or let one process grow it: ced detect --tile-size\n";
-}
-
 /// Rank 0: hands out the tiles of `queue` to the other ranks (or, alone,
-/// detects them itself); report(done) after each tile. Aborts the run when
-/// a rank fails.
+/// detects them itself); report(done) after each tile. A tile that finds
+/// ced's own reach short adds to `shortfall`. Aborts the run when a rank
+/// fails.
 void share_tiles(mpi::communicator& world, const ced::tile_plan& plan, const std::vector<ced::tile_entry>& queue,
-                 const std::string& work_dir, unsigned threads, const std::function<void(std::size_t)>& report) {
+                 const std::string& work_dir, unsigned threads, const std::function<void(std::size_t)>& report,
+                 ced::reach_shortfall& shortfall) {
   std::size_t next = 0, done = 0;
   const std::size_t total = queue.size();
   if (world.size() == 1) {
-    try {
-      for (; next < total; ++next) {
+    for (; next < total; ++next) {
+      try {
         ced::detect_cached_tile(plan, work_dir, queue[next].id, threads);
-        report(++done);
+      } catch (const ced::tile_reach_error& e) {
+        if (!plan.request.reach_estimated) {
+          ced::remove_work_dir(work_dir);  // a rerun with this reach fails again
+          throw;
+        }
+        shortfall.add(e);
       }
-    } catch (const ced::tile_reach_error&) {
-      ced::remove_work_dir(work_dir);  // a rerun with this reach fails again
-      if (plan.request.reach_estimated) std::cerr << estimated_reach_note(plan);
-      throw;
+      report(++done);
     }
     return;
   }
@@ -156,12 +163,16 @@ void share_tiles(mpi::communicator& world, const ced::tile_plan& plan, const std
       long long id = 0;
       world.recv(s.source(), tag_done, id);
       report(++done);
+    } else if (s.tag() == tag_short) {
+      double needed = 0;
+      world.recv(s.source(), tag_short, needed);
+      shortfall.add(needed);
+      report(++done);
     } else if (s.tag() == tag_beyond_reach) {
       std::string what;
       world.recv(s.source(), tag_beyond_reach, what);
       ced::remove_work_dir(work_dir);  // a rerun with this reach fails again
       std::cerr << "ced-mpi: error: " << what << "\n";
-      if (plan.request.reach_estimated) std::cerr << estimated_reach_note(plan);
       world.abort(exit_failure);
     } else {
       std::string what;
@@ -191,16 +202,32 @@ int run_mpi(const detect_options& o, mpi::communicator& world) {
   const unsigned threads = threads_per_rank(o.threads);
   if (!root) return work(o, world, r, threads);
 
-  const ced::tile_plan plan = ced::tile_plan::from_json(r.plan_json, r.work_dir + "/plan.json");
-  // The queue, largest tiles first (their cost grows with density).
-  std::vector<ced::tile_entry> queue = plan.tiles;
-  std::stable_sort(queue.begin(), queue.end(),
-                   [](const ced::tile_entry& a, const ced::tile_entry& b) { return a.points > b.points; });
-  const std::size_t total = queue.size();
-  share_tiles(world, plan, queue, r.work_dir, threads, [&](std::size_t d) {
-    if (o.quiet || (d < total && d % std::max<std::size_t>(1, total / 20) != 0)) return;
-    std::fprintf(stderr, "ced-mpi: tile %zu/%zu done; %.1f s elapsed\n", d, total, ms_since(t_start) / 1000);
-  });
+  ced::tile_plan plan = ced::tile_plan::from_json(r.plan_json, r.work_dir + "/plan.json");
+  std::size_t total = 0;
+  for (;;) {
+    // The queue, largest tiles first (their cost grows with density).
+    std::vector<ced::tile_entry> queue = plan.tiles;
+    std::stable_sort(queue.begin(), queue.end(),
+                     [](const ced::tile_entry& a, const ced::tile_entry& b) { return a.points > b.points; });
+    total = queue.size();
+    ced::reach_shortfall shortfall;
+    share_tiles(
+        world, plan, queue, r.work_dir, threads,
+        [&](std::size_t d) {
+          if (o.quiet || (d < total && d % std::max<std::size_t>(1, total / 20) != 0)) return;
+          std::fprintf(stderr, "ced-mpi: tile %zu/%zu done; %.1f s elapsed\n", d, total, ms_since(t_start) / 1000);
+        },
+        shortfall);
+    // A reach of ced's own that proved short: the next round detects the
+    // short tiles with a longer one (the others keep their parts).
+    std::string next_json;
+    if (shortfall.any) {
+      plan = ced::grow_tiled_reach(plan, shortfall, r.setup.run);
+      next_json = plan.to_json();
+    }
+    if (world.size() > 1) mpi::broadcast(world, next_json, 0);
+    if (next_json.empty()) break;
+  }
   merged_writer writer(*r.setup.out, r.setup.plan.out_format);
   const ced::merge_sink sink = writer.sink();
   const ced::tile_part totals = ced::finish_tiled(plan, r.work_dir, &sink, /*keep_work_dir=*/true);

@@ -180,24 +180,19 @@ std::size_t adopt_kept_parts(const tile_plan& before, const tile_plan& now, cons
   return adopted;
 }
 
-/// run_tiled() with the plan of `request`. When a tile finds the reach that
-/// ced estimated too short, the other tiles still run, to measure how far
-/// theirs reach; then the plan and cache go, the parts are kept, and
-/// `shortfall` says how far they reach. `before`: the plan of the try
-/// whose parts were kept.
-std::optional<tile_part> run_once(const tiled_request& request, const tiled_run_options& o, tile_plan* plan_out,
-                                  reach_shortfall& shortfall, const tile_plan* before) {
+/// run_tiled()'s tiles and merge under `plan` (made in plan_ms). When a
+/// tile finds the reach that ced estimated too short, the other tiles still
+/// run, to measure how far theirs reach; then there is no result, and
+/// `shortfall` says how far they reach.
+std::optional<tile_part> run_once(const tile_plan& plan, const tiled_run_options& o, double plan_ms,
+                                  reach_shortfall& shortfall) {
   using clock = std::chrono::steady_clock;
   auto ms = [](clock::time_point a, clock::time_point b) {
     return std::chrono::duration<double, std::milli>(b - a).count();
   };
-  const auto t_plan = clock::now();
-  const tile_plan plan = prepare_tiled(request, o);
-  if (plan_out) *plan_out = plan;
-  if (before) adopt_kept_parts(*before, plan, o.work_dir);
   // The tiles one after the other, threads within each; the next tile's
   // cache is read while this one is detected.
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = clock::now();
   std::error_code ec;
   auto needs_work = [&](std::size_t k) { return !fs::exists(part_file(o.work_dir, plan.tiles[k].id), ec); };
   auto load = [&](std::size_t k) {
@@ -216,13 +211,9 @@ std::optional<tile_part> run_once(const tiled_request& request, const tiled_run_
         } catch (const tile_reach_error& e) {
           if (!plan.request.reach_estimated) throw;
           shortfall.add(e);
-          std::error_code gone;
-          fs::remove(cache_file(o.work_dir, pts.tile), gone);
         }
       }
-      if (o.tile_done)
-        o.tile_done(k + 1, plan.tiles.size(),
-                    std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+      if (o.tile_done) o.tile_done(k + 1, plan.tiles.size(), ms(t0, clock::now()));
     }
   } catch (const tile_reach_error&) {
     // Resuming cannot help (the same reach fails again): ced's files go,
@@ -231,45 +222,58 @@ std::optional<tile_part> run_once(const tiled_request& request, const tiled_run_
     remove_work_dir(o.work_dir);
     throw;
   }
-  if (shortfall.any) {
-    // The next try plans again with a longer reach (the marker stays: the
-    // directory is still ced's) and takes over the parts of the tiles
-    // that passed.
-    const fs::path dir(o.work_dir);
-    keep_parts(dir);
-    fs::remove(dir / "plan.json", ec);
-    return std::nullopt;
-  }
-  const auto t_merge = std::chrono::steady_clock::now();
+  if (shortfall.any) return std::nullopt;
+  const auto t_merge = clock::now();
   tile_part merged = merge_work_dir(plan, o.work_dir, o.sink);
   if (!o.keep_work_dir) remove_work_dir(o.work_dir);
-  if (o.times) *o.times = {ms(t_plan, t0), ms(t0, t_merge), ms(t_merge, clock::now())};
+  if (o.times) *o.times = {plan_ms, ms(t0, t_merge), ms(t_merge, clock::now())};
   return merged;
 }
 
 }  // namespace
 
+tile_plan grow_tiled_reach(const tile_plan& plan, const reach_shortfall& shortfall, const tiled_run_options& o) {
+  if (!plan.request.reach_estimated)
+    throw std::invalid_argument("grow_tiled_reach: the plan's reach= is the caller's, not ced's own");
+  if (!shortfall.any) throw std::invalid_argument("grow_tiled_reach: no tile found the reach short");
+  // Each try measures how far the tiles' points reach (at least as far as
+  // they do in the whole cloud), so the next passes; only a tile of fewer
+  // than K points measures nothing: its reach grows fourfold, until the
+  // halo holds the whole cloud. The plan and cache go (the marker stays:
+  // the directory is still ced's); the passed tiles' parts are kept.
+  const fs::path dir(o.work_dir);
+  keep_parts(dir);
+  std::error_code ec;
+  fs::remove(dir / "plan.json", ec);
+  tiled_request r = plan.request;
+  const double tried = r.params.neighborhood.reach;
+  r.params.neighborhood.reach = grown_reach(tried, shortfall.needed, shortfall.unmeasured);
+  if (o.reach_grown)
+    o.reach_grown(tried, shortfall.unmeasured ? std::numeric_limits<double>::infinity() : shortfall.needed,
+                  r.params.neighborhood.reach, shortfall.tiles);
+  tiled_run_options fresh = o;
+  fresh.resume = false;  // the plan just went
+  const tile_plan next = prepare_tiled(r, fresh);
+  adopt_kept_parts(plan, next, o.work_dir);
+  return next;
+}
+
 tile_part run_tiled(const tiled_request& request, const tiled_run_options& o, tile_plan* plan_out) {
-  tiled_request r = request;
-  tile_plan plan;
-  std::optional<tile_plan> before;  // the short try's, whose passed parts are kept
+  const auto t_plan = std::chrono::steady_clock::now();
+  auto since = [](std::chrono::steady_clock::time_point t) {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
+  };
+  tile_plan plan = prepare_tiled(request, o);
+  double plan_ms = since(t_plan);
   for (;;) {
     reach_shortfall shortfall;
-    if (auto merged = run_once(r, o, &plan, shortfall, before ? &*before : nullptr)) {
+    if (auto merged = run_once(plan, o, plan_ms, shortfall)) {
       if (plan_out) *plan_out = std::move(plan);
       return std::move(*merged);
     }
-    // Each try measures how far the tiles' points reach (at least as far as
-    // they do in the whole cloud), so the next passes; only a tile of fewer
-    // than K points measures nothing: its reach grows fourfold, until the
-    // halo holds the whole cloud.
-    r = plan.request;
-    before = plan;
-    const double tried = r.params.neighborhood.reach;
-    r.params.neighborhood.reach = grown_reach(tried, shortfall.needed, shortfall.unmeasured);
-    if (o.reach_grown)
-      o.reach_grown(tried, shortfall.unmeasured ? std::numeric_limits<double>::infinity() : shortfall.needed,
-                    r.params.neighborhood.reach, shortfall.tiles);
+    const auto t_grow = std::chrono::steady_clock::now();
+    plan = grow_tiled_reach(plan, shortfall, o);
+    plan_ms += since(t_grow);
   }
 }
 
