@@ -340,7 +340,8 @@ void neighbor_block::neighbors(std::size_t k, std::uint32_t* out) const noexcept
 }
 
 neighbor_block::ball_view neighbor_block::ball(std::size_t k) {
-  const std::size_t room = 8 * std::size_t(m_bit_offsets[k + 1] - m_bit_offsets[k]);
+  // 8 entries a group tested, and 8 more: ball_view is readable 8 past its count.
+  const std::size_t room = 8 * std::size_t(m_bit_offsets[k + 1] - m_bit_offsets[k]) + 8;
   grow(m_ball_bits, room);
   grow(m_ball_ids, room);
   const detail::block_kernel_input in{m_gx.data(), m_gy.data(),     m_gz.data(), nullptr,         0,   0,
