@@ -54,6 +54,10 @@ struct tile_grid {
   void locate(const float p[3], std::int64_t own[3], std::int64_t lo_c[3], std::int64_t hi_c[3]) const noexcept;
   /// The core box of tile t, {x0, y0, z0, x1, y1, z1} (half-open).
   std::array<double, 6> core_box(std::uint64_t t) const noexcept;
+  /// Whether tile ids name the same core boxes in `other` (the halo aside).
+  bool same_cores(const tile_grid& other) const noexcept {
+    return lo == other.lo && size == other.size && dims == other.dims;
+  }
 };
 
 /// The halo that makes tiles exact under `params`: nms_radius (twice with

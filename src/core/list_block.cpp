@@ -52,6 +52,12 @@ float float_of(std::int32_t bits) noexcept {
   std::memcpy(&f, &bits, sizeof f);
   return f;
 }
+
+std::int32_t bits_of(float f) noexcept {
+  std::int32_t bits;
+  std::memcpy(&bits, &f, sizeof bits);
+  return bits;
+}
 }  // namespace
 
 double list_block::gather(const neighbor_index& index, const float* xyz, std::size_t k, const detect_params& params) {
@@ -170,21 +176,15 @@ void list_block::select_nearest(const neighbor_block::ball_view& the_ball, std::
   // cuts aimed, by interpolation, a few points either side of the want-th:
   // on a surface the count grows as d², so evenly in the distances' values.
   // After three passes the cuts halve the range, so it always ends.
-  std::int32_t lo = -1;
-  std::int32_t hi;
-  const float rho2 = squared_radius(rho);
-  std::memcpy(&hi, &rho2, sizeof hi);    // every distance is below ρ²
-  std::size_t below = 0, up_to = found;  // points nearer than lo, and not farther than hi
+  std::int32_t lo = -1, hi = bits_of(squared_radius(rho));  // every distance is below ρ²
+  std::size_t below = 0, up_to = found;                     // points nearer than lo, and not farther than hi
   for (int pass = 0; up_to - below > 12 && lo < hi; ++pass) {
     std::int32_t a = lo + (hi - lo) / 2, b = a;
     if (pass < 3) {
       const double v0 = lo < 0 ? 0.0 : double(float_of(lo)), v1 = float_of(hi);
       auto aim = [&](double count) {
         const double f = std::min(std::max((count - double(below)) / double(up_to - below), 0.0), 1.0);
-        const float v = static_cast<float>(v0 + (v1 - v0) * f);
-        std::int32_t m;
-        std::memcpy(&m, &v, sizeof m);
-        return std::min(std::max(m, lo), hi - 1);
+        return std::min(std::max(bits_of(static_cast<float>(v0 + (v1 - v0) * f)), lo), hi - 1);
       };
       a = aim(double(want) - 4.5);
       b = std::max(a, aim(double(want) + 3.5));

@@ -317,8 +317,7 @@ std::optional<std::vector<std::uint32_t>> tiles_at(const point_cloud& cloud, con
                                                    reach_shortfall& shortfall, passed_tiles& passed) {
   // A modality at a larger scale (scale=) reads farther: the halo grows with it.
   const tile_grid grid = make_tile_grid(lo, hi, tile_size, tile_halo_params(params, modalities));
-  if (!passed.grid || passed.grid->lo != grid.lo || passed.grid->size != grid.size || passed.grid->dims != grid.dims)
-    passed.keypoints.clear();  // other cores
+  if (!passed.grid || !passed.grid->same_cores(grid)) passed.keypoints.clear();
   passed.grid = grid;
   const double check_extra = tile_check_extra(params, modalities);
   const std::vector<value_range> ranges = field_ranges(cloud);

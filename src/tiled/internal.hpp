@@ -440,9 +440,9 @@ void claim_work_dir(const std::string& work_dir);
 /// its plan was written: its cache is incomplete).
 void clear_tiles(const fs::path& dir);
 /// Before a second try with a longer reach: empties the cache and keeps
-/// the parts of the tiles that passed (parts/ becomes kept/). False when
-/// they cannot be kept (then they are removed).
-bool keep_parts(const fs::path& dir);
+/// the parts of the tiles that passed (parts/ becomes kept/; when it
+/// cannot, they are removed).
+void keep_parts(const fs::path& dir);
 /// Removes the kept parts (keep_parts()) and their directory.
 void clear_kept(const fs::path& dir);
 

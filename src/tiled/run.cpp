@@ -24,8 +24,9 @@ using namespace tiled_detail;
 
 namespace {
 
-std::string part_file(const std::string& work_dir, std::uint64_t id) {
-  return (fs::path(work_dir) / "parts" / ("t" + std::to_string(id) + ".part")).string();
+/// Tile id's part in the work directory (`folder` kept: kept from a shorter reach).
+std::string part_file(const std::string& work_dir, std::uint64_t id, const char* folder = "parts") {
+  return (fs::path(work_dir) / folder / ("t" + std::to_string(id) + ".part")).string();
 }
 
 /// The plan of the unfinished run in `work_dir` (plan.json), which must be
@@ -146,26 +147,24 @@ namespace {
 
 /// Whether tile ids name the same cores in plans `a` and `b` of one input
 /// (which differ in the reach), and their parts carry the same fields.
-bool same_cores(const tile_plan& a, const tile_plan& b) {
+bool same_tiles(const tile_plan& a, const tile_plan& b) {
   auto names = [](const tile_plan& p) {
     std::vector<std::string> n;
     for (const auto& f : p.fields) n.push_back(f.name + "/" + std::to_string(int(f.type)));
     return n;
   };
-  return a.grid.lo == b.grid.lo && a.grid.size == b.grid.size && a.grid.dims == b.grid.dims && a.origin == b.origin &&
-         a.fingerprint == b.fingerprint && a.file_points == b.file_points && a.tile_fields == b.tile_fields &&
-         names(a) == names(b) && a.request.modalities == b.request.modalities;
+  return a.grid.same_cores(b.grid) && a.origin == b.origin && a.fingerprint == b.fingerprint &&
+         a.file_points == b.file_points && a.tile_fields == b.tile_fields && names(a) == names(b) &&
+         a.request.modalities == b.request.modalities;
 }
 
 /// The parts kept from a try of plan `before` whose reach was short
 /// (keep_parts()), made parts of `now`: a tile whose check passed is
-/// exact, and its part the same under any longer reach. Returns how many.
-std::size_t adopt_kept_parts(const tile_plan& before, const tile_plan& now, const std::string& work_dir) {
-  const fs::path kept = fs::path(work_dir) / "kept";
-  std::size_t adopted = 0;
-  if (same_cores(before, now))
+/// exact, and its part the same under any longer reach.
+void adopt_kept_parts(const tile_plan& before, const tile_plan& now, const std::string& work_dir) {
+  if (same_tiles(before, now))
     for (const auto& t : now.tiles) {
-      const std::string from = (kept / ("t" + std::to_string(t.id) + ".part")).string();
+      const std::string from = part_file(work_dir, t.id, "kept");
       std::error_code ec;
       if (!fs::exists(from, ec) || fs::exists(part_file(work_dir, t.id), ec)) continue;
       const auto was = std::lower_bound(before.tiles.begin(), before.tiles.end(), t.id,
@@ -174,10 +173,8 @@ std::size_t adopt_kept_parts(const tile_plan& before, const tile_plan& now, cons
       tile_part part = read_part(from, before);
       part.plan = now.digest();
       write_part(part_file(work_dir, t.id), now, part);
-      ++adopted;
     }
   clear_kept(fs::path(work_dir));
-  return adopted;
 }
 
 /// run_tiled()'s tiles and merge under `plan` (made in plan_ms). When a

@@ -77,14 +77,12 @@ void tiled_detail::clear_tiles(const fs::path& dir) {
   remove_ced_files(dir / "parts", "", ".part");
 }
 
-bool tiled_detail::keep_parts(const fs::path& dir) {
+void tiled_detail::keep_parts(const fs::path& dir) {
   clear_kept(dir);
   remove_ced_files(dir / "cache", "", ".bin");
   std::error_code ec;
   fs::rename(dir / "parts", dir / "kept", ec);
-  if (!ec) return true;
-  remove_ced_files(dir / "parts", "", ".part");
-  return false;
+  if (ec) remove_ced_files(dir / "parts", "", ".part");  // not kept: the next try detects every tile
 }
 
 void tiled_detail::clear_kept(const fs::path& dir) { remove_ced_files(dir / "kept", "", ".part"); }
