@@ -182,6 +182,33 @@ if [ -n "$MPI" ] && command -v mpirun > /dev/null; then
   same_outputs "max-keypoints: ced-mpi -np 2" "$T/top_mpi" top_whole
 fi
 
+# --- A keypoint share (--keypoint-share): the share of all tiles' candidates, the whole run's ---
+S="--preset ced6d --keypoint-share 0.01"
+"$CED" detect "$T/mid.las" $S --indices "$T/share_whole.txt" --indices-original "$T/share_whole_o.txt" \
+  -o "$T/share_whole.las" -q
+check "keypoint-share: fewer than without it" \
+  test "$(wc -l < "$T/share_whole.txt")" -lt "$(wc -l < "$T/mid_whole.txt")"
+"$CED" detect "$T/mid.las" $S --tile-size 1 --indices "$T/share_t.txt" --indices-original "$T/share_t_o.txt" \
+  -o "$T/share_t.las" -q
+same_outputs "keypoint-share: tiles" "$T/share_t" share_whole
+"$CED" plan "$T/mid.las" $S --tile-size 1 -o "$T/share_plan.json" -q
+check "keypoint-share: the plan records it" grep -q '"keypoint_share": *0.01' "$T/share_plan.json"
+mkdir -p "$T/share_parts"
+for id in $(tr -d ' \n' < "$T/share_plan.json" | grep -o '"tiles":\[.*\]' | grep -o '\[[0-9]*,' | tr -d '[,'); do
+  "$CED" detect --plan "$T/share_plan.json" --tile "$id" -o "$T/share_parts/$id.cedpart" -q || echo "tile $id failed"
+done
+"$CED" merge "$T/share_plan.json" "$T"/share_parts/*.cedpart --indices "$T/share_m.txt" \
+  --indices-original "$T/share_m_o.txt" -o "$T/share_m.las" -q
+same_outputs "keypoint-share: plan + tiles + merge" "$T/share_m" share_whole
+if [ -n "$MPI" ] && command -v mpirun > /dev/null; then
+  mpirun --allow-run-as-root --oversubscribe -np 2 "$MPI" detect "$T/mid.las" $S --tile-size 1 \
+    --indices "$T/share_mpi.txt" --indices-original "$T/share_mpi_o.txt" -o "$T/share_mpi.las" -q
+  same_outputs "keypoint-share: ced-mpi -np 2" "$T/share_mpi" share_whole
+fi
+"$CED" plan "$T/mid.las" --preset robust3d --tile-size 1 -o "$T/r3_plan.json" -q
+check "keypoint-share: robust3d's plan records its share" grep -q '"keypoint_share": *0.045' "$T/r3_plan.json"
+expect_exit 2 "must be a share from 0 to 1" "keypoint-share out of range" -- detect "$T/mid.las" --keypoint-share 1.5 --indices "$T/x.txt"
+
 # --- A run killed mid-way, then resumed ---
 CED_TEST_KILL_AFTER_TILES=3 "$CED" detect "$T/mid.las" --preset ced6d --tile-size 1 --work-dir "$T/wd" \
   --indices "$T/r.txt" --indices-original "$T/r_o.txt" -o "$T/r.las" -q 2> /dev/null

@@ -104,9 +104,11 @@ TEST(Docs, Presets) {
     const auto specs = ced::preset_specs(names[i]);
     for (std::size_t k = 0; k < specs.size(); ++k) expected += (k ? " + `" : " `") + specs[k] + "`";
     if (ced::preset_refines(names[i])) expected += " + `--refine`";
+    if (const double share = ced::preset_keypoint_share(names[i]); share > 0)
+      expected += " + `--keypoint-share " + num(share) + "`";
   }
   expect_quoted(read_doc("CLI.md"), "CLI.md", "`--preset NAME` | ", expected,
-                "the presets (preset_specs, preset_refines in src/core/registry.cpp)");
+                "the presets (preset_specs, preset_refines, preset_keypoint_share in src/core/registry.cpp)");
 }
 
 TEST(Docs, ArchitectureNamesEverySourceFile) {

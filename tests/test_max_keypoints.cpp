@@ -120,3 +120,75 @@ TEST(MaxKeypoints, ExactTiesGoToTheSmallerIndex) {
     EXPECT_LT(r.keypoints.front(), n) << limit;
   }
 }
+
+// detect_params::keypoint_share: the ceil(share x candidates) strongest, as
+// max_keypoints would keep that many; with both, the smaller limit.
+TEST(KeypointShare, KeepsTheStrongestShareOfTheCandidates) {
+  const auto c = make_room(20000, 26);
+  ced::detect_params p;
+  const auto all = ced::detect(c, p, ced::preset("ced6d"));
+  const auto candidates =
+      static_cast<std::size_t>(std::count_if(all.candidate.begin(), all.candidate.end(), [](auto v) { return v; }));
+  ASSERT_GT(all.keypoints.size(), 40u);
+  ASSERT_GT(candidates, 10 * all.keypoints.size());
+  const double per_keypoint = double(all.keypoints.size()) / double(candidates);
+  for (double share : {0.5 / double(candidates), 0.2 * per_keypoint, 0.5 * per_keypoint, 0.99 * per_keypoint}) {
+    p.keypoint_share = share;
+    const std::size_t n = static_cast<std::size_t>(std::ceil(share * double(candidates)));
+    ASSERT_LT(n, all.keypoints.size()) << share;
+    const auto r = ced::detect(c, p, ced::preset("ced6d"));
+    EXPECT_EQ(r.keypoints, top_by_sorting(all, n)) << share;
+    EXPECT_EQ(r.candidate, all.candidate);
+    EXPECT_EQ(ced::keypoint_limit(p, candidates), n);
+    p.max_keypoints = std::max<std::size_t>(1, n / 2);  // the smaller limit holds, whichever it is
+    EXPECT_EQ(ced::detect(c, p, ced::preset("ced6d")).keypoints, top_by_sorting(all, p.max_keypoints)) << share;
+    p.max_keypoints = n + 5;
+    EXPECT_EQ(ced::detect(c, p, ced::preset("ced6d")).keypoints, top_by_sorting(all, n)) << share;
+    p.max_keypoints = 0;
+  }
+  p.keypoint_share = 1;  // more than there are keypoints: all of them
+  EXPECT_EQ(ced::detect(c, p, ced::preset("ced6d")).keypoints, all.keypoints);
+  p.keypoint_share = 0;
+  EXPECT_EQ(ced::detect(c, p, ced::preset("ced6d")).keypoints, all.keypoints);
+}
+
+TEST(KeypointShare, LimitRoundsUpAndNeverMeansNone) {
+  ced::detect_params p;
+  EXPECT_EQ(ced::keypoint_limit(p, 1000), 0u);  // nothing set: no limit
+  p.keypoint_share = 0.05;
+  EXPECT_EQ(ced::keypoint_limit(p, 1000), 50u);
+  EXPECT_EQ(ced::keypoint_limit(p, 1001), 51u);
+  EXPECT_EQ(ced::keypoint_limit(p, 1480), 74u);  // 0.05 x 1480 rounds to exactly 74 in double
+  EXPECT_EQ(ced::keypoint_limit(p, 0), 1u);      // a share of nothing keeps at most one, not "no limit"
+  p.max_keypoints = 10;
+  EXPECT_EQ(ced::keypoint_limit(p, 1000), 10u);
+  p.max_keypoints = 100;
+  EXPECT_EQ(ced::keypoint_limit(p, 1000), 50u);
+  p.keypoint_share = 1;
+  EXPECT_EQ(ced::keypoint_limit(p, std::uint64_t(1) << 40), 100u);
+}
+
+TEST(KeypointShare, OutOfRangeIsRefused) {
+  const auto c = make_room(2000, 27);
+  for (double bad : {-0.1, 1.5, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    ced::detect_params p;
+    p.keypoint_share = bad;
+    EXPECT_THROW(ced::validate(p), std::invalid_argument) << bad;
+    EXPECT_THROW(ced::detect(c, p, ced::preset("ced3d")), std::invalid_argument) << bad;
+  }
+}
+
+TEST(KeypointShare, TheRobust3dPresetsShareAndAnyThreadCount) {
+  EXPECT_EQ(ced::preset_keypoint_share("robust3d"), 0.045);
+  for (const char* other : {"ced3d", "ced6d", "robust6d"}) EXPECT_EQ(ced::preset_keypoint_share(other), 0.0);
+  EXPECT_THROW(ced::preset_keypoint_share("robust9d"), std::invalid_argument);
+  // Same for any thread count.
+  const auto c = make_room(20000, 28);
+  ced::detect_params p;
+  p.refine = true;
+  p.keypoint_share = 0.01;
+  p.threads = 1;
+  const auto ref = ced::detect(c, p, ced::preset("robust3d"));
+  p.threads = 3;
+  EXPECT_EQ(ced::detect(c, p, ced::preset("robust3d")).keypoints, ref.keypoints);
+}

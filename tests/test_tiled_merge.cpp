@@ -156,17 +156,34 @@ ced::tile_part streamed_merge(const ced::tile_plan& plan, const std::vector<std:
   ced::merge_part_files(plan, paths, sink, memory);
   return got;
 }
+
+/// A request over two twin rooms of 6,000 points each (written to `name`):
+/// 0.15 m tiles, ced6d's modalities.
+ced::tiled_request twins_request(const std::string& name, std::uint32_t seed) {
+  ced::tiled_request r;
+  r.input = ced_test::temp_file(name);
+  ced::io::write_cloud(r.input, ced_test::twin_rooms(6000, seed));
+  r.tile_size = 0.15;
+  r.modalities = {"xyz:0.2", "rgb:0.1"};
+  return r;
+}
+
+/// Every tile of `plan` detected on one thread, each part also written to a
+/// file named after `prefix` (parts and paths in the plan's tile order).
+void detect_all_tiles(const ced::tile_plan& plan, const std::string& prefix, std::vector<ced::tile_part>& parts,
+                      std::vector<std::string>& paths) {
+  for (const auto& t : plan.tiles) {
+    parts.push_back(ced::detect_tile(plan, ced::read_tile(plan, t.id), 1));
+    paths.push_back(ced_test::temp_file(prefix + std::to_string(t.id) + ".part"));
+    ced::write_part(paths.back(), plan, parts.back());
+  }
+}
 }  // namespace
 
 // A tiled run keeps the strongest keypoints of all tiles: the whole run's,
 // with exact ties between twins in different tiles going to the smaller index.
 TEST(TiledMerge, MaxKeypointsIsTheWholeRunsStrongest) {
-  const std::size_t n = 6000;
-  ced::tiled_request r;
-  r.input = ced_test::temp_file("twins.ply");
-  ced::io::write_cloud(r.input, ced_test::twin_rooms(n, 25));
-  r.tile_size = 0.15;
-  r.modalities = {"xyz:0.2", "rgb:0.1"};
+  const ced::tiled_request r = twins_request("twins.ply", 25);
   const ced::point_cloud cloud = ced::io::read_cloud(r.input);
   const auto all = ced::detect(cloud, r.params, specs(r.modalities));
   ASSERT_GT(all.keypoints.size(), 40u);
@@ -184,11 +201,7 @@ TEST(TiledMerge, MaxKeypointsIsTheWholeRunsStrongest) {
     const std::vector<std::uint64_t> expected(whole.keypoints.begin(), whole.keypoints.end());
     std::vector<ced::tile_part> parts;
     std::vector<std::string> paths;
-    for (const auto& t : plan.tiles) {
-      parts.push_back(ced::detect_tile(plan, ced::read_tile(plan, t.id), 1));
-      paths.push_back(ced_test::temp_file("twins_t" + std::to_string(t.id) + ".part"));
-      ced::write_part(paths.back(), plan, parts.back());
-    }
+    detect_all_tiles(plan, "twins_t", parts, paths);
     const ced::tile_part merged = ced::merge_parts(plan, parts);
     EXPECT_EQ(merged.index, expected);
     for (std::size_t k = 0; k < merged.saliency.size(); ++k)
@@ -201,5 +214,38 @@ TEST(TiledMerge, MaxKeypointsIsTheWholeRunsStrongest) {
       EXPECT_EQ(got.index, expected) << "memory " << memory;
       EXPECT_EQ(got.saliency, merged.saliency) << "memory " << memory;
     }
+  }
+}
+
+// --keypoint-share in a tiled run: the share of all tiles' candidates, the
+// strongest of all tiles' keypoints, as the whole run keeps.
+TEST(TiledMerge, KeypointShareIsTheWholeRunsShare) {
+  const ced::tiled_request r = twins_request("twins_share.ply", 29);
+  const ced::point_cloud cloud = ced::io::read_cloud(r.input);
+  const auto all = ced::detect(cloud, r.params, specs(r.modalities));
+  const auto candidates =
+      static_cast<double>(std::count_if(all.candidate.begin(), all.candidate.end(), [](auto v) { return v; }));
+  ASSERT_GT(all.keypoints.size(), 40u);
+  for (double share : {0.5 / candidates, 17.0 / candidates, 0.3 * double(all.keypoints.size()) / candidates, 1.0}) {
+    SCOPED_TRACE("keypoint_share " + std::to_string(share));
+    ced::tiled_request rl = r;
+    rl.params.keypoint_share = share;
+    const ced::tile_plan plan = ced::plan_tiles(rl);
+    ASSERT_GT(plan.tiles.size(), 4u);
+    ced::detect_params p = r.params;
+    p.keypoint_share = share;
+    const auto whole = ced::detect(cloud, p, specs(r.modalities));
+    if (share < 1) {
+      ASSERT_LT(whole.keypoints.size(), all.keypoints.size());
+    }
+    const std::vector<std::uint64_t> expected(whole.keypoints.begin(), whole.keypoints.end());
+    std::vector<ced::tile_part> parts;
+    std::vector<std::string> paths;
+    detect_all_tiles(plan, "twins_s", parts, paths);
+    EXPECT_EQ(ced::merge_parts(plan, parts).index, expected);
+    std::uint64_t announced = 0;
+    const ced::tile_part got = streamed_merge(plan, paths, std::size_t(1) << 20, announced);
+    EXPECT_EQ(announced, expected.size());
+    EXPECT_EQ(got.index, expected);
   }
 }

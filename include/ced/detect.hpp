@@ -64,6 +64,11 @@ float keypoint_score(const detection_result& result, std::uint32_t i) noexcept;
 std::vector<std::uint32_t> strongest(const std::vector<std::uint32_t>& keypoints, const std::vector<float>& scores,
                                      std::size_t n);
 
+/// How many keypoints `params` keep of a cloud with `candidates` candidate
+/// points: max_keypoints and ceil(keypoint_share x candidates), the smaller
+/// of those set; 0 when neither is (no limit).
+std::size_t keypoint_limit(const detect_params& params, std::uint64_t candidates) noexcept;
+
 /// Frees the working memory that detections keep cached for the next one (at
 /// most 32 MiB: the NMS's chunks, which would otherwise be page-faulted in
 /// again at every detection). Thread-safe; a later detection simply starts

@@ -113,6 +113,13 @@ struct detect_params {
   /// ranked by its own score. The same keypoints in tiled runs (the merge
   /// selects them from all tiles). See keypoint_score() and strongest().
   std::size_t max_keypoints = 0;
+  /// At most this share of the candidates become keypoints (0: no limit, the
+  /// default; at most 1): the ceil(keypoint_share x C) strongest, C the number
+  /// of candidate points, ranked as max_keypoints ranks them (with both, the
+  /// smaller limit holds; see keypoint_limit()). The candidates hardly change
+  /// under noise while the NMS's maxima multiply, so this holds a count steady
+  /// on noisy scans (robust3d: 0.045, docs/EVALUATION.md). Exact in tiled runs.
+  double keypoint_share = 0;
   /// Which points make up a neighbourhood (default: the ball of `radius`).
   neighborhood_spec neighborhood;
   /// How neighbours are gathered (grid by default; knn and adaptive always

@@ -264,6 +264,17 @@ void check_length(double v, const std::string& option, const std::string& zero) 
                     got.str());
 }
 
+std::string keypoint_limit_text(const ced::detect_params& params) {
+  std::string out;
+  if (params.max_keypoints) out += ", the " + std::to_string(params.max_keypoints) + " strongest";
+  if (params.keypoint_share > 0) {
+    char share[32];
+    std::snprintf(share, sizeof share, "%g%%", 100 * params.keypoint_share);
+    out += std::string(params.max_keypoints ? " and" : ",") + " the strongest " + share + " of the candidates";
+  }
+  return out;
+}
+
 void check_counts(int min_neighbors, int threads) {
   if (min_neighbors < 0) throw usage_error("--min-neighbors must be >= 0, got " + std::to_string(min_neighbors));
   if (threads < 0) throw usage_error("--threads must be >= 0 (0 = all cores), got " + std::to_string(threads));

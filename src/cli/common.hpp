@@ -87,6 +87,10 @@ void check_length(double v, const std::string& option, const std::string& zero =
 /// The evaluations' -k,--min-neighbors and -j,--threads: usage_error unless >= 0.
 void check_counts(int min_neighbors, int threads);
 
+/// ", the 100 strongest", ", the strongest 5% of the candidates" (both when
+/// both are set), or nothing: the keypoint limit of `params`, for messages.
+std::string keypoint_limit_text(const ced::detect_params& params);
+
 /// Asks glibc's malloc to keep freed memory for reuse instead of returning it
 /// to the system (large blocks from the heap, no trimming): a run allocates
 /// and frees large arrays stage after stage, chunk after chunk, tile after

@@ -71,6 +71,17 @@ void check_numbers(const detect_options& o, detect_plan& plan) {
   if (o.max_keypoints < 0)
     throw usage_error("--max-keypoints must be >= 0 (0: no limit), got " + std::to_string(o.max_keypoints));
   params.max_keypoints = static_cast<std::size_t>(o.max_keypoints);
+  params.keypoint_share = o.preset.empty() ? 0 : ced::preset_keypoint_share(o.preset);
+  if (!o.keypoint_share.empty()) {
+    const std::string bad =
+        "--keypoint-share must be a share from 0 to 1 (0: no limit), got '" + o.keypoint_share + "'";
+    try {
+      params.keypoint_share = ced::parse_number(o.keypoint_share, "--keypoint-share");
+    } catch (const std::invalid_argument&) {
+      throw usage_error(bad);
+    }
+    if (!(params.keypoint_share >= 0 && params.keypoint_share <= 1)) throw usage_error(bad);
+  }
   set_neighborhood(params, o.neighborhood, o.search);
   ced::detect_params check = params;
   check.nms_radius = std::isnan(o.nms_radius) ? check.radius : o.nms_radius;
@@ -267,6 +278,9 @@ void add_detector_options(CLI::App* cmd, detect_options& o, const std::string& r
   cmd->add_option("--max-keypoints", o.max_keypoints,
                   "Keep at most N keypoints: the highest scores (product of saliencies), ties to the smaller index "
                   "(default 0: no limit)");
+  cmd->add_option("--keypoint-share", o.keypoint_share,
+                  "Keep at most this share of the candidate points as keypoints, the strongest, as --max-keypoints "
+                  "ranks them (0 to 1; 0: no limit; robust3d: 0.045): holds the count steady under noise");
 }
 
 command add_detect_command(CLI::App& app, std::function<int(const detect_options&)> run) {

@@ -31,6 +31,7 @@ struct detect_options {
   int min_neighbors = 5;
   int threads = 0;
   long long max_keypoints = 0;  // 0: no limit
+  std::string keypoint_share;   // empty: the preset's (none without a preset)
   std::string neighborhood = "radius", search = "grid";
   std::string indices, indices_original, output, viewer, png, summary, html;
   long long html_max_points = 2000000;

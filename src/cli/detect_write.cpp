@@ -150,6 +150,7 @@ nlohmann::json summary_json(const detect_options& o, const detect_plan& plan, co
                  {"min_neighbors", params.min_neighbors},
                  {"refine", params.refine},
                  {"max_keypoints", params.max_keypoints},
+                 {"keypoint_share", params.keypoint_share},
                  {"neighborhood", ced::to_string(params.neighborhood)},
                  {"search", ced::to_string(params.search)},
                  {"voxel", o.voxel},
@@ -217,6 +218,7 @@ ced::html_options html_options_of(const detect_options& o, const detect_plan& pl
   h.info.push_back({"min neighbours", std::to_string(plan.params.min_neighbors)});
   if (plan.params.refine) h.info.push_back({"refine", "on"});
   if (plan.params.max_keypoints) h.info.push_back({"max keypoints", std::to_string(plan.params.max_keypoints)});
+  if (plan.params.keypoint_share > 0) h.info.push_back({"keypoint share", number(plan.params.keypoint_share)});
   h.info.push_back({"candidates", std::to_string(candidate_count(r))});
   h.info.push_back({"keypoints", std::to_string(r.keypoints.size())});
   char ms[32];
@@ -271,8 +273,7 @@ void print_report(const detect_options& o, const detect_plan& plan, const detect
   std::string mods;
   for (std::size_t m = 0; m < r.names.size(); ++m)
     mods += (m ? " + " : "") + r.names[m] + " (t=" + std::to_string(r.thresholds[m]) + ")";
-  const std::string limit =
-      params.max_keypoints ? ", the " + std::to_string(params.max_keypoints) + " strongest" : std::string();
+  const std::string limit = keypoint_limit_text(params);
   std::string how;
   if (!params.neighborhood.fixed()) how += ", neighbourhood " + ced::to_string(params.neighborhood);
   if (params.search == ced::search_kind::cgal) how += ", search cgal";

@@ -59,12 +59,22 @@ eval_detector parse_detector(const std::string& text, const ced::neighborhood_sp
     if (text == p) {
       d.modalities = ced::preset(text);
       d.refine = ced::preset_refines(text);
+      d.keypoint_share = ced::preset_keypoint_share(text);
       return d;
     }
   for (const auto& s : ced::split_modality_specs(text)) {
-    if (s == "refine")
+    if (s == "refine") {
       d.refine = true;
-    else
+    } else if (s.rfind("share:", 0) == 0) {
+      const std::string bad = "--detector '" + text + "': share:Q takes a share from 0 to 1, got '" + s + "'";
+      try {
+        d.keypoint_share = ced::parse_number(s.substr(6), "share");
+      } catch (const std::invalid_argument&) {
+        throw std::invalid_argument(bad);
+      }
+      if (!(d.keypoint_share >= 0 && d.keypoint_share <= 1)) throw std::invalid_argument(bad);
+    } else
+
       d.modalities.push_back(ced::make_modality(s));
   }
   if (d.modalities.empty()) throw std::invalid_argument("--detector '" + text + "' names no modality");
@@ -137,6 +147,7 @@ std::vector<eval_detector> at_counts(const std::vector<eval_detector>& detectors
     for (std::size_t n : counts) {
       out.push_back(d);
       out.back().count = n;
+      out.back().keypoint_share = 0;  // exactly N, as every detector of the row (robust3d's share would cap it)
       out.back().name += "@" + std::to_string(n);
     }
   }
@@ -165,6 +176,7 @@ detection run_detector(const eval_detector& d, const ced::point_cloud& cloud, co
     case eval_detector::kind::ced: {
       ced::detect_params params = s.params;
       params.refine = d.refine;
+      params.keypoint_share = d.keypoint_share;
       params.max_keypoints = d.count;
       params.neighborhood = d.neighborhood;
       params.search = d.search;

@@ -20,14 +20,16 @@ extern const char* const no_pcl_message;
 
 /// A detector of the evaluation: "random", a preset, one of PCL's, or
 /// modality specs joined by commas ("xyz:0.2,bands(nir):0.1,range=0..255"),
-/// among which the word "refine" asks for keypoint refinement.
+/// among which the word "refine" asks for keypoint refinement and "share:Q"
+/// for a keypoint share (detect_params::keypoint_share).
 struct eval_detector {
   enum class kind { ced, random, pcl };
   std::string name;  ///< as shown: the text given, "@N" added by at_counts()
   std::string text;  ///< the text given (-d)
   kind type = kind::ced;
   std::vector<ced::any_modality> modalities;
-  bool refine = false;  ///< a robust preset, or "refine" among the specs
+  bool refine = false;        ///< a robust preset, or "refine" among the specs
+  double keypoint_share = 0;  ///< robust3d's, or "share:Q" among the specs
   /// At most this many keypoints, the strongest (--counts); 0: the detector's
   /// natural count. Random picks exactly this many.
   std::size_t count = 0;

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 // `ced modalities`: the modalities that --modality accepts.
+#include <cstdio>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -21,6 +22,11 @@ int run_modalities(const std::vector<std::string>& plugins) {
     std::string specs;
     for (const auto& s : ced::preset_specs(p)) specs += (specs.empty() ? "" : " ") + ("-m " + s);
     if (ced::preset_refines(p)) specs += " --refine";
+    if (const double share = ced::preset_keypoint_share(p); share > 0) {
+      char text[48];
+      std::snprintf(text, sizeof text, " --keypoint-share %g", share);
+      specs += text;
+    }
     std::cout << p << "\t" << specs << "\n";
   }
   return exit_ok;

@@ -232,7 +232,8 @@ void merged_writer::finish(const ced::tile_plan& p, const ced::tile_part& m, dou
                    {"nms_radius", p.request.params.nms_radius},
                    {"min_neighbors", p.request.params.min_neighbors},
                    {"refine", p.request.params.refine},
-                   {"max_keypoints", p.request.params.max_keypoints}};
+                   {"max_keypoints", p.request.params.max_keypoints},
+                   {"keypoint_share", p.request.params.keypoint_share}};
     auto& mods = j["modalities"] = nlohmann::json::array();
     for (std::size_t k = 0; k < m.names.size(); ++k)
       mods.push_back({{"name", m.names[k]}, {"threshold", m.thresholds[k]}, {"candidates", m.candidates[k]}});
@@ -331,8 +332,7 @@ int run_detect_tiled(const detect_options& o) {
       mods += (m ? " + " : "") + merged.names[m] + " (t=" + std::to_string(merged.thresholds[m]) + ")";
     std::fprintf(stderr, "ced: %s: %llu points (%s)\n", o.input.c_str(), static_cast<unsigned long long>(p.file_points),
                  p.details.c_str());
-    const std::size_t limit = p.request.params.max_keypoints;
-    const std::string strongest = limit ? ", the " + std::to_string(limit) + " strongest" : std::string();
+    const std::string strongest = keypoint_limit_text(p.request.params);
     std::fprintf(stderr, "ced: modalities %s; radius %g, nms radius %g, min neighbours %u%s%s, %u thread(s)\n",
                  mods.c_str(), p.request.params.radius, p.request.params.nms_radius, p.request.params.min_neighbors,
                  p.request.params.refine ? ", refined" : "", strongest.c_str(),

@@ -5,6 +5,8 @@
 #include "ced/detect.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdint>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -79,16 +81,35 @@ detection_result detection_context::finish() {
                                    params.nms_radius, threads);
   m_impl->hits.clear();
   m_impl->hits.shrink_to_fit();
-  if (params.max_keypoints != 0 && r.keypoints.size() > params.max_keypoints) {
+  const std::size_t limit =
+      keypoint_limit(params, params.keypoint_share > 0
+                                 ? static_cast<std::uint64_t>(std::count_if(r.candidate.begin(), r.candidate.end(),
+                                                                            [](std::uint8_t c) { return c != 0; }))
+                                 : 0);
+  if (limit != 0 && r.keypoints.size() > limit) {
     std::vector<float> scores(r.keypoints.size());
     for (std::size_t q = 0; q < scores.size(); ++q) scores[q] = product[r.keypoints[q]];
-    r.keypoints = strongest(r.keypoints, scores, params.max_keypoints);
+    r.keypoints = strongest(r.keypoints, scores, limit);
   }
   r.times.nms_ms = ms_since(t0);
   return std::move(r);
 }
 
 }  // namespace detail
+
+std::size_t keypoint_limit(const detect_params& params, std::uint64_t candidates) noexcept {
+  std::size_t limit = params.max_keypoints;
+  if (params.keypoint_share > 0) {
+    // The product rounded to a double (exactly, on any IEEE machine), then up.
+    const double share = std::ceil(params.keypoint_share * static_cast<double>(candidates));
+    const std::size_t n = share >= 1.8e19 ? SIZE_MAX : static_cast<std::size_t>(share);
+    // A share of no candidates keeps none: 0 would mean no limit, so keep one
+    // (there is no keypoint without a candidate anyway).
+    const std::size_t by_share = std::max<std::size_t>(1, n);
+    limit = limit ? std::min(limit, by_share) : by_share;
+  }
+  return limit;
+}
 
 float keypoint_score(const detection_result& result, std::uint32_t i) noexcept {
   return detail::score_of(result.saliency.size(), [&](std::size_t m) { return result.saliency[m][i]; });

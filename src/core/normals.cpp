@@ -111,6 +111,7 @@ std::vector<float> estimate_normals(const point_cloud& cloud, const detect_param
   detect_params p = factor == 1 ? params : scaled_params(params, factor);
   p.min_neighbors = 1;
   p.max_keypoints = 0;
+  p.keypoint_share = 0;
   p.refine = false;
   p.progress = nullptr;  // a stage of the caller's detection, not one of its own
   std::vector<float> normals(3 * cloud.size(), 0.0f);

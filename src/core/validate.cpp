@@ -18,6 +18,9 @@ void validate(const detect_params& p) {
   positive(p.radius, "radius");
   positive(p.nms_radius, "nms_radius");
   positive(p.block_scale, "block_scale");
+  if (!(p.keypoint_share >= 0 && p.keypoint_share <= 1))
+    throw std::invalid_argument("keypoint_share must be a share from 0 to 1 (0: no limit), got " +
+                                std::to_string(p.keypoint_share));
   validate(p.neighborhood);
   if (p.search != search_kind::grid && p.search != search_kind::cgal)
     throw std::invalid_argument("search must be grid or cgal");

@@ -19,6 +19,9 @@ namespace py = pybind11;
 /// `refine=` of detect and plan_tiles: a bool, or None for the preset's
 /// (robust3d/robust6d refine; anything else does not).
 bool refine_of(py::handle modalities, py::handle refine);
+/// detect_params::keypoint_share from a `keypoint_share` argument: a number
+/// from 0 to 1, or None (the preset's when `modalities` names one, else 0).
+double keypoint_share_of(py::handle modalities, py::handle share);
 /// Sets p.neighborhood and p.search from the arguments `neighborhood` and
 /// `search` (ValueError naming the argument).
 void set_neighborhood(ced::detect_params& p, const std::string& neighborhood, const std::string& search);

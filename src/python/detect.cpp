@@ -41,6 +41,7 @@ struct result {
   std::uint32_t min_neighbors = 0;
   bool refine = false;
   std::size_t max_keypoints = 0;
+  double keypoint_share = 0;
 };
 
 /// Unique keys for the modalities (a name given twice gets "#2", ...).
@@ -236,6 +237,8 @@ void bind_result(py::module_& m) {
       .def_readonly("refine", &result::refine, "Whether the keypoints were refined (detect(refine=...)).")
       .def_readonly("max_keypoints", &result::max_keypoints,
                     "The limit on the keypoints' number (detect(max_keypoints=...)); 0: none.")
+      .def_readonly("keypoint_share", &result::keypoint_share,
+                    "The share of the candidates kept at most as keypoints (detect(keypoint_share=...)); 0: none.")
       .def("__len__", [](const result& res) { return res.r.keypoints.size(); })
       .def("__repr__", &repr);
 }
@@ -244,7 +247,8 @@ void bind_result(py::module_& m) {
 std::shared_ptr<result> detect_cloud(py::handle points, py::handle channels, py::handle modalities, py::handle radius,
                                      double radius_factor, std::optional<double> nms_radius, long long min_neighbors,
                                      long long threads, py::handle refine, long long max_keypoints,
-                                     const std::string& neighborhood, const std::string& search) {
+                                     const std::string& neighborhood, const std::string& search,
+                                     py::handle keypoint_share) {
   const cloud_ptr cloud = to_cloud(points, channels);
   if (cloud->empty()) throw py::value_error("points: the cloud is empty");
   ced::detect_params p = make_params(*cloud, radius, radius_factor, nms_radius, min_neighbors, threads);
@@ -253,6 +257,7 @@ std::shared_ptr<result> detect_cloud(py::handle points, py::handle channels, py:
   if (max_keypoints < 0)
     throw py::value_error("max_keypoints: must be >= 0 (0: no limit), got " + std::to_string(max_keypoints));
   p.max_keypoints = static_cast<std::size_t>(max_keypoints);
+  p.keypoint_share = keypoint_share_of(modalities, keypoint_share);
   const auto mods = make_modalities(*cloud, modalities);
   auto res = std::make_shared<result>();
   if (python_callbacks_running()) {
@@ -272,6 +277,7 @@ std::shared_ptr<result> detect_cloud(py::handle points, py::handle channels, py:
   res->min_neighbors = p.min_neighbors;
   res->refine = p.refine;
   res->max_keypoints = p.max_keypoints;
+  res->keypoint_share = p.keypoint_share;
   return res;
 }
 
@@ -281,7 +287,8 @@ void bind_detect(py::module_& m) {
   bind_result(m);
   m.def("_detect", &detect_cloud, py::arg("points"), py::arg("channels"), py::arg("modalities"), py::arg("radius"),
         py::arg("radius_factor"), py::arg("nms_radius"), py::arg("min_neighbors"), py::arg("threads"),
-        py::arg("refine"), py::arg("max_keypoints"), py::arg("neighborhood"), py::arg("search"));
+        py::arg("refine"), py::arg("max_keypoints"), py::arg("neighborhood"), py::arg("search"),
+        py::arg("keypoint_share"));
   m.def("release_cached_memory", &ced::release_cached_memory,
         "Frees the up to 32 MiB that detections keep cached for the next one.");
 }

@@ -127,6 +127,24 @@ bool refine_of(py::handle modalities, py::handle refine) {
   return false;
 }
 
+double keypoint_share_of(py::handle modalities, py::handle share) {
+  if (!share.is_none()) {
+    if (py::isinstance<py::bool_>(share) || !(py::isinstance<py::int_>(share) || py::isinstance<py::float_>(share)))
+      throw py::type_error("keypoint_share: expected a number from 0 to 1 or None, got " +
+                           py::str(py::type::of(share).attr("__name__")).cast<std::string>());
+    const double v = share.cast<double>();
+    if (!(v >= 0 && v <= 1))
+      throw py::value_error("keypoint_share: must be a share from 0 to 1 (0: no limit), got " +
+                            py::str(share).cast<std::string>());
+    return v;
+  }
+  if (!py::isinstance<py::str>(modalities)) return 0;
+  const std::string s = modalities.cast<std::string>();
+  for (const auto& p : ced::preset_names())
+    if (s == p) return ced::preset_keypoint_share(s);
+  return 0;
+}
+
 void bind_tiled(py::module_& m) {
   py::class_<ced::tile_plan, plan_ptr>(m, "TilePlan",
                                        "The tiles of a cloud file: what ced.detect_tile runs and ced.merge_parts "
@@ -235,7 +253,7 @@ void bind_tiled(py::module_& m) {
       [](const std::string& input, py::object tile_size, py::object memory_limit, py::object modalities,
          py::object radius, py::object nms_radius, py::object min_neighbors, const std::string& format,
          py::object refine, py::object max_keypoints, bool scan, const std::string& neighborhood,
-         const std::string& search) {
+         const std::string& search, py::object keypoint_share) {
         ced::tiled_request r;
         set_neighborhood(r.params, neighborhood, search);
         r.input = input;
@@ -247,6 +265,7 @@ void bind_tiled(py::module_& m) {
         r.modalities = specs_of(modalities);
         r.params.refine = refine_of(modalities, refine);
         r.params.max_keypoints = std::size_t(int_arg(max_keypoints, "max_keypoints", UINT32_MAX));
+        r.params.keypoint_share = keypoint_share_of(modalities, keypoint_share);
         if (tile_size.is_none() && memory_limit.is_none())
           throw py::value_error("give tile_size (metres) or memory_limit (bytes)");
         if (!tile_size.is_none() && !memory_limit.is_none())
@@ -276,13 +295,14 @@ void bind_tiled(py::module_& m) {
       py::arg("modalities") = py::none(), py::arg("radius") = 0.05, py::arg("nms_radius") = py::none(),
       py::arg("min_neighbors") = 5, py::arg("format") = "auto", py::arg("refine") = py::none(),
       py::arg("max_keypoints") = 0, py::arg("scan") = false, py::arg("neighborhood") = "radius",
-      py::arg("search") = "grid",
+      py::arg("search") = "grid", py::arg("keypoint_share") = py::none(),
       "Plans the tiles of a cloud file (two passes over it), as `ced plan`. A COPC file is planned from its "
       "index and header without a pass over the points (plan.indexed), unless scan=True or memory_limit is "
       "given. modalities: spec strings or a preset "
       "name (default: ced6d when the file has colour, else ced3d). refine: keypoint refinement (None: the "
       "preset's, on for robust3d/robust6d). max_keypoints: the merge keeps the strongest of all tiles' "
-      "keypoints, as detect(max_keypoints=...) (0: no limit). neighborhood, search: as detect()'s. Under "
+      "keypoints, as detect(max_keypoints=...) (0: no limit); keypoint_share likewise (None: the preset's, 0.045 "
+      "for robust3d). neighborhood, search: as detect()'s. Under "
       "'knn:K,reach=R' or 'adaptive:K,...,reach=R' each tile checks the reach, detect_tile raising RuntimeError "
       "(naming the reach the tile needs) when a point reaches farther; without reach= (and, for adaptive, "
       "max=) the plan estimates one from the cloud's density (plan.reach_estimated, plan.neighborhood): a "

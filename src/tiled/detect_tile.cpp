@@ -181,6 +181,7 @@ tile_part detect_tile(const tile_plan& plan, const tile_points& points, unsigned
   detect_params params = plan.request.params;
   params.threads = threads;
   params.max_keypoints = 0;  // every keypoint of the core: the merge keeps the strongest of all tiles
+  params.keypoint_share = 0;
   const std::size_t m = modalities.size();
   name_modalities(plan, modalities, part);
   part.saliency.assign(m, {});

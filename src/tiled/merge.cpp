@@ -152,8 +152,9 @@ void merge_records(const tile_plan& plan, const std::vector<std::string>& paths,
     add_counts(totals, r.totals);
     all += r.count();
   }
-  // --max-keypoints: the strongest of all tiles' keypoints, as a whole run keeps.
-  const std::size_t limit = plan.request.params.max_keypoints;
+  // --max-keypoints, --keypoint-share: the strongest of all tiles' keypoints,
+  // as a whole run keeps (the share of all tiles' candidates).
+  const std::size_t limit = keypoint_limit(plan.request.params, totals.any_candidates);
   const std::size_t m = totals.names.size();
   const std::optional<rank_key> cutoff =
       limit ? strongest_cutoff(plan, paths, digest, limit, std::max<std::size_t>(std::size_t(1) << 16, memory / 4))
@@ -230,7 +231,7 @@ tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts) {
       throw io::io_error("the parts of tiles " + std::to_string(parts[order[q - 1].second.first].tile) + " and " +
                              std::to_string(parts[order[q].second.first].tile),
                          "both have keypoint " + std::to_string(order[q].first) + ": not parts of one plan's run");
-  const std::size_t limit = plan.request.params.max_keypoints;
+  const std::size_t limit = keypoint_limit(plan.request.params, out.any_candidates);
   if (limit && order.size() > limit) {  // the strongest of all tiles' keypoints, still by index
     std::vector<rank_key> keys(order.size());
     for (std::size_t q = 0; q < order.size(); ++q) {

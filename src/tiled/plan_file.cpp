@@ -77,6 +77,11 @@ tiled_request request_from_json(const nlohmann::json& j) {
   r.params.refine = j.value("refine", false);  // plans written before refinement existed
   // Written only when set, so that plans without a limit keep their digest.
   if (j.contains("max_keypoints")) r.params.max_keypoints = count_of<std::size_t>(j, "max_keypoints");
+  if (j.contains("keypoint_share")) {
+    r.params.keypoint_share = number_of(j, "keypoint_share");
+    if (!(r.params.keypoint_share >= 0 && r.params.keypoint_share <= 1))
+      throw std::invalid_argument("'keypoint_share' must be a share from 0 to 1");
+  }
   if (j.contains("neighborhood")) {
     if (!j.at("neighborhood").is_string()) throw std::invalid_argument("'neighborhood' must be a string");
     r.params.neighborhood = parse_neighborhood(j.at("neighborhood").get<std::string>());
@@ -198,6 +203,7 @@ nlohmann::json request_json(const tiled_request& r) {
   j["block_scale"] = r.params.block_scale;
   j["refine"] = r.params.refine;
   if (r.params.max_keypoints) j["max_keypoints"] = r.params.max_keypoints;
+  if (r.params.keypoint_share > 0) j["keypoint_share"] = r.params.keypoint_share;
   // Written only when not the default, so that other plans keep their digest.
   if (!r.params.neighborhood.fixed()) j["neighborhood"] = to_string(r.params.neighborhood);
   if (r.params.search == search_kind::cgal) j["search"] = to_string(r.params.search);

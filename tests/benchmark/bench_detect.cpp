@@ -145,6 +145,7 @@ void bm_ced(benchmark::State& state, const std::string& name, const std::string&
   ced::detect_params p;
   p.threads = static_cast<unsigned>(state.range(0));
   p.refine = preset != "five" && ced::preset_refines(preset);  // as `ced detect --preset` does
+  p.keypoint_share = preset == "five" ? 0 : ced::preset_keypoint_share(preset);
   const auto mods = preset == "five" ? five_modalities() : ced::preset(preset);
   ced::detection_result r;
   for (auto _ : state) {

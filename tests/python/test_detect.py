@@ -1,5 +1,7 @@
 # SPDX-License-Identifier: MIT
 # ced.detect from numpy: the CLI's keypoints, every input layout, the Result.
+import math
+
 import numpy as np
 import pytest
 
@@ -58,6 +60,30 @@ def test_max_keypoints_keeps_the_strongest_as_the_cli(cli, sample, sample_path):
         ced.detect(sample, modalities="ced6d", max_keypoints=-1)
     with pytest.raises(TypeError, match="max_keypoints"):
         ced.detect(sample, modalities="ced6d", max_keypoints=2.5)
+
+
+def test_keypoint_share_keeps_the_strongest_share_of_the_candidates(cli, sample, sample_path):
+    full = ced.detect(sample, modalities="ced6d")
+    candidates = int(np.count_nonzero(full.candidate))
+    assert full.keypoint_share == 0 and candidates > 10 * len(full)
+    for share in (0.001, 0.01):
+        n = math.ceil(share * candidates)
+        got = ced.detect(sample, modalities="ced6d", keypoint_share=share)
+        assert got.keypoint_share == share and len(got) == n < len(full)
+        np.testing.assert_array_equal(got.keypoints, ced.detect(sample, modalities="ced6d", max_keypoints=n).keypoints)
+        np.testing.assert_array_equal(
+            cli_keypoints(cli, sample_path, "--preset", "ced6d", "--keypoint-share", str(share)), got.keypoints)
+    # robust3d's own share unless told otherwise; the other presets have none.
+    assert ced.preset_keypoint_share("robust3d") == 0.045 and ced.preset_keypoint_share("robust6d") == 0
+    r3 = ced.detect(sample, modalities="robust3d")
+    assert r3.keypoint_share == 0.045
+    assert ced.detect(sample, modalities="robust3d", keypoint_share=0).keypoint_share == 0
+    np.testing.assert_array_equal(cli_keypoints(cli, sample_path, "--preset", "robust3d"), r3.keypoints)
+    for bad in (-0.1, 1.5, float("nan")):
+        with pytest.raises(ValueError, match="keypoint_share"):
+            ced.detect(sample, modalities="ced6d", keypoint_share=bad)
+    with pytest.raises(TypeError, match="keypoint_share"):
+        ced.detect(sample, modalities="ced6d", keypoint_share="0.1")
 
 
 def test_neighborhood_and_search_match_the_cli(cli, sample, sample_path):

@@ -80,6 +80,20 @@ def test_tiles_keep_the_strongest_as_the_whole_run(las, tmp_path):
         ced.plan_tiles(las, tile_size=0.8, max_keypoints=-1)
 
 
+def test_tiles_keep_the_share_of_all_candidates_as_the_whole_run(las):
+    cloud = ced.read(las)
+    full = ced.detect(cloud, modalities="ced6d")
+    candidates = int(np.count_nonzero(full.candidate))
+    for share in (1 / candidates, 0.4 * len(full) / candidates):
+        whole = ced.detect(cloud, modalities="ced6d", keypoint_share=share)
+        assert len(whole) < len(full), share
+        plan = pickle.loads(pickle.dumps(ced.plan_tiles(las, tile_size=0.8, modalities="ced6d", keypoint_share=share)))
+        merged = ced.merge_parts(plan, [ced.detect_tile(plan, t) for t, _, _ in plan.tiles])
+        assert np.array_equal(merged.keypoints, np.asarray(whole.keypoints, dtype=np.uint64)), share
+    with pytest.raises(ValueError, match="keypoint_share"):
+        ced.plan_tiles(las, tile_size=0.8, keypoint_share=2)
+
+
 def test_neighbourhood_tiles_give_the_whole_result_or_stop_clearly(las):
     cloud = ced.read(las)
     for spec in ["adaptive:12,scale=1.5,max=0.08", "knn:12,reach=0.06"]:

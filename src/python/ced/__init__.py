@@ -28,6 +28,7 @@ from ._ced import (
     plan_tiles,
     preset,
     preset_names,
+    preset_keypoint_share,
     preset_refines,
     python_modality,
     read,
@@ -41,7 +42,7 @@ from . import eval  # noqa: F401  (ced.eval.repeatability)
 __all__ = [
     "Cloud", "FileError", "Modality", "PluginError", "Result", "TilePart", "TilePlan", "__version__", "bands",
     "detect", "detect_tile", "estimate_normals", "estimate_resolution", "eval", "intensity", "lab", "load_plugin", "merge_parts",
-    "modalities", "modality", "normals", "plan_tiles", "preset", "preset_names", "preset_refines", "python_modality", "read", "read_part",
+    "modalities", "modality", "normals", "plan_tiles", "preset", "preset_names", "preset_keypoint_share", "preset_refines", "python_modality", "read", "read_part",
     "release_cached_memory", "render", "rgb", "voxel_downsample", "write", "write_keypoints", "xyz",
 ]
 
@@ -168,7 +169,8 @@ def voxel_downsample(cloud, size):
 
 
 def detect(points, channels=None, modalities=None, radius=0.05, nms_radius=None, min_neighbors=5, threads=0,
-           radius_factor=5.0, refine=None, max_keypoints=0, neighborhood="radius", search="grid"):
+           radius_factor=5.0, refine=None, max_keypoints=0, neighborhood="radius", search="grid",
+           keypoint_share=None):
     """Detects keypoints.
 
     points: an (N, 3) float32/float64 array (any strides), a numpy structured array with X, Y, Z fields (PDAL's
@@ -184,6 +186,9 @@ def detect(points, channels=None, modalities=None, radius=0.05, nms_radius=None,
         repeatable under noise). None: the preset's (on for 'robust3d' and 'robust6d'), else off.
     max_keypoints: keep at most this many keypoints, the ones with the highest score (the product of their
         saliencies), ties to the smaller index; 0 (default): no limit.
+    keypoint_share: keep at most this share (0 to 1) of the candidate points as keypoints, the strongest, ranked
+        as max_keypoints ranks them (with both, the smaller limit). None: the preset's (0.045 for 'robust3d', whose
+        count would otherwise grow with noise), else 0: no limit.
     neighborhood: 'radius' (default: the ball of `radius`), 'knn:K' (the K nearest points, itself included) or
         'adaptive:K[,scale=a][,min=r0][,max=r1]' (each point's radius a x the distance to its K-th nearest,
         clamped). Under knn/adaptive, xyz is measured per unit of each point's own radius (Result.point_radius).
@@ -204,7 +209,7 @@ def detect(points, channels=None, modalities=None, radius=0.05, nms_radius=None,
         if not isinstance(value, str):
             raise TypeError(f"{name}: expected a str, got {type(value).__name__}")
     return _detect(points, channels, modalities, radius, float(radius_factor), nms_radius, min_neighbors, threads,
-                   refine, max_keypoints, neighborhood, search)
+                   refine, max_keypoints, neighborhood, search, keypoint_share)
 
 
 def write(path, cloud, channels=None, format=None):

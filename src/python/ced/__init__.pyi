@@ -85,6 +85,8 @@ class Result:
     def refine(self) -> bool: ...
     @property
     def max_keypoints(self) -> int: ...
+    @property
+    def keypoint_share(self) -> float: ...
     def __len__(self) -> int: ...
 
 PointsLike = Union[npt.ArrayLike, Cloud, Any]  # (N, 3) floats, a structured array, a Cloud, an Open3D cloud
@@ -106,6 +108,7 @@ def detect(
     max_keypoints: int = 0,
     neighborhood: str = "radius",
     search: str = "grid",
+    keypoint_share: Optional[float] = None,
 ) -> Result:
     """Detects keypoints (see docs/PYTHON.md). Releases the GIL; Ctrl-C raises KeyboardInterrupt."""
 
@@ -167,6 +170,9 @@ def preset_names() -> List[str]:
 
 def preset_refines(name: str) -> bool:
     """Whether a preset refines its keypoints: robust3d and robust6d do, ced3d and ced6d not."""
+
+def preset_keypoint_share(name: str) -> float:
+    """The share of the candidates a preset keeps at most as keypoints: 0.045 for robust3d, 0 (no limit) else."""
 
 def preset(name: str) -> List[Modality]:
     """'ced3d' (xyz:0.2), 'ced6d' (xyz:0.2, rgb:0.1), 'robust3d' (xyz:0.2,scale=1.75) or 'robust6d'
@@ -241,7 +247,8 @@ def plan_tiles(input: str, tile_size: Optional[float] = None, memory_limit: Opti
                modalities: Union[None, str, Sequence[str]] = None, radius: float = 0.05,
                nms_radius: Optional[float] = None, min_neighbors: int = 5, format: str = "auto",
                refine: Optional[bool] = None, max_keypoints: int = 0, scan: bool = False,
-               neighborhood: str = "radius", search: str = "grid") -> TilePlan:
+               neighborhood: str = "radius", search: str = "grid",
+               keypoint_share: Optional[float] = None) -> TilePlan:
     """Plans the tiles of a cloud file (two passes over it), as `ced plan`. tile_size (metres, > 0) or
     memory_limit (bytes, 1 .. 1e18), not both. A COPC file is planned from its index and header without a
     pass over the points (plan.indexed), unless scan=True or memory_limit is given. neighborhood and search

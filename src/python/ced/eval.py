@@ -21,27 +21,36 @@ def measure(source, source_keypoints, target, target_keypoints, transform, epsil
 
 
 def _detector(d):
-    """(label, modalities or None for the random baseline, refine)."""
+    """(label, modalities or None for the random baseline, refine, keypoint share)."""
     from . import Modality, _ced, preset
 
     if not isinstance(d, str):
         mods = [m if isinstance(m, Modality) else Modality(m) for m in d]
         if not mods:
             raise ValueError("detectors: an empty modality list")
-        return "+".join(m.name for m in mods), mods, False
+        return "+".join(m.name for m in mods), mods, False, 0.0
     if d == "random":
-        return d, None, False
+        return d, None, False, 0.0
     if d in _ced.preset_names():
-        return d, preset(d), _ced.preset_refines(d)
+        return d, preset(d), _ced.preset_refines(d), _ced.preset_keypoint_share(d)
     if d in ("iss3d", "harris3d", "harris6d", "sift"):
         raise ValueError(f"detectors: {d!r} is a PCL detector, available in the CLI "
                          f"(ced eval repeatability --detector {d}) but not from Python")
     specs = _ced._split_modality_specs(d)
-    refine = "refine" in specs  # as in the CLI: the word "refine" among the specs
-    specs = [s for s in specs if s != "refine"]
+    refine = "refine" in specs  # as in the CLI: the word "refine" among the specs, "share:Q" a keypoint share
+    share = 0.0
+    for s in specs:
+        if s.startswith("share:"):
+            try:
+                share = float(s[6:])
+            except ValueError:
+                share = float("nan")
+            if not 0 <= share <= 1:
+                raise ValueError(f"detectors: {d!r}: share:Q takes a share from 0 to 1, got {s!r}")
+    specs = [s for s in specs if s != "refine" and not s.startswith("share:")]
     if not specs:
         raise ValueError(f"detectors: {d!r} names no modality")
-    return d, [Modality(s) for s in specs], refine
+    return d, [Modality(s) for s in specs], refine, share
 
 
 def repeatability(cloud, detectors=("ced6d", "ced3d", "random"), noise=(0.0, 0.5), trials=5, seed=1,
@@ -81,15 +90,15 @@ def repeatability(cloud, detectors=("ced6d", "ced3d", "random"), noise=(0.0, 0.5
             t = random_transform(rng, max_translation)
             q = transform(cloud, t, level * res, rng)
             last_count = max(1, len(cloud) // 100)
-            for name, mods, refine in kinds:
+            for name, mods, refine, share in kinds:
                 if mods is None:
                     a = random_keypoints(len(cloud), last_count, rng)
                     b = random_keypoints(len(q), last_count, rng)
                 else:
                     a = detect(cloud, modalities=mods, radius=r, nms_radius=r, min_neighbors=min_neighbors,
-                               threads=threads, refine=refine).keypoints
+                               threads=threads, refine=refine, keypoint_share=share).keypoints
                     b = detect(q, modalities=mods, radius=r, nms_radius=r, min_neighbors=min_neighbors,
-                               threads=threads, refine=refine).keypoints
+                               threads=threads, refine=refine, keypoint_share=share).keypoints
                     last_count = max(1, len(a))
                 kp, kq, rep = measure(cloud, a, q, b, t, eps)
                 rows.append({"detector": name, "noise": level, "trial": trial, "source_keypoints": kp,
