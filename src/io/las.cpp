@@ -1405,30 +1405,20 @@ class las_stream final : public point_stream {
 
   bool read_points(const std::vector<std::uint64_t>& at, const std::vector<std::string>& fields,
                    const std::array<double, 3>& origin, point_cloud& out) override {
-    if (m_header.compressed) return false;
     take_flags(fields);
     if (at.empty()) {
       out = point_cloud();
       return true;
     }
-    // The records, read in windows: a gap of less than a page is read
-    // through (cheaper than another read), a window holds at most 1 MiB.
-    const std::size_t stride = m_header.record_length;
-    const std::uint64_t gap = std::max<std::uint64_t>(1, 4096 / stride),
-                        most = std::max<std::uint64_t>(1, (1u << 20) / stride);
-    std::string gathered(at.size() * stride, '\0');
-    std::string window;
-    for (std::size_t j = 0; j < at.size();) {
+    for (std::size_t j = 0; j < at.size(); ++j)
       if (at[j] >= m_header.count || (j > 0 && at[j] <= at[j - 1]))
         throw std::logic_error("las_stream::read_points: indices not ascending within the file's points");
-      std::size_t e = j + 1;
-      while (e < at.size() && at[e] > at[e - 1] && at[e] - at[e - 1] <= gap && at[e] - at[j] < most) ++e;
-      const std::uint64_t first = at[j], span = at[e - 1] - first + 1;
-      window.resize(static_cast<std::size_t>(span * stride));
-      m_file.read_at(m_header.point_offset + first * stride, window.size(), window.data());
-      for (; j < e; ++j)
-        std::memcpy(&gathered[j * stride], &window[static_cast<std::size_t>((at[j] - first) * stride)], stride);
-    }
+    const std::size_t stride = m_header.record_length;
+    std::string gathered(at.size() * stride, '\0');
+    if (m_header.compressed)
+      gather_compressed(at, gathered);
+    else
+      gather_records(at, gathered);
     const record_source src(reinterpret_cast<const unsigned char*>(gathered.data()), stride);
     out = decode_records(src, at.size(), m_header, origin, plan_columns(m_header, m_extras, m_fields, m_scan.flags));
     return true;
@@ -1444,6 +1434,55 @@ class las_stream final : public point_stream {
   }
 
  private:
+  /// Uncompressed: the records at `at` (ascending, in the file) into `out`,
+  /// read in windows: a gap of less than a page is read through (cheaper
+  /// than another read), a window holds at most 1 MiB.
+  void gather_records(const std::vector<std::uint64_t>& at, std::string& out) {
+    const std::size_t stride = m_header.record_length;
+    const std::uint64_t gap = std::max<std::uint64_t>(1, 4096 / stride),
+                        most = std::max<std::uint64_t>(1, (1u << 20) / stride);
+    std::string window;
+    for (std::size_t j = 0; j < at.size();) {
+      std::size_t e = j + 1;
+      while (e < at.size() && at[e] - at[e - 1] <= gap && at[e] - at[j] < most) ++e;
+      const std::uint64_t first = at[j], span = at[e - 1] - first + 1;
+      window.resize(static_cast<std::size_t>(span * stride));
+      m_file.read_at(m_header.point_offset + first * stride, window.size(), window.data());
+      for (; j < e; ++j)
+        std::memcpy(&out[j * stride], &window[static_cast<std::size_t>((at[j] - first) * stride)], stride);
+    }
+  }
+
+  /// LAZ: the records at `at` (ascending, in the file) into `out`, decoding
+  /// only the chunks that hold them (the chunk table says where each starts),
+  /// up to 8 consecutive ones at a time, in parallel.
+  void gather_compressed(const std::vector<std::uint64_t>& at, std::string& out) {
+    const std::vector<laz_chunk>& chunks = m_laz.chunks;
+    const std::size_t stride = m_header.record_length, most = 8;
+    const auto end_of = [&](std::size_t c) { return chunks[c].first_point + chunks[c].points; };
+    for (std::size_t j = 0; j < at.size();) {
+      const std::size_t c0 = chunk_of(at[j]);
+      std::size_t c1 = c0 + 1, e = j;
+      for (;;) {  // the points of chunks [c0, c1); the next chunk joins when it holds the next point
+        while (e < at.size() && at[e] < end_of(c1 - 1)) ++e;
+        if (e == at.size() || c1 - c0 == most || chunk_of(at[e]) != c1) break;
+        ++c1;
+      }
+      const big_bytes records = decode_laz(m_laz, c0, c1, file_reader(m_file), m_file.path(), wanted_of(m_fields));
+      const std::uint64_t first = chunks[c0].first_point;
+      for (; j < e; ++j)
+        std::memcpy(&out[j * stride], records.data() + static_cast<std::size_t>((at[j] - first) * stride), stride);
+    }
+  }
+
+  /// LAZ: the chunk that holds file point `point`.
+  std::size_t chunk_of(std::uint64_t point) const {
+    const std::vector<laz_chunk>& chunks = m_laz.chunks;
+    const auto it = std::upper_bound(chunks.begin(), chunks.end(), point,
+                                     [](std::uint64_t p, const laz_chunk& c) { return p < c.first_point; });
+    return static_cast<std::size_t>(it - chunks.begin()) - 1;
+  }
+
   /// The flags the whole file has, from their names (`fields`), as a
   /// complete pass decides them: the pass is then spent.
   void take_flags(const std::vector<std::string>& fields) {
@@ -1461,11 +1500,6 @@ class las_stream final : public point_stream {
   /// them, decoded (the last ones are kept for the next call).
   record_source window(std::size_t n) {
     const std::vector<laz_chunk>& chunks = m_laz.chunks;
-    const auto chunk_of = [&](std::uint64_t point) {
-      const auto it = std::upper_bound(chunks.begin(), chunks.end(), point,
-                                       [](std::uint64_t p, const laz_chunk& c) { return p < c.first_point; });
-      return static_cast<std::size_t>(it - chunks.begin()) - 1;
-    };
     const std::size_t stride = m_header.record_length;
     if (m_next < m_window_first || m_next + n > m_window_first + m_window.size() / stride) {
       const std::size_t c0 = chunk_of(m_next), c1 = chunk_of(m_next + n - 1) + 1;
