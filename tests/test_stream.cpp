@@ -11,6 +11,7 @@
 #include <limits>
 #include <random>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -328,6 +329,49 @@ TEST(Stream, PcdBinary) {
   only.fields = ced::field_selection::only({"green", "curv"});
   expect_stream_reads_like_read_cloud(path, only, true);
   expect_truncated_fails(read_bytes(path), 5, "s_cut.pcd");
+}
+
+// point_stream::read_points (a tiled run's fetch of its keypoints' records):
+// fixed-size binary records read at their offsets, each point as the whole
+// read gives it; PLY records with lists and text files say no.
+TEST(Stream, PointsReadAtTheirRecords) {
+  const point_cloud cloud = georeferenced_cloud(3000);
+  std::vector<std::string> paths;
+  for (auto f : {ced::io::ply_format::binary_little_endian, ced::io::ply_format::binary_big_endian}) {
+    paths.push_back(temp_file(f == ced::io::ply_format::binary_big_endian ? "rp_be.ply" : "rp_le.ply"));
+    ced::io::write_ply(paths.back(), cloud, f);
+  }
+  paths.push_back(temp_file("rp.pcd"));
+  ced::io::write_pcd(paths.back(), cloud, ced::io::pcd_format::binary);
+  std::vector<std::uint64_t> at;  // ends, a dense run, gaps of every size (past a 1 MiB window too)
+  for (std::uint64_t i = 0; i < cloud.size(); i += 1 + i / 2) at.push_back(i);
+  at.push_back(cloud.size() - 1);
+  for (const std::string& path : paths) {
+    SCOPED_TRACE(path);
+    const point_cloud all = ced::io::read_cloud(path);
+    auto s = ced::io::open_point_stream(path);
+    point_cloud got;
+    ASSERT_TRUE(s->read_points(at, {}, all.origin(), got));
+    ASSERT_EQ(got.size(), at.size());
+    ASSERT_EQ(got.fields().size(), all.fields().size());
+    for (std::size_t j = 0; j < at.size(); ++j) {
+      ASSERT_EQ(0, std::memcmp(got.position(j), all.position(at[j]), 12)) << j;
+      for (std::size_t f = 0; f < got.fields().size(); ++f) {
+        ASSERT_EQ(got.fields()[f].name, all.fields()[f].name);
+        ASSERT_EQ(got.fields()[f].values[j], all.fields()[f].values[at[j]]) << got.fields()[f].name << " " << j;
+      }
+    }
+    EXPECT_THROW(ced::io::open_point_stream(path)->read_points({5, 5}, {}, all.origin(), got), std::logic_error);
+    EXPECT_THROW(ced::io::open_point_stream(path)->read_points({cloud.size()}, {}, all.origin(), got),
+                 std::logic_error);
+  }
+  const std::string lists = temp_file("rp_lists.ply"), text = temp_file("rp_ascii.ply");
+  write_bytes(lists, ply_with_lists(false));
+  ced::io::write_ply(text, cloud, ced::io::ply_format::ascii);
+  for (const std::string& path : {lists, text}) {
+    point_cloud got;
+    EXPECT_FALSE(ced::io::open_point_stream(path)->read_points({0, 1}, {}, {0, 0, 0}, got)) << path;
+  }
 }
 
 TEST(Stream, PcdBinaryOrganizedKeepsNaNPoints) {

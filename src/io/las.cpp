@@ -1410,15 +1410,15 @@ class las_stream final : public point_stream {
       out = point_cloud();
       return true;
     }
-    for (std::size_t j = 0; j < at.size(); ++j)
-      if (at[j] >= m_header.count || (j > 0 && at[j] <= at[j - 1]))
-        throw std::logic_error("las_stream::read_points: indices not ascending within the file's points");
+    check_point_indices(at, m_header.count);
     const std::size_t stride = m_header.record_length;
-    std::string gathered(at.size() * stride, '\0');
-    if (m_header.compressed)
+    std::string gathered;
+    if (m_header.compressed) {
+      gathered.assign(at.size() * stride, '\0');
       gather_compressed(at, gathered);
-    else
-      gather_records(at, gathered);
+    } else {
+      gathered = gather_records(m_file, m_header.point_offset, stride, at);
+    }
     const record_source src(reinterpret_cast<const unsigned char*>(gathered.data()), stride);
     out = decode_records(src, at.size(), m_header, origin, plan_columns(m_header, m_extras, m_fields, m_scan.flags));
     return true;
@@ -1434,25 +1434,6 @@ class las_stream final : public point_stream {
   }
 
  private:
-  /// Uncompressed: the records at `at` (ascending, in the file) into `out`,
-  /// read in windows: a gap of less than a page is read through (cheaper
-  /// than another read), a window holds at most 1 MiB.
-  void gather_records(const std::vector<std::uint64_t>& at, std::string& out) {
-    const std::size_t stride = m_header.record_length;
-    const std::uint64_t gap = std::max<std::uint64_t>(1, 4096 / stride),
-                        most = std::max<std::uint64_t>(1, (1u << 20) / stride);
-    std::string window;
-    for (std::size_t j = 0; j < at.size();) {
-      std::size_t e = j + 1;
-      while (e < at.size() && at[e] - at[e - 1] <= gap && at[e] - at[j] < most) ++e;
-      const std::uint64_t first = at[j], span = at[e - 1] - first + 1;
-      window.resize(static_cast<std::size_t>(span * stride));
-      m_file.read_at(m_header.point_offset + first * stride, window.size(), window.data());
-      for (; j < e; ++j)
-        std::memcpy(&out[j * stride], &window[static_cast<std::size_t>((at[j] - first) * stride)], stride);
-    }
-  }
-
   /// LAZ: the records at `at` (ascending, in the file) into `out`, decoding
   /// only the chunks that hold them (the chunk table says where each starts),
   /// up to 8 consecutive ones at a time, in parallel.

@@ -893,6 +893,17 @@ class pcd_stream final : public box_stream {
   void rewind() override { m_next = 0; }
   std::string details() const override { return pcd_details(info_of(m_h)); }
   std::uint64_t declared_points() const noexcept override { return m_h.points; }
+  /// The records at `at`, decoded as read() decodes them.
+  bool read_points(const std::vector<std::uint64_t>& at, const std::vector<std::string>& fields,
+                   const std::array<double, 3>& origin, point_cloud& out) override {
+    (void)fields;  // PCD has no flags
+    check_point_indices(at, m_h.points);
+    m_first_pass_done = true;
+    const std::string records = gather_records(*m_file, m_h.body_offset, m_point_size, at);
+    out = decode_points(record_source(reinterpret_cast<const unsigned char*>(records.data()), m_point_size), at.size(),
+                        m_layout, origin);
+    return true;
+  }
 
  private:
   std::unique_ptr<input_file> m_file;

@@ -754,6 +754,18 @@ class ply_stream final : public box_stream {
   }
   std::string details() const override { return "PLY"; }
   std::uint64_t declared_points() const noexcept override { return m_h.elements[m_vertex].count; }
+  /// Fixed-size records only: those at `at`, decoded as read() decodes them.
+  bool read_points(const std::vector<std::uint64_t>& at, const std::vector<std::string>& fields,
+                   const std::array<double, 3>& origin, point_cloud& out) override {
+    (void)fields;  // PLY has no flags
+    if (!m_record.fixed) return false;
+    check_point_indices(at, declared_points());
+    m_first_pass_done = true;
+    const std::string records = gather_records(*m_file, m_start, m_record.min, at);
+    out = decode_points(record_source(reinterpret_cast<const unsigned char*>(records.data()), m_record.min), at.size(),
+                        m_layout, origin);
+    return true;
+  }
 
  private:
   /// The next n vertices, records with lists: read front to back.

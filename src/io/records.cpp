@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <stdexcept>
 #include <type_traits>
 
 #include "scalar_io.hpp"
@@ -180,6 +181,29 @@ point_cloud decode_points(const record_source& src, std::uint64_t n, const point
   });
   for (std::size_t j = 0; j < layout.columns.size(); ++j) cloud.add_field(layout.columns[j].name, std::move(cols[j]));
   return cloud;
+}
+
+void check_point_indices(const std::vector<std::uint64_t>& at, std::uint64_t count) {
+  for (std::size_t j = 0; j < at.size(); ++j)
+    if (at[j] >= count || (j > 0 && at[j] <= at[j - 1]))
+      throw std::logic_error("point_stream::read_points: indices not ascending within the file's points");
+}
+
+std::string gather_records(const input_file& file, std::uint64_t offset, std::size_t stride,
+                           const std::vector<std::uint64_t>& at) {
+  const std::uint64_t gap = std::max<std::uint64_t>(1, 4096 / stride),
+                      most = std::max<std::uint64_t>(1, (1u << 20) / stride);
+  std::string out(at.size() * stride, '\0'), window;
+  for (std::size_t j = 0; j < at.size();) {
+    std::size_t e = j + 1;
+    while (e < at.size() && at[e] - at[e - 1] <= gap && at[e] - at[j] < most) ++e;
+    const std::uint64_t first = at[j], span = at[e - 1] - first + 1;
+    window.resize(static_cast<std::size_t>(span * stride));
+    file.read_at(offset + first * stride, window.size(), window.data());
+    for (; j < e; ++j)
+      std::memcpy(&out[j * stride], &window[static_cast<std::size_t>((at[j] - first) * stride)], stride);
+  }
+  return out;
 }
 
 }  // namespace ced::io::detail

@@ -142,4 +142,15 @@ points_scan scan_points(const record_source& src, std::uint64_t n, const point_l
 point_cloud decode_points(const record_source& src, std::uint64_t n, const point_layout& layout,
                           const std::array<double, 3>& origin, const points_scan* finite_only = nullptr);
 
+/// std::logic_error unless the point indices `at` ascend and are below
+/// `count` (a caller's bug: point_stream::read_points's contract).
+void check_point_indices(const std::vector<std::uint64_t>& at, std::uint64_t count);
+
+/// The records of `stride` bytes at indices `at` (ascending) among those
+/// that start at byte `offset` of `file`, back to back: read in windows, a
+/// gap under a page read through (cheaper than another read), at most 1 MiB
+/// a read. What point_stream::read_points reads of a binary file.
+std::string gather_records(const input_file& file, std::uint64_t offset, std::size_t stride,
+                           const std::vector<std::uint64_t>& at);
+
 }  // namespace ced::io::detail

@@ -344,9 +344,10 @@ std::optional<std::vector<std::string>> detection_fields(const tile_plan& p);
 
 /// The last pass of a run whose parts carry only the tile fields: the
 /// keypoints' whole records, read from the input in one sequential pass (a
-/// merge join: the keypoints come in ascending file index), or, from a LAS
-/// or LAZ file (whose points are all finite), only their records, or the
-/// LAZ chunks that hold them (point_stream::read_points). Every keypoint's index and position must be
+/// merge join: the keypoints come in ascending file index), or, when every
+/// point is finite and the stream can (LAS, LAZ, binary PCD, PLY of fixed
+/// records), only their records, or the LAZ chunks that hold them
+/// (point_stream::read_points). Every keypoint's index and position must be
 /// the input's, and the input's counts the plan's: else io_error, the input
 /// changed since the plan.
 class record_fetcher {

@@ -104,12 +104,13 @@ class point_stream {
   /// complete pass would give: `fields` names the flags among them (a tile
   /// plan records them), as no pass learns them here. The stream's pass is
   /// then spent: origin(), bounds() and flags_set() no longer hold.
-  /// LAS and LAZ: the points at file indices `at` (ascending, each below
-  /// declared_points(); else std::logic_error) into `out`, with the fields a
-  /// complete pass gives (`fields` names the flags among them, as
-  /// read_run()), reading only their records (LAZ: decoding only the chunks
-  /// that hold them). Returns false, reading nothing, for the other streams.
-  /// The stream's pass is then spent, as after read_run().
+  /// LAS, LAZ, binary PCD and binary PLY of fixed-size vertex records: the
+  /// points at file indices `at` (ascending, each below declared_points();
+  /// else std::logic_error) into `out`, with the fields a complete pass
+  /// gives (`fields` names the LAS flags among them, as read_run()), reading
+  /// only their records (LAZ: decoding only the chunks that hold them).
+  /// Returns false, reading nothing, for the other streams. The stream's
+  /// pass is then spent, as after read_run().
   virtual bool read_points(const std::vector<std::uint64_t>& at, const std::vector<std::string>& fields,
                            const std::array<double, 3>& origin, point_cloud& out) {
     (void)at;
