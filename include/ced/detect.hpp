@@ -64,6 +64,9 @@ float keypoint_score(const detection_result& result, std::uint32_t i) noexcept;
 std::vector<std::uint32_t> strongest(const std::vector<std::uint32_t>& keypoints, const std::vector<float>& scores,
                                      std::size_t n);
 
+/// The candidates of a result: points at or over some modality's threshold.
+std::size_t candidate_count(const detection_result& result) noexcept;
+
 /// How many keypoints `params` keep of a cloud with `candidates` candidate
 /// points: max_keypoints and ceil(keypoint_share x candidates), the smaller
 /// of those set; 0 when neither is (no limit).

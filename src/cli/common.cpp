@@ -264,6 +264,17 @@ void check_length(double v, const std::string& option, const std::string& zero) 
                     got.str());
 }
 
+double parse_share(const std::string& text, const std::string& bad) {
+  double share = 0;
+  try {
+    share = ced::parse_number(text, "share");
+  } catch (const std::invalid_argument&) {
+    throw std::invalid_argument(bad);
+  }
+  if (!(share >= 0 && share <= 1)) throw std::invalid_argument(bad);
+  return share;
+}
+
 std::string keypoint_limit_text(const ced::detect_params& params) {
   std::string out;
   if (params.max_keypoints) out += ", the " + std::to_string(params.max_keypoints) + " strongest";

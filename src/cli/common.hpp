@@ -87,6 +87,10 @@ void check_length(double v, const std::string& option, const std::string& zero =
 /// The evaluations' -k,--min-neighbors and -j,--threads: usage_error unless >= 0.
 void check_counts(int min_neighbors, int threads);
 
+/// A keypoint share (detect_params::keypoint_share) from `text`: a number
+/// from 0 to 1, else std::invalid_argument saying `bad`.
+double parse_share(const std::string& text, const std::string& bad);
+
 /// ", the 100 strongest", ", the strongest 5% of the candidates" (both when
 /// both are set), or nothing: the keypoint limit of `params`, for messages.
 std::string keypoint_limit_text(const ced::detect_params& params);

@@ -73,14 +73,13 @@ void check_numbers(const detect_options& o, detect_plan& plan) {
   params.max_keypoints = static_cast<std::size_t>(o.max_keypoints);
   params.keypoint_share = o.preset.empty() ? 0 : ced::preset_keypoint_share(o.preset);
   if (!o.keypoint_share.empty()) {
-    const std::string bad =
-        "--keypoint-share must be a share from 0 to 1 (0: no limit), got '" + o.keypoint_share + "'";
     try {
-      params.keypoint_share = ced::parse_number(o.keypoint_share, "--keypoint-share");
-    } catch (const std::invalid_argument&) {
-      throw usage_error(bad);
+      params.keypoint_share =
+          parse_share(o.keypoint_share,
+                      "--keypoint-share must be a share from 0 to 1 (0: no limit), got '" + o.keypoint_share + "'");
+    } catch (const std::invalid_argument& e) {
+      throw usage_error(e.what());
     }
-    if (!(params.keypoint_share >= 0 && params.keypoint_share <= 1)) throw usage_error(bad);
   }
   set_neighborhood(params, o.neighborhood, o.search);
   ced::detect_params check = params;

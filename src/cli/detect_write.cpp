@@ -115,13 +115,6 @@ std::size_t modality_candidates(const ced::detection_result& r, std::size_t m) {
   return n;
 }
 
-/// Points that are candidates of some modality.
-std::size_t candidate_count(const ced::detection_result& r) {
-  std::size_t n = 0;
-  for (auto c : r.candidate) n += c != 0;
-  return n;
-}
-
 /// The names of the cloud's fields: those the run read.
 std::vector<std::string> field_names(const ced::point_cloud& cloud) {
   std::vector<std::string> names;
@@ -158,7 +151,7 @@ nlohmann::json summary_json(const detect_options& o, const detect_plan& plan, co
   auto& mods = j["modalities"] = nlohmann::json::array();
   for (std::size_t m = 0; m < r.names.size(); ++m)
     mods.push_back({{"name", r.names[m]}, {"threshold", r.thresholds[m]}, {"candidates", modality_candidates(r, m)}});
-  j["counts"] = {{"candidates", candidate_count(r)}, {"keypoints", r.keypoints.size()}};
+  j["counts"] = {{"candidates", ced::candidate_count(r)}, {"keypoints", r.keypoints.size()}};
   j["times_ms"] = {{"read", in.load_ms},        {"voxel", in.voxel_ms},
                    {"index", r.times.index_ms}, {"saliency", r.times.saliency_ms},
                    {"nms", r.times.nms_ms},     {"detect", r.times.total_ms()}};
@@ -219,7 +212,7 @@ ced::html_options html_options_of(const detect_options& o, const detect_plan& pl
   if (plan.params.refine) h.info.push_back({"refine", "on"});
   if (plan.params.max_keypoints) h.info.push_back({"max keypoints", std::to_string(plan.params.max_keypoints)});
   if (plan.params.keypoint_share > 0) h.info.push_back({"keypoint share", number(plan.params.keypoint_share)});
-  h.info.push_back({"candidates", std::to_string(candidate_count(r))});
+  h.info.push_back({"candidates", std::to_string(ced::candidate_count(r))});
   h.info.push_back({"keypoints", std::to_string(r.keypoints.size())});
   char ms[32];
   std::snprintf(ms, sizeof ms, "%.1f ms", r.times.total_ms());

@@ -66,16 +66,11 @@ eval_detector parse_detector(const std::string& text, const ced::neighborhood_sp
     if (s == "refine") {
       d.refine = true;
     } else if (s.rfind("share:", 0) == 0) {
-      const std::string bad = "--detector '" + text + "': share:Q takes a share from 0 to 1, got '" + s + "'";
-      try {
-        d.keypoint_share = ced::parse_number(s.substr(6), "share");
-      } catch (const std::invalid_argument&) {
-        throw std::invalid_argument(bad);
-      }
-      if (!(d.keypoint_share >= 0 && d.keypoint_share <= 1)) throw std::invalid_argument(bad);
-    } else
-
+      d.keypoint_share =
+          parse_share(s.substr(6), "--detector '" + text + "': share:Q takes a share from 0 to 1, got '" + s + "'");
+    } else {
       d.modalities.push_back(ced::make_modality(s));
+    }
   }
   if (d.modalities.empty()) throw std::invalid_argument("--detector '" + text + "' names no modality");
   return d;

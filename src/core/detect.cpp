@@ -81,11 +81,7 @@ detection_result detection_context::finish() {
                                    params.nms_radius, threads);
   m_impl->hits.clear();
   m_impl->hits.shrink_to_fit();
-  const std::size_t limit =
-      keypoint_limit(params, params.keypoint_share > 0
-                                 ? static_cast<std::uint64_t>(std::count_if(r.candidate.begin(), r.candidate.end(),
-                                                                            [](std::uint8_t c) { return c != 0; }))
-                                 : 0);
+  const std::size_t limit = keypoint_limit(params, params.keypoint_share > 0 ? candidate_count(r) : 0);
   if (limit != 0 && r.keypoints.size() > limit) {
     std::vector<float> scores(r.keypoints.size());
     for (std::size_t q = 0; q < scores.size(); ++q) scores[q] = product[r.keypoints[q]];
@@ -96,6 +92,12 @@ detection_result detection_context::finish() {
 }
 
 }  // namespace detail
+
+std::size_t candidate_count(const detection_result& result) noexcept {
+  std::size_t n = 0;
+  for (auto c : result.candidate) n += c != 0;
+  return n;
+}
 
 std::size_t keypoint_limit(const detect_params& params, std::uint64_t candidates) noexcept {
   std::size_t limit = params.max_keypoints;

@@ -1412,13 +1412,8 @@ class las_stream final : public point_stream {
     }
     check_point_indices(at, m_header.count);
     const std::size_t stride = m_header.record_length;
-    std::string gathered;
-    if (m_header.compressed) {
-      gathered.assign(at.size() * stride, '\0');
-      gather_compressed(at, gathered);
-    } else {
-      gathered = gather_records(m_file, m_header.point_offset, stride, at);
-    }
+    const std::string gathered =
+        m_header.compressed ? gather_compressed(at) : gather_records(m_file, m_header.point_offset, stride, at);
     const record_source src(reinterpret_cast<const unsigned char*>(gathered.data()), stride);
     out = decode_records(src, at.size(), m_header, origin, plan_columns(m_header, m_extras, m_fields, m_scan.flags));
     return true;
@@ -1434,12 +1429,13 @@ class las_stream final : public point_stream {
   }
 
  private:
-  /// LAZ: the records at `at` (ascending, in the file) into `out`, decoding
-  /// only the chunks that hold them (the chunk table says where each starts),
-  /// up to 8 consecutive ones at a time, in parallel.
-  void gather_compressed(const std::vector<std::uint64_t>& at, std::string& out) {
+  /// LAZ: the records at `at` (ascending, in the file), back to back,
+  /// decoding only the chunks that hold them (the chunk table says where
+  /// each starts), up to 8 consecutive ones at a time, in parallel.
+  std::string gather_compressed(const std::vector<std::uint64_t>& at) const {
     const std::vector<laz_chunk>& chunks = m_laz.chunks;
     const std::size_t stride = m_header.record_length, most = 8;
+    std::string out(at.size() * stride, '\0');
     const auto end_of = [&](std::size_t c) { return chunks[c].first_point + chunks[c].points; };
     for (std::size_t j = 0; j < at.size();) {
       const std::size_t c0 = chunk_of(at[j]);
@@ -1454,6 +1450,7 @@ class las_stream final : public point_stream {
       for (; j < e; ++j)
         std::memcpy(&out[j * stride], records.data() + static_cast<std::size_t>((at[j] - first) * stride), stride);
     }
+    return out;
   }
 
   /// LAZ: the chunk that holds file point `point`.

@@ -57,8 +57,7 @@ std::vector<std::string> keys(const std::vector<std::string>& names) {
 
 std::string repr(const result& res) {
   const auto& r = res.r;
-  std::size_t candidates = 0;
-  for (auto c : r.candidate) candidates += c;
+  const std::size_t candidates = ced::candidate_count(r);
   char head[160];
   std::snprintf(head, sizeof head, "<ced.Result: %zu keypoints, %zu candidates of %zu points; radius %g, nms_radius %g",
                 r.keypoints.size(), candidates, r.candidate.size(), res.radius, res.nms_radius);

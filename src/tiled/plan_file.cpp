@@ -77,11 +77,7 @@ tiled_request request_from_json(const nlohmann::json& j) {
   r.params.refine = j.value("refine", false);  // plans written before refinement existed
   // Written only when set, so that plans without a limit keep their digest.
   if (j.contains("max_keypoints")) r.params.max_keypoints = count_of<std::size_t>(j, "max_keypoints");
-  if (j.contains("keypoint_share")) {
-    r.params.keypoint_share = number_of(j, "keypoint_share");
-    if (!(r.params.keypoint_share >= 0 && r.params.keypoint_share <= 1))
-      throw std::invalid_argument("'keypoint_share' must be a share from 0 to 1");
-  }
+  if (j.contains("keypoint_share")) r.params.keypoint_share = number_of(j, "keypoint_share");  // validate() checks it
   if (j.contains("neighborhood")) {
     if (!j.at("neighborhood").is_string()) throw std::invalid_argument("'neighborhood' must be a string");
     r.params.neighborhood = parse_neighborhood(j.at("neighborhood").get<std::string>());
