@@ -3,6 +3,7 @@ ced_library(ced_io io
   src/io/ply.cpp
   src/io/las.cpp
   src/io/laz.cpp
+  src/io/copc.cpp
   src/io/stream.cpp
   src/io/records.cpp
   src/io/pcd.cpp

@@ -26,6 +26,13 @@ same_outputs() {  # same_outputs NAME PREFIX [WHOLE]: PREFIX.txt, PREFIX_o.txt, 
   check "$1: original indices" cmp -s "$T/${w}_o.txt" "$2_o.txt"
   check "$1: keypoint cloud" cmp -s "$T/$w.las" "$2.las"
 }
+run_tiles_and_merge() {  # run_tiles_and_merge PLAN NAME: every tile of PLAN (messages in NAME_err), merged into NAME.*
+  : > "$T/$2_err"
+  for id in $(tr -d ' \n' < "$1" | grep -o '"tiles":\[.*\]' | grep -o '\[[0-9]*,' | tr -d '[,'); do
+    "$CED" detect --plan "$1" --tile "$id" -o "$T/$2_part_$id.cedpart" 2>> "$T/$2_err" || echo "$2: tile $id failed"
+  done
+  "$CED" merge "$1" "$T/$2"_part_*.cedpart --indices "$T/$2.txt" --indices-original "$T/$2_o.txt" -o "$T/$2.las" -q
+}
 for c in big mid; do
   "$CED" detect "$T/$c.las" --preset ced6d --indices "$T/${c}_whole.txt" --indices-original "$T/${c}_whole_o.txt" \
     -o "$T/${c}_whole.las" -q
@@ -106,15 +113,9 @@ copcargs=(--preset ced6d --radius 60)
 "$CED" detect "$T/copc_as.las" "${copcargs[@]}" --indices "$T/copc_las.txt" -q
 check "COPC whole: the keypoints of the same points as LAS" cmp -s "$T/copc_whole.txt" "$T/copc_las.txt"
 "$CED" plan "$copc" "${copcargs[@]}" --tile-size 800 -o "$T/copcplan.json" -q
-: > "$T/copc_err"
-for id in $(tr -d ' \n' < "$T/copcplan.json" | grep -o '"tiles":\[.*\]' | grep -o '\[[0-9]*,' | tr -d '[,'); do
-  "$CED" detect --plan "$T/copcplan.json" --tile "$id" -o "$T/copcpart_$id.cedpart" 2>> "$T/copc_err" ||
-    echo "COPC tile $id failed"
-done
-"$CED" merge "$T/copcplan.json" "$T"/copcpart_*.cedpart --indices "$T/copcp.txt" --indices-original "$T/copcp_o.txt" \
-  -o "$T/copcp.las" -q
+run_tiles_and_merge "$T/copcplan.json" copcp
 same_outputs "COPC plan + tiles (by its index) + merge" "$T/copcp" copc_whole
-check "COPC tiles are read through the index" grep -q "through the file's COPC index" "$T/copc_err"
+check "COPC tiles are read through the index" grep -q "through the file's COPC index" "$T/copcp_err"
 check "COPC: ced info says so" sh -c "'$CED' info '$copc' | grep -q 'point format 7, COPC'"
 check "COPC: ced plan plans from the index" grep -q '"indexed": true' "$T/copcplan.json"
 "$CED" plan "$copc" "${copcargs[@]}" --tile-size 800 --scan -o "$T/copcscan.json" 2> "$T/copcscan_err"
@@ -122,12 +123,27 @@ check "COPC: ced plan --scan passes over the points" sh -c "! grep -q indexed '$
 "$CED" plan "$copc" "${copcargs[@]}" --tile-size 800 -o "$T/copcplan2.json" 2> "$T/copcplan_err"
 check "COPC: ced plan says its counts are estimates" grep -q "COPC index and header, without a pass" "$T/copcplan_err"
 check "COPC tiles decode part of the file" \
-  test "$(grep -o '([0-9]* decoded' "$T/copc_err" | tr -d '( decoded' | sort -n | head -1)" -lt 1065
+  test "$(grep -o '([0-9]* decoded' "$T/copcp_err" | tr -d '( decoded' | sort -n | head -1)" -lt 1065
 # LAZ out: the keypoint cloud as LAZ, whole and merged from tiles, the same bytes.
 "$CED" detect "$laz" "${lazargs[@]}" -o "$T/lzw.laz" -q
 "$CED" detect "$laz" "${lazargs[@]}" --tile-size 250 -o "$T/lzwt.laz" -q
 check "LAZ out: tiled as whole" cmp -s "$T/lzw.laz" "$T/lzwt.laz"
 check "LAZ out: the keypoints" sh -c "'$CED' info '$T/lzw.laz' | grep -q \"^$T/lzw.laz: $(wc -l < "$T/laz_whole.txt") points (LAZ 1.2\""
+# COPC written by ced: its plan's tiles, read through its index, give its
+# whole run's outputs; keypoints out as COPC, whole and tiled, the same bytes.
+"$CED" convert "$laz" "$T/autzen.copc.laz"
+check "COPC written: ced info says so" sh -c "'$CED' info '$T/autzen.copc.laz' | grep -q 'point format 7, COPC'"
+"$CED" detect "$T/autzen.copc.laz" "${lazargs[@]}" --indices "$T/acw.txt" --indices-original "$T/acw_o.txt" \
+  -o "$T/acw.las" -q
+"$CED" plan "$T/autzen.copc.laz" "${lazargs[@]}" --tile-size 250 -o "$T/acplan.json" -q
+check "COPC written: ced plan plans from its index" grep -q '"indexed": true' "$T/acplan.json"
+run_tiles_and_merge "$T/acplan.json" acp
+same_outputs "COPC written: plan + tiles (by its index) + merge" "$T/acp" acw
+check "COPC written: tiles are read through the index" grep -q "through the file's COPC index" "$T/acp_err"
+"$CED" detect "$laz" "${lazargs[@]}" -o "$T/lzw.copc.laz" -q
+"$CED" detect "$laz" "${lazargs[@]}" --tile-size 250 -o "$T/lzwt.copc.laz" -q
+check "COPC out: tiled as whole" cmp -s "$T/lzw.copc.laz" "$T/lzwt.copc.laz"
+check "COPC out: the keypoints" sh -c "'$CED' info '$T/lzw.copc.laz' | grep -q \"^$T/lzw.copc.laz: $(wc -l < "$T/laz_whole.txt") points (LAZ 1.4, point format 7, COPC\""
 
 # --- Any scheduler: plan, one tile at a time, merge ---
 "$CED" plan "$T/mid.las" --preset ced6d --tile-size 1 -o "$T/plan.json" -q

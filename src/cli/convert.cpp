@@ -40,7 +40,7 @@ command add_convert_command(CLI::App& app) {
   auto o = std::make_shared<convert_options>();
   auto* conv = app.add_subcommand("convert", "Convert between formats (by extension), optionally voxel down-sampled");
   add_input_options(conv, o->input, "Input point cloud", o->format, o->columns)->required();
-  conv->add_option("output", o->output, "Output: .ply, .pcd, .las, .laz or .csv")->required();
+  conv->add_option("output", o->output, "Output: .ply, .pcd, .las, .laz, .copc.laz or .csv")->required();
   conv->add_option("--voxel", o->voxel, "Voxel size for down-sampling (metres)");
   return {conv, [o] { return run_convert(*o); }};
 }

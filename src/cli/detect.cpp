@@ -298,7 +298,7 @@ command add_detect_command(CLI::App& app, std::function<int(const detect_options
       "--indices-original", o->indices_original,
       "Keypoint indices into the input file's points (after --voxel: the point nearest each voxel centroid)");
   det->add_option("-o,--output", o->output,
-                  "Keypoints with all fields + saliency_<modality>: .ply, .pcd, .las, .laz or .csv");
+                  "Keypoints with all fields + saliency_<modality>: .ply, .pcd, .las, .laz, .copc.laz or .csv");
   det->add_option("--viewer", o->viewer, "Whole cloud as PLY, keypoints red, scalar_keypoint/scalar_saliency_* fields");
   det->add_option("--png", o->png, "Picture of the cloud with the keypoints as red discs");
   det->add_option("--view", o->view, "View for --png: top, front or iso (default iso)");

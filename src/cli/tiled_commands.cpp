@@ -431,7 +431,7 @@ command add_merge_command(CLI::App& app) {
   cmd->add_option("--indices", o->indices, "Keypoint indices into the input's finite points (0-based, ascending)");
   cmd->add_option("--indices-original", o->indices_original, "Keypoint indices into the input file's points");
   cmd->add_option("-o,--output", o->output,
-                  "Keypoints with all fields + saliency_<modality>: .ply, .pcd, .las, .laz, .csv");
+                  "Keypoints with all fields + saliency_<modality>: .ply, .pcd, .las, .laz, .copc.laz, .csv");
   cmd->add_option("--summary", o->summary, "JSON summary");
   add_plugin_option(cmd, o->plugins);
   cmd->add_flag("-q,--quiet", o->quiet, "Print nothing on stderr");

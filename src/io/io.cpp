@@ -16,8 +16,9 @@ file_format parse_format(const std::string& name) {
   if (name == "pcd") return file_format::pcd;
   if (name == "las") return file_format::las;
   if (name == "laz") return file_format::laz;
+  if (name == "copc") return file_format::copc;
   if (name == "csv" || name == "xyz" || name == "txt" || name == "pts") return file_format::csv;
-  throw std::invalid_argument("unknown format '" + name + "' (known: ply, pcd, las, laz, csv, auto)");
+  throw std::invalid_argument("unknown format '" + name + "' (known: ply, pcd, las, laz, copc, csv, auto)");
 }
 
 std::string format_name(file_format f) {
@@ -34,6 +35,8 @@ std::string format_name(file_format f) {
       return "csv";
     case file_format::laz:
       return "laz";
+    case file_format::copc:
+      return "copc";
   }
   return "?";
 }
@@ -47,6 +50,8 @@ file_format format_of(const std::string& path) {
     throw io_error(path + ": E57 is not supported; convert it first, e.g. `pdal translate " + path +
                    " out.las` or with CloudCompare to PLY");
   if (ext.empty()) throw io_error(path + ": no file extension; say the format with --format ply|pcd|las|csv");
+  const std::string lower = ced::detail::to_lower(path);
+  if (lower.size() >= 9 && lower.compare(lower.size() - 9, 9, ".copc.laz") == 0) return file_format::copc;
   try {
     return parse_format(ext);
   } catch (const std::invalid_argument&) {
@@ -75,7 +80,8 @@ point_cloud read_cloud_here(const std::string& path, const read_options& options
       break;
     }
     case file_format::las:
-    case file_format::laz: {
+    case file_format::laz:
+    case file_format::copc: {
       las_read_info info;
       c = read_las(path, &info, options.fields);
       r.details = detail::las_details(info);
@@ -114,6 +120,9 @@ void write_cloud(std::ostream& out, const point_cloud& cloud, file_format format
       return;
     case file_format::laz:
       detail::write_laz(out, cloud);
+      return;
+    case file_format::copc:
+      detail::write_copc(out, cloud);
       return;
     case file_format::csv:
       write_csv(out, cloud);
@@ -155,6 +164,9 @@ cloud_writer::cloud_writer(std::ostream& out, const point_cloud& layout, std::ui
       if (m_start == std::streampos(-1))
         throw std::invalid_argument("cloud_writer: LAZ in pieces needs a seekable output (a file)");
       m_pieces = detail::laz_pieces(out, m_layout, points);
+      break;
+    case file_format::copc:
+      m_pieces = detail::copc_pieces(m_layout, points);
       break;
     case file_format::csv:
       m_pieces = detail::csv_pieces(out, m_layout, points);

@@ -1115,26 +1115,7 @@ std::string laz_head(std::string_view las_head, const laz_layout& layout) {
   const std::uint32_t n_vlrs = load_le<std::uint32_t>(d + 100);
   std::size_t vlr_end = load_le<std::uint16_t>(d + 94);
   for (std::uint32_t i = 0; i < n_vlrs; ++i) vlr_end += k_vlr_header_size + load_le<std::uint16_t>(d + vlr_end + 20);
-  std::string vlr(k_vlr_header_size + 34 + 6 * layout.items.size(), '\0');
-  auto* v = reinterpret_cast<unsigned char*>(vlr.data());
-  store_le<std::uint16_t>(v, 0xAABB);
-  std::memcpy(v + 2, "laszip encoded", 14);
-  store_le<std::uint16_t>(v + 18, 22204);
-  store_le<std::uint16_t>(v + 20, static_cast<std::uint16_t>(vlr.size() - k_vlr_header_size));
-  std::memcpy(v + 22, "ced LAZ writer", 14);
-  unsigned char* p = v + k_vlr_header_size;
-  store_le<std::uint16_t>(p, static_cast<std::uint16_t>(layout.compressor));
-  p[4] = 2;  // the LASzip version the items are of: 2.2.0
-  p[5] = 2;
-  store_le<std::uint32_t>(p + 12, layout.chunk_size);
-  store_le<std::int64_t>(p + 16, -1);  // no special EVLRs
-  store_le<std::int64_t>(p + 24, -1);
-  store_le<std::uint16_t>(p + 32, static_cast<std::uint16_t>(layout.items.size()));
-  for (std::size_t i = 0; i < layout.items.size(); ++i) {
-    store_le<std::uint16_t>(p + 34 + 6 * i, layout.items[i].type);
-    store_le<std::uint16_t>(p + 36 + 6 * i, layout.items[i].size);
-    store_le<std::uint16_t>(p + 38 + 6 * i, layout.items[i].version);
-  }
+  const std::string vlr = laszip_vlr(layout);
   std::string out(las_head.substr(0, vlr_end));
   out += vlr;
   out += las_head.substr(vlr_end);
@@ -1233,7 +1214,29 @@ class laz_piece_writer final : public piece_writer {
   std::string m_pending;  ///< records of the chunk being filled
   std::vector<std::uint32_t> m_points, m_bytes;
 };
+/// COPC in pieces: the LAS 1.4 file of a las_piece_writer held in memory,
+/// written as COPC at the end (its octree needs every point).
+class copc_piece_writer final : public piece_writer {
+ public:
+  copc_piece_writer(const point_cloud& layout, std::uint64_t n) : m_las(m_buffer, layout, n) {}
+  void write(std::ostream&, const point_cloud& chunk) override { m_las.write(m_buffer, chunk); }
+  void finish(std::ostream& out) override {
+    std::string las = m_buffer.str();
+    const std::string header = m_las.final_header();
+    las.replace(0, header.size(), header);
+    const std::string copc = copc_from_las(las, "the LAS records of the output");
+    out.write(copc.data(), static_cast<std::streamsize>(copc.size()));
+  }
+
+ private:
+  std::ostringstream m_buffer;
+  las_piece_writer m_las;
+};
 }  // namespace
+
+std::unique_ptr<piece_writer> copc_pieces(const point_cloud& layout, std::uint64_t n) {
+  return std::make_unique<copc_piece_writer>(layout, n);
+}
 
 std::unique_ptr<piece_writer> las_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n) {
   return std::make_unique<las_piece_writer>(out, layout, n);

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <set>
 #include <string>
 
@@ -14,6 +15,7 @@
 #include "laz_coder.hpp"
 #include "laz_items.hpp"
 #include "laz_layered.hpp"
+#include "laz_layered_encode.hpp"
 #include "laz_pointwise.hpp"
 #include "scalar_io.hpp"
 
@@ -367,23 +369,64 @@ std::vector<copc_node> read_copc_hierarchy(const copc_info& info, std::uint64_t 
   return nodes;
 }
 
-laz_layout pointwise_layout(int format, std::size_t record_length, std::uint32_t chunk_size) {
+namespace {
+/// The format's standard items at `version`, then its extra bytes as one item of `extra_type`.
+laz_layout layout_of(int compressor, int format, std::size_t record_length, std::uint32_t chunk_size,
+                     std::uint16_t version, std::uint16_t extra_type) {
   laz_layout layout;
-  layout.compressor = 2;
+  layout.compressor = compressor;
   layout.chunk_size = chunk_size;
   layout.record_length = record_length;
   std::size_t standard = 0;
   for (const std::uint16_t type : standard_items(format)) {
-    layout.items.push_back({type, item_size(type), 2});
+    layout.items.push_back({type, item_size(type), version});
     standard += item_size(type);
   }
   if (record_length > standard)
-    layout.items.push_back({laz_item::byte, static_cast<std::uint16_t>(record_length - standard), 2});
+    layout.items.push_back({extra_type, static_cast<std::uint16_t>(record_length - standard), version});
   return layout;
+}
+}  // namespace
+
+laz_layout pointwise_layout(int format, std::size_t record_length, std::uint32_t chunk_size) {
+  return layout_of(2, format, record_length, chunk_size, 2, laz_item::byte);
+}
+
+laz_layout layered_layout(int format, std::size_t record_length) {
+  return layout_of(3, format, record_length, 0xFFFFFFFFu, 3, laz_item::byte14);
+}
+
+std::string laszip_vlr(const laz_layout& layout) {
+  constexpr std::size_t header = 54;
+  std::string vlr(header + 34 + 6 * layout.items.size(), '\0');
+  auto* v = reinterpret_cast<unsigned char*>(vlr.data());
+  store_le<std::uint16_t>(v, 0xAABB);
+  std::memcpy(v + 2, "laszip encoded", 14);
+  store_le<std::uint16_t>(v + 18, 22204);
+  store_le<std::uint16_t>(v + 20, static_cast<std::uint16_t>(vlr.size() - header));
+  std::memcpy(v + 22, "ced LAZ writer", 14);
+  unsigned char* p = v + header;
+  store_le<std::uint16_t>(p, static_cast<std::uint16_t>(layout.compressor));
+  // The LASzip version the items are of: 2.2 (pointwise, v2 items), 3.4 (layered, v3).
+  p[4] = layout.compressor == 3 ? 3 : 2;
+  p[5] = layout.compressor == 3 ? 4 : 2;
+  store_le<std::uint32_t>(p + 12, layout.chunk_size);
+  store_le<std::int64_t>(p + 16, -1);  // no special EVLRs
+  store_le<std::int64_t>(p + 24, -1);
+  store_le<std::uint16_t>(p + 32, static_cast<std::uint16_t>(layout.items.size()));
+  for (std::size_t i = 0; i < layout.items.size(); ++i) {
+    store_le<std::uint16_t>(p + 34 + 6 * i, layout.items[i].type);
+    store_le<std::uint16_t>(p + 36 + 6 * i, layout.items[i].size);
+    store_le<std::uint16_t>(p + 38 + 6 * i, layout.items[i].version);
+  }
+  return vlr;
 }
 
 void encode_laz_chunk(const laz_layout& layout, const unsigned char* records, std::uint64_t points, std::string& out) {
-  laz::encode_pointwise(layout.items, records, layout.record_length, points, out);
+  if (layout.compressor == 3)
+    laz::encode_layered(layout.items, records, layout.record_length, points, out);
+  else
+    laz::encode_pointwise(layout.items, records, layout.record_length, points, out);
 }
 
 std::string encode_chunk_table(const std::vector<std::uint32_t>& points, const std::vector<std::uint32_t>& bytes,

@@ -128,8 +128,17 @@ inline constexpr std::uint32_t k_laz_chunk_points = 50000;
 /// extra bytes, chunks of `chunk_size` points (0xFFFFFFFF: variable).
 laz_layout pointwise_layout(int format, std::size_t record_length, std::uint32_t chunk_size);
 
+/// How ced compresses records of LAS 1.4 point format `format` (6-8) of
+/// `record_length` bytes: layered, the format's items (version 3) then its
+/// extra bytes (byte14), variable chunks.
+laz_layout layered_layout(int format, std::size_t record_length);
+
+/// The LASzip VLR (its 54-byte header and payload) that describes `layout`.
+std::string laszip_vlr(const laz_layout& layout);
+
 /// Codes `points` records (`stride` bytes apart from `records`) as one
-/// chunk of `layout` (pointwise items v2), appending the chunk's bytes to `out`.
+/// chunk of `layout` (pointwise items v2, or layered items v3), appending
+/// the chunk's bytes to `out`.
 void encode_laz_chunk(const laz_layout& layout, const unsigned char* records, std::uint64_t points, std::string& out);
 /// The chunk table of chunks of these points (written when `variable`) and bytes.
 std::string encode_chunk_table(const std::vector<std::uint32_t>& points, const std::vector<std::uint32_t>& bytes,

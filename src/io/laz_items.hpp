@@ -84,6 +84,9 @@ inline std::int32_t wrap_add(std::int32_t a, std::int32_t b) noexcept {
 inline std::int32_t wrap_mul(std::int32_t a, std::int32_t b) noexcept {
   return static_cast<std::int32_t>(static_cast<std::uint32_t>(a) * static_cast<std::uint32_t>(b));
 }
+inline std::int32_t wrap_sub(std::int32_t a, std::int32_t b) noexcept {
+  return static_cast<std::int32_t>(static_cast<std::uint32_t>(a) - static_cast<std::uint32_t>(b));
+}
 inline std::int64_t wrap_add64(std::int64_t a, std::int32_t b) noexcept {
   return static_cast<std::int64_t>(static_cast<std::uint64_t>(a) + static_cast<std::uint64_t>(std::int64_t(b)));
 }
@@ -265,6 +268,38 @@ struct gps_sequences {
     diff[last] = 0;
     extreme[last] = 0;
   }
+  /// Codes time t, d (small) after the current sequence's time, whose
+  /// difference is not 0: the multiplier symbol under `multi` (1: the last
+  /// difference; others as add_multiple() reads them), then the correction.
+  void encode_multiple(encoder& e, symbol_model& multi, std::int32_t d, std::int64_t t) {
+    const std::int32_t was = diff[last];
+    const double ratio = std::clamp(double(d) / double(was), -1e6, 1e6);
+    const auto m = static_cast<std::int32_t>(ratio >= 0 ? ratio + 0.5 : ratio - 0.5);
+    if (m == 1) {
+      e.symbol(multi, 1);
+      ic.encode(e, was, d, 1);
+      extreme[last] = 0;
+    } else if (m > 0 && m < multi_max) {
+      e.symbol(multi, std::uint32_t(m));
+      ic.encode(e, wrap_mul(m, was), d, m < 10 ? 2 : 3);
+    } else if (m >= multi_max) {
+      e.symbol(multi, std::uint32_t(multi_max));
+      ic.encode(e, wrap_mul(multi_max, was), d, 4);
+      far_diff(d);
+    } else if (m < 0 && m > multi_minus) {
+      e.symbol(multi, std::uint32_t(multi_max - m));
+      ic.encode(e, wrap_mul(m, was), d, 5);
+    } else if (m < 0) {
+      e.symbol(multi, std::uint32_t(multi_max - multi_minus));
+      ic.encode(e, wrap_mul(multi_minus, was), d, 6);
+      far_diff(d);
+    } else {
+      e.symbol(multi, 0);
+      ic.encode(e, 0, d, 7);
+      far_diff(d);
+    }
+    time[last] = t;
+  }
   void encode_full(encoder& e, std::int64_t t) {
     ic.encode(e, static_cast<std::int32_t>(static_cast<std::uint64_t>(time[last]) >> 32),
               static_cast<std::int32_t>(static_cast<std::uint64_t>(t) >> 32), 8);
@@ -374,34 +409,7 @@ class gpstime11_v2 {
         e.symbol(m_multi, code_full);
         return m_seq.encode_full(e, t);
       }
-      const std::int32_t last = m_seq.diff[m_seq.last];
-      const double ratio = std::clamp(double(d) / double(last), -1e6, 1e6);
-      const auto multi = static_cast<std::int32_t>(ratio >= 0 ? ratio + 0.5 : ratio - 0.5);
-      if (multi == 1) {
-        e.symbol(m_multi, 1);
-        m_seq.ic.encode(e, last, d, 1);
-        m_seq.extreme[m_seq.last] = 0;
-      } else if (multi > 0 && multi < multi_max) {
-        e.symbol(m_multi, std::uint32_t(multi));
-        m_seq.ic.encode(e, wrap_mul(multi, last), d, multi < 10 ? 2 : 3);
-      } else if (multi >= multi_max) {
-        e.symbol(m_multi, std::uint32_t(multi_max));
-        m_seq.ic.encode(e, wrap_mul(multi_max, last), d, 4);
-        m_seq.far_diff(d);
-      } else if (multi < 0 && multi > multi_minus) {
-        e.symbol(m_multi, std::uint32_t(multi_max - multi));
-        m_seq.ic.encode(e, wrap_mul(multi, last), d, 5);
-      } else if (multi < 0) {
-        e.symbol(m_multi, std::uint32_t(multi_max - multi_minus));
-        m_seq.ic.encode(e, wrap_mul(multi_minus, last), d, 6);
-        m_seq.far_diff(d);
-      } else {
-        e.symbol(m_multi, 0);
-        m_seq.ic.encode(e, 0, d, 7);
-        m_seq.far_diff(d);
-      }
-      m_seq.time[m_seq.last] = t;
-      return;
+      return m_seq.encode_multiple(e, m_multi, d, t);
     }
   }
 
@@ -460,35 +468,38 @@ class rgb12_v2 {
     for (int c = 0; c < 3; ++c) store_le<std::uint16_t>(out + 2 * c, m_last[c]);
   }
 
-  void encode(encoder& e, const unsigned char* item) {
+  void encode(encoder& e, const unsigned char* item) { encode_with(e, m_models, m_last, item); }
+
+  /// Codes the colour of `item` from `last` (updated to it) under models `m`.
+  static void encode_with(encoder& e, models& m, std::uint16_t last[3], const unsigned char* item) {
     unsigned v[3];
     for (int c = 0; c < 3; ++c) v[c] = load_le<std::uint16_t>(item + 2 * c);
     const auto lo = [](unsigned x) { return int(x & 0xFF); };
     const auto hi = [](unsigned x) { return int(x >> 8); };
     std::uint32_t used = 0;
     for (int c = 0; c < 3; ++c) {
-      used |= std::uint32_t(lo(v[c]) != lo(m_last[c])) << (2 * c);
-      used |= std::uint32_t(hi(v[c]) != hi(m_last[c])) << (2 * c + 1);
+      used |= std::uint32_t(lo(v[c]) != lo(last[c])) << (2 * c);
+      used |= std::uint32_t(hi(v[c]) != hi(last[c])) << (2 * c + 1);
     }
     used |= std::uint32_t(v[0] != v[1] || v[0] != v[2]) << 6;
-    e.symbol(m_models.used, used);
-    const auto put = [&](int model, int value) { e.symbol(m_models.diff[model], std::uint32_t(value) & 0xFFu); };
+    e.symbol(m.used, used);
+    const auto put = [&](int model, int value) { e.symbol(m.diff[model], std::uint32_t(value) & 0xFFu); };
     int diff_l = 0, diff_h = 0;
-    if (used & 1) put(0, diff_l = lo(v[0]) - lo(m_last[0]));
-    if (used & 2) put(1, diff_h = hi(v[0]) - hi(m_last[0]));
+    if (used & 1) put(0, diff_l = lo(v[0]) - lo(last[0]));
+    if (used & 2) put(1, diff_h = hi(v[0]) - hi(last[0]));
     if (used & 64) {
-      if (used & 4) put(2, lo(v[1]) - clamp_u8(diff_l + lo(m_last[1])));
+      if (used & 4) put(2, lo(v[1]) - clamp_u8(diff_l + lo(last[1])));
       if (used & 16) {
-        diff_l = (diff_l + lo(v[1]) - lo(m_last[1])) / 2;
-        put(4, lo(v[2]) - clamp_u8(diff_l + lo(m_last[2])));
+        diff_l = (diff_l + lo(v[1]) - lo(last[1])) / 2;
+        put(4, lo(v[2]) - clamp_u8(diff_l + lo(last[2])));
       }
-      if (used & 8) put(3, hi(v[1]) - clamp_u8(diff_h + hi(m_last[1])));
+      if (used & 8) put(3, hi(v[1]) - clamp_u8(diff_h + hi(last[1])));
       if (used & 32) {
-        diff_h = (diff_h + hi(v[1]) - hi(m_last[1])) / 2;
-        put(5, hi(v[2]) - clamp_u8(diff_h + hi(m_last[2])));
+        diff_h = (diff_h + hi(v[1]) - hi(last[1])) / 2;
+        put(5, hi(v[2]) - clamp_u8(diff_h + hi(last[2])));
       }
     }
-    for (int c = 0; c < 3; ++c) m_last[c] = static_cast<std::uint16_t>(v[c]);
+    for (int c = 0; c < 3; ++c) last[c] = static_cast<std::uint16_t>(v[c]);
   }
 
  private:

@@ -99,8 +99,59 @@ class lazy_models {
   std::unique_ptr<symbol_model> m[N];
 };
 
+/// The state and models of point14 v3 for one scanner channel (its
+/// decoder and encoder share it).
+struct point14_context {
+  explicit point14_context(const point14_fields& from) : last(from) {
+    last.gps_changed = false;
+    for (auto& v : last_z) v = from.z;
+    for (auto& v : last_intensity) v = from.intensity;
+    gps.time[0] = from.gps;
+  }
+  point14_fields last;
+  symbol_model changed[8] = {symbol_model(128), symbol_model(128), symbol_model(128), symbol_model(128),
+                             symbol_model(128), symbol_model(128), symbol_model(128), symbol_model(128)};
+  symbol_model scanner{3}, return_gps_same{13};
+  lazy_models<16> returns_of{16}, return_of{16};
+  integer_coder dx{32, 2}, dy{32, 22}, dz{32, 20};
+  median5 x_med[12], y_med[12];
+  std::int32_t last_z[8];
+  lazy_models<64> class_of{256}, flags_of{64}, user_of{256};
+  integer_coder ic_intensity{16, 4}, ic_angle{16, 2}, ic_source{16, 1};
+  std::uint16_t last_intensity[8];
+  // GPS time: the sequences of gpstime11, coded only when the time changed.
+  gps_sequences gps;
+  symbol_model multi{515}, zero_diff{5};
+};
+
+/// Which of 6 and 8 contexts a (number of returns, return number) pair
+/// uses for x/y and z; pairs a well-formed file does not have share some.
+inline constexpr unsigned char k_point14_map6[16][16] = {
+    {0, 1, 2, 3, 4, 5, 3, 4, 4, 5, 5, 5, 5, 5, 5, 5}, {1, 0, 1, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3},
+    {2, 1, 2, 4, 4, 4, 4, 4, 4, 4, 4, 3, 3, 3, 3, 3}, {3, 3, 4, 5, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4},
+    {4, 3, 4, 4, 5, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4}, {5, 3, 4, 4, 4, 5, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4},
+    {3, 3, 4, 4, 4, 4, 5, 4, 4, 4, 4, 4, 4, 4, 4, 4}, {4, 3, 4, 4, 4, 4, 4, 5, 4, 4, 4, 4, 4, 4, 4, 4},
+    {4, 3, 4, 4, 4, 4, 4, 4, 5, 4, 4, 4, 4, 4, 4, 4}, {5, 3, 4, 4, 4, 4, 4, 4, 4, 5, 4, 4, 4, 4, 4, 4},
+    {5, 3, 4, 4, 4, 4, 4, 4, 4, 4, 5, 4, 4, 4, 4, 4}, {5, 3, 3, 4, 4, 4, 4, 4, 4, 4, 4, 5, 5, 4, 4, 4},
+    {5, 3, 3, 4, 4, 4, 4, 4, 4, 4, 4, 5, 5, 5, 4, 4}, {5, 3, 3, 4, 4, 4, 4, 4, 4, 4, 4, 4, 5, 5, 5, 4},
+    {5, 3, 3, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 5, 5, 5}, {5, 3, 3, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 5, 5}};
+
+/// The contexts a point's number of returns n and return number r select:
+/// of x/y (m), of z (l, how far r is from n), of intensity and
+/// classification (cpr: first, last), and whether it is a single return.
+struct return_contexts {
+  unsigned m, l, cpr, single;
+  return_contexts(unsigned n, unsigned r)
+      : m(k_point14_map6[n][r]),
+        l(n > r ? (n - r > 7 ? 7 : n - r) : (r - n > 7 ? 7 : r - n)),
+        cpr((r == 1 ? 2u : 0u) + (r >= n ? 1u : 0u)),
+        single(n == 1 ? 1u : 0u) {}
+};
+
 /// point14 v3: x, y and the returns in one layer, each other field in its own.
 class point14_v3 {
+  using context = point14_context;
+
  public:
   enum { xy, z, classification, flags, intensity, scan_angle, user_data, source, gps, layer_count };
 
@@ -141,41 +192,7 @@ class point14_v3 {
   }
 
  private:
-  struct context {
-    explicit context(const point14_fields& from) : last(from) {
-      last.gps_changed = false;
-      for (auto& v : last_z) v = from.z;
-      for (auto& v : last_intensity) v = from.intensity;
-      gps.time[0] = from.gps;
-    }
-    point14_fields last;
-    symbol_model changed[8] = {symbol_model(128), symbol_model(128), symbol_model(128), symbol_model(128),
-                               symbol_model(128), symbol_model(128), symbol_model(128), symbol_model(128)};
-    symbol_model scanner{3}, return_gps_same{13};
-    lazy_models<16> returns_of{16}, return_of{16};
-    integer_coder dx{32, 2}, dy{32, 22}, dz{32, 20};
-    median5 x_med[12], y_med[12];
-    std::int32_t last_z[8];
-    lazy_models<64> class_of{256}, flags_of{64}, user_of{256};
-    integer_coder ic_intensity{16, 4}, ic_angle{16, 2}, ic_source{16, 1};
-    std::uint16_t last_intensity[8];
-    // GPS time: the sequences of gpstime11, coded only when the time changed.
-    gps_sequences gps;
-    symbol_model multi{515}, zero_diff{5};
-  };
-
   void decode_fields(context& c, std::uint32_t changed) {
-    // Which of 6 and 8 contexts a (number of returns, return number) pair
-    // uses for x/y and z; pairs a well-formed file does not have share some.
-    static constexpr unsigned char map6[16][16] = {
-        {0, 1, 2, 3, 4, 5, 3, 4, 4, 5, 5, 5, 5, 5, 5, 5}, {1, 0, 1, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3},
-        {2, 1, 2, 4, 4, 4, 4, 4, 4, 4, 4, 3, 3, 3, 3, 3}, {3, 3, 4, 5, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4},
-        {4, 3, 4, 4, 5, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4}, {5, 3, 4, 4, 4, 5, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4},
-        {3, 3, 4, 4, 4, 4, 5, 4, 4, 4, 4, 4, 4, 4, 4, 4}, {4, 3, 4, 4, 4, 4, 4, 5, 4, 4, 4, 4, 4, 4, 4, 4},
-        {4, 3, 4, 4, 4, 4, 4, 4, 5, 4, 4, 4, 4, 4, 4, 4}, {5, 3, 4, 4, 4, 4, 4, 4, 4, 5, 4, 4, 4, 4, 4, 4},
-        {5, 3, 4, 4, 4, 4, 4, 4, 4, 4, 5, 4, 4, 4, 4, 4}, {5, 3, 3, 4, 4, 4, 4, 4, 4, 4, 4, 5, 5, 4, 4, 4},
-        {5, 3, 3, 4, 4, 4, 4, 4, 4, 4, 4, 5, 5, 5, 4, 4}, {5, 3, 3, 4, 4, 4, 4, 4, 4, 4, 4, 4, 5, 5, 5, 4},
-        {5, 3, 3, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 5, 5, 5}, {5, 3, 3, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 5, 5}};
     decoder& d = m_layers[xy].dec;
     point14_fields& p = c.last;
     const bool source_changed = (changed & 32) != 0, gps_changed = (changed & 16) != 0,
@@ -195,12 +212,9 @@ class point14_v3 {
       default:
         break;
     }
-    const unsigned n = p.returns, r = p.ret;
-    const unsigned m = map6[n][r];
-    const unsigned l = n > r ? (n - r > 7 ? 7 : n - r) : (r - n > 7 ? 7 : r - n);
-    const unsigned cpr = (r == 1 ? 2u : 0u) + (r >= n ? 1u : 0u);
-    const unsigned single = n == 1 ? 1 : 0;
-    const unsigned xy_ctx = (m << 1) | (gps_changed ? 1u : 0u);
+    const return_contexts rc(p.returns, p.ret);
+    const unsigned l = rc.l, cpr = rc.cpr, single = rc.single;
+    const unsigned xy_ctx = (rc.m << 1) | (gps_changed ? 1u : 0u);
     std::int32_t diff = c.dx.decode(d, c.x_med[xy_ctx].get(), single);
     p.x = wrap_add(p.x, diff);
     c.x_med[xy_ctx].add(diff);
@@ -335,9 +349,31 @@ class channel_contexts {
   Context* m_last;
 };
 
+/// The last colour and NIR and their models, of one scanner channel.
+struct rgbnir14_context {
+  rgbnir14_context(const unsigned char* from, bool nir) {
+    for (int c = 0; c < 3; ++c) rgb_last[c] = load_le<std::uint16_t>(from + 2 * c);
+    if (nir) nir_last = load_le<std::uint16_t>(from + 6);
+  }
+  /// The last values as a record's bytes (a new context starts from them).
+  const unsigned char* bytes() {
+    for (int c = 0; c < 3; ++c) store_le<std::uint16_t>(last_bytes + 2 * c, rgb_last[c]);
+    store_le<std::uint16_t>(last_bytes + 6, nir_last);
+    return last_bytes;
+  }
+  std::uint16_t rgb_last[3] = {0, 0, 0};
+  std::uint16_t nir_last = 0;
+  unsigned char last_bytes[8] = {};
+  rgb12_v2::models rgb;
+  symbol_model nir_used{4};
+  symbol_model nir_diff[2] = {symbol_model(256), symbol_model(256)};
+};
+
 /// rgb14 and rgbnir14 (v3, v4): the colour as rgb12, and the NIR's two
 /// bytes, in their own layers, with models per scanner channel.
 class rgbnir14_v3 {
+  using context = rgbnir14_context;
+
  public:
   /// `stale_last`: version 3 (its own), see channel_rule.
   rgbnir14_v3(const unsigned char* first, unsigned channel, bool nir, bool stale_last, layer* layers)
@@ -367,33 +403,23 @@ class rgbnir14_v3 {
   }
 
  private:
-  struct context {
-    context(const unsigned char* from, bool nir) {
-      for (int c = 0; c < 3; ++c) rgb_last[c] = load_le<std::uint16_t>(from + 2 * c);
-      if (nir) nir_last = load_le<std::uint16_t>(from + 6);
-    }
-    /// The last values as a record's bytes (a new context starts from them).
-    const unsigned char* bytes() {
-      for (int c = 0; c < 3; ++c) store_le<std::uint16_t>(last_bytes + 2 * c, rgb_last[c]);
-      store_le<std::uint16_t>(last_bytes + 6, nir_last);
-      return last_bytes;
-    }
-    std::uint16_t rgb_last[3] = {0, 0, 0};
-    std::uint16_t nir_last = 0;
-    unsigned char last_bytes[8] = {};
-    rgb12_v2::models rgb;
-    symbol_model nir_used{4};
-    symbol_model nir_diff[2] = {symbol_model(256), symbol_model(256)};
-  };
-
   bool m_nir;
   layer* m_layers;
   channel_contexts<context> m_ctx;
 };
 
+/// The last extra bytes and their models, of one scanner channel.
+struct byte14_context {
+  byte14_context(const unsigned char* from, std::size_t n) : last(from, from + n), models(n, symbol_model(256)) {}
+  std::vector<unsigned char> last;
+  std::vector<symbol_model> models;
+};
+
 /// byte14 (v3, v4): each extra byte in its own layer, its difference to the
 /// last point's coded under a model per byte and scanner channel.
 class byte14_v3 {
+  using context = byte14_context;
+
  public:
   /// `stale_last`: version 3 (its own), see channel_rule.
   byte14_v3(const unsigned char* first, std::size_t n, unsigned channel, bool stale_last, layer* layers)
@@ -415,12 +441,6 @@ class byte14_v3 {
   }
 
  private:
-  struct context {
-    context(const unsigned char* from, std::size_t n) : last(from, from + n), models(n, symbol_model(256)) {}
-    std::vector<unsigned char> last;
-    std::vector<symbol_model> models;
-  };
-
   std::size_t m_n;
   layer* m_layers;
   channel_contexts<context> m_ctx;

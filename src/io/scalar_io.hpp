@@ -160,6 +160,15 @@ std::unique_ptr<piece_writer> las_pieces(std::ostream& out, const point_cloud& l
 std::unique_ptr<piece_writer> laz_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n);
 /// `cloud` as LAZ: LAS 1.2 (point formats 0-3), compressed (laz.hpp).
 void write_laz(std::ostream& out, const point_cloud& cloud);
+/// COPC in pieces: held in memory, written whole by finish() (copc.cpp).
+std::unique_ptr<piece_writer> copc_pieces(const point_cloud& layout, std::uint64_t n);
+/// `cloud` as COPC: LAZ 1.4 (point formats 6-8, layered) in octree nodes.
+void write_copc(std::ostream& out, const point_cloud& cloud);
+/// The COPC file of a LAS 1.4 file held in `las` (point formats 6-8, no
+/// extended VLRs): its records grouped by octree node (grid sampling, 128
+/// cells a side), a LAZ chunk a node, the hierarchy in one page.
+/// std::invalid_argument naming `name` for what it cannot write.
+std::string copc_from_las(std::string_view las, const std::string& name);
 std::unique_ptr<piece_writer> csv_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n);
 
 // The text helpers of core, for the readers.

@@ -230,7 +230,8 @@ std::optional<std::vector<point_stream::point_run>> point_stream::runs_within(co
 
 std::unique_ptr<point_stream> open_point_stream(const std::string& path, const read_options& options) {
   const file_format f = options.format == file_format::automatic ? format_of(path) : options.format;
-  if (f == file_format::las || f == file_format::laz) return open_las_stream(path, options.fields);
+  if (f == file_format::las || f == file_format::laz || f == file_format::copc)
+    return open_las_stream(path, options.fields);
   read_options o = options;
   o.format = f;
   std::error_code ec;

@@ -21,15 +21,18 @@ namespace ced::io {
 /// laz: LAZ (compressed LAS). Read by the LAS reader, which decodes it;
 /// written as LAS 1.2 (point formats 0-3, other fields as extra bytes),
 /// compressed in chunks of 50,000 points.
-enum class file_format { automatic, ply, pcd, las, csv, laz };
+/// copc: COPC (cloud-optimised LAZ, `.copc.laz`). Read as LAZ (its octree
+/// serves tiled plans); written as LAZ 1.4 (point formats 6-8, layered
+/// compression) grouped into octree nodes, one chunk a node.
+enum class file_format { automatic, ply, pcd, las, csv, laz, copc };
 
-/// "ply", "pcd", "las", "laz", "csv" (also "xyz", "txt", "pts"), or "auto";
+/// "ply", "pcd", "las", "laz", "copc", "csv" (also "xyz", "txt", "pts"), or "auto";
 /// throws std::invalid_argument otherwise.
 file_format parse_format(const std::string& name);
 std::string format_name(file_format f);
 
-/// The format a path's extension names. Throws io_error for .e57 (with how
-/// to convert it) and for unknown extensions.
+/// The format a path's extension names (`.copc.laz` is copc). Throws
+/// io_error for .e57 (with how to convert it) and for unknown extensions.
 file_format format_of(const std::string& path);
 
 struct read_options {
