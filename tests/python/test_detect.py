@@ -360,3 +360,23 @@ def test_laz_written_reads_back(tmp_path):
     np.testing.assert_array_equal(np.asarray(back.absolute_points()), np.asarray(las.absolute_points()))
     for name, values in las.fields.items():
         np.testing.assert_array_equal(np.asarray(back.fields[name]), np.asarray(values), err_msg=name)
+
+
+def test_copc_written_holds_the_cloud(tmp_path):
+    """ced.write to .copc.laz writes COPC (LAS 1.4 in octree nodes): the same
+    points and fields as the same cloud written as LAS 1.4, in node order."""
+    cloud = ced.read(str(DATA / "autzen_trim.laz"))
+    ced.write(str(tmp_path / "out.copc.laz"), cloud)
+    ced.write(str(tmp_path / "out14.las"), cloud)
+    copc = ced.read(str(tmp_path / "out.copc.laz"))
+    las = ced.read(str(tmp_path / "out14.las"))
+    assert list(copc.fields) == list(las.fields)
+
+    def rows(c):
+        cols = [np.asarray(c.absolute_points())[:, k] for k in range(3)]
+        cols += [np.asarray(c.fields[name], dtype=np.float64) for name in c.fields]
+        table = np.column_stack(cols)
+        return table[np.lexsort(table.T[::-1])]
+
+    np.testing.assert_array_equal(rows(copc), rows(las))
+    assert (tmp_path / "out.copc.laz").stat().st_size < (tmp_path / "out14.las").stat().st_size / 3
