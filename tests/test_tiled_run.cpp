@@ -228,18 +228,12 @@ TEST(TiledRun, KeypointRecordsAreFetchedFromTheInput) {
   }
 }
 
-TEST(TiledRun, AnInputChangedBeforeTheMergeIsRefused) {
-  const ced::tiled_request r = room_request(40000, 15, "changed.las", 0.2);
-  ced::tiled_run_options o;
-  o.work_dir = ced_test::temp_file("changed_work");
-  const ced::tile_plan plan = ced::prepare_tiled(r, o);
-  ASSERT_TRUE(plan.tile_fields.has_value());
-  std::vector<std::uint64_t> keypoints;
-  for (const auto& t : plan.tiles)
-    for (std::uint64_t fi : ced::detect_cached_tile(plan, o.work_dir, t.id).file_index) keypoints.push_back(fi);
-  // A keypoint's X changed where the input's fingerprint does not look (its
-  // first and last 64 KiB, 64 blocks of 4 KiB): only the merge can tell.
-  std::string bytes = ced_test::read_bytes(r.input);
+namespace {
+/// Changes the X of one of `keypoints` (file indices) in the LAS file `path`
+/// where the input's fingerprint does not look (its first and last 64 KiB,
+/// 64 blocks of 4 KiB): only the merge can tell.
+void change_a_keypoint_unseen(const std::string& path, const std::vector<std::uint64_t>& keypoints) {
+  std::string bytes = ced_test::read_bytes(path);
   const std::uint64_t size = bytes.size(), offset = le(bytes, 96, 4), record = le(bytes, 105, 2);
   auto sampled = [&](std::uint64_t a, std::uint64_t b) {
     if (a < 65536 || b + 65536 > size) return true;
@@ -252,7 +246,20 @@ TEST(TiledRun, AnInputChangedBeforeTheMergeIsRefused) {
     if (!sampled(offset + fi * record, offset + (fi + 1) * record)) at = offset + fi * record;
   ASSERT_GT(at, 0u);
   bytes[at] = char(bytes[at] + 1);
-  ced_test::write_bytes(r.input, bytes);
+  ced_test::write_bytes(path, bytes);
+}
+}  // namespace
+
+TEST(TiledRun, AnInputChangedBeforeTheMergeIsRefused) {
+  const ced::tiled_request r = room_request(40000, 15, "changed.las", 0.2);
+  ced::tiled_run_options o;
+  o.work_dir = ced_test::temp_file("changed_work");
+  const ced::tile_plan plan = ced::prepare_tiled(r, o);
+  ASSERT_TRUE(plan.tile_fields.has_value());
+  std::vector<std::uint64_t> keypoints;
+  for (const auto& t : plan.tiles)
+    for (std::uint64_t fi : ced::detect_cached_tile(plan, o.work_dir, t.id).file_index) keypoints.push_back(fi);
+  change_a_keypoint_unseen(r.input, keypoints);
   EXPECT_NO_THROW(ced::check_plan_input(plan));  // the fingerprint is blind to it
   try {
     ced::finish_tiled(plan, o.work_dir);
@@ -260,6 +267,47 @@ TEST(TiledRun, AnInputChangedBeforeTheMergeIsRefused) {
   } catch (const ced::io::io_error& e) {
     EXPECT_NE(std::string(e.what()).find(r.input + ": the file changed since the plan was made (point "),
               std::string::npos)
+        << e.what();
+  }
+  ced::remove_work_dir(o.work_dir);
+}
+
+TEST(TiledRun, AMergeThatWritesNoKeypointCloudFetchesPositionsOnly) {
+  // merge_sink::records false (the CLI without -o): the same keypoints, in
+  // positions only; and a changed input is still refused.
+  const ced::tiled_request r = room_request(20000, 17, "positions_only.las", 0.2);
+  ced::tiled_run_options o;
+  o.work_dir = ced_test::temp_file("positions_only_work");
+  const ced::tile_plan plan = ced::prepare_tiled(r, o);
+  ASSERT_TRUE(plan.tile_fields.has_value());
+  for (const auto& t : plan.tiles) ced::detect_cached_tile(plan, o.work_dir, t.id);
+  auto merged = [&](bool records, std::vector<std::uint64_t>& index, std::vector<float>& xyz) {
+    ced::merge_sink sink;
+    sink.records = records;
+    sink.chunk = [&](const ced::tile_part& c) {
+      index.insert(index.end(), c.index.begin(), c.index.end());
+      xyz.insert(xyz.end(), c.keypoints.positions().begin(), c.keypoints.positions().end());
+      EXPECT_EQ(c.keypoints.fields().size(), records ? plan.fields.size() : 0u);
+    };
+    ced::finish_tiled(plan, o.work_dir, &sink, true);
+  };
+  std::vector<std::uint64_t> with, without;
+  std::vector<float> with_xyz, without_xyz;
+  merged(true, with, with_xyz);
+  merged(false, without, without_xyz);
+  ASSERT_GT(with.size(), 10u);
+  EXPECT_EQ(with, without);
+  EXPECT_EQ(with_xyz, without_xyz);
+  // A keypoint's position changed where the fingerprint does not look: refused without records too.
+  change_a_keypoint_unseen(r.input, with);
+  EXPECT_NO_THROW(ced::check_plan_input(plan));
+  std::vector<std::uint64_t> index;
+  std::vector<float> xyz;
+  try {
+    merged(false, index, xyz);
+    ADD_FAILURE() << "a changed input was merged";
+  } catch (const ced::io::io_error& e) {
+    EXPECT_NE(std::string(e.what()).find("the file changed since the plan was made (point "), std::string::npos)
         << e.what();
   }
   ced::remove_work_dir(o.work_dir);

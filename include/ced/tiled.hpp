@@ -186,6 +186,12 @@ tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts);
 struct merge_sink {
   std::function<void(const tile_part& totals, std::uint64_t keypoints)> begin;
   std::function<void(const tile_part& chunk)> chunk;
+  /// Whether chunk() uses the keypoints' fields. When false and the parts
+  /// carry only the tile fields, the merge reads no field of the input, only
+  /// the keypoints' positions (still checked against the input), and the
+  /// chunks' keypoints have no fields: a LAZ 1.4 or COPC input then decodes
+  /// only its position layers.
+  bool records = true;
 };
 
 /// merge_parts() of part files (write_part), streamed into `sink`: a k-way

@@ -216,6 +216,7 @@ ced::merge_sink merged_writer::sink() {
       ced::io::write_named(*m_out.keypoints,
                            [&](std::ostream&) { m_cloud->write(keypoint_cloud(c.keypoints, c.names, c.saliency)); });
   };
+  s.records = m_out.keypoints != nullptr;  // only a keypoint cloud needs the fields
   return s;
 }
 

@@ -50,10 +50,13 @@ point_cloud keypoint_records(const tile_plan& plan, std::size_t n) {
 }
 }  // namespace
 
-record_fetcher::record_fetcher(const tile_plan& plan) : m_plan(plan) {
+record_fetcher::record_fetcher(const tile_plan& plan, bool fields) : m_plan(plan) {
   check_plan_input(plan);
-  m_stream = io::open_point_stream(plan.request.input, plan.request.read);
-  for (const plan_field& f : plan.fields) m_field_names.push_back(f.name);
+  io::read_options read = plan.request.read;
+  if (!fields) read.fields = field_selection::only({});
+  m_stream = io::open_point_stream(plan.request.input, read);
+  if (fields)
+    for (const plan_field& f : plan.fields) m_field_names.push_back(f.name);
   // Every point finite: a keypoint's index among the finite points is its file index.
   point_cloud none;
   m_records = plan.finite_points == plan.file_points && m_stream->declared_points() == plan.file_points &&
@@ -108,13 +111,17 @@ void record_fetcher::fetch_records(tile_part& c) {
   }
   point_cloud read;
   m_stream->read_points(c.file_index, m_field_names, m_plan.origin, read);
-  point_cloud full = keypoint_records(m_plan, c.index.size());
-  std::vector<column> keep;
-  const field_bytes from = conform_fields(read, m_plan.fields, keep);
   for (std::size_t j = 0; j < c.index.size(); ++j) {
     const float* p = read.position(j);
     if (std::memcmp(p, c.keypoints.position(j), 3 * sizeof(float)) != 0) not_the_keypoint(c.file_index[j], c.index[j]);
   }
+  if (m_field_names.empty()) {  // positions only
+    c.keypoints = std::move(read);
+    return;
+  }
+  point_cloud full = keypoint_records(m_plan, c.index.size());
+  std::vector<column> keep;
+  const field_bytes from = conform_fields(read, m_plan.fields, keep);
   std::copy_n(read.positions().data(), 3 * c.index.size(), full.positions().data());
   std::size_t f = 0;
   for (auto& to : full.fields()) {
@@ -127,7 +134,8 @@ void record_fetcher::fetch_records(tile_part& c) {
 
 void record_fetcher::fetch(tile_part& c) {
   if (m_records) return fetch_records(c);
-  point_cloud full = keypoint_records(m_plan, c.index.size());
+  const bool fields = !m_field_names.empty();
+  point_cloud full = fields ? keypoint_records(m_plan, c.index.size()) : position_cloud(m_plan, c.index.size());
   std::vector<column> keep;
   field_bytes from;
   std::vector<std::pair<unsigned char*, std::size_t>> to;
@@ -144,7 +152,7 @@ void record_fetcher::fetch(tile_part& c) {
     const float* p = m_chunk.position(i);
     if (!finite3(p) || m_finite != c.index[j] || std::memcmp(p, c.keypoints.position(j), 3 * sizeof(float)) != 0)
       not_the_keypoint(fi, c.index[j]);
-    if (from.empty()) from = conform_fields(m_chunk, m_plan.fields, keep);
+    if (from.empty() && fields) from = conform_fields(m_chunk, m_plan.fields, keep);
     std::copy_n(p, 3, full.positions().data() + 3 * j);
     for (std::size_t f = 0; f < to.size(); ++f)
       std::memcpy(to[f].first + to[f].second * j, from[f].first + from[f].second * i, to[f].second);

@@ -325,6 +325,8 @@ const char* decode_records(const char* p, std::size_t n, point_cloud& c, std::si
 point_cloud empty_cloud(const tile_plan& p, std::size_t n);
 /// The same with every field of the plan: the input's records.
 point_cloud record_cloud(const tile_plan& p, std::size_t n);
+/// The same with no field: positions only.
+point_cloud position_cloud(const tile_plan& p, std::size_t n);
 
 /// Points [i, i + n) of `from` (positions and field bytes) into [j, j + n)
 /// of `to`, a cloud with the same fields.
@@ -352,11 +354,12 @@ std::optional<std::vector<std::string>> detection_fields(const tile_plan& p);
 /// changed since the plan.
 class record_fetcher {
  public:
-  explicit record_fetcher(const tile_plan& plan);
+  /// With `fields` false, the keypoints' positions only (still checked).
+  record_fetcher(const tile_plan& plan, bool fields);
   ~record_fetcher();
   record_fetcher(const record_fetcher&) = delete;
   record_fetcher& operator=(const record_fetcher&) = delete;
-  /// `c` with every field of the input; c's keypoints follow the previous call's.
+  /// `c` with every field of the input (or none); c's keypoints follow the previous call's.
   void fetch(tile_part& c);
   /// Reads the rest of the input and checks its counts.
   void finish();
@@ -370,7 +373,7 @@ class record_fetcher {
   const tile_plan& m_plan;
   std::unique_ptr<io::point_stream> m_stream;
   bool m_records = false;                  ///< reading only the keypoints' records
-  std::vector<std::string> m_field_names;  ///< of the plan
+  std::vector<std::string> m_field_names;  ///< of the plan; none when only positions are fetched
   std::uint64_t m_last = 0;                ///< records: file index past the last keypoint fetched
   point_cloud m_chunk, m_next;
   std::size_t m_next_size = 0;

@@ -207,7 +207,7 @@ void merge_part_files(const tile_plan& plan, const std::vector<std::string>& pat
   if (!plan.tile_fields) return merge_records(plan, paths, sink, memory);
   // The parts carry the tile fields only: the keypoints' records come from
   // the input, in one more pass over it.
-  record_fetcher fetch(plan);
+  record_fetcher fetch(plan, sink.records);
   merge_records(plan, paths, fetching_sink(plan, fetch, sink), memory);
   fetch.finish();
 }

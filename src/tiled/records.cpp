@@ -169,6 +169,8 @@ point_cloud empty_cloud(const tile_plan& p, std::size_t n) { return cloud_with(p
 
 point_cloud record_cloud(const tile_plan& p, std::size_t n) { return cloud_with(p, p.fields, n); }
 
+point_cloud position_cloud(const tile_plan& p, std::size_t n) { return cloud_with(p, {}, n); }
+
 tile_points points_from_cache(const tile_plan& p, std::uint64_t id, std::size_t n, const std::string& bytes,
                               std::size_t offset, const std::string& name) {
   tile_points t;

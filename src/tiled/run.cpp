@@ -94,6 +94,7 @@ tile_part merge_work_dir(const tile_plan& plan, const std::string& work_dir, con
       std::copy_n(c.saliency[k].begin(), n, out.saliency[k].begin() + at);
     at += n;
   };
+  collect.records = !sink || sink->records;
   merge_part_files(plan, paths, collect);
   for (auto& f : out.keypoints.fields()) f.whole_range.reset();
   return out;
