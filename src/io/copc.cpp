@@ -5,6 +5,7 @@
 // hierarchy as an extended VLR (https://copc.io, COPC 1.0).
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <sstream>
 #include <stdexcept>
@@ -123,8 +124,7 @@ std::vector<std::uint64_t> assign_nodes(const las14& h, const cube& c) {
     std::size_t kept = 0;
     for (std::size_t j = 0; j < cells.size(); ++j)
       if (j > 0 && cells[j].first == cells[j - 1].first) left[kept++] = cells[j].second;
-    left.resize(kept);
-    std::sort(left.begin(), left.end());
+    left.resize(kept);  // in cell order: the next level sorts them by cell and index again
   }
   return key;
 }
@@ -172,10 +172,15 @@ coded_nodes code_nodes(const las14& h, const laz_layout& layout, const std::vect
         std::memcpy(records.data() + j * h.record, h.d + h.point_offset + std::size_t(order[first[i] + j]) * h.record,
                     h.record);
       encode_laz_chunk(layout, reinterpret_cast<const unsigned char*>(records.data()), m, out.chunks[i]);
-      out.points[i] = static_cast<std::uint32_t>(m);
-      out.bytes[i] = static_cast<std::uint32_t>(out.chunks[i].size());
+      out.points[i] = static_cast<std::uint32_t>(std::min<std::size_t>(m, UINT32_MAX));
+      out.bytes[i] = static_cast<std::uint32_t>(std::min<std::size_t>(out.chunks[i].size(), UINT32_MAX));
     }
   });
+  // The hierarchy's entries hold a node's points and bytes in 32-bit signed integers.
+  for (std::size_t i = 0; i < nodes; ++i)
+    if (out.points[i] > INT32_MAX || out.bytes[i] > INT32_MAX)
+      throw std::invalid_argument("COPC: an octree node of " + std::to_string(first[i + 1] - first[i]) +
+                                  " points is more than a hierarchy entry can hold (duplicate points?)");
   return out;
 }
 
@@ -219,7 +224,9 @@ std::string copc_from_las(std::string_view las, const std::string& name) {
   const std::string table = encode_chunk_table(nodes.points, nodes.bytes, true);
   const std::uint64_t evlr = end_of_chunks + table.size();
   const std::uint64_t page_size = nodes.keys.size() * k_entry;
-  std::string out(las.substr(0, k_header_14));
+  std::string out;
+  out.reserve(evlr + k_evlr_header + page_size);
+  out.append(las.substr(0, k_header_14));
   auto* o = reinterpret_cast<unsigned char*>(out.data());
   store_le<std::uint32_t>(o + 96, static_cast<std::uint32_t>(head));
   store_le<std::uint32_t>(o + 100, static_cast<std::uint32_t>(h.vlr_count + 2));

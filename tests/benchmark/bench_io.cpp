@@ -182,6 +182,21 @@ const std::string& autzen20_laz() {
   });
 }
 
+/// autzen20 as LAS 1.4 (point format 7, as ced writes it), then as COPC.
+const std::string& autzen20_las14_bytes() {
+  static const std::string bytes = [] {
+    std::ostringstream out;
+    ced::io::write_las(out, ced::io::read_cloud(autzen20_las()));
+    return out.str();
+  }();
+  return bytes;
+}
+const std::string& autzen20_copc() {
+  return input("autzen20.copc.laz", [](const std::string& p) {
+    std::ofstream(p, std::ios::binary) << ced::io::detail::copc_from_las(autzen20_las14_bytes(), "autzen20.las");
+  });
+}
+
 /// Reads `path` with read_cloud() on each iteration.
 void read_file(benchmark::State& state, const std::string& path, const ced::io::read_options& options = {}) {
   const auto bytes = static_cast<std::int64_t>(fs::file_size(path));
@@ -251,6 +266,22 @@ void BM_compress_laz(benchmark::State& s) {
   s.counters["laz_bytes"] = static_cast<double>(out);
 }
 
+void BM_read_copc(benchmark::State& s) { read_file(s, autzen20_copc()); }
+/// What ced6d reads: positions and colour, the layers of the other fields skipped.
+void BM_read_copc_xyz_rgb(benchmark::State& s) {
+  ced::io::read_options o;
+  o.fields = ced::field_selection::only(ced::rgb_field_names());
+  read_file(s, autzen20_copc(), o);
+}
+/// The COPC writer alone (in memory): octree, then a layered chunk a node, in parallel.
+void BM_compress_copc(benchmark::State& s) {
+  const std::string& las = autzen20_las14_bytes();
+  std::size_t out = 0;
+  for (auto _ : s) out = ced::io::detail::copc_from_las(las, "autzen20.las").size();
+  s.SetBytesProcessed(s.iterations() * static_cast<std::int64_t>(las.size()));
+  s.counters["copc_bytes"] = static_cast<double>(out);
+}
+
 void BM_write_las(benchmark::State& s) {
   write_file(s, "out.las", las_cloud(), [](const std::string& p, const ced::point_cloud& c) {
     ced::io::las_write_options o;
@@ -289,6 +320,9 @@ BENCHMARK(BM_read_laz)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_read_laz_as_las)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_stream_laz)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_compress_laz)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_read_copc)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_read_copc_xyz_rgb)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_compress_copc)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_stream_las)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_stream_ply)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_stream_pcd)->Unit(benchmark::kMillisecond)->UseRealTime();
