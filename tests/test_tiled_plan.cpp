@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "ced/io/io.hpp"
 #include "ced/tiled.hpp"
 #include "tiled_support.hpp"
 
@@ -51,4 +52,33 @@ TEST(TiledPlan, ATileOfAChangedInputIsRefused) {
                 what.find("not the file the plan was made for") != std::string::npos)
         << what;
   }
+}
+
+TEST(TiledPlan, ATileOfLasReadsTheFileOnceWithThePlansFields) {
+  // LAS and LAZ take their fields (the flags a whole pass finds) from the
+  // plan, so a tile makes one pass over the file, not two; its points are
+  // those of the whole file's read. Other formats still make two passes.
+  const ced::tiled_request r = room_request(6000, 24, "once.las", 0.3);
+  const ced::tile_plan p = ced::plan_tiles(r);
+  ASSERT_GT(p.tiles.size(), 1u);
+  const ced::point_cloud whole = ced::io::read_cloud(r.input);
+  for (const auto& t : p.tiles) {
+    const ced::tile_points pts = ced::read_tile(p, t.id);
+    EXPECT_EQ(pts.decoded, p.file_points);
+    ASSERT_EQ(pts.cloud.fields().size(), p.tile_fields ? p.tile_fields->size() : p.fields.size());
+    for (std::size_t i = 0; i < pts.cloud.size(); ++i) {
+      const std::size_t w = static_cast<std::size_t>(pts.file_index[i]);
+      for (int k = 0; k < 3; ++k) ASSERT_EQ(pts.cloud.position(i)[k], whole.position(w)[k]);
+      for (const auto& f : pts.cloud.fields()) {
+        const auto* g = whole.find_field(f.name);
+        ASSERT_NE(g, nullptr) << f.name;
+        ASSERT_EQ(f.values[i], g->values[w]) << f.name;
+      }
+    }
+  }
+  ced::tiled_request ply = r;
+  ply.input = ced_test::temp_file("once.ply");
+  ced::io::write_cloud(ply.input, whole);
+  const ced::tile_plan q = ced::plan_tiles(ply);
+  EXPECT_EQ(ced::read_tile(q, q.tiles.front().id).decoded, 2 * q.file_points);
 }

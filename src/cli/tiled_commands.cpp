@@ -376,8 +376,10 @@ int run_detect_plan_tile(const detect_options& o) {
   if (!o.quiet)
     std::fprintf(stderr, "ced: tile %lld: %zu points read (%llu decoded%s), %zu keypoints; %.1f ms\n", o.tile,
                  pts.cloud.size(), static_cast<unsigned long long>(pts.decoded),
-                 pts.indexed ? ", through the file's COPC index" : ": two passes over the file", part.index.size(),
-                 ms_since(t0));
+                 pts.indexed                      ? ", through the file's COPC index"
+                 : pts.decoded > plan.file_points ? ": two passes over the file"
+                                                  : ": one pass over the file",
+                 part.index.size(), ms_since(t0));
   return exit_ok;
 }
 

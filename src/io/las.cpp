@@ -1464,6 +1464,11 @@ class las_stream final : public point_stream {
     return static_cast<std::size_t>(it - chunks.begin()) - 1;
   }
 
+  bool take_fields(const std::vector<std::string>& fields) override {
+    take_flags(fields);
+    return true;
+  }
+
   /// The flags the whole file has, from their names (`fields`), as a
   /// complete pass decides them: the pass is then spent.
   void take_flags(const std::vector<std::string>& fields) {

@@ -325,7 +325,7 @@ void bind_tiled(py::module_& m) {
         return out;
       },
       py::arg("plan"), py::arg("tile"), py::arg("part") = py::none(), py::arg("threads") = 0,
-      "Reads tile `tile` of the plan's input (two passes over the file), detects it, writes its part to `part` when "
+      "Reads tile `tile` of the plan's input (one pass over LAS/LAZ, two over other formats), detects it, writes its part to `part` when "
       "given, and returns it. Any process that can read the file can run it.");
   m.def(
       "read_part", [](const ced::tile_plan& plan, const std::string& path) { return ced::read_part(path, plan); },

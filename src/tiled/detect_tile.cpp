@@ -141,9 +141,15 @@ tile_points read_tile(const tile_plan& plan, std::uint64_t id) {
   auto s = io::open_point_stream(plan.request.input, plan.request.read);
   if (auto pts = read_tile_indexed(plan, id, *s)) return std::move(*pts);
   if (plan.indexed) input_changed(plan, "it no longer has the spatial index the plan was made from");
-  // A pass to learn the whole file's fields (LAS flags), then the tile's points.
-  for_each_chunk(*s, {0, 0, 0}, [](const point_cloud&) {});
-  s->rewind();
+  // The whole file's fields (LAS flags) as the plan names them, else a
+  // pass to learn them; then the tile's points.
+  std::vector<std::string> names;
+  for (const plan_field& f : plan.fields) names.push_back(f.name);
+  const bool named = s->take_fields(names);
+  if (!named) {
+    for_each_chunk(*s, {0, 0, 0}, [](const point_cloud&) {});
+    s->rewind();
+  }
   const auto coords = plan.grid.coords(id);
   std::string records;
   std::uint64_t file_index = 0, index = 0, content = 0, core = 0;
@@ -168,7 +174,7 @@ tile_points read_tile(const tile_plan& plan, std::uint64_t id) {
   if (!plan.content.empty() && hex(content) != plan.content)
     input_changed(plan, "its decoded points hash to " + hex(content) + ", the plan's to " + plan.content);
   tile_points pts = tile_from_records(plan, id, records, core);
-  pts.decoded = 2 * file_index;
+  pts.decoded = (named ? 1 : 2) * file_index;
   return pts;
 }
 

@@ -119,6 +119,14 @@ class point_stream {
     (void)out;
     return false;
   }
+  /// LAS and LAZ: from now on read() gives the fields `fields` names (the
+  /// LAS flags among them, as a tile plan records them) without a first
+  /// pass to learn them; the pass is then spent, as after read_run().
+  /// Returns false for the other streams, which need no such pass.
+  virtual bool take_fields(const std::vector<std::string>& fields) {
+    (void)fields;
+    return false;
+  }
   virtual void read_run(const point_run& r, const std::vector<std::string>& fields, const std::array<double, 3>& origin,
                         point_cloud& out) {
     (void)r;
