@@ -84,6 +84,30 @@ void put(std::string& s, std::size_t at, T v) {
   std::memcpy(&s[at], &v, sizeof v);
 }
 
+/// The autzen sample with a float saliency field added (as keypoint clouds have).
+ced::point_cloud autzen_with_saliency() {
+  ced::point_cloud c = ced::io::read_cloud(data_path("autzen_trim.laz"));
+  std::vector<double> saliency(c.size());
+  for (std::size_t i = 0; i < c.size(); ++i) saliency[i] = 0.001 * double(i % 977);
+  c.add_field("saliency_xyz", ced::scalar_type::float32, saliency);
+  return c;
+}
+
+/// `c` written to `path` by a cloud_writer in pieces of 7,919 points (as a
+/// tiled run's merge writes).
+void write_in_pieces(const std::string& path, const ced::point_cloud& c, ced::io::file_format format) {
+  std::ofstream f(path, std::ios::binary);
+  ced::io::cloud_writer w(f, c, c.size(), format);
+  for (std::size_t at = 0; at < c.size(); at += 7919) {
+    std::vector<std::uint8_t> keep(c.size(), 0);
+    for (std::size_t i = at; i < std::min(c.size(), at + 7919); ++i) keep[i] = 1;
+    ced::point_cloud piece = c;
+    piece.filter(keep);
+    w.write(piece);
+  }
+  w.finish();
+}
+
 }  // namespace
 
 TEST(Laz, EveryRecordIsItsLasTwinsRecord) {
@@ -231,10 +255,7 @@ TEST(Laz, WrittenLazReadsAsTheCloudWrittenAsLas12) {
   // write_cloud(.laz): LAS 1.2 (point formats 0-3; other fields as extra
   // bytes), compressed. Whole and in pieces (cloud_writer, as a tiled run's
   // merge writes), the same bytes.
-  ced::point_cloud c = ced::io::read_cloud(data_path("autzen_trim.laz"));
-  std::vector<double> saliency(c.size());
-  for (std::size_t i = 0; i < c.size(); ++i) saliency[i] = 0.001 * double(i % 977);
-  c.add_field("saliency_xyz", ced::scalar_type::float32, saliency);
+  const ced::point_cloud c = autzen_with_saliency();
   const std::string laz = temp_file("out.laz"), las = temp_file("out.las");
   EXPECT_EQ(ced::io::format_of(laz), ced::io::file_format::laz);
   ced::io::write_cloud(laz, c);
@@ -246,18 +267,7 @@ TEST(Laz, WrittenLazReadsAsTheCloudWrittenAsLas12) {
   EXPECT_EQ(r.details, "LAZ 1.2, point format 3");
   EXPECT_LT(std::filesystem::file_size(laz), std::filesystem::file_size(las) / 3);
   const std::string pieces = temp_file("pieces.laz");
-  {
-    std::ofstream f(pieces, std::ios::binary);
-    ced::io::cloud_writer w(f, c, c.size(), ced::io::file_format::laz);
-    for (std::size_t at = 0; at < c.size(); at += 7919) {  // pieces across the 50,000-point chunks
-      std::vector<std::uint8_t> keep(c.size(), 0);
-      for (std::size_t i = at; i < std::min(c.size(), at + 7919); ++i) keep[i] = 1;
-      ced::point_cloud piece = c;
-      piece.filter(keep);
-      w.write(piece);
-    }
-    w.finish();
-  }
+  write_in_pieces(pieces, c, ced::io::file_format::laz);  // pieces across the 50,000-point chunks
   EXPECT_TRUE(read_bytes(pieces) == read_bytes(laz));
 }
 
@@ -1010,10 +1020,7 @@ TEST(Copc, WrittenFileHoldsTheCloudInItsOctree) {
   // layered chunk a node. The points are those of the cloud written as
   // LAS 1.4 (in node order), each inside its node's cube; whole and in
   // pieces, the same bytes.
-  ced::point_cloud c = ced::io::read_cloud(data_path("autzen_trim.laz"));
-  std::vector<double> saliency(c.size());
-  for (std::size_t i = 0; i < c.size(); ++i) saliency[i] = 0.001 * double(i % 977);
-  c.add_field("saliency_xyz", ced::scalar_type::float32, saliency);
+  const ced::point_cloud c = autzen_with_saliency();
   const std::string copc = temp_file("out.copc.laz"), las = temp_file("out14.las");
   EXPECT_EQ(ced::io::format_of(copc), ced::io::file_format::copc);
   EXPECT_EQ(ced::io::format_of("A.COPC.LAZ"), ced::io::file_format::copc);
@@ -1045,18 +1052,7 @@ TEST(Copc, WrittenFileHoldsTheCloudInItsOctree) {
   EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), std::ptrdiff_t(got.size()));
   // In pieces (a tiled run's merge), the same bytes.
   const std::string pieces = temp_file("pieces.copc.laz");
-  {
-    std::ofstream f(pieces, std::ios::binary);
-    ced::io::cloud_writer w(f, c, c.size(), ced::io::file_format::copc);
-    for (std::size_t at = 0; at < c.size(); at += 7919) {
-      std::vector<std::uint8_t> keep(c.size(), 0);
-      for (std::size_t i = at; i < std::min(c.size(), at + 7919); ++i) keep[i] = 1;
-      ced::point_cloud piece = c;
-      piece.filter(keep);
-      w.write(piece);
-    }
-    w.finish();
-  }
+  write_in_pieces(pieces, c, ced::io::file_format::copc);
   EXPECT_TRUE(read_bytes(pieces) == read_bytes(copc));
   // What it cannot write is refused, naming it.
   EXPECT_THROW(ced::io::detail::copc_from_las(read_bytes(data_path("autzen_trim.las")), "autzen_trim.las"),

@@ -248,6 +248,19 @@ void change_a_keypoint_unseen(const std::string& path, const std::vector<std::ui
   bytes[at] = char(bytes[at] + 1);
   ced_test::write_bytes(path, bytes);
 }
+
+/// `merge` must throw the io_error of an input changed since the plan, at a keypoint.
+template <class Merge>
+void expect_a_changed_keypoint(const std::string& input, Merge&& merge) {
+  try {
+    merge();
+    ADD_FAILURE() << "a changed input was merged";
+  } catch (const ced::io::io_error& e) {
+    EXPECT_NE(std::string(e.what()).find(input + ": the file changed since the plan was made (point "),
+              std::string::npos)
+        << e.what();
+  }
+}
 }  // namespace
 
 TEST(TiledRun, AnInputChangedBeforeTheMergeIsRefused) {
@@ -261,14 +274,7 @@ TEST(TiledRun, AnInputChangedBeforeTheMergeIsRefused) {
     for (std::uint64_t fi : ced::detect_cached_tile(plan, o.work_dir, t.id).file_index) keypoints.push_back(fi);
   change_a_keypoint_unseen(r.input, keypoints);
   EXPECT_NO_THROW(ced::check_plan_input(plan));  // the fingerprint is blind to it
-  try {
-    ced::finish_tiled(plan, o.work_dir);
-    ADD_FAILURE() << "a changed input was merged";
-  } catch (const ced::io::io_error& e) {
-    EXPECT_NE(std::string(e.what()).find(r.input + ": the file changed since the plan was made (point "),
-              std::string::npos)
-        << e.what();
-  }
+  expect_a_changed_keypoint(r.input, [&] { ced::finish_tiled(plan, o.work_dir); });
   ced::remove_work_dir(o.work_dir);
 }
 
@@ -303,13 +309,7 @@ TEST(TiledRun, AMergeThatWritesNoKeypointCloudFetchesPositionsOnly) {
   EXPECT_NO_THROW(ced::check_plan_input(plan));
   std::vector<std::uint64_t> index;
   std::vector<float> xyz;
-  try {
-    merged(false, index, xyz);
-    ADD_FAILURE() << "a changed input was merged";
-  } catch (const ced::io::io_error& e) {
-    EXPECT_NE(std::string(e.what()).find("the file changed since the plan was made (point "), std::string::npos)
-        << e.what();
-  }
+  expect_a_changed_keypoint(r.input, [&] { merged(false, index, xyz); });
   ced::remove_work_dir(o.work_dir);
 }
 
