@@ -20,7 +20,7 @@
 namespace ced::io::detail {
 namespace {
 
-constexpr std::size_t k_header_14 = 375, k_vlr_header = 54, k_evlr_header = 60, k_entry = 32;
+constexpr std::size_t k_header_14 = 375, k_evlr_header = 60, k_entry = 32;
 /// Cells per side of a node's sampling grid: a node keeps the first point
 /// in each of its 128^3 cells and passes the others to its children.
 constexpr int k_grid_bits = 7;
@@ -59,22 +59,29 @@ las14 parse_las14(std::string_view las, const std::string& name) {
   return h;
 }
 
-/// The octree's cube: the points' bounds' centre, and half the largest side.
+/// The octree's cube: the points' bounds' centre, and half the largest
+/// side; and the points' GPS time range, which the COPC info records.
 struct cube {
   double center[3] = {0, 0, 0};
   double halfsize = 1;
+  double gps[2] = {0, 0};
 };
 
+/// The cube and GPS range of the records, in one pass over them.
 cube cube_of(const las14& h) {
   std::int32_t lo[3] = {INT32_MAX, INT32_MAX, INT32_MAX}, hi[3] = {INT32_MIN, INT32_MIN, INT32_MIN};
+  cube c;
   const unsigned char* r = h.d + h.point_offset;
-  for (std::uint64_t i = 0; i < h.count; ++i, r += h.record)
+  for (std::uint64_t i = 0; i < h.count; ++i, r += h.record) {
     for (int k = 0; k < 3; ++k) {
       const auto v = load_le<std::int32_t>(r + 4 * k);
       lo[k] = std::min(lo[k], v);
       hi[k] = std::max(hi[k], v);
     }
-  cube c;
+    const double t = load_le<double>(r + 22);
+    c.gps[0] = i ? std::min(c.gps[0], t) : t;
+    c.gps[1] = i ? std::max(c.gps[1], t) : t;
+  }
   double half = 0;
   for (int k = 0; k < 3; ++k) {
     const double a = h.count ? lo[k] * h.scale[k] + h.offset[k] : 0, b = h.count ? hi[k] * h.scale[k] + h.offset[k] : 0;
@@ -129,16 +136,6 @@ std::vector<std::uint64_t> assign_nodes(const las14& h, const cube& c) {
   return key;
 }
 
-void put_vlr_header(std::string& out, const char* user, std::uint16_t record, std::uint16_t length,
-                    const char* description) {
-  std::string v(k_vlr_header, '\0');
-  std::memcpy(v.data() + 2, user, std::strlen(user));
-  store_le<std::uint16_t>(reinterpret_cast<unsigned char*>(v.data()) + 18, record);
-  store_le<std::uint16_t>(reinterpret_cast<unsigned char*>(v.data()) + 20, length);
-  std::memcpy(v.data() + 22, description, std::strlen(description));
-  out += v;
-}
-
 struct coded_nodes {
   std::vector<std::uint64_t> keys;  ///< of the nodes, in file order
   std::vector<std::uint32_t> points, bytes;
@@ -185,9 +182,7 @@ coded_nodes code_nodes(const las14& h, const laz_layout& layout, const std::vect
 }
 
 /// The 160 bytes of the COPC info VLR.
-std::string copc_info_vlr(const cube& c, std::uint64_t root_offset, std::uint64_t root_size, const las14& h) {
-  std::string v;
-  put_vlr_header(v, "copc", 1, 160, "COPC info");
+std::string copc_info_vlr(const cube& c, std::uint64_t root_offset, std::uint64_t root_size) {
   std::string body(160, '\0');
   auto* p = reinterpret_cast<unsigned char*>(body.data());
   for (int k = 0; k < 3; ++k) store_le<double>(p + 8 * k, c.center[k]);
@@ -195,16 +190,9 @@ std::string copc_info_vlr(const cube& c, std::uint64_t root_offset, std::uint64_
   store_le<double>(p + 32, 2 * c.halfsize / double(1 << k_grid_bits));
   store_le<std::uint64_t>(p + 40, root_offset);
   store_le<std::uint64_t>(p + 48, root_size);
-  double t0 = 0, t1 = 0;
-  const unsigned char* r = h.d + h.point_offset;
-  for (std::uint64_t i = 0; i < h.count; ++i, r += h.record) {
-    const double t = load_le<double>(r + 22);
-    t0 = i ? std::min(t0, t) : t;
-    t1 = i ? std::max(t1, t) : t;
-  }
-  store_le<double>(p + 56, t0);
-  store_le<double>(p + 64, t1);
-  return v + body;
+  store_le<double>(p + 56, c.gps[0]);
+  store_le<double>(p + 64, c.gps[1]);
+  return vlr_header("copc", 1, body.size(), "COPC info") + body;
 }
 
 }  // namespace
@@ -218,7 +206,7 @@ std::string copc_from_las(std::string_view las, const std::string& name) {
   // the LASzip VLR, the LAS file's VLRs.
   const std::string other_vlrs(las.substr(k_header_14, h.point_offset - k_header_14));
   const std::string laszip = laszip_vlr(layout);
-  const std::size_t head = k_header_14 + k_vlr_header + 160 + laszip.size() + other_vlrs.size();
+  const std::size_t head = k_header_14 + k_vlr_header_bytes + 160 + laszip.size() + other_vlrs.size();
   std::uint64_t end_of_chunks = head + 8;
   for (const std::uint32_t b : nodes.bytes) end_of_chunks += b;
   const std::string table = encode_chunk_table(nodes.points, nodes.bytes, true);
@@ -233,7 +221,7 @@ std::string copc_from_las(std::string_view las, const std::string& name) {
   o[104] = static_cast<unsigned char>(h.format | 0x80);
   store_le<std::uint64_t>(o + 235, evlr);
   store_le<std::uint32_t>(o + 243, 1);
-  out += copc_info_vlr(c, evlr + k_evlr_header, page_size, h);
+  out += copc_info_vlr(c, evlr + k_evlr_header, page_size);
   out += laszip;
   out += other_vlrs;
   std::string offset(8, '\0');

@@ -991,10 +991,8 @@ void add_stats(const point_cloud& cloud, const las_write_options& opt, const las
 
 /// Writes the extra-bytes VLR describing `extras` at h[v...].
 void put_extra_bytes_vlr(std::string& h, std::size_t v, const std::vector<const field*>& extras) {
-  put_string(h, v + 2, 16, "LASF_Spec");
-  put<std::uint16_t>(h, v + 18, 4);
-  put<std::uint16_t>(h, v + 20, static_cast<std::uint16_t>(extras.size() * k_extra_bytes_descriptor_size));
-  put_string(h, v + 22, 32, "extra bytes");
+  h.replace(v, k_vlr_header_size,
+            detail::vlr_header("LASF_Spec", 4, extras.size() * k_extra_bytes_descriptor_size, "extra bytes"));
   v += k_vlr_header_size;
   for (const field* f : extras) {
     put<std::uint8_t>(h, v + 2, static_cast<std::uint8_t>(extra_type_code(f->type())));

@@ -396,16 +396,21 @@ laz_layout layered_layout(int format, std::size_t record_length) {
   return layout_of(3, format, record_length, 0xFFFFFFFFu, 3, laz_item::byte14);
 }
 
+std::string vlr_header(const std::string& user, std::uint16_t record, std::size_t length,
+                       const std::string& description, std::uint16_t reserved) {
+  std::string v(k_vlr_header_bytes, '\0');
+  auto* d = reinterpret_cast<unsigned char*>(v.data());
+  store_le<std::uint16_t>(d, reserved);
+  std::memcpy(d + 2, user.data(), std::min<std::size_t>(user.size(), 16));
+  store_le<std::uint16_t>(d + 18, record);
+  store_le<std::uint16_t>(d + 20, static_cast<std::uint16_t>(length));
+  std::memcpy(d + 22, description.data(), std::min<std::size_t>(description.size(), 32));
+  return v;
+}
+
 std::string laszip_vlr(const laz_layout& layout) {
-  constexpr std::size_t header = 54;
-  std::string vlr(header + 34 + 6 * layout.items.size(), '\0');
-  auto* v = reinterpret_cast<unsigned char*>(vlr.data());
-  store_le<std::uint16_t>(v, 0xAABB);
-  std::memcpy(v + 2, "laszip encoded", 14);
-  store_le<std::uint16_t>(v + 18, 22204);
-  store_le<std::uint16_t>(v + 20, static_cast<std::uint16_t>(vlr.size() - header));
-  std::memcpy(v + 22, "ced LAZ writer", 14);
-  unsigned char* p = v + header;
+  std::string body(34 + 6 * layout.items.size(), '\0');
+  auto* p = reinterpret_cast<unsigned char*>(body.data());
   store_le<std::uint16_t>(p, static_cast<std::uint16_t>(layout.compressor));
   // The LASzip version the items are of: 2.2 (pointwise, v2 items), 3.4 (layered, v3).
   p[4] = layout.compressor == 3 ? 3 : 2;
@@ -419,7 +424,7 @@ std::string laszip_vlr(const laz_layout& layout) {
     store_le<std::uint16_t>(p + 36 + 6 * i, layout.items[i].size);
     store_le<std::uint16_t>(p + 38 + 6 * i, layout.items[i].version);
   }
-  return vlr;
+  return vlr_header("laszip encoded", 22204, body.size(), "ced LAZ writer", 0xAABB) + body;
 }
 
 void encode_laz_chunk(const laz_layout& layout, const unsigned char* records, std::uint64_t points, std::string& out) {

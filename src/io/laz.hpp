@@ -133,6 +133,12 @@ laz_layout pointwise_layout(int format, std::size_t record_length, std::uint32_t
 /// extra bytes (byte14), variable chunks.
 laz_layout layered_layout(int format, std::size_t record_length);
 
+/// The bytes of a (variable length record) VLR's header.
+inline constexpr std::size_t k_vlr_header_bytes = 54;
+/// A VLR's header: `user` (16 bytes at most), record id, the payload's
+/// `length`, `description` (32 at most), the reserved word.
+std::string vlr_header(const std::string& user, std::uint16_t record, std::size_t length,
+                       const std::string& description, std::uint16_t reserved = 0);
 /// The LASzip VLR (its 54-byte header and payload) that describes `layout`.
 std::string laszip_vlr(const laz_layout& layout);
 
