@@ -53,6 +53,16 @@ struct tile_entry {
   std::uint64_t points = 0;       ///< points it reads (core and halo)
 };
 
+/// A run of consecutive points of the input that a tile reads alone (a LAZ
+/// chunk, a block of LAS records: point_stream::chunk_runs()), as the plan
+/// found it: the box of its positions (relative to the plan's origin, as
+/// read) and a hash of its decoded points.
+struct plan_run {
+  std::uint64_t first = 0, count = 0;
+  std::array<float, 6> box{};  ///< x0, y0, z0, x1, y1, z1
+  std::uint64_t hash = 0;
+};
+
 /// A field of the input, as every tile has it.
 struct plan_field {
   std::string name;
@@ -93,6 +103,11 @@ struct tile_plan {
   /// nodes' counts and boxes (read_tile() cannot check them; it checks each
   /// point against its node's box and the header's bounds instead).
   bool indexed = false;
+  /// LAS and LAZ, planned by passes: the file's runs (point_stream::
+  /// chunk_runs()) with their boxes and hashes. A tile then reads only the
+  /// runs whose box meets its core and halo, and checks each one's hash
+  /// (`content` is then empty: every run is read by some tile).
+  std::vector<plan_run> runs;
 
   std::string to_json() const;
   /// Throws io_error naming `name` for anything malformed.
@@ -132,16 +147,19 @@ struct tile_points {
   /// Points decoded from the file to find these (read_tile()).
   std::uint64_t decoded = 0;
   bool indexed = false;  ///< found through the file's spatial index (COPC)
+  /// Of the plan's runs (tile_plan::runs), those read: the ones near the tile.
+  std::uint64_t runs_read = 0;
 };
 
-/// Reads tile `id`'s points from the input: two passes over the file (the
-/// first learns what the whole file decides about its fields, as
-/// plan_tiles), or, when the file has a spatial index (COPC), only the
-/// chunks of the octree nodes that meet the tile's core and halo.
+/// Reads tile `id`'s points from the input: when the plan has runs (LAS and
+/// LAZ), only the runs whose box meets the tile's core and halo; else, when
+/// the file has a spatial index (COPC), only the chunks of the octree nodes
+/// that meet them; else two passes over the file (the first learns what the
+/// whole file decides about its fields, as plan_tiles).
 /// Throws io_error when the input differs from the plan's: its fingerprint,
-/// its point count, its decoded content (when the plan has `content`; not
-/// checked through an index, which decodes only part of the file), or the
-/// tile's counts.
+/// its point count, its decoded content (when the plan has `content`; the
+/// hash of each run read when it has runs; not checked through an index,
+/// which decodes only part of the file), or the tile's counts.
 tile_points read_tile(const tile_plan& plan, std::uint64_t id);
 
 /// What one tile contributes: its core keypoints, ascending index.

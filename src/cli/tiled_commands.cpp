@@ -373,13 +373,16 @@ int run_detect_plan_tile(const detect_options& o) {
   const ced::tile_points pts = ced::read_tile(plan, static_cast<std::uint64_t>(o.tile));
   const ced::tile_part part = ced::detect_tile(plan, pts, static_cast<unsigned>(std::max(0, o.threads)));
   ced::write_part(o.output, plan, part);
-  if (!o.quiet)
+  if (!o.quiet) {
+    const std::string how = pts.runs_read ? ", " + std::to_string(pts.runs_read) + " of the file's " +
+                                                std::to_string(plan.runs.size()) + " runs"
+                            : pts.indexed                    ? ", through the file's COPC index"
+                            : pts.decoded > plan.file_points ? ": two passes over the file"
+                                                             : ": one pass over the file";
     std::fprintf(stderr, "ced: tile %lld: %zu points read (%llu decoded%s), %zu keypoints; %.1f ms\n", o.tile,
-                 pts.cloud.size(), static_cast<unsigned long long>(pts.decoded),
-                 pts.indexed                      ? ", through the file's COPC index"
-                 : pts.decoded > plan.file_points ? ": two passes over the file"
-                                                  : ": one pass over the file",
-                 part.index.size(), ms_since(t0));
+                 pts.cloud.size(), static_cast<unsigned long long>(pts.decoded), how.c_str(), part.index.size(),
+                 ms_since(t0));
+  }
   return exit_ok;
 }
 

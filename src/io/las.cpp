@@ -1387,6 +1387,17 @@ class las_stream final : public point_stream {
     }
     return out;
   }
+  std::vector<point_run> chunk_runs() const override {
+    std::vector<point_run> out;
+    if (m_header.compressed) {
+      for (const laz_chunk& c : m_laz.chunks)
+        if (c.points > 0) out.push_back({c.first_point, c.points});
+      return out;
+    }
+    for (std::uint64_t first = 0; first < m_header.count; first += las_run_points)
+      out.push_back({first, std::min<std::uint64_t>(las_run_points, m_header.count - first)});
+    return out;
+  }
   std::vector<std::string> flags_set() const override {
     std::vector<std::string> out;
     for (const flag_spec& fl : flags_of(m_header.layout->extended))

@@ -133,12 +133,69 @@ std::optional<tile_points> read_tile_indexed(const tile_plan& plan, std::uint64_
   return pts;
 }
 
+/// The tile's points from the plan's runs (tile_plan::runs): only the runs
+/// whose box meets the tile's core and halo are read, each checked against
+/// its hash, then the tile's counts. Empty when the plan has no runs.
+std::optional<tile_points> read_tile_runs(const tile_plan& plan, std::uint64_t id, io::point_stream& s) {
+  if (plan.runs.empty()) return std::nullopt;
+  const std::vector<io::point_stream::point_run> runs = s.chunk_runs();
+  bool same = runs.size() == plan.runs.size() && s.declared_points() == plan.file_points;
+  for (std::size_t r = 0; same && r < runs.size(); ++r)
+    same = runs[r].first == plan.runs[r].first && runs[r].count == plan.runs[r].count;
+  if (!same) input_changed(plan, "its points or chunks are not the plan's runs");
+  double lo[3], hi[3];
+  tile_region(plan, id, lo, hi);
+  std::vector<io::point_stream::point_run> wanted;
+  std::vector<std::size_t> which;
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    const auto& b = plan.runs[r].box;
+    bool meets = true;
+    for (std::size_t k = 0; k < 3; ++k)
+      meets = meets && double(b[3 + k]) >= lo[k] - plan.origin[k] && double(b[k]) <= hi[k] - plan.origin[k];
+    if (!meets) continue;
+    wanted.push_back(runs[r]);
+    which.push_back(r);
+  }
+  std::vector<std::string> names;
+  for (const plan_field& f : plan.fields) names.push_back(f.name);
+  const auto coords = plan.grid.coords(id);
+  const std::vector<plan_field> tile_fields = tile_fields_of(plan);
+  const std::size_t rs = record_size(plan);
+  std::vector<column> converted;
+  std::string records;
+  std::uint64_t core = 0, decoded = 0;
+  for_each_run_group(s, wanted, names, plan.origin, [&](const point_cloud& c, std::size_t r0, std::size_t r1) {
+    std::size_t at = 0;
+    for (std::size_t r = r0; r < r1; ++r) {
+      const plan_run& e = plan.runs[which[r]];
+      const std::uint64_t h = at + e.count <= c.size() ? hash_points(c, at, std::size_t(e.count), 0) : ~e.hash;
+      if (h != e.hash)
+        input_changed(plan, "the points " + std::to_string(e.first) + ".." + std::to_string(e.first + e.count - 1) +
+                                " hash to " + hex(h) + ", the plan's to " + hex(e.hash));
+      at += std::size_t(e.count);
+    }
+    const field_bytes fields = plan_fields_of(plan, c, tile_fields, converted);
+    const std::uint64_t first = wanted[r0].first;
+    for (std::size_t i = 0; i < c.size(); ++i) {
+      if (!near_tile(plan.grid, coords, c.position(i))) continue;
+      append_record(records, rs, first + i, first + i, c.positions().data(), fields, i);
+      core += plan.grid.tile_of(c.position(i)) == id;
+    }
+    decoded += c.size();
+  });
+  tile_points pts = tile_from_records(plan, id, records, core);
+  pts.decoded = decoded;
+  pts.runs_read = wanted.size();
+  return pts;
+}
+
 }  // namespace
 
 tile_points read_tile(const tile_plan& plan, std::uint64_t id) {
   plan.tile(id);  // throws for a tile that owns no points
   check_plan_input(plan);
   auto s = io::open_point_stream(plan.request.input, plan.request.read);
+  if (auto pts = read_tile_runs(plan, id, *s)) return std::move(*pts);
   if (auto pts = read_tile_indexed(plan, id, *s)) return std::move(*pts);
   if (plan.indexed) input_changed(plan, "it no longer has the spatial index the plan was made from");
   // The whole file's fields (LAS flags) as the plan names them, else a

@@ -50,9 +50,14 @@ std::string hex(std::uint64_t v) {
   return buf;
 }
 
-std::uint64_t hash_chunk(const point_cloud& c, std::uint64_t h) {
-  h = hash_values(reinterpret_cast<const unsigned char*>(c.positions().data()), 4, 3 * c.size(), h);
-  for (const field& f : c.fields()) h = hash_values(f.values.bytes(), size_of(f.type()), c.size(), h);
+std::uint64_t hash_chunk(const point_cloud& c, std::uint64_t h) { return hash_points(c, 0, c.size(), h); }
+
+std::uint64_t hash_points(const point_cloud& c, std::size_t first, std::size_t n, std::uint64_t h) {
+  h = hash_values(reinterpret_cast<const unsigned char*>(c.positions().data() + 3 * first), 4, 3 * n, h);
+  for (const field& f : c.fields()) {
+    const std::size_t w = size_of(f.type());
+    h = hash_values(f.values.bytes() + w * first, w, n, h);
+  }
   return h;
 }
 

@@ -59,6 +59,47 @@ void for_each_chunk(io::point_stream& s, const std::array<double, 3>& origin, F&
   }
 }
 
+/// Reads the runs `runs` of `s` (ascending and apart), those next to each
+/// other joined into one read of up to chunk_points points (at least one
+/// run), with the fields `fields` names (as point_stream::read_run()), and
+/// calls f(cloud, r0, r1) for each read: `cloud` holds runs [r0, r1) back to
+/// back. A thread reads the next while f works on this one.
+template <class F>
+void for_each_run_group(io::point_stream& s, const std::vector<io::point_stream::point_run>& runs,
+                        const std::vector<std::string>& fields, const std::array<double, 3>& origin, F&& f) {
+  const auto group_end = [&](std::size_t r0) {
+    std::size_t r1 = r0 + 1;
+    std::uint64_t n = runs[r0].count;
+    while (r1 < runs.size() && runs[r1].first == runs[r1 - 1].first + runs[r1 - 1].count &&
+           n + runs[r1].count <= chunk_points)
+      n += runs[r1++].count;
+    return r1;
+  };
+  const auto read = [&](std::size_t r0, std::size_t r1, point_cloud& out) {
+    const std::uint64_t end = runs[r1 - 1].first + runs[r1 - 1].count;
+    s.read_run({runs[r0].first, end - runs[r0].first}, fields, origin, out);
+  };
+  if (runs.empty()) return;
+  point_cloud clouds[2];
+  std::size_t r0 = 0, r1 = group_end(0);
+  read(r0, r1, clouds[0]);
+  for (int k = 0;; k ^= 1) {
+    const std::size_t n0 = r1, n1 = n0 < runs.size() ? group_end(n0) : n0;
+    std::future<void> next;
+    if (n0 < runs.size()) next = std::async(std::launch::async, [&, k, n0, n1] { read(n0, n1, clouds[k ^ 1]); });
+    try {
+      f(static_cast<const point_cloud&>(clouds[k]), r0, r1);
+    } catch (...) {
+      if (next.valid()) next.wait();
+      throw;
+    }
+    if (!next.valid()) return;
+    next.get();
+    r0 = n0;
+    r1 = n1;
+  }
+}
+
 // ------------------------------------------------------------------ modalities (planning.cpp)
 
 std::vector<any_modality> modalities_of(const std::vector<std::string>& specs);
@@ -79,6 +120,9 @@ void name_modalities(const tile_plan& plan, const std::vector<any_modality>& mod
 std::string hex(std::uint64_t v);
 /// A chunk's positions and every field's values, into the content hash.
 std::uint64_t hash_chunk(const point_cloud& c, std::uint64_t h);
+/// hash_chunk() of the points [first, first + n) of `c`, as of a cloud of
+/// those alone (a run of tile_plan::runs).
+std::uint64_t hash_points(const point_cloud& c, std::size_t first, std::size_t n, std::uint64_t h);
 /// The file's size (into `bytes`), and a hash of it (check_plan_input()).
 std::string fingerprint_of(const std::string& path, std::uint64_t& bytes);
 /// The request as a plan writes it (and as a resumed run compares it).

@@ -183,6 +183,39 @@ void tiles_from_json(const nlohmann::json& tiles, tile_plan& p, const std::strin
                                  std::to_string(p.finite_points) + " finite points");
 }
 
+/// The plan's "runs" (tile_plan::runs): consecutive from the first point to
+/// the last, each with points, a finite ordered box and a 16-digit hash.
+void runs_from_json(const nlohmann::json& runs, tile_plan& p, const std::string& name) {
+  if (!runs.is_array()) throw io::io_error(name, "invalid tile plan: 'runs' must be a list");
+  if (p.indexed || p.finite_points != p.file_points)
+    throw io::io_error(name, "invalid tile plan: runs are for a file of finite points planned by passes");
+  std::uint64_t next = 0;
+  for (const auto& r : runs) {
+    const std::string at = "run " + std::to_string(p.runs.size());
+    if (!r.is_array() || r.size() != 9 || !r[8].is_string() || r[8].get<std::string>().size() != 16 ||
+        r[8].get<std::string>().find_first_not_of("0123456789abcdef") != std::string::npos)
+      throw io::io_error(name, "invalid tile plan: " + at + " must be [first, count, 6 box bounds, \"hash\"]");
+    plan_run e;
+    e.first = whole_number<std::uint64_t>(r[0], at + "'s first point");
+    e.count = whole_number<std::uint64_t>(r[1], at + "'s count");
+    for (std::size_t k = 0; k < 6; ++k) {
+      if (!r[2 + k].is_number() || !std::isfinite(r[2 + k].get<double>()) ||
+          std::fabs(r[2 + k].get<double>()) > std::numeric_limits<float>::max())
+        throw io::io_error(name, "invalid tile plan: " + at + "'s box must be 6 finite numbers");
+      e.box[k] = static_cast<float>(r[2 + k].get<double>());
+    }
+    e.hash = std::stoull(r[8].get<std::string>(), nullptr, 16);
+    if (e.first != next || e.count == 0 || e.count > p.file_points - next || !(e.box[0] <= e.box[3]) ||
+        !(e.box[1] <= e.box[4]) || !(e.box[2] <= e.box[5]))
+      throw io::io_error(name, "invalid tile plan: " + at + " is empty, out of order or its box is inverted");
+    next += e.count;
+    p.runs.push_back(e);
+  }
+  if (next != p.file_points)
+    throw io::io_error(name, "invalid tile plan: its runs hold " + std::to_string(next) + " points, its input has " +
+                                 std::to_string(p.file_points));
+}
+
 }  // namespace
 
 namespace tiled_detail {
@@ -229,6 +262,14 @@ std::string tile_plan::to_json() const {
   if (tile_fields) j["tile_fields"] = *tile_fields;
   auto& tl = j["tiles"] = nlohmann::json::array();
   for (const auto& t : tiles) tl.push_back({t.id, t.core_points, t.points});
+  if (!runs.empty()) {
+    auto& rl = j["runs"] = nlohmann::json::array();
+    for (const auto& r : runs) {
+      auto& e = rl.emplace_back(nlohmann::json::array({r.first, r.count}));
+      for (float b : r.box) e.push_back(double(b));
+      e.push_back(hex(r.hash));
+    }
+  }
   return j.dump(1) + "\n";
 }
 
@@ -248,6 +289,7 @@ tile_plan tile_plan::from_json(const std::string& text, const std::string& name)
     fields_from_json(j.at("fields"), p, name);
     if (j.contains("tile_fields")) tile_fields_from_json(j.at("tile_fields"), p, name);
     tiles_from_json(j.at("tiles"), p, name);
+    if (j.contains("runs")) runs_from_json(j.at("runs"), p, name);
   } catch (const nlohmann::json::exception& e) {
     throw io::io_error(name, std::string("malformed tile plan: ") + e.what());
   } catch (const std::invalid_argument& e) {

@@ -405,10 +405,62 @@ std::vector<tile_entry> count_tiles(io::point_stream& s, const tile_plan& p, con
 
 }  // namespace tiled_detail
 
+namespace {
+
+/// Pass 2 over a LAS or LAZ file, run by run (`runs`: its chunk_runs(), every
+/// point finite): points per tile, and each run's box and hash (tile_plan::runs).
+void count_tiles_by_runs(io::point_stream& s, tile_plan& p, const std::vector<io::point_stream::point_run>& runs,
+                         const tiled_progress& progress) {
+  tile_counter counts(p.grid.count());
+  std::vector<std::uint64_t> near;
+  std::vector<std::string> names;
+  for (const plan_field& f : p.fields) names.push_back(f.name);
+  std::uint64_t done = 0;
+  p.runs.clear();
+  for_each_run_group(s, runs, names, p.origin, [&](const point_cloud& c, std::size_t r0, std::size_t r1) {
+    std::size_t at = 0;
+    for (std::size_t r = r0; r < r1; ++r) {
+      const auto n = static_cast<std::size_t>(runs[r].count);
+      if (at + n > c.size()) throw io::io_error(p.request.input, "a run of its points reads short: make a new plan");
+      plan_run& e = p.runs.emplace_back();
+      e.first = runs[r].first;
+      e.count = runs[r].count;
+      e.hash = hash_points(c, at, n, 0);
+      e.box = {c.position(at)[0], c.position(at)[1], c.position(at)[2],
+               c.position(at)[0], c.position(at)[1], c.position(at)[2]};
+      for (std::size_t i = at; i < at + n; ++i) {
+        const float* q = c.position(i);
+        for (std::size_t k = 0; k < 3; ++k) {
+          e.box[k] = std::min(e.box[k], q[k]);
+          e.box[3 + k] = std::max(e.box[3 + k], q[k]);
+        }
+        counts.core(p.grid.tile_of(q));
+        p.grid.tiles_near(q, near);
+        for (std::uint64_t t : near) counts.near(t);
+      }
+      at += n;
+    }
+    done += c.size();
+    if (progress) progress("reading (pass 2: points per tile)", double(done) / double(p.file_points));
+  });
+  if (done != p.file_points)
+    throw io::io_error(p.request.input, std::to_string(done) + " points read by runs; pass 1 read " +
+                                            std::to_string(p.file_points) + ": make a new plan");
+  p.tiles = counts.entries();
+}
+
+}  // namespace
+
 tile_plan plan_tiles(const tiled_request& request, const tiled_progress& progress) {
   auto s = io::open_point_stream(request.input, request.read);
   if (auto p = plan_from_index(request, *s, progress)) return std::move(*p);
   tile_plan p = plan_grid(request, *s, progress);
+  // LAS and LAZ (every point finite): a tile reads only the runs near it.
+  const auto runs = s->chunk_runs();
+  if (!runs.empty() && p.finite_points == p.file_points) {
+    count_tiles_by_runs(*s, p, runs, progress);
+    return p;
+  }
   std::uint64_t content = 0;
   p.tiles = count_tiles(*s, p, progress, &content);  // pass 2
   p.content = hex(content);

@@ -80,6 +80,12 @@ class point_stream {
   /// How far a point may lie outside its node's box: a millionth of the
   /// largest node's edge (points on a face belong to either side).
   static double index_margin(const std::vector<index_node>& nodes) noexcept;
+  /// LAS and LAZ: the file's points as consecutive runs, each of which
+  /// read_run() reads alone at little cost (LAZ: its chunks, LAS: blocks of
+  /// las_run_points), in order and covering every point: a tile plan records
+  /// each run's box, so that a tile reads only the runs near it. Other
+  /// formats: none.
+  virtual std::vector<point_run> chunk_runs() const { return {}; }
   /// LAS, after a complete pass: the flag fields some point sets (a read of
   /// every field has them). Other formats: none.
   virtual std::vector<std::string> flags_set() const { return {}; }
