@@ -210,6 +210,12 @@ reg "iterations" "--iterations 0" --iterations 0
   done
 } > "$T/wide.ply"
 check "wide: ced reads it" sh -c "'$CED' info '$T/wide.ply' | grep -q ': 4 points'"
+# An empty LAS file: info names its fields with no range (not "inf .. -inf").
+printf 'ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\nproperty float z\nend_header\n' \
+  > "$T/empty.ply"
+"$CED" convert "$T/empty.ply" "$T/empty.las"
+check "empty LAS: info says its fields have no values" \
+  sh -c "'$CED' info '$T/empty.las' > '$T/info' && grep -q 'intensity (uint16) no values' '$T/info' && ! grep -q inf '$T/info'"
 for ext in ply pcd csv; do
   expect_exit 1 "wide_out.$ext': cannot write .*65537 values per point.*at most 65536" "wide: -o .$ext" -- \
     detect "$T/wide.ply" -m xyz:0.2 -r 2 -k 1 -o "$T/wide_out.$ext" -q

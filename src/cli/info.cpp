@@ -60,7 +60,11 @@ void print_fields(const ced::point_cloud& cloud) {
       mn = std::min(mn, v);
       mx = std::max(mx, v);
     }
-    std::cout << "  " << f.name << " (" << ced::name_of(f.type()) << ") " << mn << " .. " << mx << "\n";
+    std::cout << "  " << f.name << " (" << ced::name_of(f.type()) << ") ";
+    if (cloud.empty())
+      std::cout << "no values\n";
+    else
+      std::cout << mn << " .. " << mx << "\n";
   }
 }
 
