@@ -102,8 +102,9 @@ TEST(TiledPlan, ATileOfAChangedInputIsRefused) {
 
 TEST(TiledPlan, ATileOfLasReadsTheFileOnceWithThePlansFields) {
   // LAS and LAZ take their fields (the flags a whole pass finds) from the
-  // plan, so a tile makes one pass over the file, not two; its points are
-  // those of the whole file's read. Other formats still make two passes.
+  // plan, so a tile reads its runs (here the one run: the whole file) once,
+  // not in two passes; its points are those of the whole file's read. CSV
+  // has no runs: its tiles still make two passes.
   const ced::tiled_request r = room_request(6000, 24, "once.las", 0.3);
   const ced::tile_plan p = ced::plan_tiles(r);
   ASSERT_GT(p.tiles.size(), 1u);
@@ -122,18 +123,20 @@ TEST(TiledPlan, ATileOfLasReadsTheFileOnceWithThePlansFields) {
       }
     }
   }
-  ced::tiled_request ply = r;
-  ply.input = ced_test::temp_file("once.ply");
-  ced::io::write_cloud(ply.input, whole);
-  const ced::tile_plan q = ced::plan_tiles(ply);
+  ced::tiled_request csv = r;
+  csv.input = ced_test::temp_file("once.csv");
+  ced::io::write_cloud(csv.input, whole);
+  const ced::tile_plan q = ced::plan_tiles(csv);
+  EXPECT_TRUE(q.runs.empty());
   EXPECT_EQ(ced::read_tile(q, q.tiles.front().id).decoded, 2 * q.file_points);
 }
 
-TEST(TiledPlan, ATileOfLasOrLazReadsOnlyTheRunsNearIt) {
-  // 240,000 points in bands of rows: 4 LAS runs of 65,536 points, 5 LAZ
-  // chunks of 50,000. A tile of 1 m reads the 2 or 3 runs its band meets,
-  // and gets the points and keypoints of a read of the whole file.
-  for (const std::string ext : {".las", ".laz"}) {
+TEST(TiledPlan, ATileReadsOnlyTheRunsNearIt) {
+  // 240,000 points in bands of rows: 4 runs of 65,536 points in LAS, binary
+  // PLY and binary PCD, 5 LAZ chunks of 50,000. A tile of 1 m reads the 2
+  // or 3 runs its band meets, and gets the points and keypoints of a read of
+  // the whole file.
+  for (const std::string ext : {".las", ".laz", ".ply", ".pcd"}) {
     ced::tiled_request r;
     r.input = ced_test::temp_file("rows" + ext);
     ced::io::write_cloud(r.input, rows_cloud(480, 500));
@@ -141,7 +144,7 @@ TEST(TiledPlan, ATileOfLasOrLazReadsOnlyTheRunsNearIt) {
     r.params.radius = r.params.nms_radius = 0.03;
     r.modalities = {"xyz:0.2", "rgb:0.1"};
     const ced::tile_plan p = ced::tile_plan::from_json(ced::plan_tiles(r).to_json(), "plan");
-    ASSERT_EQ(p.runs.size(), ext == ".las" ? 4u : 5u);
+    ASSERT_EQ(p.runs.size(), ext == ".laz" ? 5u : 4u);
     EXPECT_TRUE(p.content.empty());
     EXPECT_EQ(p.runs[1].first, p.runs[0].count);
     EXPECT_GT(p.runs[1].box[1], p.runs[0].box[4] - 0.02f);  // bands: the next run lies beyond

@@ -103,7 +103,8 @@ struct tile_plan {
   /// nodes' counts and boxes (read_tile() cannot check them; it checks each
   /// point against its node's box and the header's bounds instead).
   bool indexed = false;
-  /// LAS and LAZ, planned by passes: the file's runs (point_stream::
+  /// LAS, LAZ, binary PLY and PCD of finite points, planned by passes: the
+  /// file's runs (point_stream::
   /// chunk_runs()) with their boxes and hashes. A tile then reads only the
   /// runs whose box meets its core and halo, and checks each one's hash
   /// (`content` is then empty: every run is read by some tile).

@@ -1394,9 +1394,7 @@ class las_stream final : public point_stream {
         if (c.points > 0) out.push_back({c.first_point, c.points});
       return out;
     }
-    for (std::uint64_t first = 0; first < m_header.count; first += las_run_points)
-      out.push_back({first, std::min<std::uint64_t>(las_run_points, m_header.count - first)});
-    return out;
+    return fixed_runs(m_header.count);
   }
   std::vector<std::string> flags_set() const override {
     std::vector<std::string> out;
@@ -1434,9 +1432,8 @@ class las_stream final : public point_stream {
   void read_run(const point_run& r, const std::vector<std::string>& fields, const std::array<double, 3>& origin,
                 point_cloud& out) override {
     take_flags(fields);
+    check_run(r, m_header.count, true);
     m_next = r.first;
-    if (r.first > m_header.count || r.count > m_header.count - r.first)
-      throw std::logic_error("las_stream::read_run: a run past the file's points");
     read(static_cast<std::size_t>(r.count), origin, out);
   }
 

@@ -893,6 +893,15 @@ class pcd_stream final : public box_stream {
   void rewind() override { m_next = 0; }
   std::string details() const override { return pcd_details(info_of(m_h)); }
   std::uint64_t declared_points() const noexcept override { return m_h.points; }
+  std::vector<point_run> chunk_runs() const override { return fixed_runs(m_h.points); }
+  void read_run(const point_run& r, const std::vector<std::string>& fields, const std::array<double, 3>& origin,
+                point_cloud& out) override {
+    (void)fields;  // PCD has no flags
+    check_run(r, m_h.points, true);
+    m_first_pass_done = true;
+    const record_source src(*m_file, m_h.body_offset + r.first * m_point_size, m_point_size);
+    out = decode_points(src, static_cast<std::size_t>(r.count), m_layout, origin);
+  }
   /// The records at `at`, decoded as read() decodes them.
   bool read_points(const std::vector<std::uint64_t>& at, const std::vector<std::string>& fields,
                    const std::array<double, 3>& origin, point_cloud& out) override {

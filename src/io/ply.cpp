@@ -754,6 +754,17 @@ class ply_stream final : public box_stream {
   }
   std::string details() const override { return "PLY"; }
   std::uint64_t declared_points() const noexcept override { return m_h.elements[m_vertex].count; }
+  std::vector<point_run> chunk_runs() const override {
+    return m_record.fixed ? fixed_runs(declared_points()) : std::vector<point_run>{};
+  }
+  void read_run(const point_run& r, const std::vector<std::string>& fields, const std::array<double, 3>& origin,
+                point_cloud& out) override {
+    (void)fields;  // PLY has no flags
+    check_run(r, declared_points(), m_record.fixed);
+    m_first_pass_done = true;
+    const record_source src(*m_file, m_start + r.first * m_record.min, m_record.min);
+    out = decode_points(src, static_cast<std::size_t>(r.count), m_layout, origin);
+  }
   /// Fixed-size records only: those at `at`, decoded as read() decodes them.
   bool read_points(const std::vector<std::uint64_t>& at, const std::vector<std::string>& fields,
                    const std::array<double, 3>& origin, point_cloud& out) override {

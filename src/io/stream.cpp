@@ -213,6 +213,19 @@ double point_stream::index_margin(const std::vector<index_node>& nodes) noexcept
   return margin;
 }
 
+std::vector<point_stream::point_run> point_stream::fixed_runs(std::uint64_t n) {
+  std::vector<point_run> out;
+  for (std::uint64_t first = 0; first < n; first += fixed_run_points)
+    out.push_back({first, std::min<std::uint64_t>(fixed_run_points, n - first)});
+  return out;
+}
+
+void point_stream::check_run(const point_run& r, std::uint64_t n, bool runs) {
+  if (!runs) throw std::logic_error("point_stream::read_run: this stream reads no runs");
+  if (r.first > n || r.count > n - r.first)
+    throw std::logic_error("point_stream::read_run: a run past the file's points");
+}
+
 std::optional<std::vector<point_stream::point_run>> point_stream::runs_within(const double lo[3], const double hi[3]) {
   const auto nodes = index_nodes();
   if (!nodes) return std::nullopt;

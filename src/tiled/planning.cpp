@@ -407,7 +407,7 @@ std::vector<tile_entry> count_tiles(io::point_stream& s, const tile_plan& p, con
 
 namespace {
 
-/// Pass 2 over a LAS or LAZ file, run by run (`runs`: its chunk_runs(), every
+/// Pass 2 over a file of runs (LAS, LAZ, binary PLY and PCD), run by run (`runs`: its chunk_runs(), every
 /// point finite): points per tile, and each run's box and hash (tile_plan::runs).
 void count_tiles_by_runs(io::point_stream& s, tile_plan& p, const std::vector<io::point_stream::point_run>& runs,
                          const tiled_progress& progress) {
@@ -455,7 +455,7 @@ tile_plan plan_tiles(const tiled_request& request, const tiled_progress& progres
   auto s = io::open_point_stream(request.input, request.read);
   if (auto p = plan_from_index(request, *s, progress)) return std::move(*p);
   tile_plan p = plan_grid(request, *s, progress);
-  // LAS and LAZ (every point finite): a tile reads only the runs near it.
+  // LAS, LAZ, binary PLY and PCD (every point finite): a tile reads only the runs near it.
   const auto runs = s->chunk_runs();
   if (!runs.empty() && p.finite_points == p.file_points) {
     count_tiles_by_runs(*s, p, runs, progress);

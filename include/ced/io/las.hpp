@@ -74,10 +74,6 @@ point_cloud read_las_buffer(std::string_view bytes, const std::string& name, las
 /// takes their names.
 const std::vector<std::string>& las_flag_fields();
 
-/// The points of a run of an uncompressed LAS file (point_stream::chunk_runs()):
-/// 2 MiB or more of records, a read of its own for a tile.
-inline constexpr std::uint64_t las_run_points = 65536;
-
 /// The box a LAS header's bounds (min, max) vouch for: [min, max] grown on
 /// each axis by `growth` times the largest extent and one scale step; false
 /// when the bounds are not finite or not ordered. A file whose points all

@@ -80,11 +80,12 @@ class point_stream {
   /// How far a point may lie outside its node's box: a millionth of the
   /// largest node's edge (points on a face belong to either side).
   static double index_margin(const std::vector<index_node>& nodes) noexcept;
-  /// LAS and LAZ: the file's points as consecutive runs, each of which
-  /// read_run() reads alone at little cost (LAZ: its chunks, LAS: blocks of
-  /// las_run_points), in order and covering every point: a tile plan records
-  /// each run's box, so that a tile reads only the runs near it. Other
-  /// formats: none.
+  /// LAS, LAZ, binary PCD and binary PLY of fixed-size vertex records: the
+  /// file's points as consecutive runs, each of which read_run() reads alone
+  /// at little cost (LAZ: its chunks; the others: blocks of
+  /// fixed_run_points), in order and covering every point: a tile plan
+  /// records each run's box, so that a tile reads only the runs near it.
+  /// Other streams: none.
   virtual std::vector<point_run> chunk_runs() const { return {}; }
   /// LAS, after a complete pass: the flag fields some point sets (a read of
   /// every field has them). Other formats: none.
@@ -105,8 +106,8 @@ class point_stream {
     (void)box;
     return false;
   }
-  /// Reads run `r` (one of runs_within()'s; LAS: any run of the file's
-  /// points) into `out`, positions relative to `origin`, with the fields a
+  /// Reads run `r` (one of runs_within()'s or chunk_runs()'s; LAS: any run
+  /// of the file's points) into `out`, positions relative to `origin`, with the fields a
   /// complete pass would give: `fields` names the flags among them (a tile
   /// plan records them), as no pass learns them here. The stream's pass is
   /// then spent: origin(), bounds() and flags_set() no longer hold.
@@ -141,6 +142,17 @@ class point_stream {
     (void)out;
     throw std::logic_error("point_stream::read_run: this stream has no spatial index");
   }
+
+  /// Points in a run of chunk_runs() for files of fixed-size records: 2 MiB
+  /// or more of records, a read of its own for a tile.
+  static constexpr std::uint64_t fixed_run_points = 65536;
+
+ protected:
+  /// chunk_runs() of a file of `n` fixed-size records: blocks of fixed_run_points.
+  static std::vector<point_run> fixed_runs(std::uint64_t n);
+  /// Throws std::logic_error unless `r` is a run of a file of `n` points
+  /// whose stream reads runs (`runs`).
+  static void check_run(const point_run& r, std::uint64_t n, bool runs);
 };
 
 /// Opens `path` for reading in chunks (format and fields as in read_options).
