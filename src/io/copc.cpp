@@ -27,34 +27,13 @@ constexpr int k_grid_bits = 7;
 /// The deepest level: its nodes keep every point that reaches them.
 constexpr int k_max_depth = 12;
 
-struct las14 {
-  const unsigned char* d = nullptr;
-  std::size_t point_offset = 0, record = 0, vlr_count = 0;
-  std::uint64_t count = 0;
-  int format = 0;
-  double scale[3] = {1, 1, 1}, offset[3] = {0, 0, 0};
-};
-
-las14 parse_las14(std::string_view las, const std::string& name) {
-  las14 h;
-  h.d = reinterpret_cast<const unsigned char*>(las.data());
+/// The LAS 1.4 file the writer takes (ced's own output): its head, checked.
+las_head parse_las14(std::string_view las, const std::string& name) {
+  const las_head h = read_las_head(las, name);
   const auto bad = [&](const std::string& why) { return std::invalid_argument(name + ": " + why); };
-  if (las.size() < k_header_14 || std::memcmp(h.d, "LASF", 4) != 0 || h.d[24] != 1 || h.d[25] != 4 ||
-      load_le<std::uint16_t>(h.d + 94) != k_header_14)
-    throw bad("COPC is written from LAS 1.4 records");
-  h.format = h.d[104];
+  if (h.minor != 4 || h.header_size != k_header_14) throw bad("COPC is written from LAS 1.4 records");
   if (h.format < 6 || h.format > 8) throw bad("COPC is written for point formats 6-8");
-  if (load_le<std::uint32_t>(h.d + 243) != 0) throw bad("extended VLRs are not carried into COPC");
-  h.point_offset = load_le<std::uint32_t>(h.d + 96);
-  h.vlr_count = load_le<std::uint32_t>(h.d + 100);
-  h.record = load_le<std::uint16_t>(h.d + 105);
-  h.count = load_le<std::uint64_t>(h.d + 247);
-  for (int k = 0; k < 3; ++k) {
-    h.scale[k] = load_le<double>(h.d + 131 + 8 * k);
-    h.offset[k] = load_le<double>(h.d + 155 + 8 * k);
-  }
-  if (h.point_offset > las.size() || h.count > (las.size() - h.point_offset) / std::max<std::size_t>(h.record, 1))
-    throw bad("the point records run past the end");
+  if (h.evlr_offset != 0 || h.evlr_count != 0) throw bad("extended VLRs are not carried into COPC");
   if (h.count >= (std::uint64_t(1) << 32)) throw bad("COPC is written for fewer than 2^32 points");
   return h;
 }
@@ -68,11 +47,11 @@ struct cube {
 };
 
 /// The cube and GPS range of the records, in one pass over them.
-cube cube_of(const las14& h) {
+cube cube_of(const las_head& h) {
   std::int32_t lo[3] = {INT32_MAX, INT32_MAX, INT32_MAX}, hi[3] = {INT32_MIN, INT32_MIN, INT32_MIN};
   cube c;
-  const unsigned char* r = h.d + h.point_offset;
-  for (std::uint64_t i = 0; i < h.count; ++i, r += h.record) {
+  const unsigned char* r = h.records;
+  for (std::uint64_t i = 0; i < h.count; ++i, r += h.record_length) {
     for (int k = 0; k < 3; ++k) {
       const auto v = load_le<std::int32_t>(r + 4 * k);
       lo[k] = std::min(lo[k], v);
@@ -101,7 +80,7 @@ std::uint64_t node_key(int depth, std::uint64_t x, std::uint64_t y, std::uint64_
 /// The node of each point (its key), levels of detail by grid sampling: a
 /// point stays at the shallowest depth where it is the first (in file order)
 /// in its cell of that depth's grid.
-std::vector<std::uint64_t> assign_nodes(const las14& h, const cube& c) {
+std::vector<std::uint64_t> assign_nodes(const las_head& h, const cube& c) {
   const std::size_t n = static_cast<std::size_t>(h.count);
   std::vector<std::uint64_t> key(n, 0);
   std::vector<std::uint32_t> left(n);
@@ -115,7 +94,7 @@ std::vector<std::uint64_t> assign_nodes(const las14& h, const cube& c) {
     cells.resize(left.size());
     ced::detail::parallel_for(left.size(), 0, 4096, [&](std::size_t b, std::size_t e) {
       for (std::size_t j = b; j < e; ++j) {
-        const unsigned char* r = h.d + h.point_offset + std::size_t(left[j]) * h.record;
+        const unsigned char* r = h.records + std::size_t(left[j]) * h.record_length;
         std::uint64_t cell[3];
         for (int k = 0; k < 3; ++k) {
           const double p = load_le<std::int32_t>(r + 4 * k) * h.scale[k] + h.offset[k];
@@ -144,7 +123,7 @@ struct coded_nodes {
 
 /// The points grouped by node (in key order, file order within a node),
 /// each node coded as one chunk, in parallel.
-coded_nodes code_nodes(const las14& h, const laz_layout& layout, const std::vector<std::uint64_t>& key) {
+coded_nodes code_nodes(const las_head& h, const laz_layout& layout, const std::vector<std::uint64_t>& key) {
   std::vector<std::uint32_t> order(key.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<std::uint32_t>(i);
   std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return key[a] < key[b]; });
@@ -164,10 +143,10 @@ coded_nodes code_nodes(const las14& h, const laz_layout& layout, const std::vect
     std::string records;
     for (std::size_t i = b; i < e; ++i) {
       const std::size_t m = first[i + 1] - first[i];
-      records.resize(m * h.record);
+      records.resize(m * h.record_length);
       for (std::size_t j = 0; j < m; ++j)
-        std::memcpy(records.data() + j * h.record, h.d + h.point_offset + std::size_t(order[first[i] + j]) * h.record,
-                    h.record);
+        std::memcpy(records.data() + j * h.record_length,
+                    h.records + std::size_t(order[first[i] + j]) * h.record_length, h.record_length);
       encode_laz_chunk(layout, reinterpret_cast<const unsigned char*>(records.data()), m, out.chunks[i]);
       out.points[i] = static_cast<std::uint32_t>(std::min<std::size_t>(m, UINT32_MAX));
       out.bytes[i] = static_cast<std::uint32_t>(std::min<std::size_t>(out.chunks[i].size(), UINT32_MAX));
@@ -198,9 +177,9 @@ std::string copc_info_vlr(const cube& c, std::uint64_t root_offset, std::uint64_
 }  // namespace
 
 std::string copc_from_las(std::string_view las, const std::string& name) {
-  const las14 h = parse_las14(las, name);
+  const las_head h = parse_las14(las, name);
   const cube c = cube_of(h);
-  const laz_layout layout = layered_layout(h.format, h.record);
+  const laz_layout layout = layered_layout(h.format, h.record_length);
   const coded_nodes nodes = code_nodes(h, layout, assign_nodes(h, c));
   // The head: the public header, the COPC info VLR (first, as COPC asks),
   // the LASzip VLR, the LAS file's VLRs.
@@ -217,7 +196,7 @@ std::string copc_from_las(std::string_view las, const std::string& name) {
   out.append(las.substr(0, k_header_14));
   auto* o = reinterpret_cast<unsigned char*>(out.data());
   store_le<std::uint32_t>(o + 96, static_cast<std::uint32_t>(head));
-  store_le<std::uint32_t>(o + 100, static_cast<std::uint32_t>(h.vlr_count + 2));
+  store_le<std::uint32_t>(o + 100, static_cast<std::uint32_t>(h.vlrs + 2));
   o[104] = static_cast<unsigned char>(h.format | 0x80);
   store_le<std::uint64_t>(o + 235, evlr);
   store_le<std::uint32_t>(o + 243, 1);

@@ -1256,14 +1256,34 @@ std::string las_point_records(std::string_view bytes, const std::string& name) {
   return std::string(records.data(), records.size());
 }
 
-std::string laz_from_las(std::string_view las, const std::string& name, std::uint32_t chunk_size,
-                         const std::vector<std::uint32_t>& chunk_points) {
+las_head read_las_head(std::string_view las, const std::string& name) {
   const auto* d = reinterpret_cast<const unsigned char*>(las.data());
   const las_header h = read_header(d, las.size(), name);
   read_vlrs(d, h, name);
   if (h.compressed) throw std::invalid_argument(name + ": already compressed");
+  las_head out;
+  out.records = d + h.point_offset;
+  out.header_size = h.header_size;
+  out.point_offset = h.point_offset;
+  out.record_length = h.record_length;
+  out.vlrs = h.n_vlrs;
+  out.count = h.count;
+  if (h.minor >= 4) {
+    out.evlr_offset = load_le<std::uint64_t>(d + 235);
+    out.evlr_count = load_le<std::uint32_t>(d + 243);
+  }
+  out.minor = h.minor;
+  out.format = h.format;
+  out.scale = h.scale;
+  out.offset = h.offset;
+  return out;
+}
+
+std::string laz_from_las(std::string_view las, const std::string& name, std::uint32_t chunk_size,
+                         const std::vector<std::uint32_t>& chunk_points) {
+  const las_head h = read_las_head(las, name);
   if (h.format > 3) throw std::invalid_argument(name + ": LAZ is written for point formats 0-3 only");
-  if (h.minor >= 4 && load_le<std::uint64_t>(d + 235) != 0)
+  if (h.evlr_offset != 0 || h.evlr_count != 0)
     throw std::invalid_argument(name + ": extended VLRs are not carried into LAZ");
   const bool variable = !chunk_points.empty();
   if (!variable && chunk_size == 0) throw std::invalid_argument("laz_from_las: a chunk size of 0");
@@ -1277,10 +1297,9 @@ std::string laz_from_las(std::string_view las, const std::string& name, std::uin
   for (std::size_t i = 0; i < points.size(); ++i) first[i + 1] = first[i] + points[i];
   if (first.back() != h.count) throw std::invalid_argument("laz_from_las: the chunks do not hold the points");
   std::vector<std::string> coded(points.size());
-  const auto* records = d + h.point_offset;
   ced::detail::parallel_for(points.size(), 0, 1, [&](std::size_t b, std::size_t e) {
     for (std::size_t i = b; i < e; ++i)
-      encode_laz_chunk(layout, records + first[i] * h.record_length, points[i], coded[i]);
+      encode_laz_chunk(layout, h.records + first[i] * h.record_length, points[i], coded[i]);
   });
   std::vector<std::uint32_t> bytes;
   for (const std::string& c : coded) bytes.push_back(static_cast<std::uint32_t>(c.size()));

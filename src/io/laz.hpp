@@ -13,6 +13,7 @@
 // independent, so they decode in parallel.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -149,6 +150,20 @@ void encode_laz_chunk(const laz_layout& layout, const unsigned char* records, st
 /// The chunk table of chunks of these points (written when `variable`) and bytes.
 std::string encode_chunk_table(const std::vector<std::uint32_t>& points, const std::vector<std::uint32_t>& bytes,
                                bool variable);
+
+/// The head of an uncompressed LAS file held in `las`, checked as
+/// read_las() checks it (io_error naming `name`; std::invalid_argument when
+/// it is compressed): what the LAZ and COPC writers take from it.
+struct las_head {
+  const unsigned char* records = nullptr;  ///< the first point record
+  std::size_t header_size = 0, point_offset = 0, record_length = 0;
+  std::uint32_t vlrs = 0;
+  std::uint64_t count = 0;
+  std::uint64_t evlr_offset = 0, evlr_count = 0;  ///< LAS 1.4; 0 before
+  int minor = 0, format = 0;
+  std::array<double, 3> scale{}, offset{};
+};
+las_head read_las_head(std::string_view las, const std::string& name);
 
 /// The LAZ file of a LAS file held in `las` (point format 0-3, no extended
 /// VLRs): the LASzip VLR after its VLRs, its records in chunks of
