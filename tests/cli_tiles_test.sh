@@ -91,13 +91,13 @@ same_outputs "LAZ whole" "$T/lz" laz_whole
 "$CED" detect "$laz" "${lazargs[@]}" --tile-size 250 --indices "$T/lzt.txt" --indices-original "$T/lzt_o.txt" \
   -o "$T/lzt.las" -q
 same_outputs "LAZ --tile-size" "$T/lzt" laz_whole
-"$CED" plan "$laz" "${lazargs[@]}" --tile-size 250 -o "$T/lzplan.json" -q
-for id in $(tr -d ' \n' < "$T/lzplan.json" | grep -o '"tiles":\[.*\]' | grep -o '\[[0-9]*,' | tr -d '[,'); do
-  "$CED" detect --plan "$T/lzplan.json" --tile "$id" -o "$T/lzpart_$id.cedpart" -q || echo "LAZ tile $id failed"
-done
-"$CED" merge "$T/lzplan.json" "$T"/lzpart_*.cedpart --indices "$T/lzp.txt" --indices-original "$T/lzp_o.txt" \
-  -o "$T/lzp.las" -q
+"$CED" plan "$laz" "${lazargs[@]}" --tile-size 250 -o "$T/lzplan.json" 2> "$T/lzplan_err"
+check "LAZ: ced plan records the file's runs" grep -q "3 runs (LAZ chunks" "$T/lzplan_err"
+run_tiles_and_merge "$T/lzplan.json" lzp
 same_outputs "LAZ plan + tiles + merge" "$T/lzp" laz_whole
+# Each tile decodes only the chunks near it: 1 or 2 of the 3 (flight-line order).
+check "LAZ: every tile reads only the runs near it" \
+  test "$(grep -c "[12] of the file's 3 runs" "$T/lzp_err")" = "$(grep -c '^ced: tile' "$T/lzp_err")"
 if [ -n "$MPI" ] && command -v mpirun > /dev/null; then
   mpirun --allow-run-as-root --oversubscribe -np 2 "$MPI" detect "$laz" "${lazargs[@]}" --tile-size 250 \
     --indices "$T/lzm.txt" --indices-original "$T/lzm_o.txt" -o "$T/lzm.las" -q
