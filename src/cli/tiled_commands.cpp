@@ -16,6 +16,7 @@
 #include "../core/hash.hpp"
 #include "ced/ced.hpp"
 #include "ced/io/io.hpp"
+#include "ced/io/stream.hpp"
 #include "ced/tiled.hpp"
 #include "commands.hpp"
 #include "common.hpp"
@@ -177,10 +178,14 @@ void report_plan(const ced::tile_plan& p, bool quiet, bool grows_reach) {
                  "ced: planned from %s's COPC index and header, without a pass over the points: the tiles' counts "
                  "below are estimates (ced plan --scan counts them)\n",
                  p.request.input.c_str());
-  if (!p.runs.empty())
+  if (!p.runs.empty()) {
+    const std::string what = p.details.rfind("LAZ", 0) == 0
+                                 ? std::string("LAZ chunks")
+                                 : "blocks of " + std::to_string(ced::io::point_stream::fixed_run_points) + " records";
     std::fprintf(stderr,
                  "ced: the plan records the file's %zu runs (%s) with their boxes: a tile reads those near it\n",
-                 p.runs.size(), p.details.rfind("LAZ", 0) == 0 ? "LAZ chunks" : "blocks of 65,536 records");
+                 p.runs.size(), what.c_str());
+  }
   if (p.request.reach_estimated)
     std::fprintf(stderr,
                  "ced: the neighbourhood reaches as far as the data make it, and no reach= was given: the tiles take "

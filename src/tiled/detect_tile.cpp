@@ -101,8 +101,7 @@ std::optional<tile_points> read_tile_indexed(const tile_plan& plan, std::uint64_
   if (plan.indexed && !s.header_box(0.005, header)) input_changed(plan, "its header's bounds are not finite");
   double lo[3], hi[3];
   tile_region(plan, id, lo, hi);
-  std::vector<std::string> names;
-  for (const plan_field& f : plan.fields) names.push_back(f.name);
+  const std::vector<std::string> names = field_names(plan);
   const auto coords = plan.grid.coords(id);
   const std::vector<plan_field> tile_fields = tile_fields_of(plan);
   const std::size_t rs = record_size(plan);
@@ -156,8 +155,7 @@ std::optional<tile_points> read_tile_runs(const tile_plan& plan, std::uint64_t i
     wanted.push_back(runs[r]);
     which.push_back(r);
   }
-  std::vector<std::string> names;
-  for (const plan_field& f : plan.fields) names.push_back(f.name);
+  const std::vector<std::string> names = field_names(plan);
   const auto coords = plan.grid.coords(id);
   const std::vector<plan_field> tile_fields = tile_fields_of(plan);
   const std::size_t rs = record_size(plan);
@@ -200,8 +198,7 @@ tile_points read_tile(const tile_plan& plan, std::uint64_t id) {
   if (plan.indexed) input_changed(plan, "it no longer has the spatial index the plan was made from");
   // The whole file's fields (LAS flags) as the plan names them, else a
   // pass to learn them; then the tile's points.
-  std::vector<std::string> names;
-  for (const plan_field& f : plan.fields) names.push_back(f.name);
+  const std::vector<std::string> names = field_names(plan);
   const bool named = s->take_fields(names);
   if (!named) {
     for_each_chunk(*s, {0, 0, 0}, [](const point_cloud&) {});

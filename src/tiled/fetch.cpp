@@ -55,8 +55,7 @@ record_fetcher::record_fetcher(const tile_plan& plan, bool fields) : m_plan(plan
   io::read_options read = plan.request.read;
   if (!fields) read.fields = field_selection::only({});
   m_stream = io::open_point_stream(plan.request.input, read);
-  if (fields)
-    for (const plan_field& f : plan.fields) m_field_names.push_back(f.name);
+  if (fields) m_field_names = field_names(plan);
   // Every point finite: a keypoint's index among the finite points is its file index.
   point_cloud none;
   m_records = plan.finite_points == plan.file_points && m_stream->declared_points() == plan.file_points &&

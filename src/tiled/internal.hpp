@@ -178,6 +178,13 @@ struct tile_counter {
   }
   void core(std::uint64_t t) { dense ? ++core_v[t] : ++sparse[t].first; }
   void near(std::uint64_t t) { dense ? ++all_v[t] : ++sparse[t].second; }
+  /// Point q (finite) of grid g: its own tile, and every tile it is near
+  /// (`near_tiles`: scratch).
+  void point(const tile_grid& g, const float* q, std::vector<std::uint64_t>& near_tiles) {
+    core(g.tile_of(q));
+    g.tiles_near(q, near_tiles);
+    for (std::uint64_t t : near_tiles) near(t);
+  }
   std::vector<tile_entry> entries() const;
 };
 
@@ -254,6 +261,10 @@ T load_le(const char* p) noexcept {
 
 /// The fields the tile cache and the parts carry (tile_plan::tile_fields).
 std::vector<plan_field> tile_fields_of(const tile_plan& p);
+
+/// The names of the plan's fields (every field of the input), in order: what
+/// a stream reads them by (point_stream::read_run(), take_fields()).
+std::vector<std::string> field_names(const tile_plan& p);
 
 /// Bytes of one record of a part of the plan (its tile fields).
 std::size_t record_size(const tile_plan& p);

@@ -392,9 +392,7 @@ std::vector<tile_entry> count_tiles(io::point_stream& s, const tile_plan& p, con
     if (content) *content = hash_chunk(c, *content);
     for (std::size_t i = 0; i < c.size(); ++i) {
       if (!finite3(c.position(i))) continue;
-      counts.core(p.grid.tile_of(c.position(i)));
-      p.grid.tiles_near(c.position(i), near);
-      for (std::uint64_t t : near) counts.near(t);
+      counts.point(p.grid, c.position(i), near);
     }
     done += c.size();
     if (progress) progress("reading (pass 2: points per tile)", double(done) / double(p.file_points));
@@ -413,8 +411,7 @@ void count_tiles_by_runs(io::point_stream& s, tile_plan& p, const std::vector<io
                          const tiled_progress& progress) {
   tile_counter counts(p.grid.count());
   std::vector<std::uint64_t> near;
-  std::vector<std::string> names;
-  for (const plan_field& f : p.fields) names.push_back(f.name);
+  const std::vector<std::string> names = field_names(p);
   std::uint64_t done = 0;
   p.runs.clear();
   for_each_run_group(s, runs, names, p.origin, [&](const point_cloud& c, std::size_t r0, std::size_t r1) {
@@ -426,17 +423,15 @@ void count_tiles_by_runs(io::point_stream& s, tile_plan& p, const std::vector<io
       e.first = runs[r].first;
       e.count = runs[r].count;
       e.hash = hash_points(c, at, n, 0);
-      e.box = {c.position(at)[0], c.position(at)[1], c.position(at)[2],
-               c.position(at)[0], c.position(at)[1], c.position(at)[2]};
+      const float* q0 = c.position(at);
+      e.box = {q0[0], q0[1], q0[2], q0[0], q0[1], q0[2]};
       for (std::size_t i = at; i < at + n; ++i) {
         const float* q = c.position(i);
         for (std::size_t k = 0; k < 3; ++k) {
           e.box[k] = std::min(e.box[k], q[k]);
           e.box[3 + k] = std::max(e.box[3 + k], q[k]);
         }
-        counts.core(p.grid.tile_of(q));
-        p.grid.tiles_near(q, near);
-        for (std::uint64_t t : near) counts.near(t);
+        counts.point(p.grid, q, near);
       }
       at += n;
     }

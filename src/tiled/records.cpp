@@ -64,6 +64,12 @@ std::vector<plan_field> tile_fields_of(const tile_plan& p) {
   return out;
 }
 
+std::vector<std::string> field_names(const tile_plan& p) {
+  std::vector<std::string> out;
+  for (const plan_field& f : p.fields) out.push_back(f.name);
+  return out;
+}
+
 std::size_t record_size(const tile_plan& p) {
   std::size_t s = 8 + 8 + 12;
   for (const auto& f : tile_fields_of(p)) s += size_of(f.type);
