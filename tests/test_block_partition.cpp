@@ -3,9 +3,12 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <cstdint>
+#include <random>
 #include <vector>
 
 #include "core/block_partition.hpp"
+#include "core/neighbor_block.hpp"
 #include "test_support.hpp"
 
 TEST(BlockPartition, CoversEveryPointOnce) {
@@ -37,5 +40,44 @@ TEST(BlockPartition, SameBlocksForAnyThreadCount) {
     EXPECT_EQ(b.order(), one.order()) << t << " threads";
     ASSERT_EQ(b.block_count(), one.block_count());
     for (std::size_t k = 0; k < b.block_count(); ++k) ASSERT_EQ(b.block_size(k), one.block_size(k));
+  }
+}
+
+TEST(BlockPartition, BoxSearchFindsThePointsInTheBoxInOneOrderOnEveryBuild) {
+  const auto c = ced_test::make_room(20000, 10);
+  const float* xyz = c.positions().data();
+  const ced::block_partition b(xyz, c.size(), 0.05, 2);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> at(-0.2f, 1.2f), side(0.0f, 0.3f);
+  ced::detail::raw_vector<ced::neighbor_index::located_point> located;
+  std::vector<std::uint32_t> ids;
+  for (int q = 0; q < 300; ++q) {
+    float lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = at(rng);
+      // Mostly boxes of a few cells; some of many rows (searched point by
+      // point), and some that reach the last cell of the order.
+      hi[a] = q % 10 == 0 ? lo[a] + 2.0f : q % 10 == 1 ? 2.0f : lo[a] + side(rng);
+    }
+    std::vector<std::uint32_t> expected;
+    for (std::uint32_t i = 0; i < c.size(); ++i) {
+      const float* p = xyz + 3 * std::size_t(i);
+      if (p[0] >= lo[0] && p[0] <= hi[0] && p[1] >= lo[1] && p[1] <= hi[1] && p[2] >= lo[2] && p[2] <= hi[2])
+        expected.push_back(i);
+    }
+    b.box_search(lo, hi, ids);
+    std::vector<std::uint32_t> sorted = ids;
+    std::sort(sorted.begin(), sorted.end());
+    ASSERT_EQ(sorted, expected) << "box " << q;
+    for (bool generic : {false, true}) {
+      ced::detail::force_generic_kernel(generic);
+      b.box_search(lo, hi, located);
+      ced::detail::force_generic_kernel(false);
+      ASSERT_EQ(located.size(), ids.size()) << "box " << q << (generic ? " generic" : "");
+      for (std::size_t k = 0; k < ids.size(); ++k) {
+        ASSERT_EQ(located[k].index, ids[k]) << "box " << q << ", point " << k << (generic ? " generic" : "");
+        for (int a = 0; a < 3; ++a) ASSERT_EQ(located[k].xyz[a], xyz[3 * std::size_t(ids[k]) + std::size_t(a)]);
+      }
+    }
   }
 }

@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "core/neighbor_block.hpp"
 #include "core/parallel.hpp"
 #include "core/raw_vector.hpp"
 
@@ -155,20 +156,40 @@ block_partition::block_partition(const float* xyz, std::size_t n, double cell_si
   else
     sort_into_blocks<std::uint64_t>(xyz, n, m_base, m_dims, m_inv, chunks, for_chunks, m_order, m_starts, m_cell_keys,
                                     m_cell_starts);
+  // The positions in that order: a box search then reads whole runs of
+  // memory, not one scattered point after another.
+  // (Structure of arrays, each readable 8 past its end.)
+  for (auto* v : {&m_x, &m_y, &m_z}) {
+    v->resize(n + 8);
+    std::fill_n(v->begin() + std::ptrdiff_t(n), 8, 0.0f);
+  }
+  for_chunks([&](std::size_t, std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) {
+      const float* p = xyz + 3 * std::size_t(m_order[i]);
+      m_x[i] = p[0];
+      m_y[i] = p[1];
+      m_z[i] = p[2];
+    }
+  });
 }
 
-template <class F>
-void block_partition::for_each_in_box(const float* xyz, const float lo[3], const float hi[3], F&& f) const {
-  if (m_cell_keys.empty()) return;
-  std::int64_t c0[3], c1[3];
+bool block_partition::cell_range(const float lo[3], const float hi[3], std::int64_t c0[3], std::int64_t c1[3]) const {
+  if (m_cell_keys.empty()) return false;
   for (int k = 0; k < 3; ++k) {
     const double last = double(m_dims[k] - 1);
     const double a = std::max(0.0, std::floor(double(lo[k]) * m_inv) - m_base[k]);
     const double b = std::min(last, std::floor(double(hi[k]) * m_inv) - m_base[k]);
-    if (!(a <= b)) return;
+    if (!(a <= b)) return false;
     c0[k] = static_cast<std::int64_t>(a);
     c1[k] = static_cast<std::int64_t>(b);
   }
+  return true;
+}
+
+template <class F>
+void block_partition::for_each_in_box(const float lo[3], const float hi[3], F&& f) const {
+  std::int64_t c0[3], c1[3];
+  if (!cell_range(lo, hi, c0, c1)) return;
   // Cells in key order, points of a cell in index order: the same order for
   // any part of the cloud that holds the cells' points.
   const auto dx = static_cast<std::int64_t>(m_dims[0]), dy = static_cast<std::int64_t>(m_dims[1]);
@@ -181,7 +202,7 @@ void block_partition::for_each_in_box(const float* xyz, const float lo[3], const
         const auto c = static_cast<std::size_t>(it - m_cell_keys.begin());
         for (std::size_t i = m_cell_starts[c]; i < m_cell_starts[c + 1]; ++i) {
           const std::uint32_t j = m_order[i];
-          const float* p = xyz + 3 * std::size_t(j);
+          const float p[3] = {m_x[i], m_y[i], m_z[i]};
           if (p[0] >= lo[0] && p[0] <= hi[0] && p[1] >= lo[1] && p[1] <= hi[1] && p[2] >= lo[2] && p[2] <= hi[2])
             f(j, p);
         }
@@ -189,16 +210,53 @@ void block_partition::for_each_in_box(const float* xyz, const float lo[3], const
     }
 }
 
-void block_partition::box_search(const float* xyz, const float lo[3], const float hi[3],
-                                 std::vector<neighbor_index::located_point>& out) const {
-  out.clear();
-  for_each_in_box(xyz, lo, hi, [&](std::uint32_t j, const float* p) { out.push_back({{p[0], p[1], p[2]}, j}); });
+void block_partition::box_search(const float lo[3], const float hi[3],
+                                 detail::raw_vector<neighbor_index::located_point>& out) const {
+  // The same points in the same order as for_each_in_box, without a branch
+  // per point: each row of cells is one run of the order, every point of it
+  // is written and kept when it lies in the box (a test far harder to
+  // predict than to compute, on the points near the box's faces).
+  std::size_t runs[2 * max_box_rows];
+  const std::size_t rows = row_runs(lo, hi, runs);
+  if (rows == max_box_rows + 1) {  // a box of many rows: one point at a time
+    out.clear();
+    for_each_in_box(lo, hi, [&](std::uint32_t j, const float* p) { out.push_back({{p[0], p[1], p[2]}, j}); });
+    return;
+  }
+  std::size_t room = 0;
+  for (std::size_t q = 0; q < rows; ++q) room += runs[2 * q + 1] - runs[2 * q];
+  out.resize(room + 8);
+  static_assert(sizeof(neighbor_index::located_point) == 4 * sizeof(float));
+  float* const dst = reinterpret_cast<float*>(out.data());
+  std::size_t n = 0;
+  for (std::size_t q = 0; q < rows; ++q)
+    n += detail::select_in_box(m_x.data(), m_y.data(), m_z.data(), m_order.data(), runs[2 * q], runs[2 * q + 1], lo, hi,
+                               dst + 4 * n);
+  out.resize(n);
 }
 
-void block_partition::box_search(const float* xyz, const float lo[3], const float hi[3],
-                                 std::vector<std::uint32_t>& out) const {
+std::size_t block_partition::row_runs(const float lo[3], const float hi[3], std::size_t* runs) const {
+  std::int64_t c0[3], c1[3];
+  if (!cell_range(lo, hi, c0, c1)) return 0;
+  if ((c1[1] - c0[1] + 1) * (c1[2] - c0[2] + 1) > std::int64_t(max_box_rows)) return max_box_rows + 1;
+  const auto dx = static_cast<std::int64_t>(m_dims[0]), dy = static_cast<std::int64_t>(m_dims[1]);
+  std::size_t rows = 0;
+  for (std::int64_t z = c0[2]; z <= c1[2]; ++z)
+    for (std::int64_t y = c0[1]; y <= c1[1]; ++y) {
+      const auto row = static_cast<std::uint64_t>((z * dy + y) * dx);
+      const auto first = std::lower_bound(m_cell_keys.begin(), m_cell_keys.end(), row + std::uint64_t(c0[0]));
+      const auto end = std::upper_bound(first, m_cell_keys.end(), row + std::uint64_t(c1[0]));
+      if (first == end) continue;
+      runs[2 * rows] = m_cell_starts[std::size_t(first - m_cell_keys.begin())];
+      runs[2 * rows + 1] = m_cell_starts[std::size_t(end - m_cell_keys.begin())];
+      ++rows;
+    }
+  return rows;
+}
+
+void block_partition::box_search(const float lo[3], const float hi[3], std::vector<std::uint32_t>& out) const {
   out.clear();
-  for_each_in_box(xyz, lo, hi, [&](std::uint32_t j, const float*) { out.push_back(j); });
+  for_each_in_box(lo, hi, [&](std::uint32_t j, const float*) { out.push_back(j); });
 }
 
 namespace detail {

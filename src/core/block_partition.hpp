@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/neighbor_index.hpp"
+#include "core/raw_vector.hpp"
 
 namespace ced {
 
@@ -25,24 +26,31 @@ class block_partition {
   /// All points, block after block: a spatially coherent permutation.
   const std::vector<std::uint32_t>& order() const noexcept { return m_order; }
 
-  /// The points inside the closed box [lo, hi] (`xyz` the positions the
-  /// partition was made of), cell by cell in key order and by index within a
+  /// The points inside the closed box [lo, hi], cell by cell in key order and by index within a
   /// cell: an order that depends only on the points in and near the box,
   /// not on the rest of the cloud (cells lie at whole multiples of the cell
   /// size), so a part of the cloud that holds them gets the same order.
-  void box_search(const float* xyz, const float lo[3], const float hi[3],
-                  std::vector<neighbor_index::located_point>& out) const;
+  void box_search(const float lo[3], const float hi[3], detail::raw_vector<neighbor_index::located_point>& out) const;
   /// The same points, indices only.
-  void box_search(const float* xyz, const float lo[3], const float hi[3], std::vector<std::uint32_t>& out) const;
+  void box_search(const float lo[3], const float hi[3], std::vector<std::uint32_t>& out) const;
   /// The cell size used (the one asked for, unless the grid would not fit
   /// 64-bit keys: then doubled until it does).
   double cell_size() const noexcept { return 1.0 / m_inv; }
 
  private:
+  /// Boxes of up to this many rows of cells (y, z) are searched row by row.
+  static constexpr std::size_t max_box_rows = 64;
+  /// The cells [c0, c1] that the box meets; false when none.
+  bool cell_range(const float lo[3], const float hi[3], std::int64_t c0[3], std::int64_t c1[3]) const;
+  /// Each row of the box's cells that holds points, as [begin, end) of the
+  /// order (2 entries a row, in key order); max_box_rows + 1 when the box
+  /// has more rows than that.
+  std::size_t row_runs(const float lo[3], const float hi[3], std::size_t* runs) const;
   template <class F>
-  void for_each_in_box(const float* xyz, const float lo[3], const float hi[3], F&& f) const;
+  void for_each_in_box(const float lo[3], const float hi[3], F&& f) const;
 
   std::vector<std::uint32_t> m_order;
+  detail::raw_vector<float> m_x, m_y, m_z;  // the positions in that order
   std::vector<std::size_t> m_starts;
   std::vector<std::uint64_t> m_cell_keys;  // the occupied cells, ascending
   std::vector<std::size_t> m_cell_starts;  // where each starts in m_order (and the end)

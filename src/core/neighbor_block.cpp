@@ -17,6 +17,10 @@
 #include "core/parallel.hpp"
 #include "core/raw_vector.hpp"
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace ced {
 
 static_assert(neighbor_block::sweep_ranges == detail::kernel_ranges);
@@ -30,15 +34,18 @@ struct kernel_set {
                          std::int32_t*, std::uint32_t*) noexcept;
   std::uint32_t (*split)(const std::int32_t*, const std::uint32_t*, std::uint32_t, std::int32_t, std::int32_t,
                          std::int32_t*, std::uint32_t*, std::int32_t*, std::uint32_t*, std::uint32_t*) noexcept;
+  std::size_t (*select)(const float*, const float*, const float*, const std::uint32_t*, std::size_t, std::size_t,
+                        const float*, const float*, float*) noexcept;
   const char* name;
 };
-constexpr kernel_set generic_kernels{detail::block_kernel_generic, detail::compact_generic, detail::balls_generic,
-                                     detail::split_generic, "generic"};
+constexpr kernel_set generic_kernels{detail::block_kernel_generic, detail::compact_generic,       detail::balls_generic,
+                                     detail::split_generic,        detail::select_in_box_generic, "generic"};
 
 kernel_set best_kernels() noexcept {
 #if defined(CED_HAS_AVX2_KERNEL)
   if (__builtin_cpu_supports("avx2"))
-    return {detail::block_kernel_avx2, detail::compact_avx2, detail::balls_avx2, detail::split_avx2, "avx2"};
+    return {detail::block_kernel_avx2, detail::compact_avx2,       detail::balls_avx2,
+            detail::split_avx2,        detail::select_in_box_avx2, "avx2"};
 #endif
   return generic_kernels;
 }
@@ -86,6 +93,10 @@ std::uint32_t split_distances(const std::int32_t* d2_bits, const std::uint32_t* 
                               std::int32_t hi, std::int32_t* below_bits, std::uint32_t* below_ids,
                               std::int32_t* range_bits, std::uint32_t* range_ids, std::uint32_t* in_range) noexcept {
   return active_kernels().split(d2_bits, ids, n, lo, hi, below_bits, below_ids, range_bits, range_ids, in_range);
+}
+std::size_t select_in_box(const float* x, const float* y, const float* z, const std::uint32_t* ids, std::size_t b,
+                          std::size_t e, const float lo[3], const float hi[3], float* out) noexcept {
+  return active_kernels().select(x, y, z, ids, b, e, lo, hi, out);
 }
 void force_generic_kernel(bool on) noexcept { g_force_generic.store(on); }
 }  // namespace detail
@@ -230,7 +241,34 @@ std::size_t neighbor_block::copy_channels_in(const std::uint32_t* points, std::s
 /// Per point of the block: its nine ranges of gathered points and where its
 /// hit bits start.
 void neighbor_block::set_up_rows(const float* xyz, const std::uint32_t* points, std::size_t count, double r) {
-  const std::size_t g = m_raw.size();
+  grow(m_ranges, 2 * detail::kernel_ranges * count);
+  grow(m_bit_offsets, count + 1);
+  m_bit_offsets[0] = 0;
+  float* const centre = m_centre.data();
+  for (std::size_t k = 0; k < count; ++k) {
+    const float* p = xyz + 3 * std::size_t(points[k]);
+    centre[3 * k] = p[0];
+    centre[3 * k + 1] = p[1];
+    centre[3 * k + 2] = p[2];
+  }
+  if (m_single_cell) {
+    const std::size_t g = m_raw.size();
+    for (std::size_t k = 0; k < count; ++k) {
+      std::uint32_t* rg = m_ranges.data() + 2 * detail::kernel_ranges * k;
+      std::fill(rg, rg + 2 * detail::kernel_ranges, 0u);
+      rg[1] = static_cast<std::uint32_t>(g);
+      m_bit_offsets[k + 1] = static_cast<std::uint32_t>(m_bit_offsets[k] + (g + 7) / 8);
+    }
+  } else if (m_counted) {
+    const std::uint32_t* const start = m_cell_start.data();
+    rows_of_points(count, r, [start](std::int64_t key) { return std::size_t(start[key]); });
+  } else {
+    rows_of_points(count, r, [this](std::int64_t key) { return cell_start_sorted(std::uint64_t(key)); });
+  }
+}
+
+template <class StartOf>
+void neighbor_block::rows_of_points(std::size_t count, double r, StartOf start_of) {
   // Per point: the runs of sub-cells it tests, one per row (y, z) within one
   // cell, cut to the x-cells that the ball of radius r (with a margin far
   // above float rounding) reaches. Conservative: every point the float test
@@ -239,61 +277,56 @@ void neighbor_block::set_up_rows(const float* xyz, const std::uint32_t* points, 
   const std::int64_t dims_x = std::int64_t(m_dims[0]), dims_y = std::int64_t(m_dims[1]),
                      dims_z = std::int64_t(m_dims[2]), last_x = dims_x - 1;
   const double lo_x = m_lo[0], lo_y = m_lo[1], lo_z = m_lo[2], side_y = m_side[1], side_z = m_side[2];
-  const std::uint32_t* const counted_start = m_counted ? m_cell_start.data() : nullptr;
-  auto start_of = [&](std::int64_t key) {
-    return counted_start ? std::size_t(counted_start[key]) : cell_start_sorted(std::uint64_t(key));
-  };
   constexpr std::int64_t x_reach = detail::x_cells_per_radius + 1;
   constexpr double far = std::numeric_limits<double>::infinity();
-  grow(m_ranges, 2 * detail::kernel_ranges * count);
-  grow(m_bit_offsets, count + 1);
-  m_bit_offsets[0] = 0;
   std::uint32_t* const ranges = m_ranges.data();
   std::uint32_t* const bit_offsets = m_bit_offsets.data();
-  float* const centre = m_centre.data();
+  const float* const centre = m_centre.data();
   for (std::size_t k = 0; k < count; ++k) {
-    const float* p = xyz + 3 * std::size_t(points[k]);
-    centre[3 * k] = p[0];
-    centre[3 * k + 1] = p[1];
-    centre[3 * k + 2] = p[2];
+    const float* p = centre + 3 * k;
     std::uint32_t* rg = ranges + 2 * detail::kernel_ranges * k;
+    std::uint64_t c[3];
+    cell_of(p, c);
+    // Squared distances from p to the rows below, at and above its own in
+    // y and z (0 for its own); a row out of the grid is infinitely far.
+    const std::int64_t cx = std::int64_t(c[0]), cy = std::int64_t(c[1]), cz = std::int64_t(c[2]);
+    const double py = double(p[1]) - lo_y - double(cy) * side_y;
+    const double pz = double(p[2]) - lo_z - double(cz) * side_z;
+    const double gy2[3] = {cy > 0 ? py * py : far, 0.0, cy + 1 < dims_y ? (side_y - py) * (side_y - py) : far};
+    const double gz2[3] = {cz > 0 ? pz * pz : far, 0.0, cz + 1 < dims_z ? (side_z - pz) * (side_z - pz) : far};
+    // The half-widths of the ball's slices in the nine rows, two square
+    // roots an instruction (each as exact as one alone).
+    alignas(16) double left[10], w[10];
+    for (int dz = 0; dz < 3; ++dz)
+      for (int dy = 0; dy < 3; ++dy) left[3 * dz + dy] = rc2 - gy2[dy] - gz2[dz];
+    left[9] = 0;
+#if defined(__SSE2__)
+    for (int q = 0; q < 10; q += 2)
+      _mm_store_pd(w + q, _mm_sqrt_pd(_mm_max_pd(_mm_load_pd(left + q), _mm_setzero_pd())));
+#else
+    for (int q = 0; q < 10; ++q) w[q] = std::sqrt(std::max(left[q], 0.0));
+#endif
+    const double x = double(p[0]) - lo_x;
+    const std::int64_t reach_lo = cx - x_reach, reach_hi = std::min(last_x, cx + x_reach);
     std::size_t groups = 0;
-    if (m_single_cell) {
-      std::fill(rg, rg + 2 * detail::kernel_ranges, 0u);
-      rg[1] = static_cast<std::uint32_t>(g);
-      groups = (g + 7) / 8;
-    } else {
-      std::uint64_t c[3];
-      cell_of(p, c);
-      // Squared distances from p to the rows below, at and above its own in
-      // y and z (0 for its own); a row out of the grid is infinitely far.
-      const std::int64_t cx = std::int64_t(c[0]), cy = std::int64_t(c[1]), cz = std::int64_t(c[2]);
-      const double py = double(p[1]) - lo_y - double(cy) * side_y;
-      const double pz = double(p[2]) - lo_z - double(cz) * side_z;
-      const double gy2[3] = {cy > 0 ? py * py : far, 0.0, cy + 1 < dims_y ? (side_y - py) * (side_y - py) : far};
-      const double gz2[3] = {cz > 0 ? pz * pz : far, 0.0, cz + 1 < dims_z ? (side_z - pz) * (side_z - pz) : far};
-      const double x = double(p[0]) - lo_x;
-      const std::int64_t reach_lo = cx - x_reach, reach_hi = std::min(last_x, cx + x_reach);
-      for (int dz = -1; dz <= 1; ++dz) {
-        const std::int64_t plane = (cz + dz) * dims_y;
-        for (int dy = -1; dy <= 1; ++dy, rg += 2) {
-          const double left = rc2 - gy2[dy + 1] - gz2[dz + 1];
-          std::size_t b = 0, e = 0;
-          if (left >= 0) {
-            const double w = std::sqrt(left);
-            // Truncation is floor for the clamped, non-negative values.
-            const std::int64_t x0 = std::max(reach_lo, static_cast<std::int64_t>(std::max(0.0, (x - w) * inv_x)));
-            const std::int64_t x1 = std::min(reach_hi, static_cast<std::int64_t>((x + w) * inv_x));
-            if (x1 >= x0) {
-              const std::int64_t row = (plane + (cy + dy)) * dims_x;
-              b = start_of(row + x0);
-              e = start_of(row + x1 + 1);
-            }
+    for (int dz = -1; dz <= 1; ++dz) {
+      const std::int64_t plane = (cz + dz) * dims_y;
+      for (int dy = -1; dy <= 1; ++dy, rg += 2) {
+        const int q = 3 * (dz + 1) + (dy + 1);
+        std::size_t b = 0, e = 0;
+        if (left[q] >= 0) {
+          // Truncation is floor for the clamped, non-negative values.
+          const std::int64_t x0 = std::max(reach_lo, static_cast<std::int64_t>(std::max(0.0, (x - w[q]) * inv_x)));
+          const std::int64_t x1 = std::min(reach_hi, static_cast<std::int64_t>((x + w[q]) * inv_x));
+          if (x1 >= x0) {
+            const std::int64_t row = (plane + (cy + dy)) * dims_x;
+            b = start_of(row + x0);
+            e = start_of(row + x1 + 1);
           }
-          rg[0] = static_cast<std::uint32_t>(b);
-          rg[1] = static_cast<std::uint32_t>(e);
-          groups += (e - b + 7) / 8;
         }
+        rg[0] = static_cast<std::uint32_t>(b);
+        rg[1] = static_cast<std::uint32_t>(e);
+        groups += (e - b + 7) / 8;
       }
     }
     bit_offsets[k + 1] = static_cast<std::uint32_t>(bit_offsets[k] + groups);
@@ -308,7 +341,7 @@ void neighbor_block::fill(const block_partition& grid, const float* xyz, const s
   if (count == 0) return;
   float lo[3], hi[3];
   detail::padded_bounds(xyz, points, count, r, lo, hi);
-  grid.box_search(xyz, lo, hi, m_raw);
+  grid.box_search(lo, hi, m_raw);
   run(xyz, points, count, r, lo, hi);
 }
 

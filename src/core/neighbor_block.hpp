@@ -11,6 +11,7 @@
 #include "ced/neighborhood.hpp"
 #include "core/block_partition.hpp"
 #include "core/neighbor_index.hpp"
+#include "core/raw_vector.hpp"
 
 namespace ced {
 
@@ -104,6 +105,8 @@ class neighbor_block {
            const float hi[3]);
   std::size_t copy_channels_in(const std::uint32_t* points, std::size_t count);
   void set_up_rows(const float* xyz, const std::uint32_t* points, std::size_t count, double r);
+  template <class StartOf>
+  void rows_of_points(std::size_t count, double r, StartOf start_of);
   void cell_of(const float* p, std::uint64_t c[3]) const noexcept {
     // Truncation is floor here: the value is clamped to ≥ 0 first.
     for (int a = 0; a < 3; ++a) {
@@ -128,7 +131,7 @@ class neighbor_block {
   std::uint64_t m_dims[3] = {1, 1, 1};
   bool m_single_cell = false, m_counted = false;
   // The box query's points and positions, then sorted into sub-cells.
-  std::vector<neighbor_index::located_point> m_raw;
+  detail::raw_vector<neighbor_index::located_point> m_raw;
   std::vector<std::uint32_t> m_gathered, m_cell_start, m_cell_key;
   std::vector<std::pair<std::uint64_t, std::uint32_t>> m_keyed;
   std::vector<float> m_gx, m_gy, m_gz, m_channel_values, m_centre, m_own;
@@ -157,6 +160,9 @@ const char* kernel_isa() noexcept;
 std::uint32_t split_distances(const std::int32_t* d2_bits, const std::uint32_t* ids, std::uint32_t n, std::int32_t lo,
                               std::int32_t hi, std::int32_t* below_bits, std::uint32_t* below_ids,
                               std::int32_t* range_bits, std::uint32_t* range_ids, std::uint32_t* in_range) noexcept;
+/// select_in_box_* (core/kernel/block_kernel.hpp) on the chosen build.
+std::size_t select_in_box(const float* x, const float* y, const float* z, const std::uint32_t* ids, std::size_t b,
+                          std::size_t e, const float lo[3], const float hi[3], float* out) noexcept;
 /// Forces the generic build (true) or restores the automatic choice (false).
 void force_generic_kernel(bool on) noexcept;
 }  // namespace detail

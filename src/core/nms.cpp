@@ -185,7 +185,7 @@ void nms_block_by_query(const block_partition& blocks, const float* xyz, const s
   }
   float lo[3], hi[3];
   padded_bounds(xyz, candidates, count, radius, lo, hi);
-  blocks.box_search(xyz, lo, hi, scratch.gathered);
+  blocks.box_search(lo, hi, scratch.gathered);
   const nms_cells grid(xyz, score, lo, hi, radius, scratch);
   const auto& start = scratch.cell_start;
   const float fixed_r2 = squared_radius(radius);
@@ -254,7 +254,7 @@ std::vector<std::uint32_t> refine_keypoints(const block_partition& blocks, const
       const float* pk = xyz + 3 * std::size_t(k);
       float lo[3], hi[3];
       padded_bounds(xyz, &k, 1, radius, lo, hi);
-      blocks.box_search(xyz, lo, hi, ball);
+      blocks.box_search(lo, hi, ball);
       ball.erase(
           std::remove_if(ball.begin(), ball.end(),
                          [&](std::uint32_t j) { return !(squared_distance(xyz + 3 * std::size_t(j), pk) < r2); }),

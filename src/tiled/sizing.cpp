@@ -18,10 +18,11 @@ using namespace tiled_detail;
 namespace {
 
 /// Estimated bytes a tile of n points takes while it is detected: its cache
-/// records, its cloud, the detection (about 90 bytes a point for ced6d on
-/// dense clouds: docs/BENCHMARKS.md), and its keypoints.
+/// records, its cloud, the detection (about 100 bytes a point for ced6d on
+/// dense clouds, with the block partition's sorted positions: docs/BENCHMARKS.md),
+/// and its keypoints.
 double tile_bytes_per_point(const tile_plan& p) {
-  return 2.0 * double(record_size(p)) + 100.0 + 8.0 * double(p.fields.size());
+  return 2.0 * double(record_size(p)) + 112.0 + 8.0 * double(p.fields.size());
 }
 constexpr double fixed_overhead = 200.0 * (1 << 20);  // chunks, cache buffers, the program
 

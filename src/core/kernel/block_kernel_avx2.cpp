@@ -4,4 +4,5 @@
 #define CED_KERNEL_NAME_COMPACT compact_avx2
 #define CED_KERNEL_NAME_BALLS balls_avx2
 #define CED_KERNEL_NAME_SPLIT split_avx2
+#define CED_KERNEL_NAME_SELECT select_in_box_avx2
 #include "core/kernel/block_kernel.inc"
