@@ -47,6 +47,36 @@ TEST(Detect, GenericAndAvx2NeighbourPassesAgreeBitwise) {
   EXPECT_EQ(a6.keypoints, b6.keypoints);
 }
 
+// The set-up before the sweep (box query, sub-cell keys, each point's nine
+// runs) has its own AVX2 build: it must lay the block out exactly as the
+// generic one does, since the runs fix which lane sums which point.
+TEST(Detect, GenericAndAvx2BlockLayoutsAreTheSame) {
+  const auto c = make_room(20000, 17);
+  const float* xyz = c.positions().data();
+  for (const double r : {0.02, 0.05, 0.11}) {
+    const ced::block_partition grid(xyz, c.size(), 6 * r, 1);
+    ced::neighbor_block fast, generic;
+    fast.set_channels({ced::channel_source{xyz, 3, true}});
+    generic.set_channels({ced::channel_source{xyz, 3, true}});
+    for (std::size_t b = 0; b < grid.block_count(); ++b) {
+      ced::detail::force_generic_kernel(false);
+      fast.fill(grid, xyz, grid.block_points(b), grid.block_size(b), r);
+      ced::detail::force_generic_kernel(true);
+      generic.fill(grid, xyz, grid.block_points(b), grid.block_size(b), r);
+      ced::detail::force_generic_kernel(false);
+      ASSERT_EQ(fast.gathered_count(), generic.gathered_count());
+      for (std::size_t t = 0; t < fast.gathered_count(); ++t)
+        ASSERT_EQ(fast.gathered()[t], generic.gathered()[t]) << "r " << r << ", block " << b << ", point " << t;
+      for (std::size_t k = 0; k < fast.size(); ++k) {
+        const auto f = fast.sweep(k), g = generic.sweep(k);
+        ASSERT_EQ(f.bytes, g.bytes) << "r " << r << ", block " << b << ", point " << k;
+        for (std::size_t q = 0; q < 2 * ced::neighbor_block::sweep_ranges; ++q)
+          ASSERT_EQ(f.ranges[q], g.ranges[q]) << "r " << r << ", block " << b << ", point " << k << ", run " << q / 2;
+      }
+    }
+  }
+}
+
 // A modality whose evaluator reads neighbour lists (not sums) gets exactly
 // the neighbourhoods of the definition: a checksum of each point's neighbour
 // indices matches brute force, for several block sizes.

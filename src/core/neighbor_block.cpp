@@ -36,16 +36,27 @@ struct kernel_set {
                          std::int32_t*, std::uint32_t*, std::int32_t*, std::uint32_t*, std::uint32_t*) noexcept;
   std::size_t (*select)(const float*, const float*, const float*, const std::uint32_t*, std::size_t, std::size_t,
                         const float*, const float*, float*) noexcept;
+  /// The runs' set-up of counted grids (nullptr: the scalar one).
+  void (*rows)(const detail::row_grid&, std::uint32_t*, std::uint32_t*) noexcept;
+  /// The sub-cell keys of counted grids (nullptr: cell_of, point by point).
+  void (*cell_keys)(const float*, std::size_t, const double*, const double*, const std::int64_t*,
+                    std::uint32_t*) noexcept;
   const char* name;
 };
-constexpr kernel_set generic_kernels{detail::block_kernel_generic, detail::compact_generic,       detail::balls_generic,
-                                     detail::split_generic,        detail::select_in_box_generic, "generic"};
+constexpr kernel_set generic_kernels{detail::block_kernel_generic,
+                                     detail::compact_generic,
+                                     detail::balls_generic,
+                                     detail::split_generic,
+                                     detail::select_in_box_generic,
+                                     nullptr,
+                                     nullptr,
+                                     "generic"};
 
 kernel_set best_kernels() noexcept {
 #if defined(CED_HAS_AVX2_KERNEL)
   if (__builtin_cpu_supports("avx2"))
-    return {detail::block_kernel_avx2, detail::compact_avx2,       detail::balls_avx2,
-            detail::split_avx2,        detail::select_in_box_avx2, "avx2"};
+    return {detail::block_kernel_avx2,  detail::compact_avx2, detail::balls_avx2,     detail::split_avx2,
+            detail::select_in_box_avx2, detail::rows_avx2,    detail::cell_keys_avx2, "avx2"};
 #endif
   return generic_kernels;
 }
@@ -172,11 +183,13 @@ void neighbor_block::sort_into_cells(const float lo[3], const float hi[3], doubl
     grow(m_cell_start, cells + 1);
     std::fill_n(m_cell_start.begin(), cells + 1, 0u);
     grow(m_cell_key, g);
-    for (std::size_t t = 0; t < g; ++t) {
-      const auto key = static_cast<std::uint32_t>(key_of(t));
-      m_cell_key[t] = key;
-      ++m_cell_start[key + 1];
+    if (const auto keys = active_kernels().cell_keys) {
+      const std::int64_t dims[3] = {std::int64_t(m_dims[0]), std::int64_t(m_dims[1]), std::int64_t(m_dims[2])};
+      keys(reinterpret_cast<const float*>(raw), g, m_lo, m_inv_side, dims, m_cell_key.data());
+    } else {
+      for (std::size_t t = 0; t < g; ++t) m_cell_key[t] = static_cast<std::uint32_t>(key_of(t));
     }
+    for (std::size_t t = 0; t < g; ++t) ++m_cell_start[m_cell_key[t] + 1];
     for (std::size_t c = 0; c < cells; ++c) m_cell_start[c + 1] += m_cell_start[c];
     std::vector<std::uint32_t>& next = m_ranges;  // scratch, overwritten later
     grow(next, cells);
@@ -259,6 +272,17 @@ void neighbor_block::set_up_rows(const float* xyz, const std::uint32_t* points, 
       rg[1] = static_cast<std::uint32_t>(g);
       m_bit_offsets[k + 1] = static_cast<std::uint32_t>(m_bit_offsets[k] + (g + 7) / 8);
     }
+  } else if (m_counted && active_kernels().rows) {
+    const detail::row_grid grid{m_centre.data(),
+                                count,
+                                {m_lo[0], m_lo[1], m_lo[2]},
+                                {m_inv_side[0], m_inv_side[1], m_inv_side[2]},
+                                m_side[1],
+                                m_side[2],
+                                {std::int64_t(m_dims[0]), std::int64_t(m_dims[1]), std::int64_t(m_dims[2])},
+                                r * r * (1.0 + 1e-4),
+                                m_cell_start.data()};
+    active_kernels().rows(grid, m_ranges.data(), m_bit_offsets.data());
   } else if (m_counted) {
     const std::uint32_t* const start = m_cell_start.data();
     rows_of_points(count, r, [start](std::int64_t key) { return std::size_t(start[key]); });

@@ -94,6 +94,27 @@ std::size_t select_in_box_generic(const float* x, const float* y, const float* z
 std::size_t select_in_box_avx2(const float* x, const float* y, const float* z, const std::uint32_t* ids, std::size_t b,
                                std::size_t e, const float lo[3], const float hi[3], float* out) noexcept;
 
+/// A block's sub-cell grid as the runs' set-up sees it (counted grids only:
+/// `start` holds each cell's first gathered point, cells + 1 entries).
+struct row_grid {
+  const float* centre;  ///< the block's points, 3 floats each
+  std::size_t count;
+  double lo[3], inv_side[3], side_y, side_z;
+  std::int64_t dims[3];
+  double rc2;  ///< the squared radius with its margin
+  const std::uint32_t* start;
+};
+/// Each point's nine runs of gathered points (18 entries a point to
+/// ranges) and where its hit bits start (bit_offsets[1..count]), exactly as
+/// neighbor_block's scalar set-up makes them; four points at a time.
+void rows_avx2(const row_grid& g, std::uint32_t* ranges, std::uint32_t* bit_offsets) noexcept;
+
+/// The sub-cell keys ((c_z · dims_y + c_y) · dims_x + c_x, below 2^31) of
+/// g points given as records of 4 floats (x, y, z, id), to keys[0..g),
+/// exactly as neighbor_block::cell_of makes the cells.
+void cell_keys_avx2(const float* records, std::size_t g, const double lo[3], const double inv_side[3],
+                    const std::int64_t dims[3], std::uint32_t* keys) noexcept;
+
 /// Both compute exactly the same numbers (same lanes, same order, no FMA).
 void block_kernel_generic(const block_kernel_input& in, const block_kernel_output& out) noexcept;
 void block_kernel_avx2(const block_kernel_input& in, const block_kernel_output& out) noexcept;

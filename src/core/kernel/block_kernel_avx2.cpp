@@ -5,4 +5,6 @@
 #define CED_KERNEL_NAME_BALLS balls_avx2
 #define CED_KERNEL_NAME_SPLIT split_avx2
 #define CED_KERNEL_NAME_SELECT select_in_box_avx2
+#define CED_KERNEL_NAME_ROWS rows_avx2
+#define CED_KERNEL_NAME_CELL_KEYS cell_keys_avx2
 #include "core/kernel/block_kernel.inc"
