@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <random>
@@ -46,11 +48,12 @@ TEST(BlockPartition, SameBlocksForAnyThreadCount) {
 TEST(BlockPartition, BoxSearchFindsThePointsInTheBoxInOneOrderOnEveryBuild) {
   const auto c = ced_test::make_room(20000, 10);
   const float* xyz = c.positions().data();
-  const ced::block_partition b(xyz, c.size(), 0.05, 2);
+  const double cell = 0.05, inv = 1.0 / cell;
+  const ced::block_partition b(xyz, c.size(), cell, 2);
   std::mt19937 rng(3);
   std::uniform_real_distribution<float> at(-0.2f, 1.2f), side(0.0f, 0.3f);
   ced::detail::raw_vector<ced::neighbor_index::located_point> located;
-  std::vector<std::uint32_t> ids;
+  ced::detail::raw_vector<std::uint32_t> ids;
   for (int q = 0; q < 300; ++q) {
     float lo[3], hi[3];
     for (int a = 0; a < 3; ++a) {
@@ -59,24 +62,28 @@ TEST(BlockPartition, BoxSearchFindsThePointsInTheBoxInOneOrderOnEveryBuild) {
       // point), and some that reach the last cell of the order.
       hi[a] = q % 10 == 0 ? lo[a] + 2.0f : q % 10 == 1 ? 2.0f : lo[a] + side(rng);
     }
-    std::vector<std::uint32_t> expected;
+    // Cell by cell (z, y, x: the key's order), by index within a cell.
+    std::vector<std::array<double, 4>> keyed;
     for (std::uint32_t i = 0; i < c.size(); ++i) {
       const float* p = xyz + 3 * std::size_t(i);
       if (p[0] >= lo[0] && p[0] <= hi[0] && p[1] >= lo[1] && p[1] <= hi[1] && p[2] >= lo[2] && p[2] <= hi[2])
-        expected.push_back(i);
+        keyed.push_back({std::floor(double(p[2]) * inv), std::floor(double(p[1]) * inv), std::floor(double(p[0]) * inv),
+                         double(i)});
     }
-    b.box_search(lo, hi, ids);
-    std::vector<std::uint32_t> sorted = ids;
-    std::sort(sorted.begin(), sorted.end());
-    ASSERT_EQ(sorted, expected) << "box " << q;
+    std::sort(keyed.begin(), keyed.end());
+    std::vector<std::uint32_t> expected;
+    for (const auto& k : keyed) expected.push_back(static_cast<std::uint32_t>(k[3]));
     for (bool generic : {false, true}) {
       ced::detail::force_generic_kernel(generic);
+      b.box_search(lo, hi, ids);
       b.box_search(lo, hi, located);
       ced::detail::force_generic_kernel(false);
-      ASSERT_EQ(located.size(), ids.size()) << "box " << q << (generic ? " generic" : "");
-      for (std::size_t k = 0; k < ids.size(); ++k) {
-        ASSERT_EQ(located[k].index, ids[k]) << "box " << q << ", point " << k << (generic ? " generic" : "");
-        for (int a = 0; a < 3; ++a) ASSERT_EQ(located[k].xyz[a], xyz[3 * std::size_t(ids[k]) + std::size_t(a)]);
+      const char* build = generic ? " generic" : "";
+      ASSERT_EQ(std::vector<std::uint32_t>(ids.begin(), ids.end()), expected) << "box " << q << build;
+      ASSERT_EQ(located.size(), expected.size()) << "box " << q << build;
+      for (std::size_t k = 0; k < expected.size(); ++k) {
+        ASSERT_EQ(located[k].index, expected[k]) << "box " << q << ", point " << k << build;
+        for (int a = 0; a < 3; ++a) ASSERT_EQ(located[k].xyz[a], xyz[3 * std::size_t(expected[k]) + std::size_t(a)]);
       }
     }
   }

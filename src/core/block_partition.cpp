@@ -254,9 +254,22 @@ std::size_t block_partition::row_runs(const float lo[3], const float hi[3], std:
   return rows;
 }
 
-void block_partition::box_search(const float lo[3], const float hi[3], std::vector<std::uint32_t>& out) const {
-  out.clear();
-  for_each_in_box(lo, hi, [&](std::uint32_t j, const float*) { out.push_back(j); });
+void block_partition::box_search(const float lo[3], const float hi[3], detail::raw_vector<std::uint32_t>& out) const {
+  std::size_t runs[2 * max_box_rows];
+  const std::size_t rows = row_runs(lo, hi, runs);
+  if (rows == max_box_rows + 1) {  // a box of many rows: one point at a time
+    out.clear();
+    for_each_in_box(lo, hi, [&](std::uint32_t j, const float*) { out.push_back(j); });
+    return;
+  }
+  std::size_t room = 0;
+  for (std::size_t q = 0; q < rows; ++q) room += runs[2 * q + 1] - runs[2 * q];
+  out.resize(room + 8);
+  std::size_t n = 0;
+  for (std::size_t q = 0; q < rows; ++q)
+    n += detail::select_ids_in_box(m_x.data(), m_y.data(), m_z.data(), m_order.data(), runs[2 * q], runs[2 * q + 1], lo,
+                                   hi, out.data() + n);
+  out.resize(n);
 }
 
 namespace detail {

@@ -32,7 +32,7 @@ class block_partition {
   /// size), so a part of the cloud that holds them gets the same order.
   void box_search(const float lo[3], const float hi[3], detail::raw_vector<neighbor_index::located_point>& out) const;
   /// The same points, indices only.
-  void box_search(const float lo[3], const float hi[3], std::vector<std::uint32_t>& out) const;
+  void box_search(const float lo[3], const float hi[3], detail::raw_vector<std::uint32_t>& out) const;
   /// The cell size used (the one asked for, unless the grid would not fit
   /// 64-bit keys: then doubled until it does).
   double cell_size() const noexcept { return 1.0 / m_inv; }

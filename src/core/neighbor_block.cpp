@@ -36,6 +36,8 @@ struct kernel_set {
                          std::int32_t*, std::uint32_t*, std::int32_t*, std::uint32_t*, std::uint32_t*) noexcept;
   std::size_t (*select)(const float*, const float*, const float*, const std::uint32_t*, std::size_t, std::size_t,
                         const float*, const float*, float*) noexcept;
+  std::size_t (*select_ids)(const float*, const float*, const float*, const std::uint32_t*, std::size_t, std::size_t,
+                            const float*, const float*, std::uint32_t*) noexcept;
   /// The runs' set-up of counted grids (nullptr: the scalar one).
   void (*rows)(const detail::row_grid&, std::uint32_t*, std::uint32_t*) noexcept;
   /// The sub-cell keys of counted grids (nullptr: cell_of, point by point).
@@ -48,6 +50,7 @@ constexpr kernel_set generic_kernels{detail::block_kernel_generic,
                                      detail::balls_generic,
                                      detail::split_generic,
                                      detail::select_in_box_generic,
+                                     detail::select_ids_in_box_generic,
                                      nullptr,
                                      nullptr,
                                      "generic"};
@@ -55,8 +58,9 @@ constexpr kernel_set generic_kernels{detail::block_kernel_generic,
 kernel_set best_kernels() noexcept {
 #if defined(CED_HAS_AVX2_KERNEL)
   if (__builtin_cpu_supports("avx2"))
-    return {detail::block_kernel_avx2,  detail::compact_avx2, detail::balls_avx2,     detail::split_avx2,
-            detail::select_in_box_avx2, detail::rows_avx2,    detail::cell_keys_avx2, "avx2"};
+    return {detail::block_kernel_avx2, detail::compact_avx2,       detail::balls_avx2,
+            detail::split_avx2,        detail::select_in_box_avx2, detail::select_ids_in_box_avx2,
+            detail::rows_avx2,         detail::cell_keys_avx2,     "avx2"};
 #endif
   return generic_kernels;
 }
@@ -108,6 +112,10 @@ std::uint32_t split_distances(const std::int32_t* d2_bits, const std::uint32_t* 
 std::size_t select_in_box(const float* x, const float* y, const float* z, const std::uint32_t* ids, std::size_t b,
                           std::size_t e, const float lo[3], const float hi[3], float* out) noexcept {
   return active_kernels().select(x, y, z, ids, b, e, lo, hi, out);
+}
+std::size_t select_ids_in_box(const float* x, const float* y, const float* z, const std::uint32_t* ids, std::size_t b,
+                              std::size_t e, const float lo[3], const float hi[3], std::uint32_t* out) noexcept {
+  return active_kernels().select_ids(x, y, z, ids, b, e, lo, hi, out);
 }
 void force_generic_kernel(bool on) noexcept { g_force_generic.store(on); }
 }  // namespace detail

@@ -163,6 +163,9 @@ std::uint32_t split_distances(const std::int32_t* d2_bits, const std::uint32_t* 
 /// select_in_box_* (core/kernel/block_kernel.hpp) on the chosen build.
 std::size_t select_in_box(const float* x, const float* y, const float* z, const std::uint32_t* ids, std::size_t b,
                           std::size_t e, const float lo[3], const float hi[3], float* out) noexcept;
+/// select_ids_in_box_* (core/kernel/block_kernel.hpp) on the chosen build.
+std::size_t select_ids_in_box(const float* x, const float* y, const float* z, const std::uint32_t* ids, std::size_t b,
+                              std::size_t e, const float lo[3], const float hi[3], std::uint32_t* out) noexcept;
 /// Forces the generic build (true) or restores the automatic choice (false).
 void force_generic_kernel(bool on) noexcept;
 }  // namespace detail

@@ -248,7 +248,7 @@ std::vector<std::uint32_t> refine_keypoints(const block_partition& blocks, const
   std::vector<std::uint32_t> moved(keypoints.size());
   const float r2 = squared_radius(radius);
   parallel_for(keypoints.size(), threads, 64, [&](std::size_t q0, std::size_t q1) {
-    std::vector<std::uint32_t> ball;
+    detail::raw_vector<std::uint32_t> ball;
     for (std::size_t q = q0; q < q1; ++q) {
       const std::uint32_t k = keypoints[q];
       const float* pk = xyz + 3 * std::size_t(k);

@@ -11,6 +11,7 @@
 #include "core/arena.hpp"
 #include "core/block_partition.hpp"
 #include "core/neighbor_block.hpp"
+#include "core/raw_vector.hpp"
 
 namespace ced::detail {
 
@@ -64,7 +65,8 @@ std::vector<std::uint32_t> non_maximum_suppression(const block_partition& blocks
 
 /// Work buffers of nms_block_by_query, reused between blocks.
 struct nms_scratch {
-  std::vector<std::uint32_t> gathered, cell_start, cell_of;
+  detail::raw_vector<std::uint32_t> gathered;
+  std::vector<std::uint32_t> cell_start, cell_of;
   std::vector<float> x, y, z, score;
 };
 /// NMS for `candidates[0..count)` of one spatial block, with one box query:

@@ -93,6 +93,13 @@ std::size_t select_in_box_generic(const float* x, const float* y, const float* z
                                   float* out) noexcept;
 std::size_t select_in_box_avx2(const float* x, const float* y, const float* z, const std::uint32_t* ids, std::size_t b,
                                std::size_t e, const float lo[3], const float hi[3], float* out) noexcept;
+/// The same selection, the ids alone to out (up to 8 written past the count).
+std::size_t select_ids_in_box_generic(const float* x, const float* y, const float* z, const std::uint32_t* ids,
+                                      std::size_t b, std::size_t e, const float lo[3], const float hi[3],
+                                      std::uint32_t* out) noexcept;
+std::size_t select_ids_in_box_avx2(const float* x, const float* y, const float* z, const std::uint32_t* ids,
+                                   std::size_t b, std::size_t e, const float lo[3], const float hi[3],
+                                   std::uint32_t* out) noexcept;
 
 /// A block's sub-cell grid as the runs' set-up sees it (counted grids only:
 /// `start` holds each cell's first gathered point, cells + 1 entries).

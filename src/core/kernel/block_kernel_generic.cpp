@@ -5,4 +5,5 @@
 #define CED_KERNEL_NAME_BALLS balls_generic
 #define CED_KERNEL_NAME_SPLIT split_generic
 #define CED_KERNEL_NAME_SELECT select_in_box_generic
+#define CED_KERNEL_NAME_SELECT_IDS select_ids_in_box_generic
 #include "core/kernel/block_kernel.inc"
