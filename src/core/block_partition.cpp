@@ -272,13 +272,14 @@ void block_partition::box_search(const float lo[3], const float hi[3], detail::r
   out.resize(n);
 }
 
-namespace detail {
-void padded_bounds(const float* xyz, const std::uint32_t* points, std::size_t count, double r, float lo[3],
-                   float hi[3]) noexcept {
-  for (int k = 0; k < 3; ++k) lo[k] = hi[k] = xyz[3 * std::size_t(points[0]) + std::size_t(k)];
+namespace {
+/// The bounds of count points (position q at at(q)), grown as padded_bounds says.
+template <class At>
+void pad_bounds(At at, std::size_t count, double r, float lo[3], float hi[3]) noexcept {
+  for (int k = 0; k < 3; ++k) lo[k] = hi[k] = at(0, k);
   for (std::size_t q = 1; q < count; ++q)
     for (int k = 0; k < 3; ++k) {
-      const float v = xyz[3 * std::size_t(points[q]) + std::size_t(k)];
+      const float v = at(q, k);
       lo[k] = std::min(lo[k], v);
       hi[k] = std::max(hi[k], v);
     }
@@ -287,6 +288,19 @@ void padded_bounds(const float* xyz, const std::uint32_t* points, std::size_t co
     lo[k] = std::nextafter(lo[k] - pad, -std::numeric_limits<float>::infinity());
     hi[k] = std::nextafter(hi[k] + pad, std::numeric_limits<float>::infinity());
   }
+}
+}  // namespace
+
+void block_partition::padded_bounds(std::size_t first, std::size_t count, double r, float lo[3],
+                                    float hi[3]) const noexcept {
+  const float* const axes[3] = {m_x.data() + first, m_y.data() + first, m_z.data() + first};
+  pad_bounds([&](std::size_t q, int k) { return axes[k][q]; }, count, r, lo, hi);
+}
+
+namespace detail {
+void padded_bounds(const float* xyz, const std::uint32_t* points, std::size_t count, double r, float lo[3],
+                   float hi[3]) noexcept {
+  pad_bounds([&](std::size_t q, int k) { return xyz[3 * std::size_t(points[q]) + std::size_t(k)]; }, count, r, lo, hi);
 }
 }  // namespace detail
 

@@ -33,6 +33,17 @@ class block_partition {
   void box_search(const float lo[3], const float hi[3], detail::raw_vector<neighbor_index::located_point>& out) const;
   /// The same points, indices only.
   void box_search(const float lo[3], const float hi[3], detail::raw_vector<std::uint32_t>& out) const;
+  /// detail::padded_bounds of the points order()[first, first + count),
+  /// the same box, read from the partition's own copy of their positions.
+  void padded_bounds(std::size_t first, std::size_t count, double r, float lo[3], float hi[3]) const noexcept;
+  /// The positions of order()[first, first + count) to out, 3 floats each.
+  void copy_positions(std::size_t first, std::size_t count, float* out) const noexcept {
+    for (std::size_t q = 0; q < count; ++q) {
+      out[3 * q] = m_x[first + q];
+      out[3 * q + 1] = m_y[first + q];
+      out[3 * q + 2] = m_z[first + q];
+    }
+  }
   /// The cell size used (the one asked for, unless the grid would not fit
   /// 64-bit keys: then doubled until it does).
   double cell_size() const noexcept { return 1.0 / m_inv; }

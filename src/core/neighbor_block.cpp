@@ -266,11 +266,15 @@ void neighbor_block::set_up_rows(const float* xyz, const std::uint32_t* points, 
   grow(m_bit_offsets, count + 1);
   m_bit_offsets[0] = 0;
   float* const centre = m_centre.data();
-  for (std::size_t k = 0; k < count; ++k) {
-    const float* p = xyz + 3 * std::size_t(points[k]);
-    centre[3 * k] = p[0];
-    centre[3 * k + 1] = p[1];
-    centre[3 * k + 2] = p[2];
+  if (m_run_of) {
+    m_run_of->copy_positions(m_run_first, count, centre);
+  } else {
+    for (std::size_t k = 0; k < count; ++k) {
+      const float* p = xyz + 3 * std::size_t(points[k]);
+      centre[3 * k] = p[0];
+      centre[3 * k + 1] = p[1];
+      centre[3 * k + 2] = p[2];
+    }
   }
   if (m_single_cell) {
     const std::size_t g = m_raw.size();
@@ -372,7 +376,17 @@ void neighbor_block::fill(const block_partition& grid, const float* xyz, const s
   m_lists_built = false;
   if (count == 0) return;
   float lo[3], hi[3];
-  detail::padded_bounds(xyz, points, count, r, lo, hi);
+  // A block of the grid is a run of its order: its positions are read in
+  // sequence from the grid's own copy.
+  const std::vector<std::uint32_t>& order = grid.order();
+  const bool run_of_order = std::less_equal<const std::uint32_t*>()(order.data(), points) &&
+                            std::less_equal<const std::uint32_t*>()(points + count, order.data() + order.size());
+  m_run_of = run_of_order ? &grid : nullptr;
+  m_run_first = run_of_order ? std::size_t(points - order.data()) : 0;
+  if (m_run_of)
+    grid.padded_bounds(m_run_first, count, r, lo, hi);
+  else
+    detail::padded_bounds(xyz, points, count, r, lo, hi);
   grid.box_search(lo, hi, m_raw);
   run(xyz, points, count, r, lo, hi);
 }

@@ -126,6 +126,9 @@ class neighbor_block {
 
   const std::uint32_t* m_points = nullptr;
   std::size_t m_count = 0;
+  // The grid whose order holds m_points as order()[m_run_first, + m_count), or nullptr.
+  const block_partition* m_run_of = nullptr;
+  std::size_t m_run_first = 0;
   // The gathered points in sub-cell order, as structure of arrays.
   double m_lo[3] = {0, 0, 0}, m_side[3] = {1, 1, 1}, m_inv_side[3] = {1, 1, 1};
   std::uint64_t m_dims[3] = {1, 1, 1};

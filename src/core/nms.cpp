@@ -135,8 +135,7 @@ struct nms_cells {
   double lo[3], inv = 1;
   std::size_t dims[3] = {1, 1, 1};
 
-  nms_cells(const float* xyz, const float* score, const float box_lo[3], const float box_hi[3], double radius,
-            nms_scratch& scratch) {
+  nms_cells(const float* score, const float box_lo[3], const float box_hi[3], double radius, nms_scratch& scratch) {
     const auto& gathered = scratch.gathered;
     const std::size_t g = gathered.size();
     double side = std::max(radius * (1 + 1e-6), 1e-30);  // a hair over: rounding never skips a cell
@@ -153,16 +152,16 @@ struct nms_cells {
     start.assign(cells + 1, 0);
     of.resize(g);
     for (std::size_t t = 0; t < g; ++t) {
-      of[t] = static_cast<std::uint32_t>(key(xyz + 3 * std::size_t(gathered[t])));
+      of[t] = static_cast<std::uint32_t>(key(gathered[t].xyz));
       ++start[of[t] + 1];
     }
     for (std::size_t c = 0; c < cells; ++c) start[c + 1] += start[c];
     for (auto* v : {&scratch.x, &scratch.y, &scratch.z, &scratch.score}) v->resize(g);
     for (std::size_t t = 0; t < g; ++t) {
-      const std::uint32_t j = gathered[t];
+      const neighbor_index::located_point& p = gathered[t];
       const std::uint32_t to = start[of[t]]++;
-      scratch.x[to] = xyz[3 * std::size_t(j)], scratch.y[to] = xyz[3 * std::size_t(j) + 1];
-      scratch.z[to] = xyz[3 * std::size_t(j) + 2], scratch.score[to] = score[j];
+      scratch.x[to] = p.xyz[0], scratch.y[to] = p.xyz[1];
+      scratch.z[to] = p.xyz[2], scratch.score[to] = score[p.index];
     }
     for (std::size_t c = cells; c > 0; --c) start[c] = start[c - 1];  // back to the starts
     start[0] = 0;
@@ -186,7 +185,7 @@ void nms_block_by_query(const block_partition& blocks, const float* xyz, const s
   float lo[3], hi[3];
   padded_bounds(xyz, candidates, count, radius, lo, hi);
   blocks.box_search(lo, hi, scratch.gathered);
-  const nms_cells grid(xyz, score, lo, hi, radius, scratch);
+  const nms_cells grid(score, lo, hi, radius, scratch);
   const auto& start = scratch.cell_start;
   const float fixed_r2 = squared_radius(radius);
   for (std::size_t k = 0; k < count; ++k) {

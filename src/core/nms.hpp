@@ -65,7 +65,7 @@ std::vector<std::uint32_t> non_maximum_suppression(const block_partition& blocks
 
 /// Work buffers of nms_block_by_query, reused between blocks.
 struct nms_scratch {
-  detail::raw_vector<std::uint32_t> gathered;
+  detail::raw_vector<neighbor_index::located_point> gathered;
   std::vector<std::uint32_t> cell_start, cell_of;
   std::vector<float> x, y, z, score;
 };
