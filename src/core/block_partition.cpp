@@ -210,29 +210,49 @@ void block_partition::for_each_in_box(const float lo[3], const float hi[3], F&& 
     }
 }
 
-void block_partition::box_search(const float lo[3], const float hi[3],
-                                 detail::raw_vector<neighbor_index::located_point>& out) const {
+template <class T, class Select, class One>
+void block_partition::search_rows(const float lo[3], const float hi[3], detail::raw_vector<T>& out, Select select,
+                                  One one) const {
   // The same points in the same order as for_each_in_box, without a branch
-  // per point: each row of cells is one run of the order, every point of it
-  // is written and kept when it lies in the box (a test far harder to
-  // predict than to compute, on the points near the box's faces).
+  // per point: each row of cells is one run of the order, selected eight
+  // points at a time (a test far harder to predict than to compute, on the
+  // points near the box's faces).
   std::size_t runs[2 * max_box_rows];
   const std::size_t rows = row_runs(lo, hi, runs);
   if (rows == max_box_rows + 1) {  // a box of many rows: one point at a time
     out.clear();
-    for_each_in_box(lo, hi, [&](std::uint32_t j, const float* p) { out.push_back({{p[0], p[1], p[2]}, j}); });
+    for_each_in_box(lo, hi, [&](std::uint32_t j, const float* p) { out.push_back(one(j, p)); });
     return;
   }
   std::size_t room = 0;
   for (std::size_t q = 0; q < rows; ++q) room += runs[2 * q + 1] - runs[2 * q];
-  out.resize(room + 8);
-  static_assert(sizeof(neighbor_index::located_point) == 4 * sizeof(float));
-  float* const dst = reinterpret_cast<float*>(out.data());
+  out.resize(room + 8);  // (a selection writes up to 8 past its count)
   std::size_t n = 0;
-  for (std::size_t q = 0; q < rows; ++q)
-    n += detail::select_in_box(m_x.data(), m_y.data(), m_z.data(), m_order.data(), runs[2 * q], runs[2 * q + 1], lo, hi,
-                               dst + 4 * n);
+  for (std::size_t q = 0; q < rows; ++q) n += select(runs[2 * q], runs[2 * q + 1], out.data() + n);
   out.resize(n);
+}
+
+void block_partition::box_search(const float lo[3], const float hi[3],
+                                 detail::raw_vector<neighbor_index::located_point>& out) const {
+  static_assert(sizeof(neighbor_index::located_point) == 4 * sizeof(float));
+  search_rows(
+      lo, hi, out,
+      [&](std::size_t b, std::size_t e, neighbor_index::located_point* to) {
+        return detail::select_in_box(m_x.data(), m_y.data(), m_z.data(), m_order.data(), b, e, lo, hi,
+                                     reinterpret_cast<float*>(to));
+      },
+      [](std::uint32_t j, const float* p) {
+        return neighbor_index::located_point{{p[0], p[1], p[2]}, j};
+      });
+}
+
+void block_partition::box_search(const float lo[3], const float hi[3], detail::raw_vector<std::uint32_t>& out) const {
+  search_rows(
+      lo, hi, out,
+      [&](std::size_t b, std::size_t e, std::uint32_t* to) {
+        return detail::select_ids_in_box(m_x.data(), m_y.data(), m_z.data(), m_order.data(), b, e, lo, hi, to);
+      },
+      [](std::uint32_t j, const float*) { return j; });
 }
 
 std::size_t block_partition::row_runs(const float lo[3], const float hi[3], std::size_t* runs) const {
@@ -252,24 +272,6 @@ std::size_t block_partition::row_runs(const float lo[3], const float hi[3], std:
       ++rows;
     }
   return rows;
-}
-
-void block_partition::box_search(const float lo[3], const float hi[3], detail::raw_vector<std::uint32_t>& out) const {
-  std::size_t runs[2 * max_box_rows];
-  const std::size_t rows = row_runs(lo, hi, runs);
-  if (rows == max_box_rows + 1) {  // a box of many rows: one point at a time
-    out.clear();
-    for_each_in_box(lo, hi, [&](std::uint32_t j, const float*) { out.push_back(j); });
-    return;
-  }
-  std::size_t room = 0;
-  for (std::size_t q = 0; q < rows; ++q) room += runs[2 * q + 1] - runs[2 * q];
-  out.resize(room + 8);
-  std::size_t n = 0;
-  for (std::size_t q = 0; q < rows; ++q)
-    n += detail::select_ids_in_box(m_x.data(), m_y.data(), m_z.data(), m_order.data(), runs[2 * q], runs[2 * q + 1], lo,
-                                   hi, out.data() + n);
-  out.resize(n);
 }
 
 namespace {

@@ -57,6 +57,11 @@ class block_partition {
   /// order (2 entries a row, in key order); max_box_rows + 1 when the box
   /// has more rows than that.
   std::size_t row_runs(const float lo[3], const float hi[3], std::size_t* runs) const;
+  /// A box search into `out`: select(begin, end, to) selects a run of the
+  /// order to `to` (up to 8 written past its count), one(j, p) makes the
+  /// entry of point j at p for boxes of many rows.
+  template <class T, class Select, class One>
+  void search_rows(const float lo[3], const float hi[3], detail::raw_vector<T>& out, Select select, One one) const;
   template <class F>
   void for_each_in_box(const float lo[3], const float hi[3], F&& f) const;
 

@@ -97,6 +97,11 @@ void copy_channels(const float* values, const float* ref_values, const std::uint
   }
 }
 
+/// The squared radius that cuts a point's runs of sub-cells: r² with a
+/// margin far above float rounding (the runs are conservative: every point
+/// the float test can accept lies in one of them).
+double cut_radius2(double r) noexcept { return r * r * (1.0 + 1e-4); }
+
 /// Sub-grids up to this many cells are sorted by counting, larger ones
 /// (blocks far wider than the radius) by comparison.
 constexpr std::uint64_t max_counted_cells = 1u << 14;
@@ -226,7 +231,6 @@ std::size_t neighbor_block::copy_channels_in(const std::uint32_t* points, std::s
           : g + 8;
   grow(m_channel_values, m_channels * stride);
   grow(m_own, m_channels * count);
-  grow(m_centre, 3 * count);
   // Each channel less a reference, the block's first point's value: the
   // kernel sums these (small, whatever the channel's offset) and takes n
   // times the point's own off the total.
@@ -261,21 +265,10 @@ std::size_t neighbor_block::copy_channels_in(const std::uint32_t* points, std::s
 
 /// Per point of the block: its nine ranges of gathered points and where its
 /// hit bits start.
-void neighbor_block::set_up_rows(const float* xyz, const std::uint32_t* points, std::size_t count, double r) {
+void neighbor_block::set_up_rows(std::size_t count, double r) {
   grow(m_ranges, 2 * detail::kernel_ranges * count);
   grow(m_bit_offsets, count + 1);
   m_bit_offsets[0] = 0;
-  float* const centre = m_centre.data();
-  if (m_run_of) {
-    m_run_of->copy_positions(m_run_first, count, centre);
-  } else {
-    for (std::size_t k = 0; k < count; ++k) {
-      const float* p = xyz + 3 * std::size_t(points[k]);
-      centre[3 * k] = p[0];
-      centre[3 * k + 1] = p[1];
-      centre[3 * k + 2] = p[2];
-    }
-  }
   if (m_single_cell) {
     const std::size_t g = m_raw.size();
     for (std::size_t k = 0; k < count; ++k) {
@@ -292,7 +285,7 @@ void neighbor_block::set_up_rows(const float* xyz, const std::uint32_t* points, 
                                 m_side[1],
                                 m_side[2],
                                 {std::int64_t(m_dims[0]), std::int64_t(m_dims[1]), std::int64_t(m_dims[2])},
-                                r * r * (1.0 + 1e-4),
+                                cut_radius2(r),
                                 m_cell_start.data()};
     active_kernels().rows(grid, m_ranges.data(), m_bit_offsets.data());
   } else if (m_counted) {
@@ -309,7 +302,7 @@ void neighbor_block::rows_of_points(std::size_t count, double r, StartOf start_o
   // cell, cut to the x-cells that the ball of radius r (with a margin far
   // above float rounding) reaches. Conservative: every point the float test
   // can accept lies in one of them.
-  const double rc2 = r * r * (1.0 + 1e-4), inv_x = m_inv_side[0];
+  const double rc2 = cut_radius2(r), inv_x = m_inv_side[0];
   const std::int64_t dims_x = std::int64_t(m_dims[0]), dims_y = std::int64_t(m_dims[1]),
                      dims_z = std::int64_t(m_dims[2]), last_x = dims_x - 1;
   const double lo_x = m_lo[0], lo_y = m_lo[1], lo_z = m_lo[2], side_y = m_side[1], side_z = m_side[2];
@@ -376,27 +369,30 @@ void neighbor_block::fill(const block_partition& grid, const float* xyz, const s
   m_lists_built = false;
   if (count == 0) return;
   float lo[3], hi[3];
-  // A block of the grid is a run of its order: its positions are read in
-  // sequence from the grid's own copy.
+  // The block's points' positions (the sweep's centres) and their bounds.
+  // A block of the grid is a run of its order: read in sequence from the
+  // grid's own copy.
+  grow(m_centre, 3 * count);
   const std::vector<std::uint32_t>& order = grid.order();
-  const bool run_of_order = std::less_equal<const std::uint32_t*>()(order.data(), points) &&
-                            std::less_equal<const std::uint32_t*>()(points + count, order.data() + order.size());
-  m_run_of = run_of_order ? &grid : nullptr;
-  m_run_first = run_of_order ? std::size_t(points - order.data()) : 0;
-  if (m_run_of)
-    grid.padded_bounds(m_run_first, count, r, lo, hi);
-  else
+  if (std::less_equal<const std::uint32_t*>()(order.data(), points) &&
+      std::less_equal<const std::uint32_t*>()(points + count, order.data() + order.size())) {
+    const auto first = std::size_t(points - order.data());
+    grid.padded_bounds(first, count, r, lo, hi);
+    grid.copy_positions(first, count, m_centre.data());
+  } else {
     detail::padded_bounds(xyz, points, count, r, lo, hi);
+    for (std::size_t k = 0; k < count; ++k) std::copy_n(xyz + 3 * std::size_t(points[k]), 3, m_centre.data() + 3 * k);
+  }
   grid.box_search(lo, hi, m_raw);
-  run(xyz, points, count, r, lo, hi);
+  run(points, count, r, lo, hi);
 }
 
-void neighbor_block::run(const float* xyz, const std::uint32_t* points, std::size_t count, double r, const float lo[3],
+void neighbor_block::run(const std::uint32_t* points, std::size_t count, double r, const float lo[3],
                          const float hi[3]) {
   sort_into_cells(lo, hi, r);
 
   const std::size_t stride = copy_channels_in(points, count);
-  set_up_rows(xyz, points, count, r);
+  set_up_rows(count, r);
   // The kernel skips the bits only for positions alone (no channels), and
   // the balls' distances replace them.
   const bool bits = (m_keep_lists || m_channels != 0) && !m_keep_distances;

@@ -100,11 +100,11 @@ class neighbor_block {
     return (*static_cast<const neighbor_block*>(block))[k];
   }
   void sort_into_cells(const float lo[3], const float hi[3], double r);
-  /// The pass over the gathered points m_raw (fill()).
-  void run(const float* xyz, const std::uint32_t* points, std::size_t count, double r, const float lo[3],
-           const float hi[3]);
+  /// The pass over the gathered points m_raw (fill(), which has set the centres).
+  void run(const std::uint32_t* points, std::size_t count, double r, const float lo[3], const float hi[3]);
   std::size_t copy_channels_in(const std::uint32_t* points, std::size_t count);
-  void set_up_rows(const float* xyz, const std::uint32_t* points, std::size_t count, double r);
+  /// Per point: its runs and where its hit bits start (m_centre filled).
+  void set_up_rows(std::size_t count, double r);
   template <class StartOf>
   void rows_of_points(std::size_t count, double r, StartOf start_of);
   void cell_of(const float* p, std::uint64_t c[3]) const noexcept {
@@ -126,9 +126,6 @@ class neighbor_block {
 
   const std::uint32_t* m_points = nullptr;
   std::size_t m_count = 0;
-  // The grid whose order holds m_points as order()[m_run_first, + m_count), or nullptr.
-  const block_partition* m_run_of = nullptr;
-  std::size_t m_run_first = 0;
   // The gathered points in sub-cell order, as structure of arrays.
   double m_lo[3] = {0, 0, 0}, m_side[3] = {1, 1, 1}, m_inv_side[3] = {1, 1, 1};
   std::uint64_t m_dims[3] = {1, 1, 1};
