@@ -104,10 +104,10 @@ struct tile_plan {
   /// point against its node's box and the header's bounds instead).
   bool indexed = false;
   /// LAS, LAZ, binary PLY and PCD of finite points, planned by passes: the
-  /// file's runs (point_stream::
-  /// chunk_runs()) with their boxes and hashes. A tile then reads only the
-  /// runs whose box meets its core and halo, and checks each one's hash
-  /// (`content` is then empty: every run is read by some tile).
+  /// file's runs (point_stream::chunk_runs()) with their boxes and hashes.
+  /// A tile then reads only the runs whose box meets its core and halo, and
+  /// checks each one's hash (`content` is then empty: every run is read by
+  /// some tile).
   std::vector<plan_run> runs;
 
   std::string to_json() const;

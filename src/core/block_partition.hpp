@@ -26,8 +26,8 @@ class block_partition {
   /// All points, block after block: a spatially coherent permutation.
   const std::vector<std::uint32_t>& order() const noexcept { return m_order; }
 
-  /// The points inside the closed box [lo, hi], cell by cell in key order and by index within a
-  /// cell: an order that depends only on the points in and near the box,
+  /// The points inside the closed box [lo, hi], cell by cell in key order
+  /// and by index within a cell: an order that depends only on the points in and near the box,
   /// not on the rest of the cloud (cells lie at whole multiples of the cell
   /// size), so a part of the cloud that holds them gets the same order.
   void box_search(const float lo[3], const float hi[3], detail::raw_vector<neighbor_index::located_point>& out) const;

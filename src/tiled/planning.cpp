@@ -405,8 +405,9 @@ std::vector<tile_entry> count_tiles(io::point_stream& s, const tile_plan& p, con
 
 namespace {
 
-/// Pass 2 over a file of runs (LAS, LAZ, binary PLY and PCD), run by run (`runs`: its chunk_runs(), every
-/// point finite): points per tile, and each run's box and hash (tile_plan::runs).
+/// Pass 2 over a file of runs (LAS, LAZ, binary PLY and PCD), run by run
+/// (`runs`: its chunk_runs(), every point finite): points per tile, and each
+/// run's box and hash (tile_plan::runs).
 void count_tiles_by_runs(io::point_stream& s, tile_plan& p, const std::vector<io::point_stream::point_run>& runs,
                          const tiled_progress& progress) {
   tile_counter counts(p.grid.count());

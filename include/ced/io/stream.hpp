@@ -107,8 +107,8 @@ class point_stream {
     return false;
   }
   /// Reads run `r` (one of runs_within()'s or chunk_runs()'s; LAS: any run
-  /// of the file's points) into `out`, positions relative to `origin`, with the fields a
-  /// complete pass would give: `fields` names the flags among them (a tile
+  /// of the file's points) into `out`, positions relative to `origin`, with
+  /// the fields a complete pass would give: `fields` names the flags among them (a tile
   /// plan records them), as no pass learns them here. The stream's pass is
   /// then spent: origin(), bounds() and flags_set() no longer hold.
   /// LAS, LAZ, binary PCD and binary PLY of fixed-size vertex records: the

@@ -85,8 +85,8 @@ std::uint32_t split_avx2(const std::int32_t* d2_bits, const std::uint32_t* ids, 
                          std::uint32_t* range_ids, std::uint32_t* in_range) noexcept;
 
 /// The points t in [b, e) of positions x, y, z (each readable 8 floats past
-/// e; ids no further than e) that lie in the closed box [lo, hi], in order, written to out as
-/// records of 4 floats: x, y, z and the bits of ids[t]. Returns how many;
+/// e; ids no further than e) that lie in the closed box [lo, hi], in order,
+/// written to out as records of 4 floats: x, y, z and the bits of ids[t]. Returns how many;
 /// writes up to 8 records past that count.
 std::size_t select_in_box_generic(const float* x, const float* y, const float* z, const std::uint32_t* ids,
                                   std::size_t b, std::size_t e, const float lo[3], const float hi[3],
