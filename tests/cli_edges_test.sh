@@ -115,6 +115,11 @@ expect_exit 1 "needs field 'nir'.*(its fields: red, green, blue)" "missing field
 printf 'x,y,z\n0,0,0\n1,0,0\n0,1,0\n' > "$T/xyz.csv"
 expect_exit 1 "needs field 'red'.*(its fields: none besides x, y, z)" "missing field: no fields" -- \
   detect "$T/xyz.csv" -m xyz:0.2 -m rgb -q
+printf 'x,y,z,scalar_intensity\n0,0,0,1\n1,0,0,3\n0,1,0,5\n' > "$T/cc.csv"
+expect_exit 1 "(its fields: scalar_intensity); did you mean 'scalar_intensity'? Name it in the spec: intensity(scalar_intensity)" \
+  "missing field: CloudCompare's scalar_ prefix is pointed to" -- detect "$T/cc.csv" -m xyz:0.2 -m intensity:0.05 -r 2 -q
+"$CED" detect "$T/cc.csv" -m xyz:0.2 -m 'intensity(scalar_intensity):0.05' -r 2 -q > /dev/null
+check "missing field: the named scalar_ field is read" test $? = 0
 printf 'x,y,z,Intensity,nir\n0,0,0,1,2\n1,0,0,3,4\n0,1,0,5,6\n' > "$T/f.csv"
 expect_exit 1 "(its fields: Intensity, nir)" "missing field: CSV" -- detect "$T/f.csv" -m lab -q
 "$CED" detect "$T/f.csv" -m xyz:0.2 -m intensity:0.05 -r 2 -q > /dev/null

@@ -206,6 +206,27 @@ TEST(Channels, RequireFieldsNamesTheMissingFieldAndListsThePresentOnes) {
   EXPECT_TRUE(names_point(inf, 1)) << inf;
 }
 
+TEST(Channels, RequireFieldsPointsToAPrefixedFieldOfTheSameName) {
+  // CloudCompare writes scalar fields as scalar_<name>: the message says
+  // which field is meant and how to name it.
+  auto c = line_cloud(2);
+  c.add_field("scalar_Intensity", ced::scalar_type::float32, std::vector<double>{1, 2});
+  const auto what = invalid_argument_of([&] { ced::require_fields(c, {"intensity"}, "intensity"); });
+  EXPECT_TRUE(contains(what, "did you mean 'scalar_Intensity'?")) << what;
+  EXPECT_TRUE(contains(what, "intensity(scalar_Intensity):THRESHOLD")) << what;
+  const auto band = invalid_argument_of([&] { ced::require_fields(c, {"intensity"}, "bands(intensity)"); });
+  EXPECT_TRUE(contains(band, "did you mean 'scalar_Intensity'?")) << band;
+  EXPECT_FALSE(contains(band, "Name it in the spec")) << band;
+  // No hint for a field that only contains the name.
+  auto d = line_cloud(2);
+  d.add_field("intensity_raw", ced::scalar_type::float32, std::vector<double>{1, 2});
+  const auto none = invalid_argument_of([&] { ced::require_fields(d, {"intensity"}, "intensity"); });
+  EXPECT_FALSE(contains(none, "did you mean")) << none;
+  // The same hint from a list of names (the CLI lists a file's own fields).
+  EXPECT_EQ(ced::missing_field_hint({"red", "scalar_nir"}, "NIR", "bands(nir)"), "; did you mean 'scalar_nir'?");
+  EXPECT_EQ(ced::missing_field_hint({"nir"}, "nir", "bands(nir)"), "");
+}
+
 TEST(Channels, RequireFiniteNamesModalityFieldAndPoint) {
   const double flt_max = std::numeric_limits<float>::max();
   const std::size_t n = 9000;  // more than two chunks of the check (4096)

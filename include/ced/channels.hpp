@@ -56,9 +56,17 @@ struct missing_field_error : std::invalid_argument {
   std::string modality_name, field_name;
 };
 
+/// The end of a missing field's message when one of `present` is `field`
+/// with a prefix, as CloudCompare writes scalar fields ("scalar_intensity"):
+/// "; did you mean 'scalar_intensity'?", and for a modality named as the
+/// field, how to name it in the spec; otherwise empty.
+std::string missing_field_hint(const std::vector<std::string>& present, const std::string& field,
+                               const std::string& modality);
+
 /// The fields of `cloud` named in `names` (exact name first, then any case);
 /// throws missing_field_error naming `modality`, the missing field and the
-/// fields present, or std::invalid_argument when a value is NaN or infinite.
+/// fields present (and missing_field_hint()), or std::invalid_argument when
+/// a value is NaN or infinite.
 std::vector<const field*> require_fields(const point_cloud& cloud, const std::vector<std::string>& names,
                                          const std::string& modality);
 

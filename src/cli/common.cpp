@@ -368,7 +368,8 @@ ced::missing_field_error with_file_fields(const ced::missing_field_error& e, con
   for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
   return {e.modality_name, e.field_name,
           "modality '" + e.modality_name + "' needs field '" + e.field_name + "', which " + path +
-              " does not have (its fields: " + (list.empty() ? "none besides x, y, z" : list) + ")"};
+              " does not have (its fields: " + (list.empty() ? "none besides x, y, z" : list) + ")" +
+              ced::missing_field_hint(names, e.field_name, e.modality_name)};
 }
 
 ced::point_cloud read_finite(const std::string& path, const std::string& format, const std::string& columns,

@@ -2,6 +2,7 @@
 #include "ced/channels.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -147,6 +148,26 @@ std::vector<float> interleave(const std::vector<const field*>& fields, unsigned 
   return out;
 }
 
+namespace {
+std::string lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+}  // namespace
+
+std::string missing_field_hint(const std::vector<std::string>& present, const std::string& field,
+                               const std::string& modality) {
+  const std::string want = "_" + lower(field);
+  for (const auto& name : present) {
+    const std::string have = lower(name);
+    if (have.size() <= want.size() || have.compare(have.size() - want.size(), want.size(), want) != 0) continue;
+    std::string hint = "; did you mean '" + name + "'?";
+    if (modality == field) hint += " Name it in the spec: " + field + "(" + name + "):THRESHOLD";
+    return hint;
+  }
+  return {};
+}
+
 std::vector<const field*> require_fields(const point_cloud& cloud, const std::vector<std::string>& names,
                                          const std::string& modality) {
   std::vector<const field*> out;
@@ -154,11 +175,15 @@ std::vector<const field*> require_fields(const point_cloud& cloud, const std::ve
     const field* f = cloud.find_field_icase(name);
     if (!f) {
       std::string present;
-      for (const auto& g : cloud.fields()) present += (present.empty() ? "" : ", ") + g.name;
+      std::vector<std::string> names_present;
+      for (const auto& g : cloud.fields()) {
+        present += (present.empty() ? "" : ", ") + g.name;
+        names_present.push_back(g.name);
+      }
       throw missing_field_error(
           modality, name,
-          "modality '" + modality + "' needs field '" + name +
-              "', which the cloud does not have (fields present: " + (present.empty() ? "none" : present) + ")");
+          "modality '" + modality + "' needs field '" + name + "', which the cloud does not have (fields present: " +
+              (present.empty() ? "none" : present) + ")" + missing_field_hint(names_present, name, modality));
     }
     require_finite(*f, modality);
     out.push_back(f);
