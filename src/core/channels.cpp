@@ -2,7 +2,6 @@
 #include "ced/channels.hpp"
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -10,10 +9,12 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <type_traits>
 
 #include "ced/modality.hpp"
 #include "core/parallel.hpp"
+#include "core/text.hpp"
 
 namespace ced {
 
@@ -148,19 +149,13 @@ std::vector<float> interleave(const std::vector<const field*>& fields, unsigned 
   return out;
 }
 
-namespace {
-std::string lower(std::string s) {
-  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
-}  // namespace
-
 std::string missing_field_hint(const std::vector<std::string>& present, const std::string& field,
                                const std::string& modality) {
-  const std::string want = "_" + lower(field);
   for (const auto& name : present) {
-    const std::string have = lower(name);
-    if (have.size() <= want.size() || have.compare(have.size() - want.size(), want.size(), want) != 0) continue;
+    // A prefix, then '_' and the field's own name in any case.
+    if (name.size() <= field.size() + 1) continue;
+    const std::string_view tail = std::string_view(name).substr(name.size() - field.size() - 1);
+    if (tail[0] != '_' || !detail::iequal(tail.substr(1), field)) continue;
     std::string hint = "; did you mean '" + name + "'?";
     if (modality == field) hint += " Name it in the spec: " + field + "(" + name + "):THRESHOLD";
     return hint;
