@@ -27,9 +27,10 @@ class block_partition {
   const std::vector<std::uint32_t>& order() const noexcept { return m_order; }
 
   /// The points inside the closed box [lo, hi], cell by cell in key order
-  /// and by index within a cell: an order that depends only on the points in and near the box,
-  /// not on the rest of the cloud (cells lie at whole multiples of the cell
-  /// size), so a part of the cloud that holds them gets the same order.
+  /// and by index within a cell: an order that depends only on the points
+  /// in and near the box, not on the rest of the cloud (cells lie at whole
+  /// multiples of the cell size), so a part of the cloud that holds them
+  /// gets the same order.
   void box_search(const float lo[3], const float hi[3], detail::raw_vector<neighbor_index::located_point>& out) const;
   /// The same points, indices only.
   void box_search(const float lo[3], const float hi[3], detail::raw_vector<std::uint32_t>& out) const;
