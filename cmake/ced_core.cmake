@@ -34,6 +34,16 @@ if(CED_COMPILER_HAS_AVX2 AND CMAKE_SYSTEM_PROCESSOR MATCHES "x86_64|AMD64|amd64|
   set_source_files_properties(src/core/kernel/block_kernel_avx2.cpp PROPERTIES COMPILE_OPTIONS
     "-mavx2;-ffp-contract=off;-Wno-psabi")
   target_compile_definitions(ced_core PRIVATE CED_HAS_AVX2_KERNEL)
+  # ... and for AVX-512 (VL, BW, DQ) where the compiler can: the same 8-lane
+  # code with its lane masks in mask registers. (GCC 12's AVX-512 headers
+  # warn of their own _mm*_undefined_* values: GCC bug 105593.)
+  check_cxx_compiler_flag("-mavx512f -mavx512vl -mavx512bw -mavx512dq" CED_COMPILER_HAS_AVX512)
+  if(CED_COMPILER_HAS_AVX512)
+    target_sources(ced_core PRIVATE src/core/kernel/block_kernel_avx512.cpp)
+    set_source_files_properties(src/core/kernel/block_kernel_avx512.cpp PROPERTIES COMPILE_OPTIONS
+      "-mavx2;-mavx512f;-mavx512vl;-mavx512bw;-mavx512dq;-ffp-contract=off;-Wno-psabi;-Wno-maybe-uninitialized")
+    target_compile_definitions(ced_core PRIVATE CED_HAS_AVX512_KERNEL)
+  endif()
 endif()
 set_source_files_properties(src/core/kernel/block_kernel_generic.cpp PROPERTIES COMPILE_OPTIONS
   "-ffp-contract=off;-Wno-psabi")

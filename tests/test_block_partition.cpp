@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "core/block_partition.hpp"
@@ -73,12 +74,12 @@ TEST(BlockPartition, BoxSearchFindsThePointsInTheBoxInOneOrderOnEveryBuild) {
     std::sort(keyed.begin(), keyed.end());
     std::vector<std::uint32_t> expected;
     for (const auto& k : keyed) expected.push_back(static_cast<std::uint32_t>(k[3]));
-    for (bool generic : {false, true}) {
-      ced::detail::force_generic_kernel(generic);
+    for (const std::string& isa : ced::detail::kernel_isas()) {
+      ced::detail::force_kernel_isa(isa);
       b.box_search(lo, hi, ids);
       b.box_search(lo, hi, located);
       ced::detail::force_generic_kernel(false);
-      const char* build = generic ? " generic" : "";
+      const std::string build = " " + isa;
       ASSERT_EQ(std::vector<std::uint32_t>(ids.begin(), ids.end()), expected) << "box " << q << build;
       ASSERT_EQ(located.size(), expected.size()) << "box " << q << build;
       for (std::size_t k = 0; k < expected.size(); ++k) {

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -13,10 +14,11 @@
 
 using ced_test::make_room;
 
-// The neighbour pass is built for the baseline instruction set and for AVX2
-// (chosen at run time); both must give bitwise identical results, through
-// the register-accumulator paths (≤ 16 channels) and the any-count path.
-TEST(Detect, GenericAndAvx2NeighbourPassesAgreeBitwise) {
+// The neighbour pass is built for the baseline instruction set, AVX2 and
+// AVX-512 (chosen at run time); every build this CPU runs must give bitwise
+// the generic build's results, through the register-accumulator paths
+// (≤ 16 channels) and the any-count path.
+TEST(Detect, EveryNeighbourPassBuildAgreesBitwise) {
   auto c = make_room(6000, 13);
   std::vector<std::string> many;
   std::mt19937 rng(3);
@@ -29,52 +31,60 @@ TEST(Detect, GenericAndAvx2NeighbourPassesAgreeBitwise) {
   ced::detect_params p;
   p.threads = 2;
   const std::vector<ced::any_modality> mods = {ced::xyz{}, ced::rgb{}, ced::lab{}, ced::bands(many, 0.3)};
-  ced::detail::force_generic_kernel(false);
-  const std::string isa = ced::detail::kernel_isa();
-  const auto a = ced::detect(c, p, mods);
-  const auto a6 = ced::detect(c, p, ced::xyz{}, ced::rgb{});
-  ced::detail::force_generic_kernel(true);
+  const auto isas = ced::detail::kernel_isas();
+  ASSERT_EQ(isas.back(), "generic");
+  ced::detail::force_kernel_isa("generic");
   EXPECT_STREQ(ced::detail::kernel_isa(), "generic");
   const auto b = ced::detect(c, p, mods);
   const auto b6 = ced::detect(c, p, ced::xyz{}, ced::rgb{});
+  ASSERT_GT(b.keypoints.size(), 10u);
+  for (const std::string& isa : isas) {
+    SCOPED_TRACE(isa);
+    ced::detail::force_kernel_isa(isa);
+    const auto a = ced::detect(c, p, mods);
+    const auto a6 = ced::detect(c, p, ced::xyz{}, ced::rgb{});
+    EXPECT_EQ(a.saliency, b.saliency);  // bitwise
+    EXPECT_EQ(a.keypoints, b.keypoints);
+    EXPECT_EQ(a.neighbor_count, b.neighbor_count);
+    EXPECT_EQ(a6.saliency, b6.saliency);
+    EXPECT_EQ(a6.keypoints, b6.keypoints);
+  }
   ced::detail::force_generic_kernel(false);
-  if (isa == "generic") std::printf("note: this CPU has no AVX2; both runs used the generic pass\n");
-  ASSERT_GT(a.keypoints.size(), 10u);
-  EXPECT_EQ(a.saliency, b.saliency);  // bitwise
-  EXPECT_EQ(a.keypoints, b.keypoints);
-  EXPECT_EQ(a.neighbor_count, b.neighbor_count);
-  EXPECT_EQ(a6.saliency, b6.saliency);
-  EXPECT_EQ(a6.keypoints, b6.keypoints);
+  if (isas.size() == 1) std::printf("note: this CPU has no AVX2; only the generic pass ran\n");
+  EXPECT_THROW(ced::detail::force_kernel_isa("sse9"), std::invalid_argument);
 }
 
 // The set-up before the sweep (box query, sub-cell keys, each point's nine
-// runs) has its own AVX2 build: it must lay the block out exactly as the
-// generic one does, since the runs fix which lane sums which point.
-TEST(Detect, GenericAndAvx2BlockLayoutsAreTheSame) {
+// runs) has its own AVX2 and AVX-512 builds: they must lay the block out
+// exactly as the generic one does, since the runs fix which lane sums which
+// point.
+TEST(Detect, EveryBuildLaysBlocksOutTheSame) {
   const auto c = make_room(20000, 17);
   const float* xyz = c.positions().data();
-  for (const double r : {0.02, 0.05, 0.11}) {
-    const ced::block_partition grid(xyz, c.size(), 6 * r, 1);
-    ced::neighbor_block fast, generic;
-    fast.set_channels({ced::channel_source{xyz, 3, true}});
-    generic.set_channels({ced::channel_source{xyz, 3, true}});
-    for (std::size_t b = 0; b < grid.block_count(); ++b) {
-      ced::detail::force_generic_kernel(false);
-      fast.fill(grid, xyz, grid.block_points(b), grid.block_size(b), r);
-      ced::detail::force_generic_kernel(true);
-      generic.fill(grid, xyz, grid.block_points(b), grid.block_size(b), r);
-      ced::detail::force_generic_kernel(false);
-      ASSERT_EQ(fast.gathered_count(), generic.gathered_count());
-      for (std::size_t t = 0; t < fast.gathered_count(); ++t)
-        ASSERT_EQ(fast.gathered()[t], generic.gathered()[t]) << "r " << r << ", block " << b << ", point " << t;
-      for (std::size_t k = 0; k < fast.size(); ++k) {
-        const auto f = fast.sweep(k), g = generic.sweep(k);
-        ASSERT_EQ(f.bytes, g.bytes) << "r " << r << ", block " << b << ", point " << k;
-        for (std::size_t q = 0; q < 2 * ced::neighbor_block::sweep_ranges; ++q)
-          ASSERT_EQ(f.ranges[q], g.ranges[q]) << "r " << r << ", block " << b << ", point " << k << ", run " << q / 2;
+  for (const std::string& isa : ced::detail::kernel_isas())
+    for (const double r : {0.02, 0.05, 0.11}) {
+      const ced::block_partition grid(xyz, c.size(), 6 * r, 1);
+      ced::neighbor_block fast, generic;
+      fast.set_channels({ced::channel_source{xyz, 3, true}});
+      generic.set_channels({ced::channel_source{xyz, 3, true}});
+      for (std::size_t b = 0; b < grid.block_count(); ++b) {
+        ced::detail::force_kernel_isa(isa);
+        fast.fill(grid, xyz, grid.block_points(b), grid.block_size(b), r);
+        ced::detail::force_kernel_isa("generic");
+        generic.fill(grid, xyz, grid.block_points(b), grid.block_size(b), r);
+        ced::detail::force_generic_kernel(false);
+        const std::string at = isa + ", r " + std::to_string(r) + ", block " + std::to_string(b);
+        ASSERT_EQ(fast.gathered_count(), generic.gathered_count());
+        for (std::size_t t = 0; t < fast.gathered_count(); ++t)
+          ASSERT_EQ(fast.gathered()[t], generic.gathered()[t]) << at << ", point " << t;
+        for (std::size_t k = 0; k < fast.size(); ++k) {
+          const auto f = fast.sweep(k), g = generic.sweep(k);
+          ASSERT_EQ(f.bytes, g.bytes) << at << ", point " << k;
+          for (std::size_t q = 0; q < 2 * ced::neighbor_block::sweep_ranges; ++q)
+            ASSERT_EQ(f.ranges[q], g.ranges[q]) << at << ", point " << k << ", run " << q / 2;
+        }
       }
     }
-  }
 }
 
 // A modality whose evaluator reads neighbour lists (not sums) gets exactly

@@ -381,8 +381,8 @@ TEST(Neighborhoods, NearestOnTheGridAreCgalsOnEveryDensity) {
   // when short, then CGAL's own search) against CGAL's search for every
   // point: a sensor-like falloff, a lattice of exact ties and duplicates,
   // and a dense cluster among sparse points (every block's bound too small
-  // for some of its points). The grid's selection runs on the AVX2 build
-  // (where the CPU has it) and on the generic one, alike.
+  // for some of its points). The grid's selection runs on every build the
+  // CPU has (AVX-512, AVX2, generic), alike.
   std::vector<ced::point_cloud> clouds{scanned_room(6000, 21)};
   ced::point_cloud lattice;
   for (int x = 0; x < 30; ++x)
@@ -406,13 +406,15 @@ TEST(Neighborhoods, NearestOnTheGridAreCgalsOnEveryDensity) {
       ced::detect_params p;
       p.neighborhood = ced::parse_neighborhood(spec);
       p.min_neighbors = 1;
-      const auto grid = ced::detect(clouds[c], p, {ced::make_modality("xyz")});
-      ced::detail::force_generic_kernel(true);
-      const auto generic = ced::detect(clouds[c], p, {ced::make_modality("xyz")});
+      std::vector<ced::detection_result> builds;  // the grid search, on every build this CPU runs
+      for (const std::string& isa : ced::detail::kernel_isas()) {
+        ced::detail::force_kernel_isa(isa);
+        builds.push_back(ced::detect(clouds[c], p, {ced::make_modality("xyz")}));
+      }
       ced::detail::force_generic_kernel(false);
       p.search = ced::search_kind::cgal;
       const auto tree = ced::detect(clouds[c], p, {ced::make_modality("xyz")});
-      for (const auto* r : {&grid, &generic}) {
+      for (const auto* r = builds.data(); r != builds.data() + builds.size(); ++r) {
         EXPECT_EQ(r->point_radius, tree.point_radius);
         EXPECT_EQ(r->neighbor_count, tree.neighbor_count);
         EXPECT_EQ(r->saliency, tree.saliency);  // the same lists, summed alike

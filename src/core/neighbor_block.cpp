@@ -10,7 +10,9 @@
 #include <functional>
 #include <limits>
 #include <stdexcept>
+#include <string>
 #include <utility>
+#include <vector>
 
 #include "core/block_partition.hpp"
 #include "core/kernel/block_kernel.hpp"
@@ -55,21 +57,33 @@ constexpr kernel_set generic_kernels{detail::block_kernel_generic,
                                      nullptr,
                                      "generic"};
 
-kernel_set best_kernels() noexcept {
+/// The builds this CPU can run, best first; the generic one always last.
+std::vector<kernel_set> available_kernels() {
+  std::vector<kernel_set> sets;
+#if defined(CED_HAS_AVX512_KERNEL)
+  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw") &&
+      __builtin_cpu_supports("avx512dq"))
+    sets.push_back({detail::block_kernel_avx512, detail::compact_avx512, detail::balls_avx512, detail::split_avx512,
+                    detail::select_in_box_avx512, detail::select_ids_in_box_avx512, detail::rows_avx512,
+                    detail::cell_keys_avx512, "avx512"});
+#endif
 #if defined(CED_HAS_AVX2_KERNEL)
   if (__builtin_cpu_supports("avx2"))
-    return {detail::block_kernel_avx2, detail::compact_avx2,       detail::balls_avx2,
-            detail::split_avx2,        detail::select_in_box_avx2, detail::select_ids_in_box_avx2,
-            detail::rows_avx2,         detail::cell_keys_avx2,     "avx2"};
+    sets.push_back({detail::block_kernel_avx2, detail::compact_avx2, detail::balls_avx2, detail::split_avx2,
+                    detail::select_in_box_avx2, detail::select_ids_in_box_avx2, detail::rows_avx2,
+                    detail::cell_keys_avx2, "avx2"});
 #endif
-  return generic_kernels;
+  sets.push_back(generic_kernels);
+  return sets;
 }
-std::atomic<bool> g_force_generic{false};
+const std::vector<kernel_set>& kernels() {
+  static const std::vector<kernel_set> sets = available_kernels();
+  return sets;
+}
+/// The build tests force (an index into kernels()); 0 is the best.
+std::atomic<std::size_t> g_forced{0};
 
-const kernel_set& active_kernels() noexcept {
-  static const kernel_set best = best_kernels();
-  return g_force_generic.load(std::memory_order_relaxed) ? generic_kernels : best;
-}
+const kernel_set& active_kernels() noexcept { return kernels()[g_forced.load(std::memory_order_relaxed)]; }
 
 /// Resizes `v` to at least n elements; never shrinks, so that a reused
 /// buffer is not cleared again and again.
@@ -122,7 +136,17 @@ std::size_t select_ids_in_box(const float* x, const float* y, const float* z, co
                               std::size_t e, const float lo[3], const float hi[3], std::uint32_t* out) noexcept {
   return active_kernels().select_ids(x, y, z, ids, b, e, lo, hi, out);
 }
-void force_generic_kernel(bool on) noexcept { g_force_generic.store(on); }
+void force_generic_kernel(bool on) noexcept { g_forced.store(on ? kernels().size() - 1 : 0); }
+std::vector<std::string> kernel_isas() {
+  std::vector<std::string> names;
+  for (const kernel_set& k : kernels()) names.emplace_back(k.name);
+  return names;
+}
+void force_kernel_isa(const std::string& isa) {
+  for (std::size_t i = 0; i < kernels().size(); ++i)
+    if (isa == kernels()[i].name) return g_forced.store(i);
+  throw std::invalid_argument("this CPU or build has no '" + isa + "' neighbour pass");
+}
 }  // namespace detail
 
 void neighbor_block::set_channels(const std::vector<channel_source>& sources) {

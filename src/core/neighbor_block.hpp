@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -150,9 +151,14 @@ class neighbor_block {
 };
 
 namespace detail {
-/// Which build of the neighbour pass runs: "avx2" when the CPU has it,
-/// otherwise "generic". Both give bitwise identical results; tests force one.
+/// Which build of the neighbour pass runs: "avx512" (F, VL, BW, DQ) or
+/// "avx2" when the CPU has it, otherwise "generic". All give bitwise
+/// identical results; tests force one.
 const char* kernel_isa() noexcept;
+/// The builds this CPU can run, best first, "generic" last.
+std::vector<std::string> kernel_isas();
+/// Forces one of kernel_isas() (std::invalid_argument for another name).
+void force_kernel_isa(const std::string& isa);
 /// Splits n distances (as bits, with their ids) by [lo, hi] on the chosen
 /// build: those below lo to below_*[0..returned), those within to
 /// range_*[0..*in_range), each in order. Reads up to 8 entries past n and

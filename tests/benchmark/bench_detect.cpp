@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "ced/ced.hpp"
+#include "core/neighbor_block.hpp"
 #include "core/neighbor_index.hpp"
 #ifdef CED_HAS_PCL
 #include "pcl_bridge.hpp"  // ced's optional PCL component: PCL's own detectors
@@ -336,6 +337,10 @@ int main(int argc, char** argv) {
       data = argv[++i];
       continue;
     }
+    if (std::strcmp(argv[i], "--isa") == 0 && i + 1 < argc) {  // e.g. avx2 on an AVX-512 machine
+      ced::detail::force_kernel_isa(argv[++i]);
+      continue;
+    }
     args.push_back(argv[i]);
   }
   int nargs = static_cast<int>(args.size());
@@ -433,6 +438,7 @@ int main(int argc, char** argv) {
       ->ArgsProduct({{10000, 100000, 1000000}, {1, 2}})
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
+  benchmark::AddCustomContext("ced_kernel", ced::detail::kernel_isa());
   benchmark::Initialize(&nargs, args.data());
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();

@@ -63,6 +63,8 @@ void compact_generic(const std::uint32_t* gathered, const std::uint32_t* ranges,
                      std::uint32_t n, std::uint32_t* out) noexcept;
 void compact_avx2(const std::uint32_t* gathered, const std::uint32_t* ranges, const std::uint8_t* bits, std::uint32_t n,
                   std::uint32_t* out) noexcept;
+void compact_avx512(const std::uint32_t* gathered, const std::uint32_t* ranges, const std::uint8_t* bits,
+                    std::uint32_t n, std::uint32_t* out) noexcept;
 
 /// The ball of the block's point k (positions alone): the gathered points
 /// nearer than the radius, in sweep order, to ids[0..returned), with their
@@ -73,6 +75,8 @@ std::uint32_t balls_generic(const block_kernel_input& in, const std::uint32_t* g
                             std::size_t k, std::int32_t* d2_bits, std::uint32_t* ids) noexcept;
 std::uint32_t balls_avx2(const block_kernel_input& in, const std::uint32_t* gathered, const std::uint32_t* points,
                          std::size_t k, std::int32_t* d2_bits, std::uint32_t* ids) noexcept;
+std::uint32_t balls_avx512(const block_kernel_input& in, const std::uint32_t* gathered, const std::uint32_t* points,
+                           std::size_t k, std::int32_t* d2_bits, std::uint32_t* ids) noexcept;
 
 /// Splits n distances (as bits) and their ids by [lo, hi]: those below lo
 /// to below_*[0..returned), those within to range_*[0..*in_range), each in
@@ -83,6 +87,9 @@ std::uint32_t split_generic(const std::int32_t* d2_bits, const std::uint32_t* id
 std::uint32_t split_avx2(const std::int32_t* d2_bits, const std::uint32_t* ids, std::uint32_t n, std::int32_t lo,
                          std::int32_t hi, std::int32_t* below_bits, std::uint32_t* below_ids, std::int32_t* range_bits,
                          std::uint32_t* range_ids, std::uint32_t* in_range) noexcept;
+std::uint32_t split_avx512(const std::int32_t* d2_bits, const std::uint32_t* ids, std::uint32_t n, std::int32_t lo,
+                           std::int32_t hi, std::int32_t* below_bits, std::uint32_t* below_ids,
+                           std::int32_t* range_bits, std::uint32_t* range_ids, std::uint32_t* in_range) noexcept;
 
 /// The points t in [b, e) of positions x, y, z (each readable 8 floats past
 /// e; ids no further than e) that lie in the closed box [lo, hi], in order,
@@ -93,6 +100,9 @@ std::size_t select_in_box_generic(const float* x, const float* y, const float* z
                                   float* out) noexcept;
 std::size_t select_in_box_avx2(const float* x, const float* y, const float* z, const std::uint32_t* ids, std::size_t b,
                                std::size_t e, const float lo[3], const float hi[3], float* out) noexcept;
+std::size_t select_in_box_avx512(const float* x, const float* y, const float* z, const std::uint32_t* ids,
+                                 std::size_t b, std::size_t e, const float lo[3], const float hi[3],
+                                 float* out) noexcept;
 /// The same selection, the ids alone to out (up to 8 written past the count).
 std::size_t select_ids_in_box_generic(const float* x, const float* y, const float* z, const std::uint32_t* ids,
                                       std::size_t b, std::size_t e, const float lo[3], const float hi[3],
@@ -100,6 +110,9 @@ std::size_t select_ids_in_box_generic(const float* x, const float* y, const floa
 std::size_t select_ids_in_box_avx2(const float* x, const float* y, const float* z, const std::uint32_t* ids,
                                    std::size_t b, std::size_t e, const float lo[3], const float hi[3],
                                    std::uint32_t* out) noexcept;
+std::size_t select_ids_in_box_avx512(const float* x, const float* y, const float* z, const std::uint32_t* ids,
+                                     std::size_t b, std::size_t e, const float lo[3], const float hi[3],
+                                     std::uint32_t* out) noexcept;
 
 /// A block's sub-cell grid as the runs' set-up sees it (counted grids only:
 /// `start` holds each cell's first gathered point, cells + 1 entries).
@@ -115,15 +128,19 @@ struct row_grid {
 /// ranges) and where its hit bits start (bit_offsets[1..count]), exactly as
 /// neighbor_block's scalar set-up makes them; four points at a time.
 void rows_avx2(const row_grid& g, std::uint32_t* ranges, std::uint32_t* bit_offsets) noexcept;
+void rows_avx512(const row_grid& g, std::uint32_t* ranges, std::uint32_t* bit_offsets) noexcept;
 
 /// The sub-cell keys ((c_z · dims_y + c_y) · dims_x + c_x, below 2^31) of
 /// g points given as records of 4 floats (x, y, z, id), to keys[0..g),
 /// exactly as neighbor_block::cell_of makes the cells.
 void cell_keys_avx2(const float* records, std::size_t g, const double lo[3], const double inv_side[3],
                     const std::int64_t dims[3], std::uint32_t* keys) noexcept;
+void cell_keys_avx512(const float* records, std::size_t g, const double lo[3], const double inv_side[3],
+                      const std::int64_t dims[3], std::uint32_t* keys) noexcept;
 
-/// Both compute exactly the same numbers (same lanes, same order, no FMA).
+/// All builds compute exactly the same numbers (same lanes, same order, no FMA).
 void block_kernel_generic(const block_kernel_input& in, const block_kernel_output& out) noexcept;
 void block_kernel_avx2(const block_kernel_input& in, const block_kernel_output& out) noexcept;
+void block_kernel_avx512(const block_kernel_input& in, const block_kernel_output& out) noexcept;
 
 }  // namespace ced::detail
