@@ -58,6 +58,62 @@ TEST(Tiles, GridCoversEveryPointOnceAndHalosHoldTheirCores) {
   }
 }
 
+// The batch locate and tile_of (vectorised, a build chosen at run time)
+// give locate()'s and tile_of()'s numbers point for point: random points in and around the grid, points on
+// the cores' faces and one halo from them, float neighbours of those, and
+// non-finite points (marked −1).
+TEST(Tiles, BatchLocateGivesLocatesNumbers) {
+  ced::tile_grid g;
+  g.lo = {-3.3, 1.7, -0.2};
+  g.size = 0.7;
+  g.dims = {9, 5, 3};
+  g.halo = 0.45;
+  std::vector<float> xyz;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-2.0, 12.0);
+  for (int i = 0; i < 20000; ++i)
+    for (std::size_t k = 0; k < 3; ++k) xyz.push_back(static_cast<float>(g.lo[k] + u(rng) * g.size));
+  for (int c = -1; c <= 10; ++c)
+    for (const double off : {0.0, g.halo, -g.halo})
+      for (int step = -64; step <= 64; ++step) {  // the floats around a face, where rounding decides
+        float p[3];
+        for (std::size_t k = 0; k < 3; ++k) {
+          p[k] = static_cast<float>(g.lo[k] + c * g.size + off);
+          for (int t = 0; t < std::abs(step); ++t) p[k] = std::nextafter(p[k], step < 0 ? -INFINITY : INFINITY);
+          xyz.push_back(p[k]);
+        }
+      }
+  const std::size_t finite = xyz.size() / 3;
+  const float bad[] = {NAN, INFINITY, -INFINITY};
+  for (const float b : bad)
+    for (std::size_t k = 0; k < 3; ++k) {
+      float p[3] = {0.1f, 2.0f, 0.3f};
+      p[k] = b;
+      xyz.insert(xyz.end(), p, p + 3);
+    }
+  xyz.insert(xyz.end(), {1e30f, -1e30f, 3e38f});  // finite, far outside: clamped like locate()
+  const std::size_t n = xyz.size() / 3;
+  std::vector<std::int32_t> cells(9 * n, 7);
+  g.locate_many(xyz.data(), n, cells.data());
+  std::vector<std::uint64_t> tiles(n, 12345);
+  g.tile_of_many(xyz.data(), n, tiles.data());
+  for (std::size_t i = 0; i < n; ++i) {
+    const float* p = xyz.data() + 3 * i;
+    ASSERT_EQ(tiles[i], g.tile_of(p)) << "point " << i;  // for every point, finite or not
+    if (i >= finite && i + 1 < n) {
+      EXPECT_EQ(cells[9 * i + 3], -1) << "point " << i << " is not finite";
+      continue;
+    }
+    std::int64_t own[3], c0[3], c1[3];
+    g.locate(p, own, c0, c1);
+    for (std::size_t k = 0; k < 3; ++k) {
+      ASSERT_EQ(cells[9 * i + k], own[k]) << "point " << i << ", axis " << k;
+      ASSERT_EQ(cells[9 * i + 3 + k], c0[k]) << "point " << i << ", axis " << k;
+      ASSERT_EQ(cells[9 * i + 6 + k], c1[k]) << "point " << i << ", axis " << k;
+    }
+  }
+}
+
 TEST(Tiles, UnionOfTilesIsTheWholeResultOnRandomClouds) {
   std::mt19937 rng(2026);
   for (int trial = 0; trial < 6; ++trial) {

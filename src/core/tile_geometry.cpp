@@ -22,6 +22,13 @@ std::int64_t cell_index(double x, double lo, double size, std::uint32_t dims) no
   return static_cast<std::int64_t>(std::min(c, double(dims - 1)));
 }
 
+/// cell_index without its branch, as a double (the same numbers): what the
+/// batch functions use, so that they vectorise.
+inline __attribute__((always_inline)) double cell_value(double x, double lo, double size, double last) noexcept {
+  const double c = std::floor((x - lo) / size);
+  return std::min(c > 0 ? c : 0.0, last);  // 0 below (and for NaN), the last cell above
+}
+
 /// How far beyond a core the points that its keypoints depend on through the
 /// NMS can lie: the NMS radius (under nms=own, nms_radius × the largest own
 /// radius `largest_own` / radius), twice with refinement. exact_halo() sizes
@@ -43,6 +50,43 @@ void tile_grid::locate(const float p[3], std::int64_t own[3], std::int64_t c0[3]
     own[k] = cell_index(double(p[k]), lo[k], size, dims[k]);
     c0[k] = cell_index(double(p[k]) - halo, lo[k], size, dims[k]);
     c1[k] = cell_index(double(p[k]) + halo, lo[k], size, dims[k]);
+  }
+}
+
+__attribute__((target_clones("avx512f", "avx2", "default"))) void tile_grid::locate_many(
+    const float* xyz, std::size_t n, std::int32_t* cells) const noexcept {
+  // The three axes and three offsets through vector divisions.
+  const double s = size, h = halo;
+  const double low[3] = {lo[0], lo[1], lo[2]};
+  const double last[3] = {double(dims[0] - 1), double(dims[1] - 1), double(dims[2] - 1)};
+  for (std::size_t i = 0; i < n; ++i) {
+    bool finite = true;
+    std::int32_t* out = cells + 9 * i;
+    for (std::size_t k = 0; k < 3; ++k) {
+      const float f = xyz[3 * i + k];
+      finite = finite & (std::fabs(f) <= std::numeric_limits<float>::max());
+      const double p = double(f);
+      auto cell = [&](double x) { return static_cast<std::int32_t>(cell_value(x, low[k], s, last[k])); };
+      out[k] = cell(p);
+      out[3 + k] = cell(p - h);
+      out[6 + k] = cell(p + h);
+    }
+    if (!finite) out[3] = -1;
+  }
+}
+
+__attribute__((target_clones("avx512f", "avx2", "default"))) void tile_grid::tile_of_many(
+    const float* xyz, std::size_t n, std::uint64_t* out) const noexcept {
+  const double s = size;
+  const double low[3] = {lo[0], lo[1], lo[2]};
+  const double last[3] = {double(dims[0] - 1), double(dims[1] - 1), double(dims[2] - 1)};
+  const std::uint64_t d0 = dims[0], d1 = dims[1];
+  for (std::size_t i = 0; i < n; ++i) {
+    std::uint64_t c[3];
+    for (std::size_t k = 0; k < 3; ++k)  // (below 2^24: through int32, which vectorises)
+      c[k] =
+          static_cast<std::uint32_t>(static_cast<std::int32_t>(cell_value(double(xyz[3 * i + k]), low[k], s, last[k])));
+    out[i] = (c[2] * d1 + c[1]) * d0 + c[0];
   }
 }
 

@@ -252,8 +252,10 @@ tile_part detect_tile(const tile_plan& plan, const tile_points& points, unsigned
   const detection_result r = detect(points.cloud, params, modalities);
   check_tile_reach(plan.grid, points.tile, points.cloud, &r, params, tile_check_extra(params, modalities));
   std::vector<std::uint32_t> kept;
+  std::vector<std::uint64_t> tiles(points.cloud.size());
+  plan.grid.tile_of_many(points.cloud.positions().data(), tiles.size(), tiles.data());
   for (std::size_t i = 0; i < points.cloud.size(); ++i) {
-    if (plan.grid.tile_of(points.cloud.position(i)) != points.tile) continue;
+    if (tiles[i] != points.tile) continue;
     for (std::size_t k = 0; k < m; ++k) part.candidates[k] += r.saliency[k][i] >= r.thresholds[k];
     part.any_candidates += r.candidate[i] != 0;
   }

@@ -101,9 +101,6 @@ class tile_owners {
 
 /// Where a point of a chunk lies in the grid: its own cell and the cells
 /// its halo box meets (c0 to c1); c0[0] < 0: not finite.
-struct located {
-  std::int32_t own[3], c0[3], c1[3];
-};
 
 /// Runs f(k) for k in [0, n) on n threads (this one included); rethrows the
 /// first exception once all are done.
@@ -138,12 +135,14 @@ struct cache_filler {
   std::uint64_t file_index = 0, index = 0;
   std::vector<plan_field> tile_fields = {};
   std::vector<column> converted = {};
-  std::vector<located> where = {};
+  /// Per point of the chunk, tile_grid::locate_many's 9 values: its own
+  /// tile's coordinates, then the lowest and highest whose halo holds it.
+  std::vector<std::int32_t> where = {};
 
   void add(const point_cloud& c) {
     const field_bytes fields = conform_fields(c, tile_fields, converted);
     const unsigned shards = writer.shards();
-    where.resize(c.size());
+    where.resize(9 * c.size());
     on_threads(shards, [&](unsigned k) { locate(c, c.size() * k / shards, c.size() * (k + 1) / shards); });
     std::vector<std::size_t> added(shards, 0);
     std::uint64_t finite = 0;
@@ -156,21 +155,7 @@ struct cache_filler {
   }
 
   void locate(const point_cloud& c, std::size_t from, std::size_t to) {
-    for (std::size_t i = from; i < to; ++i) {
-      const float* q = c.position(i);
-      located& w = where[i];
-      if (!finite3(q)) {
-        w.c0[0] = -1;
-        continue;
-      }
-      std::int64_t own[3], c0[3], c1[3];
-      plan.grid.locate(q, own, c0, c1);
-      for (std::size_t k = 0; k < 3; ++k) {
-        w.own[k] = std::int32_t(own[k]);
-        w.c0[k] = std::int32_t(c0[k]);
-        w.c1[k] = std::int32_t(c1[k]);
-      }
-    }
+    plan.grid.locate_many(c.positions().data() + 3 * from, to - from, where.data() + 9 * from);
   }
 
   /// Shard k's records of chunk c; shard 0 also counts the tiles' points and
@@ -185,12 +170,13 @@ struct cache_filler {
     std::size_t added = 0, width = 0;
     for (const auto& f : fields) width += f.second;
     for (std::size_t i = 0; i < c.size(); ++i, ++fi) {
-      const located& w = where[i];
-      if (w.c0[0] < 0) continue;
-      if (finite) counts.core(id(w.own[0], w.own[1], w.own[2]));
-      for (std::int64_t z = w.c0[2]; z <= w.c1[2]; ++z)
-        for (std::int64_t y = w.c0[1]; y <= w.c1[1]; ++y)
-          for (std::int64_t x = w.c0[0]; x <= w.c1[0]; ++x) {
+      const std::int32_t* own = where.data() + 9 * i;
+      const std::int32_t *c0 = own + 3, *c1 = own + 6;
+      if (c0[0] < 0) continue;  // not finite
+      if (finite) counts.core(id(own[0], own[1], own[2]));
+      for (std::int64_t z = c0[2]; z <= c1[2]; ++z)
+        for (std::int64_t y = c0[1]; y <= c1[1]; ++y)
+          for (std::int64_t x = c0[0]; x <= c1[0]; ++x) {
             const std::uint64_t t = id(x, y, z);
             if (finite) counts.near(t);
             if (t % shards != k || !owners.owns(t)) continue;
