@@ -56,7 +56,7 @@ struct tile_grid {
   /// to cells (own x, y, z, then lo_c and hi_c), the same numbers; a point
   /// that is not finite gets −1 as its lo_c x (its other values are
   /// unspecified). Vectorised (built for AVX-512 and AVX2 too, chosen at
-  /// run time): what a tiled run's first pass spends its time on.
+  /// each call): what a tiled run's first pass spends its time on.
   void locate_many(const float* xyz, std::size_t n, std::int32_t* cells) const noexcept;
   /// tile_of() for n points (xyz, 3 floats each) at once, to out[0..n): the
   /// same ids, vectorised like locate_many().

@@ -53,12 +53,14 @@ void tile_grid::locate(const float p[3], std::int64_t own[3], std::int64_t c0[3]
   }
 }
 
-__attribute__((target_clones("avx512f", "avx2", "default"))) void tile_grid::locate_many(
-    const float* xyz, std::size_t n, std::int32_t* cells) const noexcept {
-  // The three axes and three offsets through vector divisions.
-  const double s = size, h = halo;
-  const double low[3] = {lo[0], lo[1], lo[2]};
-  const double last[3] = {double(dims[0] - 1), double(dims[1] - 1), double(dims[2] - 1)};
+namespace {
+/// locate_many's body: cell_index's double operations, the three axes and
+/// three offsets through vector divisions where the build allows.
+inline __attribute__((always_inline)) void locate_points(const tile_grid& g, const float* xyz, std::size_t n,
+                                                         std::int32_t* cells) noexcept {
+  const double s = g.size, h = g.halo;
+  const double low[3] = {g.lo[0], g.lo[1], g.lo[2]};
+  const double last[3] = {double(g.dims[0] - 1), double(g.dims[1] - 1), double(g.dims[2] - 1)};
   for (std::size_t i = 0; i < n; ++i) {
     bool finite = true;
     std::int32_t* out = cells + 9 * i;
@@ -74,13 +76,13 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void tile_grid::loc
     if (!finite) out[3] = -1;
   }
 }
-
-__attribute__((target_clones("avx512f", "avx2", "default"))) void tile_grid::tile_of_many(
-    const float* xyz, std::size_t n, std::uint64_t* out) const noexcept {
-  const double s = size;
-  const double low[3] = {lo[0], lo[1], lo[2]};
-  const double last[3] = {double(dims[0] - 1), double(dims[1] - 1), double(dims[2] - 1)};
-  const std::uint64_t d0 = dims[0], d1 = dims[1];
+/// tile_of_many's body.
+inline __attribute__((always_inline)) void tile_points(const tile_grid& g, const float* xyz, std::size_t n,
+                                                       std::uint64_t* out) noexcept {
+  const double s = g.size;
+  const double low[3] = {g.lo[0], g.lo[1], g.lo[2]};
+  const double last[3] = {double(g.dims[0] - 1), double(g.dims[1] - 1), double(g.dims[2] - 1)};
+  const std::uint64_t d0 = g.dims[0], d1 = g.dims[1];
   for (std::size_t i = 0; i < n; ++i) {
     std::uint64_t c[3];
     for (std::size_t k = 0; k < 3; ++k)  // (below 2^24: through int32, which vectorises)
@@ -88,6 +90,44 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void tile_grid::til
           static_cast<std::uint32_t>(static_cast<std::int32_t>(cell_value(double(xyz[3 * i + k]), low[k], s, last[k])));
     out[i] = (c[2] * d1 + c[1]) * d0 + c[0];
   }
+}
+
+// Built for AVX-512 and AVX2 too, and chosen at run time on each call
+// (target_clones' ifunc resolvers would run before ThreadSanitizer is set up).
+#if defined(__x86_64__) && defined(__GNUC__)
+__attribute__((target("avx512f"))) void locate_avx512(const tile_grid& g, const float* xyz, std::size_t n,
+                                                      std::int32_t* cells) noexcept {
+  locate_points(g, xyz, n, cells);
+}
+__attribute__((target("avx2"))) void locate_avx2(const tile_grid& g, const float* xyz, std::size_t n,
+                                                 std::int32_t* cells) noexcept {
+  locate_points(g, xyz, n, cells);
+}
+__attribute__((target("avx512f"))) void tiles_avx512(const tile_grid& g, const float* xyz, std::size_t n,
+                                                     std::uint64_t* out) noexcept {
+  tile_points(g, xyz, n, out);
+}
+__attribute__((target("avx2"))) void tiles_avx2(const tile_grid& g, const float* xyz, std::size_t n,
+                                                std::uint64_t* out) noexcept {
+  tile_points(g, xyz, n, out);
+}
+#endif
+}  // namespace
+
+void tile_grid::locate_many(const float* xyz, std::size_t n, std::int32_t* cells) const noexcept {
+#if defined(__x86_64__) && defined(__GNUC__)
+  if (__builtin_cpu_supports("avx512f")) return locate_avx512(*this, xyz, n, cells);
+  if (__builtin_cpu_supports("avx2")) return locate_avx2(*this, xyz, n, cells);
+#endif
+  locate_points(*this, xyz, n, cells);
+}
+
+void tile_grid::tile_of_many(const float* xyz, std::size_t n, std::uint64_t* out) const noexcept {
+#if defined(__x86_64__) && defined(__GNUC__)
+  if (__builtin_cpu_supports("avx512f")) return tiles_avx512(*this, xyz, n, out);
+  if (__builtin_cpu_supports("avx2")) return tiles_avx2(*this, xyz, n, out);
+#endif
+  tile_points(*this, xyz, n, out);
 }
 
 std::uint64_t tile_grid::tile_of(const float p[3]) const noexcept {
