@@ -58,7 +58,7 @@ TEST(Tiles, GridCoversEveryPointOnceAndHalosHoldTheirCores) {
   }
 }
 
-// The batch locate and tile_of (vectorised, a build chosen at run time)
+// The batch locate and tile_of (branch-free, a build chosen at run time)
 // give locate()'s and tile_of()'s numbers point for point: random points in and around the grid, points on
 // the cores' faces and one halo from them, float neighbours of those, and
 // non-finite points (marked −1).

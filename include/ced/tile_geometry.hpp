@@ -55,11 +55,12 @@ struct tile_grid {
   /// locate() for n points (xyz, 3 floats each) at once: 9 values a point
   /// to cells (own x, y, z, then lo_c and hi_c), the same numbers; a point
   /// that is not finite gets −1 as its lo_c x (its other values are
-  /// unspecified). Vectorised (built for AVX-512 and AVX2 too, chosen at
-  /// each call): what a tiled run's first pass spends its time on.
+  /// unspecified). Without branches, and built for AVX-512 and AVX2 too
+  /// (a floor is one instruction there), chosen at each call: what a tiled
+  /// run's first pass spends its time on.
   void locate_many(const float* xyz, std::size_t n, std::int32_t* cells) const noexcept;
   /// tile_of() for n points (xyz, 3 floats each) at once, to out[0..n): the
-  /// same ids, vectorised like locate_many().
+  /// same ids, built like locate_many().
   void tile_of_many(const float* xyz, std::size_t n, std::uint64_t* out) const noexcept;
   /// The core box of tile t, {x0, y0, z0, x1, y1, z1} (half-open).
   std::array<double, 6> core_box(std::uint64_t t) const noexcept;

@@ -16,17 +16,16 @@
 namespace ced {
 
 namespace {
-std::int64_t cell_index(double x, double lo, double size, std::uint32_t dims) noexcept {
-  const double c = std::floor((x - lo) / size);
-  if (!(c > 0)) return 0;  // also NaN
-  return static_cast<std::int64_t>(std::min(c, double(dims - 1)));
-}
-
-/// cell_index without its branch, as a double (the same numbers): what the
-/// batch functions use, so that they vectorise.
+/// The cell of coordinate x on a grid axis (corner lo, cells of `size`, the
+/// last at `last`) as a double: the floor of (x − lo) / size, 0 below (and
+/// for NaN), the last cell above. Without a branch (the batch functions'
+/// loops have none).
 inline __attribute__((always_inline)) double cell_value(double x, double lo, double size, double last) noexcept {
   const double c = std::floor((x - lo) / size);
-  return std::min(c > 0 ? c : 0.0, last);  // 0 below (and for NaN), the last cell above
+  return std::min(c > 0 ? c : 0.0, last);
+}
+std::int64_t cell_index(double x, double lo, double size, std::uint32_t dims) noexcept {
+  return static_cast<std::int64_t>(cell_value(x, lo, size, double(dims - 1)));
 }
 
 /// How far beyond a core the points that its keypoints depend on through the
@@ -54,8 +53,8 @@ void tile_grid::locate(const float p[3], std::int64_t own[3], std::int64_t c0[3]
 }
 
 namespace {
-/// locate_many's body: cell_index's double operations, the three axes and
-/// three offsets through vector divisions where the build allows.
+/// locate_many's body: cell_index's double operations, branch-free. (GCC
+/// packs the stores into vectors; the divisions stay scalar.)
 inline __attribute__((always_inline)) void locate_points(const tile_grid& g, const float* xyz, std::size_t n,
                                                          std::int32_t* cells) noexcept {
   const double s = g.size, h = g.halo;
@@ -85,49 +84,43 @@ inline __attribute__((always_inline)) void tile_points(const tile_grid& g, const
   const std::uint64_t d0 = g.dims[0], d1 = g.dims[1];
   for (std::size_t i = 0; i < n; ++i) {
     std::uint64_t c[3];
-    for (std::size_t k = 0; k < 3; ++k)  // (below 2^24: through int32, which vectorises)
+    for (std::size_t k = 0; k < 3; ++k)  // (below 2^24: through int32)
       c[k] =
           static_cast<std::uint32_t>(static_cast<std::int32_t>(cell_value(double(xyz[3 * i + k]), low[k], s, last[k])));
     out[i] = (c[2] * d1 + c[1]) * d0 + c[0];
   }
 }
 
-// Built for AVX-512 and AVX2 too, and chosen at run time on each call
-// (target_clones' ifunc resolvers would run before ThreadSanitizer is set up).
+// Each body built for AVX-512 and AVX2 too, and chosen at run time on each
+// call (target_clones' ifunc resolvers would run before ThreadSanitizer is
+// set up).
 #if defined(__x86_64__) && defined(__GNUC__)
-__attribute__((target("avx512f"))) void locate_avx512(const tile_grid& g, const float* xyz, std::size_t n,
-                                                      std::int32_t* cells) noexcept {
-  locate_points(g, xyz, n, cells);
+template <auto Body, class Out>
+__attribute__((target("avx512f"))) void on_avx512(const tile_grid& g, const float* xyz, std::size_t n,
+                                                  Out* out) noexcept {
+  Body(g, xyz, n, out);
 }
-__attribute__((target("avx2"))) void locate_avx2(const tile_grid& g, const float* xyz, std::size_t n,
-                                                 std::int32_t* cells) noexcept {
-  locate_points(g, xyz, n, cells);
-}
-__attribute__((target("avx512f"))) void tiles_avx512(const tile_grid& g, const float* xyz, std::size_t n,
-                                                     std::uint64_t* out) noexcept {
-  tile_points(g, xyz, n, out);
-}
-__attribute__((target("avx2"))) void tiles_avx2(const tile_grid& g, const float* xyz, std::size_t n,
-                                                std::uint64_t* out) noexcept {
-  tile_points(g, xyz, n, out);
+template <auto Body, class Out>
+__attribute__((target("avx2"))) void on_avx2(const tile_grid& g, const float* xyz, std::size_t n, Out* out) noexcept {
+  Body(g, xyz, n, out);
 }
 #endif
+template <auto Body, class Out>
+void on_best(const tile_grid& g, const float* xyz, std::size_t n, Out* out) noexcept {
+#if defined(__x86_64__) && defined(__GNUC__)
+  if (__builtin_cpu_supports("avx512f")) return on_avx512<Body>(g, xyz, n, out);
+  if (__builtin_cpu_supports("avx2")) return on_avx2<Body>(g, xyz, n, out);
+#endif
+  Body(g, xyz, n, out);
+}
 }  // namespace
 
 void tile_grid::locate_many(const float* xyz, std::size_t n, std::int32_t* cells) const noexcept {
-#if defined(__x86_64__) && defined(__GNUC__)
-  if (__builtin_cpu_supports("avx512f")) return locate_avx512(*this, xyz, n, cells);
-  if (__builtin_cpu_supports("avx2")) return locate_avx2(*this, xyz, n, cells);
-#endif
-  locate_points(*this, xyz, n, cells);
+  on_best<locate_points>(*this, xyz, n, cells);
 }
 
 void tile_grid::tile_of_many(const float* xyz, std::size_t n, std::uint64_t* out) const noexcept {
-#if defined(__x86_64__) && defined(__GNUC__)
-  if (__builtin_cpu_supports("avx512f")) return tiles_avx512(*this, xyz, n, out);
-  if (__builtin_cpu_supports("avx2")) return tiles_avx2(*this, xyz, n, out);
-#endif
-  tile_points(*this, xyz, n, out);
+  on_best<tile_points>(*this, xyz, n, out);
 }
 
 std::uint64_t tile_grid::tile_of(const float p[3]) const noexcept {
