@@ -340,14 +340,14 @@ struct cache_coder {
     *p++ = char(v);
     return p;
   }
-  /// Appends point i (positions `xyz`, fields `fields` of `field_width`
-  /// bytes in all) with its indices.
-  void append(std::string& out, std::uint64_t index, std::uint64_t file_index, const float* xyz,
-              const field_bytes& fields, std::size_t field_width, std::size_t i) {
-    char small[128];
-    std::string large;
-    char* const rec = 5 * 10 + field_width <= sizeof small ? small : (large.resize(5 * 10 + field_width), large.data());
-    char* p = rec;
+  /// The most bytes write() takes for a record with fields of
+  /// `field_width` bytes in all.
+  static constexpr std::size_t max_record_bytes(std::size_t field_width) noexcept { return 5 * 10 + field_width; }
+  /// Writes point i (positions `xyz`, fields `fields` of `field_width`
+  /// bytes in all) with its indices at p, which has room for
+  /// max_record_bytes(field_width); returns the record's end.
+  char* write(char* p, std::uint64_t index, std::uint64_t file_index, const float* xyz, const field_bytes& fields,
+              std::size_t i) noexcept {
     const std::uint64_t g = file_index - index;
     p = put(p, ((index - next_index) << 1) | (g != gap ? 1 : 0));
     if (g != gap) p = put(p, g - gap);
@@ -362,7 +362,7 @@ struct cache_coder {
       copy_le(p, reinterpret_cast<const char*>(bytes + w * i), w);
       p += w;
     }
-    out.append(rec, std::size_t(p - rec));
+    return p;
   }
 };
 

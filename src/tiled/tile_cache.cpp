@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "ced/io/output_file.hpp"
+#include "core/raw_vector.hpp"
 #include "tiled/internal.hpp"
 
 namespace ced {
@@ -24,57 +25,89 @@ using namespace tiled_detail;
 
 namespace {
 
-/// A tile's records not yet written, and the coder of its next record.
+/// A tile's records not yet written (the first `used` bytes of `b`, which
+/// is allocated once), and the coder of its next record.
 struct tile_buffer {
-  std::string b;
+  detail::raw_vector<char> b;
+  std::size_t used = 0;
+  bool started = false;  ///< its header is in b or in its file
   cache_coder coder;
 };
 
-/// Buffers of tile-cache records, written out to one file a tile when they
-/// hold more than `budget` bytes. Each file starts with its header. The
-/// tiles are shared between `shards` (tile id modulo shards), which may fill
-/// their buffers from as many threads.
+/// Buffers of tile-cache records, one a tile, written out to the tile's
+/// file when full (each file starts with its header). The tiles are shared
+/// between `shards` (tile id modulo shards), which may fill and write their
+/// own tiles' buffers from as many threads. All are written out when they
+/// hold more than `budget` bytes between them.
 class cache_writer {
  public:
-  cache_writer(std::string work_dir, std::size_t budget, unsigned shards)
-      : m_work_dir(std::move(work_dir)), m_budget(budget), m_buffers(shards) {}
-  unsigned shards() const noexcept { return unsigned(m_buffers.size()); }
-  tile_buffer& buffer(unsigned shard, std::uint64_t t) {
-    const auto [it, fresh] = m_buffers[shard].try_emplace(t);
-    if (fresh) it->second.b = tiled_header(cache_kind);
-    return it->second;
+  /// `tiles`: the grid's cells (tile ids are below it). A tile's buffer
+  /// takes budget / tiles bytes (16 KiB to 4 MiB), so that they fit the
+  /// budget together.
+  cache_writer(std::string work_dir, std::size_t budget, unsigned shards, std::uint64_t tiles)
+      : m_work_dir(std::move(work_dir)), m_budget(budget), m_buffers(shards) {
+    m_capacity = std::clamp<std::uint64_t>(budget / std::max<std::uint64_t>(tiles, 1), 16 << 10, 4 << 20);
+    if (tiles <= (1u << 20)) m_slots.assign(tiles, nullptr);  // else looked up in the maps
   }
-  void maybe_flush(std::size_t bytes_added) {
-    m_held += bytes_added;
+  unsigned shards() const noexcept { return unsigned(m_buffers.size()); }
+  /// Tile t's buffer, in shard `shard` (t % shards()), with room for n more
+  /// bytes at b.data() + used (full ones written out first). Each shard's
+  /// thread touches only its own tiles. Returns the bytes written out.
+  std::size_t buffer(unsigned shard, std::uint64_t t, std::size_t n, tile_buffer*& out) {
+    tile_buffer* tb = m_slots.empty() ? nullptr : m_slots[t];
+    if (!tb) {
+      tb = &m_buffers[shard][t];  // (elements stay where they are)
+      if (!m_slots.empty()) m_slots[t] = tb;
+    }
+    out = tb;
+    std::size_t written = 0;
+    if (tb->b.size() - tb->used < n) {
+      written = write(t, *tb);
+      if (tb->b.empty()) tb->b.resize(std::max(m_capacity, n + tiled_header_bytes));
+      if (!tb->started) {
+        const std::string h = tiled_header(cache_kind);
+        std::memcpy(tb->b.data(), h.data(), h.size());
+        tb->used = h.size();
+        tb->started = true;
+      }
+    }
+    return written;
+  }
+  /// Counts the bytes that a chunk left in the buffers (`added` less
+  /// `written` out), and writes them all out when they hold more than the
+  /// budget.
+  void maybe_flush(std::size_t added, std::size_t written) {
+    m_held = m_held + added > written ? m_held + added - written : 0;
     if (m_held > m_budget) flush();
   }
   void flush() {
     std::size_t tiles = 0;
     for (const auto& m : m_buffers) tiles += m.size();
     for (auto& m : m_buffers)
-      for (auto& [t, tb] : m) write(t, tb.b, tiles);
+      for (auto& [t, tb] : m) {
+        write(t, tb);
+        // Released when all tiles' buffers would not fit the budget.
+        if (tb.b.capacity() * tiles > m_budget) detail::raw_vector<char>().swap(tb.b);
+      }
     m_held = 0;
   }
 
  private:
-  void write(std::uint64_t t, std::string& b, std::size_t tiles) {
-    if (b.empty()) return;
+  std::size_t write(std::uint64_t t, tile_buffer& tb) {
+    if (tb.used == 0) return 0;
     const std::string path = cache_file(m_work_dir, t);
     std::FILE* f = std::fopen(path.c_str(), "ab");
     if (!f) throw io::io_error(path, std::string("cannot write the tile cache: ") + std::strerror(errno));
-    const bool ok = std::fwrite(b.data(), 1, b.size(), f) == b.size();
+    const bool ok = std::fwrite(tb.b.data(), 1, tb.used, f) == tb.used;
     if (std::fclose(f) != 0 || !ok) throw io::io_error(path, "cannot write the tile cache (disk full?)");
-    // Kept for the next records while the buffers of all tiles fit the
-    // budget, else released, so that they never hold more than it between
-    // them (their memory is reused, not faulted in anew: keep_freed_memory()).
-    if (b.capacity() * tiles <= m_budget)
-      b.clear();
-    else
-      std::string().swap(b);
+    const std::size_t n = tb.used;
+    tb.used = 0;
+    return n;
   }
   std::string m_work_dir;
-  std::size_t m_budget, m_held = 0;
+  std::size_t m_budget, m_capacity, m_held = 0;
   std::vector<std::unordered_map<std::uint64_t, tile_buffer>> m_buffers;
+  std::vector<tile_buffer*> m_slots;  ///< by tile id, on grids of up to 2^20 cells
 };
 
 /// About how many tiles read a point: the tile and its halo, per axis, at
@@ -144,14 +177,15 @@ struct cache_filler {
     const unsigned shards = writer.shards();
     where.resize(9 * c.size());
     on_threads(shards, [&](unsigned k) { locate(c, c.size() * k / shards, c.size() * (k + 1) / shards); });
-    std::vector<std::size_t> added(shards, 0);
+    std::vector<std::pair<std::size_t, std::size_t>> bytes(shards);  // added, written out
     std::uint64_t finite = 0;
-    on_threads(shards, [&](unsigned k) { added[k] = code(c, fields, k, k == 0 ? &finite : nullptr); });
+    on_threads(shards, [&](unsigned k) { bytes[k] = code(c, fields, k, k == 0 ? &finite : nullptr); });
     file_index += c.size();
     index += finite;
-    std::size_t sum = 0;
-    for (std::size_t a : added) sum += a;
-    writer.maybe_flush(sum);  // a chunk at a time: the buffers never hold much more than the budget and a chunk
+    std::size_t added = 0, written = 0;
+    for (const auto& [a, w] : bytes) added += a, written += w;
+    writer.maybe_flush(added,
+                       written);  // a chunk at a time: the buffers never hold much more than the budget and a chunk
   }
 
   void locate(const point_cloud& c, std::size_t from, std::size_t to) {
@@ -159,15 +193,17 @@ struct cache_filler {
   }
 
   /// Shard k's records of chunk c; shard 0 also counts the tiles' points and
-  /// the chunk's finite points (`finite`). Returns the bytes it added.
-  std::size_t code(const point_cloud& c, const field_bytes& fields, unsigned k, std::uint64_t* finite) {
+  /// the chunk's finite points (`finite`). Returns the bytes it added and
+  /// those it wrote out.
+  std::pair<std::size_t, std::size_t> code(const point_cloud& c, const field_bytes& fields, unsigned k,
+                                           std::uint64_t* finite) {
     const tile_grid& g = plan.grid;
     const unsigned shards = writer.shards();
     auto id = [&](std::int64_t x, std::int64_t y, std::int64_t z) {
       return (std::uint64_t(z) * g.dims[1] + std::uint64_t(y)) * g.dims[0] + std::uint64_t(x);
     };
     std::uint64_t fi = file_index, idx = index;
-    std::size_t added = 0, width = 0;
+    std::size_t added = 0, written = 0, width = 0;
     for (const auto& f : fields) width += f.second;
     for (std::size_t i = 0; i < c.size(); ++i, ++fi) {
       const std::int32_t* own = where.data() + 9 * i;
@@ -180,15 +216,17 @@ struct cache_filler {
             const std::uint64_t t = id(x, y, z);
             if (finite) counts.near(t);
             if (t % shards != k || !owners.owns(t)) continue;
-            tile_buffer& tb = writer.buffer(k, t);
-            const std::size_t before = tb.b.size();
-            tb.coder.append(tb.b, idx, fi, c.positions().data(), fields, width, i);
-            added += tb.b.size() - before;
+            tile_buffer* tb;
+            written += writer.buffer(k, t, cache_coder::max_record_bytes(width), tb);
+            char* const at = tb->b.data() + tb->used;
+            const std::size_t n = std::size_t(tb->coder.write(at, idx, fi, c.positions().data(), fields, i) - at);
+            tb->used += n;
+            added += n;
           }
       ++idx;
     }
     if (finite) *finite = idx - index;
-    return added;
+    return {added, written};
   }
 };
 
@@ -223,7 +261,7 @@ void fill_cache(tile_plan& plan, io::point_stream& s, const tiled_run_options& o
   // most 4 (each codes its shard from the whole chunk).
   const unsigned shards = std::min(4u, resolve_threads(o.threads));
   cache_filler fill{plan, owners, tile_counter(plan.grid.count()),
-                    cache_writer(dir.string(), std::size_t(64) << 20, shards)};
+                    cache_writer(dir.string(), std::size_t(64) << 20, shards, plan.grid.count())};
   fill.tile_fields = tile_fields_of(plan);
   for_each_chunk(s, plan.origin, [&](const point_cloud& c) {
     if (scan) scan_chunk(c, *scan);
