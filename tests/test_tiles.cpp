@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "ced/core.hpp"
+#include "core/neighbor_block.hpp"
 #include "test_support.hpp"
 #include "tiled_support.hpp"
 
@@ -58,8 +59,8 @@ TEST(Tiles, GridCoversEveryPointOnceAndHalosHoldTheirCores) {
   }
 }
 
-// The batch locate and tile_of (branch-free, a build chosen at run time)
-// give locate()'s and tile_of()'s numbers point for point: random points in and around the grid, points on
+// The batch locate and tile_of (in vectors on each build the CPU has) give
+// locate()'s and tile_of()'s numbers point for point: random points in and around the grid, points on
 // the cores' faces and one halo from them, float neighbours of those, and
 // non-finite points (marked −1).
 TEST(Tiles, BatchLocateGivesLocatesNumbers) {
@@ -91,27 +92,34 @@ TEST(Tiles, BatchLocateGivesLocatesNumbers) {
       p[k] = b;
       xyz.insert(xyz.end(), p, p + 3);
     }
-  xyz.insert(xyz.end(), {1e30f, -1e30f, 3e38f});  // finite, far outside: clamped like locate()
-  const std::size_t n = xyz.size() / 3;
-  std::vector<std::int32_t> cells(9 * n, 7);
-  g.locate_many(xyz.data(), n, cells.data());
-  std::vector<std::uint64_t> tiles(n, 12345);
-  g.tile_of_many(xyz.data(), n, tiles.data());
-  for (std::size_t i = 0; i < n; ++i) {
-    const float* p = xyz.data() + 3 * i;
-    ASSERT_EQ(tiles[i], g.tile_of(p)) << "point " << i;  // for every point, finite or not
-    if (i >= finite && i + 1 < n) {
-      EXPECT_EQ(cells[9 * i + 3], -1) << "point " << i << " is not finite";
-      continue;
+  xyz.insert(xyz.end(), {1e30f, -1e30f, 3e38f});             // finite, far outside: clamped like locate()
+  for (const std::string& isa : ced::detail::kernel_isas())  // each build the CPU has: vectors of 8, 4, none
+    for (std::size_t skip = 0; skip < 8; ++skip) {           // every point in every lane
+      ced::detail::force_kernel_isa(isa);
+      const std::size_t n = xyz.size() / 3 - skip;
+      const float* from = xyz.data() + 3 * skip;
+      std::vector<std::int32_t> cells(9 * n, 7);
+      g.locate_many(from, n, cells.data());
+      std::vector<std::uint64_t> tiles(n, 12345);
+      g.tile_of_many(from, n, tiles.data());
+      ced::detail::force_generic_kernel(false);
+      const std::string at = " (" + isa + ", from " + std::to_string(skip) + ")";
+      for (std::size_t i = 0; i < n; ++i) {
+        const float* p = from + 3 * i;
+        ASSERT_EQ(tiles[i], g.tile_of(p)) << "point " << i << at;  // for every point, finite or not
+        if (i + skip >= finite && i + 1 < n) {
+          EXPECT_EQ(cells[9 * i + 3], -1) << "point " << i << " is not finite" << at;
+          continue;
+        }
+        std::int64_t own[3], c0[3], c1[3];
+        g.locate(p, own, c0, c1);
+        for (std::size_t k = 0; k < 3; ++k) {
+          ASSERT_EQ(cells[9 * i + k], own[k]) << "point " << i << ", axis " << k << at;
+          ASSERT_EQ(cells[9 * i + 3 + k], c0[k]) << "point " << i << ", axis " << k << at;
+          ASSERT_EQ(cells[9 * i + 6 + k], c1[k]) << "point " << i << ", axis " << k << at;
+        }
+      }
     }
-    std::int64_t own[3], c0[3], c1[3];
-    g.locate(p, own, c0, c1);
-    for (std::size_t k = 0; k < 3; ++k) {
-      ASSERT_EQ(cells[9 * i + k], own[k]) << "point " << i << ", axis " << k;
-      ASSERT_EQ(cells[9 * i + 3 + k], c0[k]) << "point " << i << ", axis " << k;
-      ASSERT_EQ(cells[9 * i + 6 + k], c1[k]) << "point " << i << ", axis " << k;
-    }
-  }
 }
 
 TEST(Tiles, UnionOfTilesIsTheWholeResultOnRandomClouds) {

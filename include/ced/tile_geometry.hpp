@@ -55,9 +55,10 @@ struct tile_grid {
   /// locate() for n points (xyz, 3 floats each) at once: 9 values a point
   /// to cells (own x, y, z, then lo_c and hi_c), the same numbers; a point
   /// that is not finite gets −1 as its lo_c x (its other values are
-  /// unspecified). Without branches, and built for AVX-512 and AVX2 too
-  /// (a floor is one instruction there), chosen at each call: what a tiled
-  /// run's first pass spends its time on.
+  /// unspecified). Without branches; in vectors of 8 points on AVX-512 and
+  /// of 4 on AVX2 (the same roundings), as the neighbour pass chooses its
+  /// build (detail::kernel_isa()): what a tiled run's cache pass spends
+  /// much of its time on.
   void locate_many(const float* xyz, std::size_t n, std::int32_t* cells) const noexcept;
   /// tile_of() for n points (xyz, 3 floats each) at once, to out[0..n): the
   /// same ids, built like locate_many().

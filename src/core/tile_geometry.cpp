@@ -10,8 +10,15 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <string_view>
+#include <type_traits>
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#endif
 
 #include "ced/scaled.hpp"
+#include "core/neighbor_block.hpp"
 
 namespace ced {
 
@@ -95,21 +102,117 @@ inline __attribute__((always_inline)) void tile_points(const tile_grid& g, const
 // call (target_clones' ifunc resolvers would run before ThreadSanitizer is
 // set up).
 #if defined(__x86_64__) && defined(__GNUC__)
+/// The batch functions' outputs for points i to i + w of a vector pass:
+/// `cell` holds each one's nine (locate) or three (tile_of) cells, lane by
+/// lane; bit j of `finite` says whether point i + j is finite.
+template <class Out, std::size_t W>
+inline __attribute__((always_inline)) void put_cells(const tile_grid& g, const std::int32_t (&cell)[9][W],
+                                                     unsigned finite, std::size_t i, Out* out) noexcept {
+  for (std::size_t j = 0; j < W; ++j) {
+    if constexpr (std::is_same_v<Out, std::int32_t>) {
+      std::int32_t* o = out + 9 * (i + j);
+      for (std::size_t m = 0; m < 9; ++m) o[m] = cell[m][j];
+      if (!((finite >> j) & 1)) o[3] = -1;
+    } else {
+      const std::uint64_t c[3] = {std::uint32_t(cell[0][j]), std::uint32_t(cell[1][j]), std::uint32_t(cell[2][j])};
+      out[i + j] = (c[2] * g.dims[1] + c[1]) * g.dims[0] + c[0];
+    }
+  }
+}
+
+// The bodies in vectors, eight points at a time on AVX-512, four on AVX2:
+// cell_value's double operations (the same roundings: a division is exact
+// in any width; VMAXPD gives its second operand, 0, for NaN and −0), the
+// points left over by the body. GCC 12's AVX-512 intrinsics warn of their
+// own undefined operand (GCC bug 105593), as in the kernel's AVX-512 build.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+__attribute__((target("avx512f,avx512vl"), always_inline)) inline __m256i cells_avx512(__m512d x, __m512d low,
+                                                                                       __m512d size, __m512d last) {
+  const __m512d c =
+      _mm512_roundscale_pd(_mm512_div_pd(_mm512_sub_pd(x, low), size), _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+  return _mm512_cvttpd_epi32(_mm512_min_pd(_mm512_max_pd(c, _mm512_setzero_pd()), last));
+}
 template <auto Body, class Out>
-__attribute__((target("avx512f"))) void on_avx512(const tile_grid& g, const float* xyz, std::size_t n,
-                                                  Out* out) noexcept {
-  Body(g, xyz, n, out);
+__attribute__((target("avx512f,avx512vl"))) void on_avx512(const tile_grid& g, const float* xyz, std::size_t n,
+                                                           Out* out) noexcept {
+  constexpr bool locate = std::is_same_v<Out, std::int32_t>;
+  const __m512d s = _mm512_set1_pd(g.size), h = _mm512_set1_pd(g.halo);
+  // x, y and z of 8 points: every third of their 24 floats, from two loads.
+  const __m512i every3[3] = {_mm512_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21, 0, 0, 0, 0, 0, 0, 0, 0),
+                             _mm512_setr_epi32(1, 4, 7, 10, 13, 16, 19, 22, 0, 0, 0, 0, 0, 0, 0, 0),
+                             _mm512_setr_epi32(2, 5, 8, 11, 14, 17, 20, 23, 0, 0, 0, 0, 0, 0, 0, 0)};
+  const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+  const __m256 largest = _mm256_set1_ps(std::numeric_limits<float>::max());
+  alignas(32) std::int32_t cell[9][8];
+  std::size_t i = 0;
+  for (; i + 8 <= n; i += 8) {
+    unsigned finite = 0xff;
+    const __m512 first = _mm512_loadu_ps(xyz + 3 * i), rest = _mm512_maskz_loadu_ps(0xff, xyz + 3 * i + 16);
+    for (int k = 0; k < 3; ++k) {
+      const __m256 f = _mm512_castps512_ps256(_mm512_permutex2var_ps(first, every3[k], rest));
+      finite &= _mm256_cmp_ps_mask(_mm256_and_ps(f, abs_mask), largest, _CMP_LE_OQ);
+      const __m512d p = _mm512_cvtps_pd(f), low = _mm512_set1_pd(g.lo[k]);
+      const __m512d last = _mm512_set1_pd(double(g.dims[k] - 1));
+      _mm256_store_si256(reinterpret_cast<__m256i*>(cell[k]), cells_avx512(p, low, s, last));
+      if constexpr (locate) {
+        _mm256_store_si256(reinterpret_cast<__m256i*>(cell[3 + k]), cells_avx512(_mm512_sub_pd(p, h), low, s, last));
+        _mm256_store_si256(reinterpret_cast<__m256i*>(cell[6 + k]), cells_avx512(_mm512_add_pd(p, h), low, s, last));
+      }
+    }
+    put_cells(g, cell, finite, i, out);
+  }
+  Body(g, xyz + 3 * i, n - i, out + (locate ? 9 : 1) * i);
+}
+#pragma GCC diagnostic pop
+__attribute__((target("avx2"), always_inline)) inline __m128i cells_avx2(__m256d x, __m256d low, __m256d size,
+                                                                         __m256d last) {
+  const __m256d c =
+      _mm256_round_pd(_mm256_div_pd(_mm256_sub_pd(x, low), size), _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+  return _mm256_cvttpd_epi32(_mm256_min_pd(_mm256_max_pd(c, _mm256_setzero_pd()), last));
 }
 template <auto Body, class Out>
 __attribute__((target("avx2"))) void on_avx2(const tile_grid& g, const float* xyz, std::size_t n, Out* out) noexcept {
-  Body(g, xyz, n, out);
+  constexpr bool locate = std::is_same_v<Out, std::int32_t>;
+  const __m256d s = _mm256_set1_pd(g.size), h = _mm256_set1_pd(g.halo);
+  // x, y and z of 4 points: every third of their 12 floats, 8 + 4 loaded.
+  const __m256i from8[3] = {_mm256_setr_epi32(0, 3, 6, 0, 0, 0, 0, 0), _mm256_setr_epi32(1, 4, 7, 0, 0, 0, 0, 0),
+                            _mm256_setr_epi32(2, 5, 0, 0, 0, 0, 0, 0)};
+  const __m128i from4[3] = {_mm_setr_epi32(0, 0, 0, 1), _mm_setr_epi32(0, 0, 0, 2), _mm_setr_epi32(0, 0, 0, 3)};
+  const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+  const __m128 largest = _mm_set1_ps(std::numeric_limits<float>::max());
+  alignas(16) std::int32_t cell[9][4];
+  std::size_t i = 0;
+  for (; i + 4 <= n; i += 4) {
+    unsigned finite = 0xf;
+    const __m256 first = _mm256_loadu_ps(xyz + 3 * i);
+    const __m128 rest = _mm_loadu_ps(xyz + 3 * i + 8);
+    for (int k = 0; k < 3; ++k) {
+      const __m128 a = _mm256_castps256_ps128(_mm256_permutevar8x32_ps(first, from8[k]));
+      const __m128 b = _mm_permutevar_ps(rest, from4[k]);
+      const __m128 f = k == 2 ? _mm_blend_ps(a, b, 0xc) : _mm_blend_ps(a, b, 0x8);
+      finite &= unsigned(_mm_movemask_ps(_mm_cmp_ps(_mm_and_ps(f, abs_mask), largest, _CMP_LE_OQ)));
+      const __m256d p = _mm256_cvtps_pd(f), low = _mm256_set1_pd(g.lo[k]);
+      const __m256d last = _mm256_set1_pd(double(g.dims[k] - 1));
+      _mm_store_si128(reinterpret_cast<__m128i*>(cell[k]), cells_avx2(p, low, s, last));
+      if constexpr (locate) {
+        _mm_store_si128(reinterpret_cast<__m128i*>(cell[3 + k]), cells_avx2(_mm256_sub_pd(p, h), low, s, last));
+        _mm_store_si128(reinterpret_cast<__m128i*>(cell[6 + k]), cells_avx2(_mm256_add_pd(p, h), low, s, last));
+      }
+    }
+    put_cells(g, cell, finite, i, out);
+  }
+  Body(g, xyz + 3 * i, n - i, out + (locate ? 9 : 1) * i);
 }
 #endif
+/// The build of the neighbour pass's choice (detail::kernel_isa(), which
+/// tests may force), at each call.
 template <auto Body, class Out>
 void on_best(const tile_grid& g, const float* xyz, std::size_t n, Out* out) noexcept {
 #if defined(__x86_64__) && defined(__GNUC__)
-  if (__builtin_cpu_supports("avx512f")) return on_avx512<Body>(g, xyz, n, out);
-  if (__builtin_cpu_supports("avx2")) return on_avx2<Body>(g, xyz, n, out);
+  const std::string_view isa = detail::kernel_isa();
+  if (isa == "avx512") return on_avx512<Body>(g, xyz, n, out);
+  if (isa == "avx2") return on_avx2<Body>(g, xyz, n, out);
 #endif
   Body(g, xyz, n, out);
 }
