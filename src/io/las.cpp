@@ -560,17 +560,27 @@ void decode_positions(const unsigned char* p, std::size_t stride, std::size_t m,
 
 /// A cloud of the n records of `src`: positions relative to `origin`, the
 /// fields of `plan`. Chunks of records are decoded in parallel, each into
-/// its own points: the cloud is the same for any number of threads.
+/// its own points: the cloud is the same for any number of threads. The
+/// memory of `reuse` (a stream's last chunk) holds it where it fits: a
+/// stream's chunks then fault no new pages in.
 point_cloud decode_records(const record_source& src, std::uint64_t count, const las_header& h,
-                           const std::array<double, 3>& origin, const std::vector<las_column>& plan) {
+                           const std::array<double, 3>& origin, const std::vector<las_column>& plan,
+                           point_cloud&& reuse = {}) {
   const auto n = static_cast<std::size_t>(count);  // <= room: the allocation is bounded by the file size
   point_cloud cloud;
   cloud.set_origin(origin);
+  cloud.positions() = std::move(reuse.positions());
   cloud.resize(n);
+  std::vector<field>& old = reuse.fields();
   std::vector<column> cols;
   cols.reserve(plan.size());  // dst keeps pointers to their bytes
   std::vector<unsigned char*> dst;
-  for (const las_column& c : plan) dst.push_back(cols.emplace_back(c.type, n).bytes());
+  for (std::size_t k = 0; k < plan.size(); ++k) {
+    column& c = cols.emplace_back(plan[k].type);
+    if (k < old.size() && old[k].type() == plan[k].type) c = std::move(old[k].values);
+    c.resize(n);  // (every value is written below)
+    dst.push_back(c.bytes());
+  }
   float* xyz = cloud.positions().data();
   for_each_chunk(src, n, [&](std::size_t, std::uint64_t i0, std::size_t m, const unsigned char* r) {
     decode_positions(r, src.stride(), m, h, origin, xyz + 3 * i0);
@@ -1348,6 +1358,7 @@ class las_stream final : public point_stream {
   std::size_t read(std::size_t max, const std::array<double, 3>& origin, point_cloud& out) override {
     const std::uint64_t left = m_header.count - m_next;
     const auto n = static_cast<std::size_t>(std::min<std::uint64_t>(left, max));
+    point_cloud last = std::move(out);  // its memory, for this chunk
     out = point_cloud();
     if (n == 0) {
       m_first_pass_done = true;
@@ -1365,7 +1376,8 @@ class las_stream final : public point_stream {
       m_scan.merge(chunk);
       flag_bits = chunk.flags;
     }
-    out = decode_records(src, n, m_header, origin, plan_columns(m_header, m_extras, m_fields, flag_bits));
+    out = decode_records(src, n, m_header, origin, plan_columns(m_header, m_extras, m_fields, flag_bits),
+                         std::move(last));
     m_next += n;
     return n;
   }
