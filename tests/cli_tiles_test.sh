@@ -53,6 +53,12 @@ for size in 3 0.8; do
   check "--tile-size $size summary counts" grep -q "\"keypoints\": $(wc -l < "$T/${c}_whole.txt")" "$T/t$size.json"
 done
 check "no work directory left" test -z "$(ls -d "$T"/ced-tiles-* 2> /dev/null)"
+# Cache buffers of a few records: each tile's is written out when full, by
+# the thread that codes it, and all are flushed and released every chunk.
+CED_TEST_CACHE_BUDGET=3000 "$CED" detect "$T/mid.las" --preset ced6d --tile-size 0.8 --threads 2 \
+  --indices "$T/tb.txt" --indices-original "$T/tb_o.txt" -o "$T/tb.las" -q
+check "small cache buffers exit 0" test $? = 0
+same_outputs "small cache buffers" "$T/tb" mid_whole
 "$CED" detect "$T/mid.las" --preset ced6d --memory-limit 240M --indices "$T/m.txt" --indices-original "$T/m_o.txt" \
   -o "$T/m.las" -q
 check "--memory-limit exit 0" test $? = 0

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <exception>
 #include <future>
@@ -26,7 +27,7 @@ using namespace tiled_detail;
 namespace {
 
 /// A tile's records not yet written (the first `used` bytes of `b`, which
-/// is allocated once), and the coder of its next record.
+/// grows to its capacity once), and the coder of its next record.
 struct tile_buffer {
   detail::raw_vector<char> b;
   std::size_t used = 0;
@@ -42,11 +43,12 @@ struct tile_buffer {
 class cache_writer {
  public:
   /// `tiles`: the grid's cells (tile ids are below it). A tile's buffer
-  /// takes budget / tiles bytes (16 KiB to 4 MiB), so that they fit the
-  /// budget together.
+  /// grows to budget / tiles bytes (16 KiB, or the budget when smaller, to
+  /// 4 MiB), so that they fit the budget together.
   cache_writer(std::string work_dir, std::size_t budget, unsigned shards, std::uint64_t tiles)
       : m_work_dir(std::move(work_dir)), m_budget(budget), m_buffers(shards) {
-    m_capacity = std::clamp<std::uint64_t>(budget / std::max<std::uint64_t>(tiles, 1), 16 << 10, 4 << 20);
+    m_capacity = std::clamp<std::uint64_t>(budget / std::max<std::uint64_t>(tiles, 1),
+                                           std::min<std::uint64_t>(budget, 16 << 10), 4 << 20);
     if (tiles <= (1u << 20)) m_slots.assign(tiles, nullptr);  // else looked up in the maps
   }
   unsigned shards() const noexcept { return unsigned(m_buffers.size()); }
@@ -62,8 +64,12 @@ class cache_writer {
     out = tb;
     std::size_t written = 0;
     if (tb->b.size() - tb->used < n) {
-      written = write(t, *tb);
-      if (tb->b.empty()) tb->b.resize(std::max(m_capacity, n + tiled_header_bytes));
+      // Grown up to its capacity (a tile of a few points takes little),
+      // then written out when full.
+      const std::size_t capacity = std::max(m_capacity, n + tiled_header_bytes);
+      if (tb->b.size() < capacity)
+        tb->b.resize(std::min(capacity, std::max(2 * tb->b.size(), n + tiled_header_bytes + 256)));
+      if (tb->b.size() - tb->used < n) written = write(t, *tb);
       if (!tb->started) {
         const std::string h = tiled_header(cache_kind);
         std::memcpy(tb->b.data(), h.data(), h.size());
@@ -260,8 +266,12 @@ void fill_cache(tile_plan& plan, io::point_stream& s, const tiled_run_options& o
   // locate and code while the next chunk is read: as many as asked, at
   // most 4 (each codes its shard from the whole chunk).
   const unsigned shards = std::min(4u, resolve_threads(o.threads));
+  std::size_t budget = std::size_t(64) << 20;
+  // The tests' hook: buffers that fill and flush on small clouds.
+  if (const char* b = std::getenv("CED_TEST_CACHE_BUDGET"))
+    budget = std::max<std::size_t>(1, std::strtoull(b, nullptr, 10));
   cache_filler fill{plan, owners, tile_counter(plan.grid.count()),
-                    cache_writer(dir.string(), std::size_t(64) << 20, shards, plan.grid.count())};
+                    cache_writer(dir.string(), budget, shards, plan.grid.count())};
   fill.tile_fields = tile_fields_of(plan);
   for_each_chunk(s, plan.origin, [&](const point_cloud& c) {
     if (scan) scan_chunk(c, *scan);
