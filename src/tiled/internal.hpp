@@ -343,9 +343,9 @@ struct cache_coder {
   /// The most bytes write() takes for a record with fields of
   /// `field_width` bytes in all.
   static constexpr std::size_t max_record_bytes(std::size_t field_width) noexcept { return 5 * 10 + field_width; }
-  /// Writes point i (positions `xyz`, fields `fields` of `field_width`
-  /// bytes in all) with its indices at p, which has room for
-  /// max_record_bytes(field_width); returns the record's end.
+  /// Writes point i (positions `xyz`, fields `fields`) with its indices at
+  /// p, which has room for max_record_bytes() of the fields' width; returns
+  /// the record's end.
   char* write(char* p, std::uint64_t index, std::uint64_t file_index, const float* xyz, const field_bytes& fields,
               std::size_t i) noexcept {
     const std::uint64_t g = file_index - index;
