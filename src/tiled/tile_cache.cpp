@@ -190,8 +190,8 @@ struct cache_filler {
     index += finite;
     std::size_t added = 0, written = 0;
     for (const auto& [a, w] : bytes) added += a, written += w;
-    writer.maybe_flush(added,
-                       written);  // a chunk at a time: the buffers never hold much more than the budget and a chunk
+    // A chunk at a time: the buffers never hold much more than the budget and a chunk.
+    writer.maybe_flush(added, written);
   }
 
   void locate(const point_cloud& c, std::size_t from, std::size_t to) {
