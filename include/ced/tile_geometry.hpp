@@ -43,6 +43,10 @@ struct tile_grid {
   /// Number of tiles, dims[0]·dims[1]·dims[2]; tile ids are x-fastest.
   std::uint64_t count() const noexcept { return std::uint64_t(dims[0]) * dims[1] * dims[2]; }
   std::array<std::uint32_t, 3> coords(std::uint64_t t) const noexcept;
+  /// The id of the tile at grid coordinates (x, y, z): coords()' inverse.
+  std::uint64_t tile_id(std::uint64_t x, std::uint64_t y, std::uint64_t z) const noexcept {
+    return (z * dims[1] + y) * dims[0] + x;
+  }
   /// The tile whose core holds position p.
   std::uint64_t tile_of(const float p[3]) const noexcept;
   /// The tiles whose core grown by the halo holds p (p's own among them),

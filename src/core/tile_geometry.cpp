@@ -88,13 +88,12 @@ inline __attribute__((always_inline)) void tile_points(const tile_grid& g, const
   const double s = g.size;
   const double low[3] = {g.lo[0], g.lo[1], g.lo[2]};
   const double last[3] = {double(g.dims[0] - 1), double(g.dims[1] - 1), double(g.dims[2] - 1)};
-  const std::uint64_t d0 = g.dims[0], d1 = g.dims[1];
   for (std::size_t i = 0; i < n; ++i) {
     std::uint64_t c[3];
     for (std::size_t k = 0; k < 3; ++k)  // (below 2^24: through int32)
       c[k] =
           static_cast<std::uint32_t>(static_cast<std::int32_t>(cell_value(double(xyz[3 * i + k]), low[k], s, last[k])));
-    out[i] = (c[2] * d1 + c[1]) * d0 + c[0];
+    out[i] = g.tile_id(c[0], c[1], c[2]);
   }
 }
 
@@ -114,8 +113,7 @@ inline __attribute__((always_inline)) void put_cells(const tile_grid& g, const s
       for (std::size_t m = 0; m < 9; ++m) o[m] = cell[m][j];
       if (!((finite >> j) & 1)) o[3] = -1;
     } else {
-      const std::uint64_t c[3] = {std::uint32_t(cell[0][j]), std::uint32_t(cell[1][j]), std::uint32_t(cell[2][j])};
-      out[i + j] = (c[2] * g.dims[1] + c[1]) * g.dims[0] + c[0];
+      out[i + j] = g.tile_id(std::uint32_t(cell[0][j]), std::uint32_t(cell[1][j]), std::uint32_t(cell[2][j]));
     }
   }
 }
@@ -230,7 +228,7 @@ std::uint64_t tile_grid::tile_of(const float p[3]) const noexcept {
   std::uint64_t c[3];
   for (int k = 0; k < 3; ++k)
     c[k] = std::uint64_t(cell_index(double(p[k]), lo[std::size_t(k)], size, dims[std::size_t(k)]));
-  return (c[2] * dims[1] + c[1]) * dims[0] + c[0];
+  return tile_id(c[0], c[1], c[2]);
 }
 
 void tile_grid::tiles_near(const float p[3], std::vector<std::uint64_t>& out) const {
@@ -240,7 +238,7 @@ void tile_grid::tiles_near(const float p[3], std::vector<std::uint64_t>& out) co
   for (std::int64_t z = c0[2]; z <= c1[2]; ++z)
     for (std::int64_t y = c0[1]; y <= c1[1]; ++y)
       for (std::int64_t x = c0[0]; x <= c1[0]; ++x)
-        out.push_back((std::uint64_t(z) * dims[1] + std::uint64_t(y)) * dims[0] + std::uint64_t(x));
+        out.push_back(tile_id(std::uint64_t(x), std::uint64_t(y), std::uint64_t(z)));
 }
 
 std::array<double, 6> tile_grid::core_box(std::uint64_t t) const noexcept {

@@ -206,7 +206,7 @@ struct cache_filler {
     const tile_grid& g = plan.grid;
     const unsigned shards = writer.shards();
     auto id = [&](std::int64_t x, std::int64_t y, std::int64_t z) {
-      return (std::uint64_t(z) * g.dims[1] + std::uint64_t(y)) * g.dims[0] + std::uint64_t(x);
+      return g.tile_id(std::uint64_t(x), std::uint64_t(y), std::uint64_t(z));
     };
     std::uint64_t fi = file_index, idx = index;
     std::size_t added = 0, written = 0, width = 0;
