@@ -118,7 +118,7 @@ struct detect_params {
   /// of candidate points, ranked as max_keypoints ranks them (with both, the
   /// smaller limit holds; see keypoint_limit()). The candidates hardly change
   /// under noise while the NMS's maxima multiply, so this holds a count steady
-  /// on noisy scans (robust3d: 0.045, docs/EVALUATION.md). Exact in tiled runs.
+  /// on noisy scans (robust3d: 0.01, docs/EVALUATION.md). Exact in tiled runs.
   double keypoint_share = 0;
   /// Which points make up a neighbourhood (default: the ball of `radius`).
   neighborhood_spec neighborhood;

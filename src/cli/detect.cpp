@@ -252,7 +252,7 @@ std::vector<ced::io::named_path> input_paths(const detect_options& o) {
 
 void add_detector_options(CLI::App* cmd, detect_options& o, const std::string& radius_help) {
   cmd->add_option("--preset", o.preset,
-                  "ced3d (xyz:0.2), ced6d (xyz:0.2 + rgb:0.1), robust3d (xyz:0.2,scale=1.75,inner=1, refined) or "
+                  "ced3d (xyz:0.2), ced6d (xyz:0.2 + rgb:0.1), robust3d (xyz:0.2,scale=2, refined) or "
                   "robust6d (xyz:0.2,scale=2.25,inner=1 + rgb:0.5, refined); radius 0.05 unless given")
       ->check(CLI::IsMember(ced::preset_names()));
   cmd->add_option(
@@ -279,7 +279,7 @@ void add_detector_options(CLI::App* cmd, detect_options& o, const std::string& r
                   "(default 0: no limit)");
   cmd->add_option("--keypoint-share", o.keypoint_share,
                   "Keep at most this share of the candidate points as keypoints, the strongest, as --max-keypoints "
-                  "ranks them (0 to 1; 0: no limit; robust3d: 0.045): holds the count steady under noise");
+                  "ranks them (0 to 1; 0: no limit; robust3d: 0.01): holds the count steady under noise");
 }
 
 command add_detect_command(CLI::App& app, std::function<int(const detect_options&)> run) {

@@ -159,13 +159,13 @@ void bind_modalities(py::module_& m) {
   m.def(
       "preset", [](const std::string& name) { return ced::preset(name); }, py::arg("name"),
       "The modalities of a preset: 'ced3d' (xyz:0.2), 'ced6d' (xyz:0.2, rgb:0.1), 'robust3d' "
-      "(xyz:0.2,scale=1.75,inner=1) or "
+      "(xyz:0.2,scale=2) or "
       "'robust6d' (xyz:0.2,scale=2.25,inner=1, rgb:0.5). The robust presets also refine their keypoints "
       "(preset_refines).");
   m.def("preset_refines", &ced::preset_refines, py::arg("name"),
         "Whether a preset refines its keypoints (detect(refine=...)): the robust presets do, ced3d and ced6d not.");
   m.def("preset_keypoint_share", &ced::preset_keypoint_share, py::arg("name"),
-        "The share of the candidates a preset keeps at most as keypoints (detect(keypoint_share=...)): 0.045 for "
+        "The share of the candidates a preset keeps at most as keypoints (detect(keypoint_share=...)): 0.01 for "
         "robust3d, whose count would otherwise grow with noise; 0 (no limit) for the others.");
   m.def("_split_modality_specs", &ced::split_modality_specs, py::arg("text"),
         "Modality specs joined by commas, split as `ced eval --detector` splits them.");

@@ -301,7 +301,7 @@ void bind_tiled(py::module_& m) {
       "given. modalities: spec strings or a preset "
       "name (default: ced6d when the file has colour, else ced3d). refine: keypoint refinement (None: the "
       "preset's, on for robust3d/robust6d). max_keypoints: the merge keeps the strongest of all tiles' "
-      "keypoints, as detect(max_keypoints=...) (0: no limit); keypoint_share likewise (None: the preset's, 0.045 "
+      "keypoints, as detect(max_keypoints=...) (0: no limit); keypoint_share likewise (None: the preset's, 0.01 "
       "for robust3d). neighborhood, search: as detect()'s. Under "
       "'knn:K,reach=R' or 'adaptive:K,...,reach=R' each tile checks the reach, detect_tile raising RuntimeError "
       "(naming the reach the tile needs) when a point reaches farther; without reach= (and, for adaptive, "
@@ -325,7 +325,8 @@ void bind_tiled(py::module_& m) {
         return out;
       },
       py::arg("plan"), py::arg("tile"), py::arg("part") = py::none(), py::arg("threads") = 0,
-      "Reads tile `tile` of the plan's input (one pass over LAS/LAZ, two over other formats), detects it, writes its part to `part` when "
+      "Reads tile `tile` of the plan's input (one pass over LAS/LAZ, two over other formats), detects it, writes its "
+      "part to `part` when "
       "given, and returns it. Any process that can read the file can run it.");
   m.def(
       "read_part", [](const ced::tile_plan& plan, const std::string& path) { return ced::read_part(path, plan); },

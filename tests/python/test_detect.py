@@ -74,9 +74,9 @@ def test_keypoint_share_keeps_the_strongest_share_of_the_candidates(cli, sample,
         np.testing.assert_array_equal(
             cli_keypoints(cli, sample_path, "--preset", "ced6d", "--keypoint-share", str(share)), got.keypoints)
     # robust3d's own share unless told otherwise; the other presets have none.
-    assert ced.preset_keypoint_share("robust3d") == 0.045 and ced.preset_keypoint_share("robust6d") == 0
+    assert ced.preset_keypoint_share("robust3d") == 0.01 and ced.preset_keypoint_share("robust6d") == 0
     r3 = ced.detect(sample, modalities="robust3d")
-    assert r3.keypoint_share == 0.045
+    assert r3.keypoint_share == 0.01
     assert ced.detect(sample, modalities="robust3d", keypoint_share=0).keypoint_share == 0
     np.testing.assert_array_equal(cli_keypoints(cli, sample_path, "--preset", "robust3d"), r3.keypoints)
     for bad in (-0.1, 1.5, float("nan")):

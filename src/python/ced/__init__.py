@@ -187,7 +187,7 @@ def detect(points, channels=None, modalities=None, radius=0.05, nms_radius=None,
     max_keypoints: keep at most this many keypoints, the ones with the highest score (the product of their
         saliencies), ties to the smaller index; 0 (default): no limit.
     keypoint_share: keep at most this share (0 to 1) of the candidate points as keypoints, the strongest, ranked
-        as max_keypoints ranks them (with both, the smaller limit). None: the preset's (0.045 for 'robust3d', whose
+        as max_keypoints ranks them (with both, the smaller limit). None: the preset's (0.01 for 'robust3d', whose
         count would otherwise grow with noise), else 0: no limit.
     neighborhood: 'radius' (default: the ball of `radius`), 'knn:K' (the K nearest points, itself included) or
         'adaptive:K[,scale=a][,min=r0][,max=r1]' (each point's radius a x the distance to its K-th nearest,
