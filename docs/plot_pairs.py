@@ -11,6 +11,7 @@ each (`--counts N`); rows that are n/a are left out. The dashed line is
 chance (lift 1).
 """
 import csv
+import os
 import sys
 from collections import OrderedDict
 
@@ -67,6 +68,8 @@ def parse(argv):
             sys.exit("expected GROUP=A.csv[,B.csv...], got " + argv[i])
         panels[-1][2].append((label, files.split(",")))
         i += 1
+    if any(os.path.realpath(out) == os.path.realpath(f) for _, _, groups in panels for _, fs in groups for f in fs):
+        sys.exit("the output " + out + " is one of the input CSV files")
     return out, panels
 
 

@@ -32,17 +32,20 @@ FX, FY, CX, CY, DEPTH_SCALE, DEPTH_MAX = 518.0, 519.0, 325.5, 253.5, 1000.0, 3.0
 PAIRS = [(1, 2), (2, 3), (3, 4), (4, 5)]
 
 
-def fetch(name, src, out):
-    """The bytes of ch5/rgbd/NAME: from src when given, else downloaded (kept in out)."""
+def local(name, src, out):
+    """A local path of ch5/rgbd/NAME: in src when given, else downloaded once to OUT/download."""
     if src:
-        with open(os.path.join(src, name), "rb") as f:
-            return f.read()
+        return os.path.join(src, name)
     cached = os.path.join(out, "download", name)
     if not os.path.exists(cached):
         os.makedirs(os.path.dirname(cached), exist_ok=True)
         with urllib.request.urlopen(URL + name) as r, open(cached, "wb") as f:
             f.write(r.read())
-    with open(cached, "rb") as f:
+    return cached
+
+
+def read_bytes(path):
+    with open(path, "rb") as f:
         return f.read()
 
 
@@ -56,11 +59,9 @@ def depth_metres(pgm):
     return samples.astype(np.float64) / DEPTH_SCALE
 
 
-def colour(png, path):
+def colour(path):
     import open3d as o3d
 
-    with open(path, "wb") as f:
-        f.write(png)
     return np.asarray(o3d.io.read_image(path))[:, :, :3]
 
 
@@ -123,11 +124,11 @@ def main(argv):
     p.add_argument("--check", action="store_true", help="estimate each pair's ground-truth error with ICP")
     a = p.parse_args(argv)
     os.makedirs(a.out, exist_ok=True)
-    lines = fetch("pose.txt", a.src, a.out).decode().splitlines()
+    lines = read_bytes(local("pose.txt", a.src, a.out)).decode().splitlines()
     poses = [pose_matrix(*map(float, line.split())) for line in lines if line.strip()]
     for i in range(1, 6):
-        d = depth_metres(fetch("depth/%d.pgm" % i, a.src, a.out))
-        c = colour(fetch("color/%d.png" % i, a.src, a.out), os.path.join(a.out, "colour%d.png" % i))
+        d = depth_metres(read_bytes(local("depth/%d.pgm" % i, a.src, a.out)))
+        c = colour(local("color/%d.png" % i, a.src, a.out))
         v, u = np.nonzero((d > 0) & (d <= DEPTH_MAX))
         z = d[v, u]
         xyz = np.stack([(u - CX) * z / FX, (v - CY) * z / FY, z], axis=1)
