@@ -111,6 +111,31 @@ TEST(Docs, Presets) {
                 "the presets (preset_specs, preset_refines, preset_keypoint_share in src/core/registry.cpp)");
 }
 
+TEST(Docs, PresetsInThePythonStubAndTheShareRow) {
+  // The stub's preset() and preset_keypoint_share() docstrings and CLI.md's
+  // --keypoint-share row; tests/python/test_stubs.py checks the module's own
+  // docstrings against the stub.
+  const std::string stub = std::regex_replace(
+      ced_test::read_bytes((root / "src" / "python" / "ced" / "__init__.pyi").string()), std::regex("[ \t\r\n]+"), " ");
+  ASSERT_FALSE(stub.empty()) << "src/python/ced/__init__.pyi is missing or empty";
+  const std::string cli = read_doc("CLI.md");
+  for (const auto& name : ced::preset_names()) {
+    std::string expected = "'" + name + "' (";
+    const auto specs = ced::preset_specs(name);
+    for (std::size_t k = 0; k < specs.size(); ++k) expected += (k ? ", " : "") + specs[k];
+    expected += ")";
+    EXPECT_NE(stub.find(expected), std::string::npos)
+        << "src/python/ced/__init__.pyi's preset() does not say " << expected << " (preset_specs)";
+    if (const double share = ced::preset_keypoint_share(name); share > 0) {
+      const std::string said = num(share) + " for " + name;
+      EXPECT_NE(stub.find(": " + said), std::string::npos)
+          << "src/python/ced/__init__.pyi's preset_keypoint_share() does not say " << said;
+      expect_quoted(cli, "CLI.md", "| the preset's: ", "| the preset's: " + said,
+                    "the presets' keypoint shares (preset_keypoint_share in src/core/registry.cpp)");
+    }
+  }
+}
+
 TEST(Docs, ArchitectureNamesEverySourceFile) {
   // The parts section: from "## The parts" to the next "## ".
   const std::string text = ced_test::read_bytes((root / "docs" / "ARCHITECTURE.md").string());

@@ -3,6 +3,7 @@
 import ast
 import inspect
 import pathlib
+import re
 
 import pytest
 
@@ -48,3 +49,18 @@ def test_docstrings_are_present(module):
         obj = getattr(module, name)
         if callable(obj):
             assert obj.__doc__ and obj.__doc__.strip(), name
+
+
+def stub_docstring(name, function):
+    tree = ast.parse((PACKAGE / name).read_text())
+    node = next(n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == function)
+    return " ".join(ast.get_docstring(node).split())
+
+
+@pytest.mark.parametrize("function, pattern", [("preset", r"'(\w+)' \(([^)]*)\)"),
+                                               ("preset_keypoint_share", r"([0-9.]+) for (\w+)")])
+def test_preset_docstrings_say_what_the_stub_says(function, pattern):
+    # tests/test_docs.cpp checks the stub against the registry; here the module's own docstrings.
+    runtime = re.findall(pattern, " ".join(getattr(ced, function).__doc__.split()))
+    stub = re.findall(pattern, stub_docstring("__init__.pyi", function))
+    assert runtime and sorted(runtime) == sorted(stub)

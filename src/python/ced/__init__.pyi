@@ -172,11 +172,12 @@ def preset_refines(name: str) -> bool:
     """Whether a preset refines its keypoints: robust3d and robust6d do, ced3d and ced6d not."""
 
 def preset_keypoint_share(name: str) -> float:
-    """The share of the candidates a preset keeps at most as keypoints: 0.045 for robust3d, 0 (no limit) else."""
+    """The share of the candidates a preset keeps at most as keypoints (detect(keypoint_share=...)): 0.01 for
+    robust3d, whose count would otherwise grow with noise; 0 (no limit) for the others."""
 
 def preset(name: str) -> List[Modality]:
-    """'ced3d' (xyz:0.2), 'ced6d' (xyz:0.2, rgb:0.1), 'robust3d' (xyz:0.2,scale=1.75) or 'robust6d'
-    (xyz:0.2,scale=2.25, rgb:0.5). The robust presets also refine their keypoints (ced.preset_refines)."""
+    """'ced3d' (xyz:0.2), 'ced6d' (xyz:0.2, rgb:0.1), 'robust3d' (xyz:0.2,scale=2) or 'robust6d'
+    (xyz:0.2,scale=2.25,inner=1, rgb:0.5). The robust presets also refine their keypoints (ced.preset_refines)."""
 
 def modalities() -> List[Tuple[str, str]]:
     """(name, help) of every registered modality, sorted."""
