@@ -230,6 +230,11 @@ fi
 "$CED" plan "$T/mid.las" --preset robust3d --tile-size 1 -o "$T/r3_plan.json" -q
 check "keypoint-share: robust3d's plan records its share" grep -q '"keypoint_share": *0.01' "$T/r3_plan.json"
 expect_exit 2 "must be a share from 0 to 1" "keypoint-share out of range" -- detect "$T/mid.las" --keypoint-share 1.5 --indices "$T/x.txt"
+# A tile size too small for the cloud: named as given (not "0.000000"), and no output.
+rm -f "$T/tiny_tiles.txt"
+expect_exit 1 "tile size 1e-30 is too small for the cloud" "a tile size too small" -- detect "$T/mid.las" \
+  --preset ced6d --tile-size 1e-30 --indices "$T/tiny_tiles.txt"
+check "a tile size too small writes no output" test ! -e "$T/tiny_tiles.txt"
 
 # --- A run killed mid-way, then resumed ---
 CED_TEST_KILL_AFTER_TILES=3 "$CED" detect "$T/mid.las" --preset ced6d --tile-size 1 --work-dir "$T/wd" \

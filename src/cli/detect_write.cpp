@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "../core/text.hpp"
 #include "ced/ced.hpp"
 #include "ced/html.hpp"
 #include "ced/io/io.hpp"
@@ -184,11 +185,7 @@ std::vector<std::uint8_t> png_colors(const detect_options& o, const ced::point_c
   return ced::colour_map(values, lo, hi);
 }
 
-std::string number(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%g", v);
-  return buf;
-}
+std::string number(double v) { return ced::detail::number_text(v); }
 
 /// --html: the page's text beside the cloud (the run's parameters and counts).
 ced::html_options html_options_of(const detect_options& o, const detect_plan& plan, const detect_input& in,
@@ -265,7 +262,7 @@ void print_report(const detect_options& o, const detect_plan& plan, const detect
                  params.radius);
   std::string mods;
   for (std::size_t m = 0; m < r.names.size(); ++m)
-    mods += (m ? " + " : "") + r.names[m] + " (t=" + std::to_string(r.thresholds[m]) + ")";
+    mods += (m ? " + " : "") + r.names[m] + " (t=" + number(r.thresholds[m]) + ")";
   const std::string limit = keypoint_limit_text(params);
   std::string how;
   if (!params.neighborhood.fixed()) how += ", neighbourhood " + ced::to_string(params.neighborhood);

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "../core/hash.hpp"
+#include "../core/text.hpp"
 #include "ced/ced.hpp"
 #include "ced/io/io.hpp"
 #include "ced/io/stream.hpp"
@@ -339,7 +340,7 @@ int run_detect_tiled(const detect_options& o) {
   if (!o.quiet) {
     std::string mods;
     for (std::size_t m = 0; m < merged.names.size(); ++m)
-      mods += (m ? " + " : "") + merged.names[m] + " (t=" + std::to_string(merged.thresholds[m]) + ")";
+      mods += (m ? " + " : "") + merged.names[m] + " (t=" + ced::detail::number_text(merged.thresholds[m]) + ")";
     std::fprintf(stderr, "ced: %s: %llu points (%s)\n", o.input.c_str(), static_cast<unsigned long long>(p.file_points),
                  p.details.c_str());
     const std::string strongest = keypoint_limit_text(p.request.params);

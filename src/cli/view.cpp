@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "../core/text.hpp"
 #include "ced/ced.hpp"
 #include "ced/html.hpp"
 #include "ced/io/io.hpp"
@@ -83,8 +84,8 @@ int run_view(const view_options& o) {
   h.info.push_back(
       {"keypoints", std::to_string(keypoints.size()) + (mark ? "" : " (every point of a keypoint cloud)")});
   for (const auto& l : layers)
-    h.info.push_back(
-        {l.name, std::isnan(l.threshold) ? "threshold unknown (--threshold)" : "t = " + std::to_string(l.threshold)});
+    h.info.push_back({l.name, std::isnan(l.threshold) ? "threshold unknown (--threshold)"
+                                                      : "t = " + ced::detail::number_text(l.threshold)});
   out.stream() << ced::html_page(cloud, keypoints, layers, h);
   out.commit();
   return exit_ok;

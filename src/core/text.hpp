@@ -3,6 +3,7 @@
 // only and locale-independent.
 #pragma once
 
+#include <charconv>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -37,6 +38,14 @@ inline std::string_view trim(std::string_view s) noexcept {
   while (!s.empty() && is_space(s.front())) s.remove_prefix(1);
   while (!s.empty() && is_space(s.back())) s.remove_suffix(1);
   return s;
+}
+
+/// A number for messages as %g writes it, 6 significant digits (0.05,
+/// 1e-30, 2.5e+06, nan), in any locale.
+inline std::string number_text(double v) {
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, 6);
+  return std::string(buf, r.ptr);
 }
 
 /// At most 40 characters of `s`, non-printable bytes replaced by '?', for messages.

@@ -19,6 +19,7 @@
 
 #include "ced/scaled.hpp"
 #include "core/neighbor_block.hpp"
+#include "core/text.hpp"
 
 namespace ced {
 
@@ -282,7 +283,7 @@ double exact_halo(const detect_params& params, double max_abs_coordinate) {
 
 tile_grid make_tile_grid(const double lo[3], const double hi[3], double size, const detect_params& params) {
   if (!(size > 0) || !std::isfinite(size))
-    throw std::invalid_argument("tile size must be a positive number, got " + std::to_string(size));
+    throw std::invalid_argument("tile size must be a positive number, got " + detail::number_text(size));
   tile_grid g;
   g.size = size;
   double max_abs = 0;
@@ -294,7 +295,7 @@ tile_grid make_tile_grid(const double lo[3], const double hi[3], double size, co
     const double n = std::max(1.0, std::ceil((hi[k] - lo[k]) / size));
     total *= static_cast<long double>(n);
     if (total > static_cast<long double>(1u << 24))
-      throw std::invalid_argument("tile size " + std::to_string(size) +
+      throw std::invalid_argument("tile size " + detail::number_text(size) +
                                   " is too small for the cloud: more than 2^24 tiles (16,777,216)");
     g.dims[k] = static_cast<std::uint32_t>(n);
     max_abs = std::max({max_abs, std::fabs(lo[k]), std::fabs(hi[k])});

@@ -13,6 +13,7 @@
 
 #include "ced/io/las.hpp"
 #include "ced/scaled.hpp"
+#include "core/text.hpp"
 #include "tiled/internal.hpp"
 
 namespace ced {
@@ -28,7 +29,7 @@ void check_request(const tiled_request& request) {
     throw std::invalid_argument("tiled request: reach_estimated without a reach");
   if (request.memory_limit == 0 && (!(request.tile_size > 0) || !std::isfinite(request.tile_size)))
     throw std::invalid_argument("tile size must be a positive number of metres, got " +
-                                std::to_string(request.tile_size));
+                                detail::number_text(request.tile_size));
   if (request.memory_limit > 0 && request.tile_size > 0)
     throw std::invalid_argument("give a tile size or a memory limit, not both");
   modalities_of(request.modalities);  // bad specs fail before the file is read
