@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <numeric>
 #include <stdexcept>
 #include <vector>
@@ -89,15 +90,82 @@ TEST(MaxKeypoints, SameForAnyThreadCountAndBothCompositions) {
   }
 }
 
-TEST(MaxKeypoints, RefinedKeypointsAreRankedByTheirOwnScore) {
-  const auto c = make_room(20000, 23);
+// With refinement a keypoint ranks by the maximum it stands for: the highest
+// score of the NMS maxima refined onto it. The oracle refines the plain
+// run's maxima by the definition (ALGORITHM.md step 7), brute force.
+TEST(MaxKeypoints, RefinedKeypointsRankByTheirMaximum) {
+  const auto c = make_room(4000, 23);
   ced::detect_params p;
+  const auto mods = ced::preset("robust6d");
+  const auto plain = ced::detect(c, p, mods);  // the NMS maxima
+  const auto ball = ced_test::brute_neighbors(c, p.nms_radius);
+  std::vector<float> score(c.size());
+  for (std::uint32_t i = 0; i < c.size(); ++i) score[i] = ced::keypoint_score(plain, i);
+  std::map<std::uint32_t, float> rank;  // refined point -> the strongest maximum moved to it
+  for (std::uint32_t k : plain.keypoints) {
+    const std::uint32_t best = ced_test::refined_point(c, ball[k], score, k);
+    const auto at = rank.find(best);
+    if (at == rank.end() || score[k] > at->second) rank[best] = score[k];
+  }
   p.refine = true;
-  const auto all = ced::detect(c, p, ced::preset("robust6d"));
-  ASSERT_GT(all.keypoints.size(), 20u);
-  p.max_keypoints = 20;
-  const auto r = ced::detect(c, p, ced::preset("robust6d"));
-  EXPECT_EQ(r.keypoints, top_by_sorting(all, 20));
+  const auto all = ced::detect(c, p, mods);
+  ASSERT_EQ(all.keypoints.size(), rank.size());
+  ASSERT_EQ(all.rank_score.size(), all.keypoints.size());
+  std::size_t below_own = 0;  // refined keypoints whose own score is lower than their rank
+  for (std::size_t q = 0; q < all.keypoints.size(); ++q) {
+    ASSERT_EQ(rank.count(all.keypoints[q]), 1u) << all.keypoints[q];
+    EXPECT_EQ(all.rank_score[q], rank[all.keypoints[q]]) << all.keypoints[q];
+    below_own += ced::keypoint_score(all, all.keypoints[q]) < all.rank_score[q];
+  }
+  ASSERT_GT(below_own, all.keypoints.size() / 4) << "the test would not tell the ranks from the own scores";
+  // The n strongest by those ranks, ties to the smaller index.
+  std::vector<std::uint32_t> order = all.keypoints;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::uint32_t a, std::uint32_t b) { return rank[a] != rank[b] ? rank[a] > rank[b] : a < b; });
+  for (std::size_t n : {std::size_t(1), std::size_t(10), all.keypoints.size() / 2}) {
+    p.max_keypoints = n;
+    const auto r = ced::detect(c, p, mods);
+    std::vector<std::uint32_t> expected(order.begin(), order.begin() + std::ptrdiff_t(n));
+    std::sort(expected.begin(), expected.end());
+    EXPECT_EQ(r.keypoints, expected) << n;
+    ASSERT_EQ(r.rank_score.size(), n);
+    for (std::size_t q = 0; q < n; ++q) EXPECT_EQ(r.rank_score[q], rank[r.keypoints[q]]);
+  }
+}
+
+TEST(MaxKeypoints, UnrefinedKeypointsRankByTheirOwnScore) {
+  const auto c = make_room(20000, 30);
+  ced::detect_params p;
+  p.max_keypoints = 15;
+  const auto r = ced::detect(c, p, ced::preset("ced6d"));
+  ASSERT_EQ(r.rank_score.size(), r.keypoints.size());
+  for (std::size_t q = 0; q < r.keypoints.size(); ++q)
+    EXPECT_EQ(r.rank_score[q], ced::keypoint_score(r, r.keypoints[q]));
+}
+
+// ced::detect_tiled (in memory) applies the limits to all tiles' keypoints,
+// as the whole run does, not to each tile's.
+TEST(MaxKeypoints, InMemoryTilesKeepTheWholeRunsStrongest) {
+  const auto c = make_room(12000, 31);
+  for (const char* preset : {"ced6d", "robust6d"}) {
+    ced::detect_params p;
+    p.refine = ced::preset_refines(preset);
+    const auto mods = ced::preset(preset);
+    const auto full = ced::detect(c, p, mods);
+    const std::size_t all = full.keypoints.size();
+    ASSERT_GT(all, 30u) << preset;
+    for (std::size_t n : {std::size_t(7), all / 2}) {
+      p.max_keypoints = n;
+      const auto whole = ced::detect(c, p, mods).keypoints;
+      ASSERT_EQ(whole.size(), n);
+      EXPECT_EQ(ced::detect_tiled(c, p, mods, 0.4), whole) << preset << ", max_keypoints " << n;
+    }
+    p.max_keypoints = 0;
+    p.keypoint_share = 0.5 * double(all) / double(ced::candidate_count(full));  // half the keypoints
+    const auto whole = ced::detect(c, p, mods).keypoints;
+    ASSERT_LT(whole.size(), all) << preset;
+    EXPECT_EQ(ced::detect_tiled(c, p, mods, 0.4), whole) << preset << ", keypoint_share " << p.keypoint_share;
+  }
 }
 
 TEST(MaxKeypoints, ExactTiesGoToTheSmallerIndex) {

@@ -43,27 +43,7 @@ std::vector<std::uint32_t> brute_refine(const ced::point_cloud& c, const ced::de
     for (std::size_t m = 1; m < r.saliency.size(); ++m) score[i] *= r.saliency[m][i];
   }
   std::vector<std::uint32_t> out;
-  for (std::uint32_t k : r.keypoints) {
-    double w = 0, m[3] = {0, 0, 0};
-    for (std::uint32_t j : ball[k]) {
-      w += score[j];
-      for (int a = 0; a < 3; ++a) m[a] += double(score[j]) * c.position(j)[a];
-    }
-    if (!(w > 0)) {
-      w = double(ball[k].size());
-      m[0] = m[1] = m[2] = 0;
-      for (std::uint32_t j : ball[k])
-        for (int a = 0; a < 3; ++a) m[a] += c.position(j)[a];
-    }
-    std::uint32_t best = k;
-    double best_d = std::numeric_limits<double>::infinity();
-    for (std::uint32_t j : ball[k]) {
-      double d = 0;
-      for (int a = 0; a < 3; ++a) d += (c.position(j)[a] - m[a] / w) * (c.position(j)[a] - m[a] / w);
-      if (d < best_d) best_d = d, best = j;
-    }
-    out.push_back(best);
-  }
+  for (std::uint32_t k : r.keypoints) out.push_back(ced_test::refined_point(c, ball[k], score, k));
   std::sort(out.begin(), out.end());
   out.erase(std::unique(out.begin(), out.end()), out.end());
   return out;

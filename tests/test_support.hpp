@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -124,6 +125,33 @@ struct oracle_channel {
   double threshold = 0;
   bool per_radius = false;  // measured per unit of each point's own radius (xyz under knn/adaptive)
 };
+
+/// Refinement by its definition (ALGORITHM.md step 7) for the maximum `k`
+/// whose NMS ball (ascending) is `ball`: the point of the ball nearest to its
+/// centroid weighted by `score` (sums in double; the plain centroid when every
+/// weight is 0), ties to the smaller index.
+inline std::uint32_t refined_point(const ced::point_cloud& c, const std::vector<std::uint32_t>& ball,
+                                   const std::vector<float>& score, std::uint32_t k) {
+  double w = 0, m[3] = {0, 0, 0};
+  for (std::uint32_t j : ball) {
+    w += score[j];
+    for (int a = 0; a < 3; ++a) m[a] += double(score[j]) * c.position(j)[a];
+  }
+  if (!(w > 0)) {
+    w = double(ball.size());
+    m[0] = m[1] = m[2] = 0;
+    for (std::uint32_t j : ball)
+      for (int a = 0; a < 3; ++a) m[a] += c.position(j)[a];
+  }
+  std::uint32_t best = k;
+  double best_d = std::numeric_limits<double>::infinity();
+  for (std::uint32_t j : ball) {
+    double d = 0;
+    for (int a = 0; a < 3; ++a) d += (c.position(j)[a] - m[a] / w) * (c.position(j)[a] - m[a] / w);
+    if (d < best_d) best_d = d, best = j;
+  }
+  return best;
+}
 
 inline std::vector<std::vector<std::uint32_t>> brute_neighbors(const ced::point_cloud& c, double r) {
   const float r2 = static_cast<float>(r * r);

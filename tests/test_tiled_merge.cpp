@@ -152,6 +152,7 @@ ced::tile_part streamed_merge(const ced::tile_plan& plan, const std::vector<std:
     got.index.insert(got.index.end(), chunk.index.begin(), chunk.index.end());
     for (std::size_t k = 0; k < chunk.saliency.size(); ++k)
       got.saliency[k].insert(got.saliency[k].end(), chunk.saliency[k].begin(), chunk.saliency[k].end());
+    got.rank.insert(got.rank.end(), chunk.rank.begin(), chunk.rank.end());
   };
   ced::merge_part_files(plan, paths, sink, memory);
   return got;
@@ -180,10 +181,10 @@ void detect_all_tiles(const ced::tile_plan& plan, const std::string& prefix, std
 }
 }  // namespace
 
-// A tiled run keeps the strongest keypoints of all tiles: the whole run's,
-// with exact ties between twins in different tiles going to the smaller index.
-TEST(TiledMerge, MaxKeypointsIsTheWholeRunsStrongest) {
-  const ced::tiled_request r = twins_request("twins.ply", 25);
+namespace {
+void max_keypoints_case(bool refine) {
+  ced::tiled_request r = twins_request("twins.ply", 25);
+  r.params.refine = refine;
   const ced::point_cloud cloud = ced::io::read_cloud(r.input);
   const auto all = ced::detect(cloud, r.params, specs(r.modalities));
   ASSERT_GT(all.keypoints.size(), 40u);
@@ -204,6 +205,7 @@ TEST(TiledMerge, MaxKeypointsIsTheWholeRunsStrongest) {
     detect_all_tiles(plan, "twins_t", parts, paths);
     const ced::tile_part merged = ced::merge_parts(plan, parts);
     EXPECT_EQ(merged.index, expected);
+    EXPECT_EQ(merged.rank, whole.rank_score);
     for (std::size_t k = 0; k < merged.saliency.size(); ++k)
       for (std::size_t q = 0; q < merged.index.size(); ++q)
         EXPECT_EQ(merged.saliency[k][q], whole.saliency[k][merged.index[q]]);
@@ -213,7 +215,20 @@ TEST(TiledMerge, MaxKeypointsIsTheWholeRunsStrongest) {
       EXPECT_EQ(announced, expected.size()) << "memory " << memory;
       EXPECT_EQ(got.index, expected) << "memory " << memory;
       EXPECT_EQ(got.saliency, merged.saliency) << "memory " << memory;
+      EXPECT_EQ(got.rank, merged.rank) << "memory " << memory;
     }
+  }
+}
+}  // namespace
+
+// A tiled run keeps the strongest keypoints of all tiles: the whole run's,
+// with exact ties between twins in different tiles going to the smaller index.
+// Refined, a keypoint ranks by its maximum (detection_result::rank_score),
+// which the parts carry.
+TEST(TiledMerge, MaxKeypointsIsTheWholeRunsStrongest) {
+  for (const bool refine : {false, true}) {
+    SCOPED_TRACE(refine ? "refined" : "not refined");
+    max_keypoints_case(refine);
   }
 }
 

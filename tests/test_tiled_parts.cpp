@@ -91,7 +91,7 @@ TEST(TiledParts, APartFileIsTheDocumentedLittleEndianLayout) {
   const std::size_t m = w.part.saliency.size();
   ASSERT_EQ(m, 2u);
   EXPECT_EQ(b.substr(0, 8), std::string("CEDPART\0", 8));
-  EXPECT_EQ(le(b, 8, 4), 3u);  // the format version
+  EXPECT_EQ(le(b, 8, 4), 4u);  // the format version
   EXPECT_EQ(b.substr(12, 16), w.plan.digest());
   EXPECT_EQ(le(b, 28, 8), w.part.tile);
   EXPECT_EQ(le(b, 36, 8), w.part.index.size());
@@ -100,10 +100,10 @@ TEST(TiledParts, APartFileIsTheDocumentedLittleEndianLayout) {
   for (std::size_t k = 0; k < m; ++k) EXPECT_EQ(le(b, 52 + 8 * k, 8), w.part.candidates[k]);
   EXPECT_EQ(le(b, 52 + 8 * m, 8), w.part.any_candidates);
   EXPECT_EQ(le(b, 60 + 8 * m, 8), bits_of(&w.part.detect_ms, 8));
-  // The records: index, file index, x y z, the fields, then the saliencies.
+  // The records: index, file index, x y z, the fields, the saliencies, then the rank.
   std::size_t fields = 0;
   for (const auto& f : w.plan.fields) fields += ced::size_of(f.type);
-  const std::size_t head = 68 + 8 * m, record = 28 + fields + 4 * m;
+  const std::size_t head = 68 + 8 * m, record = 28 + fields + 4 * m + 4;
   ASSERT_EQ(b.size(), head + w.part.index.size() * record);
   for (std::size_t j = 0; j < w.part.index.size(); ++j) {
     const std::size_t at = head + j * record;
@@ -118,6 +118,7 @@ TEST(TiledParts, APartFileIsTheDocumentedLittleEndianLayout) {
       f_at += width;
     }
     for (std::size_t k = 0; k < m; ++k) EXPECT_EQ(le(b, f_at + 4 * k, 4), bits_of(&w.part.saliency[k][j], 4));
+    EXPECT_EQ(le(b, f_at + 4 * m, 4), bits_of(&w.part.rank[j], 4));
   }
 }
 
@@ -127,15 +128,15 @@ TEST(TiledParts, APartOfAnotherFormatVersionIsRefused) {
   ASSERT_NO_THROW(ced::read_part(w.path, w.plan));
   // The version bumped (and its last byte corrupted): named with this ced's.
   using bump = std::pair<std::string, std::string>;  // the 4 bytes, the version they say
-  for (const auto& [bytes, version] : {bump{std::string("\x04\0\0\0", 4), "4"}, bump{std::string("\x02\0\0\0", 4), "2"},
-                                       bump{std::string("\x03\0\0\x01", 4), "16777219"}}) {
+  for (const auto& [bytes, version] : {bump{std::string("\x05\0\0\0", 4), "5"}, bump{std::string("\x03\0\0\0", 4), "3"},
+                                       bump{std::string("\x04\0\0\x01", 4), "16777220"}}) {
     std::string bumped = b;
     bumped.replace(8, 4, bytes);
     const std::string path = ced_test::temp_file("parts_version_" + version + ".part");
     ced_test::write_bytes(path, bumped);
     const std::string what = read_error(path, w.plan);
     EXPECT_NE(what.find(path), std::string::npos) << what;
-    EXPECT_NE(what.find("tile part format version " + version + ", this ced reads version 3"), std::string::npos)
+    EXPECT_NE(what.find("tile part format version " + version + ", this ced reads version 4"), std::string::npos)
         << what;
     try {
       ced::merge_part_files(w.plan, {path}, {});
@@ -150,7 +151,7 @@ TEST(TiledParts, APartOfAnotherFormatVersionIsRefused) {
   const std::string path = ced_test::temp_file("parts_version_1.part");
   ced_test::write_bytes(path, v1);
   const std::string what = read_error(path, w.plan);
-  EXPECT_NE(what.find(path + ": tile part format version 1, this ced reads version 3"), std::string::npos) << what;
+  EXPECT_NE(what.find(path + ": tile part format version 1, this ced reads version 4"), std::string::npos) << what;
   // Not a part at all.
   std::string other = b;
   other[3] = 'X';

@@ -56,7 +56,7 @@ TEST(TiledRun, ATileCacheOfAnotherFormatVersionIsRefused) {
       (std::filesystem::path(o.work_dir) / "cache" / ("t" + std::to_string(id) + ".bin")).string();
   const std::string bytes = ced_test::read_bytes(cache);
   ASSERT_GT(bytes.size(), 12u);
-  EXPECT_EQ(bytes.substr(0, 12), std::string("CEDTILE\0\x03\0\0\0", 12));  // magic, format version 3
+  EXPECT_EQ(bytes.substr(0, 12), std::string("CEDTILE\0\x04\0\0\0", 12));  // magic, format version 4
   std::string bumped = bytes;
   bumped[8] = 7;
   ced_test::write_bytes(cache, bumped);
@@ -64,7 +64,7 @@ TEST(TiledRun, ATileCacheOfAnotherFormatVersionIsRefused) {
     ced::detect_cached_tile(plan, o.work_dir, id);
     ADD_FAILURE() << "a tile cache of format version 7 was read";
   } catch (const ced::io::io_error& e) {
-    EXPECT_NE(std::string(e.what()).find(cache + ": tile cache format version 7, this ced reads version 3"),
+    EXPECT_NE(std::string(e.what()).find(cache + ": tile cache format version 7, this ced reads version 4"),
               std::string::npos)
         << e.what();
   }

@@ -27,6 +27,10 @@ struct stage_times {
 struct detection_result {
   /// Keypoint indices into the input cloud, ascending.
   std::vector<std::uint32_t> keypoints;
+  /// What each keypoint ranks by for max_keypoints and keypoint_share (see
+  /// strongest()), aligned with `keypoints`: its score (keypoint_score()),
+  /// or with refinement the highest score of the NMS maxima refined onto it.
+  std::vector<float> rank_score;
   /// One entry per modality, in the order given.
   std::vector<std::string> names;
   /// Absolute thresholds (xyz: ratio × radius).
@@ -63,6 +67,10 @@ float keypoint_score(const detection_result& result, std::uint32_t i) noexcept;
 /// keeps from all tiles.
 std::vector<std::uint32_t> strongest(const std::vector<std::uint32_t>& keypoints, const std::vector<float>& scores,
                                      std::size_t n);
+
+/// Keeps the `n` strongest keypoints of `result` by their rank_score, as
+/// strongest() chooses them, with their rank scores (all when n is 0).
+void keep_strongest(detection_result& result, std::size_t n);
 
 /// The candidates of a result: points at or over some modality's threshold.
 std::size_t candidate_count(const detection_result& result) noexcept;

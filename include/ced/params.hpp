@@ -109,9 +109,11 @@ struct detect_params {
   bool refine = false;
   /// At most this many keypoints (0: no limit, the default): the ones with
   /// the highest score, the product of their saliencies (the NMS score), ties
-  /// to the smaller index; still ascending by index. A refined keypoint is
-  /// ranked by its own score. The same keypoints in tiled runs (the merge
-  /// selects them from all tiles). See keypoint_score() and strongest().
+  /// to the smaller index; still ascending by index. A refined keypoint ranks
+  /// by the score of the maximum it stands for (the highest of the NMS
+  /// maxima refined onto it), not by its own. The same keypoints in tiled
+  /// runs (the merge selects them from all tiles). See
+  /// detection_result::rank_score and strongest().
   std::size_t max_keypoints = 0;
   /// At most this share of the candidates become keypoints (0: no limit, the
   /// default; at most 1): the ceil(keypoint_share x C) strongest, C the number

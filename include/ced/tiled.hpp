@@ -171,6 +171,7 @@ struct tile_part {
   std::vector<std::string> names;
   std::vector<double> thresholds;
   std::vector<std::vector<float>> saliency;  ///< [modality][keypoint]
+  std::vector<float> rank;                   ///< what each keypoint ranks by (detection_result::rank_score)
   std::vector<std::uint64_t> candidates;     ///< per modality, core points at or over the threshold
   std::uint64_t any_candidates = 0;          ///< core candidates (any modality)
   double detect_ms = 0;

@@ -76,17 +76,17 @@ detection_result detection_context::finish() {
   r.keypoints = non_maximum_suppression(m_impl->blocks, m_impl->cloud.positions().data(), product.data(),
                                         r.candidate.data(), params.nms_radius, params.radius, m_impl->hits, threads,
                                         own_nms.empty() ? nullptr : own_nms.data());
-  if (params.refine)
+  if (params.refine) {
     r.keypoints = refine_keypoints(m_impl->blocks, m_impl->cloud.positions().data(), product.data(), r.keypoints,
-                                   params.nms_radius, threads);
+                                   params.nms_radius, threads, r.rank_score);
+  } else {
+    r.rank_score.resize(r.keypoints.size());
+    for (std::size_t q = 0; q < r.keypoints.size(); ++q) r.rank_score[q] = product[r.keypoints[q]];
+  }
   m_impl->hits.clear();
   m_impl->hits.shrink_to_fit();
   const std::size_t limit = keypoint_limit(params, params.keypoint_share > 0 ? candidate_count(r) : 0);
-  if (limit != 0 && r.keypoints.size() > limit) {
-    std::vector<float> scores(r.keypoints.size());
-    for (std::size_t q = 0; q < scores.size(); ++q) scores[q] = product[r.keypoints[q]];
-    r.keypoints = strongest(r.keypoints, scores, limit);
-  }
+  if (limit != 0 && r.keypoints.size() > limit) keep_strongest(r, limit);
   r.times.nms_ms = ms_since(t0);
   return std::move(r);
 }
@@ -133,6 +133,17 @@ std::vector<std::uint32_t> strongest(const std::vector<std::uint32_t>& keypoints
   }
   std::sort(kept.begin(), kept.end());
   return kept;
+}
+
+void keep_strongest(detection_result& result, std::size_t n) {
+  const std::vector<std::uint32_t> kept = strongest(result.keypoints, result.rank_score, n);
+  std::vector<float> rank(kept.size());
+  for (std::size_t j = 0, q = 0; j < kept.size(); ++j, ++q) {
+    while (result.keypoints[q] != kept[j]) ++q;  // both ascending, `kept` of `keypoints`
+    rank[j] = result.rank_score[q];
+  }
+  result.keypoints = kept;
+  result.rank_score = std::move(rank);
 }
 
 void release_cached_memory() noexcept { detail::chunk_arena::release_cache(); }

@@ -11,6 +11,7 @@
 
 #include "core/candidates.hpp"
 #include "core/parallel.hpp"
+#include "core/ranking.hpp"
 
 namespace ced::detail {
 
@@ -243,7 +244,7 @@ std::vector<std::uint32_t> non_maximum_suppression(const block_partition& blocks
 
 std::vector<std::uint32_t> refine_keypoints(const block_partition& blocks, const float* xyz, const float* score,
                                             const std::vector<std::uint32_t>& keypoints, double radius,
-                                            unsigned threads) {
+                                            unsigned threads, std::vector<float>& rank) {
   std::vector<std::uint32_t> moved(keypoints.size());
   const float r2 = squared_radius(radius);
   parallel_for(keypoints.size(), threads, 64, [&](std::size_t q0, std::size_t q1) {
@@ -288,8 +289,20 @@ std::vector<std::uint32_t> refine_keypoints(const block_partition& blocks, const
       moved[q] = best;
     }
   });
-  std::sort(moved.begin(), moved.end());
-  moved.erase(std::unique(moved.begin(), moved.end()), moved.end());
+  // Each point once, ranked by the strongest maximum that moved to it.
+  std::vector<std::pair<std::uint32_t, float>> to(keypoints.size());
+  for (std::size_t q = 0; q < to.size(); ++q) to[q] = {moved[q], score[keypoints[q]]};
+  std::sort(to.begin(), to.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  moved.clear();
+  rank.clear();
+  for (const auto& [j, s] : to) {
+    if (!moved.empty() && moved.back() == j) {
+      if (detail::stronger({s, 0}, {rank.back(), 1})) rank.back() = s;
+    } else {
+      moved.push_back(j);
+      rank.push_back(s);
+    }
+  }
   return moved;
 }
 

@@ -79,10 +79,11 @@ void nms_block_by_query(const block_partition& blocks, const float* xyz, const s
 
 /// Keypoint refinement (detect_params::refine): each of `keypoints` moved to
 /// the point within `radius` (strict) nearest to the score-weighted centroid
-/// of the points within `radius`; ascending, each point once.
+/// of the points within `radius`; ascending, each point once. `rank` gets,
+/// for each, the highest score of the keypoints that moved to it.
 std::vector<std::uint32_t> refine_keypoints(const block_partition& blocks, const float* xyz, const float* score,
                                             const std::vector<std::uint32_t>& keypoints, double radius,
-                                            unsigned threads);
+                                            unsigned threads, std::vector<float>& rank);
 
 /// Indices of the non-zero flags, ascending.
 std::vector<std::uint32_t> compact_flags(const std::vector<std::uint8_t>& flags);

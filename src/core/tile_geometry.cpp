@@ -479,21 +479,41 @@ void check_tile_reach(const tile_grid& grid, std::uint64_t t, const point_cloud&
 }
 
 namespace {
+/// Keypoints of tiles: every keypoint of their cores, by index.
+struct tiled_keypoints {
+  std::vector<std::uint32_t> index;  ///< into the whole cloud
+  std::vector<float> rank;           ///< detection_result::rank_score
+  std::uint64_t candidates = 0;      ///< candidate points of the cores
+};
 /// The keypoints of the tiles that passed an earlier try (an exact tile's
 /// are the same under any longer reach), by tile, and that try's grid.
 struct passed_tiles {
   std::optional<tile_grid> grid;
-  std::map<std::uint64_t, std::vector<std::uint32_t>> keypoints;
+  std::map<std::uint64_t, tiled_keypoints> keypoints;
 };
+
+/// A tile's keypoints in its core, with their ranks and the core's candidates.
+tiled_keypoints core_of(const tile_grid& grid, std::uint64_t t, const cloud_tile& tile, const detection_result& r) {
+  tiled_keypoints kept;
+  for (std::size_t i = 0; i < tile.cloud.size(); ++i)
+    kept.candidates += r.candidate[i] != 0 && grid.tile_of(tile.cloud.position(i)) == t;
+  std::size_t q = 0;
+  for (std::uint32_t k : core_keypoints(grid, t, tile.cloud, r)) {
+    while (r.keypoints[q] != k) ++q;  // both ascending, the core's of r.keypoints
+    kept.index.push_back(tile.index[k]);
+    kept.rank.push_back(r.rank_score[q]);
+  }
+  return kept;
+}
 
 /// detect_tiled() at one reach. With `grow` (the reach is ced's own), a tile
 /// that finds it too short does not stop the others: `shortfall` gathers how
 /// far every such tile's core reaches, and there is no result; `passed`
 /// keeps the keypoints of the tiles that passed, for the next try.
-std::optional<std::vector<std::uint32_t>> tiles_at(const point_cloud& cloud, const detect_params& params,
-                                                   const std::vector<any_modality>& modalities, double tile_size,
-                                                   const double lo[3], const double hi[3], bool grow,
-                                                   reach_shortfall& shortfall, passed_tiles& passed) {
+std::optional<tiled_keypoints> tiles_at(const point_cloud& cloud, const detect_params& params,
+                                        const std::vector<any_modality>& modalities, double tile_size,
+                                        const double lo[3], const double hi[3], bool grow, reach_shortfall& shortfall,
+                                        passed_tiles& passed) {
   // A modality at a larger scale (scale=) reads farther: the halo grows with it.
   const tile_grid grid = make_tile_grid(lo, hi, tile_size, tile_halo_params(params, modalities));
   if (!passed.grid || !passed.grid->same_cores(grid)) passed.keypoints.clear();
@@ -509,28 +529,40 @@ std::optional<std::vector<std::uint32_t>> tiles_at(const point_cloud& cloud, con
     grid.tiles_near(cloud.position(i), near);
     for (std::uint64_t t : near) members[t].push_back(static_cast<std::uint32_t>(i));
   }
-  std::vector<std::uint32_t> out;
+  // Every keypoint of each core: the limits apply to all tiles' at the end.
+  detect_params per_tile = params;
+  per_tile.max_keypoints = 0;
+  per_tile.keypoint_share = 0;
+  std::vector<std::pair<std::uint32_t, float>> all;
+  std::uint64_t candidates = 0;
   for (std::uint64_t t = 0; t < grid.count(); ++t) {
     if (!owns[t]) continue;
-    if (const auto done = passed.keypoints.find(t); done != passed.keypoints.end()) {
-      out.insert(out.end(), done->second.begin(), done->second.end());
-      continue;
+    auto done = passed.keypoints.find(t);
+    if (done == passed.keypoints.end()) {
+      const cloud_tile tile = make_tile(cloud, std::move(members[t]), ranges);
+      try {
+        check_tile_reach(grid, t, tile.cloud, nullptr, per_tile);
+        const detection_result r = detect(tile.cloud, per_tile, modalities);
+        check_tile_reach(grid, t, tile.cloud, &r, per_tile, check_extra);
+        done = passed.keypoints.emplace(t, core_of(grid, t, tile, r)).first;
+      } catch (const tile_reach_error& e) {
+        if (!grow) throw;
+        shortfall.add(e);
+        continue;
+      }
     }
-    const cloud_tile tile = make_tile(cloud, std::move(members[t]), ranges);
-    try {
-      check_tile_reach(grid, t, tile.cloud, nullptr, params);
-      const detection_result r = detect(tile.cloud, params, modalities);
-      check_tile_reach(grid, t, tile.cloud, &r, params, check_extra);
-      std::vector<std::uint32_t>& kept = passed.keypoints[t];
-      for (std::uint32_t k : core_keypoints(grid, t, tile.cloud, r)) kept.push_back(tile.index[k]);
-      out.insert(out.end(), kept.begin(), kept.end());
-    } catch (const tile_reach_error& e) {
-      if (!grow) throw;
-      shortfall.add(e);
-    }
+    const tiled_keypoints& kept = done->second;
+    for (std::size_t q = 0; q < kept.index.size(); ++q) all.push_back({kept.index[q], kept.rank[q]});
+    candidates += kept.candidates;
   }
   if (shortfall.any) return std::nullopt;
-  std::sort(out.begin(), out.end());
+  std::sort(all.begin(), all.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  tiled_keypoints out;
+  out.candidates = candidates;
+  for (const auto& [i, rank] : all) {
+    out.index.push_back(i);
+    out.rank.push_back(rank);
+  }
   return out;
 }
 }  // namespace
@@ -565,7 +597,8 @@ std::vector<std::uint32_t> detect_tiled(const point_cloud& cloud, const detect_p
     reach_shortfall shortfall;
     if (auto out = tiles_at(cloud, p, modalities, tile_size, lo, hi, grow, shortfall, passed)) {
       if (reach_used) *reach_used = p.neighborhood.reach;
-      return std::move(*out);
+      // max_keypoints, keypoint_share: the strongest of all tiles' (the share of all cores' candidates).
+      return strongest(out->index, out->rank, keypoint_limit(params, out->candidates));
     }
     p.neighborhood.reach = grown_reach(p.neighborhood.reach, shortfall.needed, shortfall.unmeasured);
   }

@@ -181,6 +181,10 @@ void bind_result(py::module_& m) {
           "keypoints", [](py::object self) { return view(self.cast<const result&>().r.keypoints, self); },
           "Keypoint indices into the input, ascending (uint32).")
       .def_property_readonly(
+          "rank_score", [](py::object self) { return view(self.cast<const result&>().r.rank_score, self); },
+          "(K,) float32, one per keypoint: what max_keypoints ranks it by, its score (the product of its "
+          "saliencies), or refined, the highest score of the maxima refined onto it.")
+      .def_property_readonly(
           "saliency",
           [](py::object self) {
             const auto& r = self.cast<const result&>().r;

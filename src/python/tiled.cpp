@@ -221,6 +221,9 @@ void bind_tiled(py::module_& m) {
                                  d[py::str(p.names[k])] = copy_array(p.saliency[k]);
                                return d;
                              })
+      .def_property_readonly(
+          "rank", [](const ced::tile_part& p) { return copy_array(p.rank); },
+          "What each keypoint ranks by when the merge keeps the strongest (float32; Result.rank_score).")
       .def_property_readonly("thresholds",
                              [](const ced::tile_part& p) {
                                py::dict d;

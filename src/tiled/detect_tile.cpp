@@ -261,8 +261,10 @@ tile_part detect_tile(const tile_plan& plan, const tile_points& points, unsigned
   }
   for (std::uint32_t k : core_keypoints(plan.grid, points.tile, points.cloud, r)) kept.push_back(k);
   part.keypoints = empty_cloud(plan, kept.size());
-  for (std::size_t j = 0; j < kept.size(); ++j) {
+  for (std::size_t j = 0, q = 0; j < kept.size(); ++j) {
     const std::uint32_t i = kept[j];
+    while (r.keypoints[q] != i) ++q;  // both ascending, `kept` of r.keypoints
+    part.rank.push_back(r.rank_score[q]);
     part.index.push_back(points.index[i]);
     part.file_index.push_back(points.file_index[i]);
     copy_points(points.cloud, i, part.keypoints, j);

@@ -204,7 +204,8 @@ std::vector<tile_entry> count_tiles(io::point_stream& s, const tile_plan& p, con
 /// 2: cache records of fixed size (u64 index, u64 file index, f32 x y z, every field).
 /// 3: cache records delta-coded (cache_coder), with only the tile fields;
 ///    parts with only the tile fields.
-constexpr std::uint32_t tiled_file_version = 3;
+/// 4: part records end with the keypoint's rank (detection_result::rank_score).
+constexpr std::uint32_t tiled_file_version = 4;
 
 /// What a header names: a tile cache or a part.
 struct tiled_file_kind {

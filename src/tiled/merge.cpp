@@ -19,7 +19,6 @@ namespace ced {
 
 using namespace tiled_detail;
 using detail::rank_key;
-using detail::score_of;
 using detail::stronger;
 
 namespace {
@@ -92,7 +91,7 @@ void check_part(const tile_plan& plan, const tile_part& out, const tile_part& p)
   const std::size_t n = p.index.size();
   const std::vector<plan_field> fields = tile_fields_of(plan);
   bool whole = p.names == out.names && p.saliency.size() == m && p.candidates.size() == m && p.file_index.size() == n &&
-               p.keypoints.size() == n && p.keypoints.fields().size() == fields.size();
+               p.rank.size() == n && p.keypoints.size() == n && p.keypoints.fields().size() == fields.size();
   for (std::size_t k = 0; whole && k < m; ++k) whole = p.saliency[k].size() == n;
   for (std::size_t f = 0; whole && f < fields.size(); ++f)
     whole = p.keypoints.fields()[f].name == fields[f].name && p.keypoints.fields()[f].type() == fields[f].type;
@@ -102,10 +101,9 @@ void check_part(const tile_plan& plan, const tile_part& out, const tile_part& p)
     check_keypoint(plan, where, p.tile, p.index[j], p.file_index[j], p.keypoints.position(j), last);
 }
 
-/// The key of a part record (its index first, its m saliencies last).
-rank_key key_of_record(const char* r, std::size_t record_bytes, std::size_t m) {
-  const char* s = r + record_bytes - 4 * m;
-  return {score_of(m, [&](std::size_t k) { return load_le<float>(s + 4 * k); }), load_le<std::uint64_t>(r)};
+/// The key of a part record (its index first, its rank last).
+rank_key key_of_record(const char* r, std::size_t record_bytes) {
+  return {load_le<float>(r + record_bytes - 4), load_le<std::uint64_t>(r)};
 }
 
 /// The weakest of the `n` strongest keypoints of the part files (one pass
@@ -117,10 +115,9 @@ std::optional<rank_key> strongest_cutoff(const tile_plan& plan, const std::vecto
   std::uint64_t total = 0;
   for (const auto& path : paths) {
     part_reader reader(path, plan, digest);
-    const std::size_t m = reader.totals.names.size();
     while (const char* r = reader.next(buffer)) {
       ++total;
-      const rank_key k = key_of_record(r, reader.record_bytes(), m);
+      const rank_key k = key_of_record(r, reader.record_bytes());
       if (kept.size() < n) {
         kept.push(k);
       } else if (stronger(k, kept.top())) {
@@ -155,7 +152,6 @@ void merge_records(const tile_plan& plan, const std::vector<std::string>& paths,
   // --max-keypoints, --keypoint-share: the strongest of all tiles' keypoints,
   // as a whole run keeps (the share of all tiles' candidates).
   const std::size_t limit = keypoint_limit(plan.request.params, totals.any_candidates);
-  const std::size_t m = totals.names.size();
   const std::optional<rank_key> cutoff =
       limit ? strongest_cutoff(plan, paths, digest, limit, std::max<std::size_t>(std::size_t(1) << 16, memory / 4))
             : std::nullopt;
@@ -164,7 +160,7 @@ void merge_records(const tile_plan& plan, const std::vector<std::string>& paths,
   if (sink.begin) sink.begin(totals, count);
   // A k-way merge by index (the parts' are ascending and disjoint): half the
   // memory for the parts' buffers, half for the chunk handed to the sink.
-  const std::size_t record = record_size(plan) + 4 * totals.names.size();
+  const std::size_t record = record_size(plan) + 4 * totals.names.size() + 4;
   const std::size_t buffer = std::max<std::size_t>(record, memory / 2 / std::max<std::size_t>(1, readers.size()));
   const std::size_t chunk_cap = std::max<std::size_t>(1, memory / 2 / record);
   using head = std::pair<std::uint64_t, std::pair<std::size_t, const char*>>;  // index, (part, record)
@@ -188,7 +184,7 @@ void merge_records(const tile_plan& plan, const std::vector<std::string>& paths,
       heap.pop();
       const std::size_t r = where.first;
       // Every record is checked; one weaker than the cutoff is then dropped.
-      const bool kept = !cutoff || !stronger(*cutoff, key_of_record(where.second, readers[r].record_bytes(), m));
+      const bool kept = !cutoff || !stronger(*cutoff, key_of_record(where.second, readers[r].record_bytes()));
       decode_part_record(where.second, chunk, j);
       check_keypoint(plan, paths[r], readers[r].totals.tile, chunk.index[j], chunk.file_index[j],
                      chunk.keypoints.position(j), last);
@@ -234,11 +230,8 @@ tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts) {
   const std::size_t limit = keypoint_limit(plan.request.params, out.any_candidates);
   if (limit && order.size() > limit) {  // the strongest of all tiles' keypoints, still by index
     std::vector<rank_key> keys(order.size());
-    for (std::size_t q = 0; q < order.size(); ++q) {
-      // Plain variables: a lambda may not capture structured bindings before C++20 (clang refuses).
-      const std::size_t i = order[q].second.first, j = order[q].second.second;
-      keys[q] = {score_of(m, [&](std::size_t k) { return parts[i].saliency[k][j]; }), order[q].first};
-    }
+    for (std::size_t q = 0; q < order.size(); ++q)
+      keys[q] = {parts[order[q].second.first].rank[order[q].second.second], order[q].first};
     std::vector<rank_key> sorted = keys;
     std::nth_element(sorted.begin(), sorted.begin() + std::ptrdiff_t(limit - 1), sorted.end(), stronger);
     const rank_key cutoff = sorted[limit - 1];
@@ -249,6 +242,7 @@ tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts) {
   }
   out.keypoints = empty_cloud(plan, order.size());
   out.saliency.assign(m, std::vector<float>(order.size()));
+  out.rank.resize(order.size());
   for (std::size_t q = 0; q < order.size(); ++q) {
     const auto [i, j] = order[q].second;
     const tile_part& p = parts[i];
@@ -256,6 +250,7 @@ tile_part merge_parts(const tile_plan& plan, std::vector<tile_part> parts) {
     out.file_index.push_back(p.file_index[j]);
     copy_points(p.keypoints, j, out.keypoints, q);
     for (std::size_t k = 0; k < m; ++k) out.saliency[k][q] = p.saliency[k][j];
+    out.rank[q] = p.rank[j];
   }
   for (auto& f : out.keypoints.fields()) f.whole_range.reset();
   return out;

@@ -10,7 +10,8 @@
 //   offset 52      u64 candidates per modality (m of them)
 //   offset 52+8m   u64 any_candidates, f64 detect_ms
 //   offset 68+8m   per keypoint, ascending index: its point record, then
-//                  its f32 saliency per modality
+//                  its f32 saliency per modality, then its f32 rank
+//                  (detection_result::rank_score)
 #include <cerrno>
 #include <cstring>
 #include <fstream>
@@ -46,6 +47,7 @@ void write_part_as(const std::string& path, const tile_plan& plan, const std::st
   for (std::size_t j = 0; j < part.index.size(); ++j) {
     append_record(out, part.index[j], part.file_index[j], part.keypoints, j);
     for (const auto& s : part.saliency) append_le(out, s[j]);
+    append_le(out, part.rank[j]);
   }
   io::atomic_output_file f(path);
   f.stream().write(out.data(), static_cast<std::streamsize>(out.size()));
@@ -93,7 +95,7 @@ part_reader::part_reader(const std::string& path, const tile_plan& plan, const s
   get(totals.detect_ms);
   totals.keypoints = empty_cloud(plan, 0);
   totals.saliency.assign(m, {});
-  m_record = record_size(plan) + 4 * m;
+  m_record = record_size(plan) + 4 * m + 4;
   m_offset = head;
   if (m_count > (size - head) / m_record || size - head != m_count * m_record)
     throw io::io_error(path, "truncated or oversized tile part: " + std::to_string(m_count) + " keypoints declared");
@@ -124,6 +126,7 @@ void decode_part_record(const char* r, tile_part& p, std::size_t j) {
     s[j] = load_le<float>(r);
     r += 4;
   }
+  p.rank[j] = load_le<float>(r);
 }
 
 void resize_part(tile_part& p, const tile_plan& plan, std::size_t n) {
@@ -131,6 +134,7 @@ void resize_part(tile_part& p, const tile_plan& plan, std::size_t n) {
   p.index.resize(n);
   p.file_index.resize(n);
   for (auto& s : p.saliency) s.resize(n);
+  p.rank.resize(n);
 }
 
 }  // namespace tiled_detail

@@ -92,6 +92,7 @@ tile_part merge_work_dir(const tile_plan& plan, const std::string& work_dir, con
     copy_points(c.keypoints, 0, out.keypoints, at, n);
     for (std::size_t k = 0; k < c.saliency.size(); ++k)
       std::copy_n(c.saliency[k].begin(), n, out.saliency[k].begin() + at);
+    std::copy_n(c.rank.begin(), n, out.rank.begin() + at);
     at += n;
   };
   collect.records = !sink || sink->records;

@@ -62,6 +62,24 @@ def test_max_keypoints_keeps_the_strongest_as_the_cli(cli, sample, sample_path):
         ced.detect(sample, modalities="ced6d", max_keypoints=2.5)
 
 
+def test_refined_keypoints_rank_by_their_maximum(cli, sample, sample_path):
+    # rank_score: a keypoint's own score, or refined, that of the strongest maximum refined onto it.
+    plain = ced.detect(sample, modalities="ced6d")
+    score = plain.saliency["xyz"] * plain.saliency["rgb"]
+    np.testing.assert_array_equal(plain.rank_score, score[plain.keypoints])
+    full = ced.detect(sample, modalities="robust6d")
+    assert full.rank_score.dtype == np.float32 and len(full.rank_score) == len(full) > 40
+    own = full.saliency[full.names[0]] * full.saliency[full.names[1]]
+    assert np.count_nonzero(full.rank_score > own[full.keypoints]) > 0  # refined onto weaker points
+    ranked = sorted(range(len(full)), key=lambda q: (-full.rank_score[q], full.keypoints[q]))
+    for n in (1, 20):
+        got = ced.detect(sample, modalities="robust6d", max_keypoints=n)
+        np.testing.assert_array_equal(got.keypoints, np.sort(full.keypoints[ranked[:n]]), err_msg=str(n))
+        np.testing.assert_array_equal(got.rank_score, full.rank_score[np.sort(ranked[:n])], err_msg=str(n))
+        np.testing.assert_array_equal(cli_keypoints(cli, sample_path, "--preset", "robust6d", "--max-keypoints", str(n)),
+                                      got.keypoints)
+
+
 def test_keypoint_share_keeps_the_strongest_share_of_the_candidates(cli, sample, sample_path):
     full = ced.detect(sample, modalities="ced6d")
     candidates = int(np.count_nonzero(full.candidate))

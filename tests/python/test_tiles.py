@@ -62,6 +62,12 @@ def test_refined_tiles_give_the_whole_result(las, tmp_path):
     plan = ced.plan_tiles(las, tile_size=0.8, modalities="robust6d")
     merged = ced.merge_parts(plan, [ced.detect_tile(plan, t) for t, _, _ in plan.tiles])
     assert np.array_equal(merged.keypoints, np.asarray(whole.keypoints, dtype=np.uint64))
+    assert np.array_equal(merged.rank, whole.rank_score)
+    # The strongest by the maxima the refined keypoints stand for, as the whole run keeps.
+    top = ced.plan_tiles(las, tile_size=0.8, modalities="robust6d", max_keypoints=15)
+    merged = ced.merge_parts(top, [ced.detect_tile(top, t) for t, _, _ in top.tiles])
+    expected = ced.detect(ced.read(las), modalities="robust6d", max_keypoints=15).keypoints
+    assert len(expected) == 15 and np.array_equal(merged.keypoints, np.asarray(expected, dtype=np.uint64))
     plain = ced.plan_tiles(las, tile_size=0.8, modalities="robust6d", refine=False)
     merged = ced.merge_parts(plain, [ced.detect_tile(plain, t) for t, _, _ in plain.tiles])
     expected = ced.detect(ced.read(las), modalities="robust6d", refine=False).keypoints

@@ -55,6 +55,10 @@ class Result:
     def keypoints(self) -> npt.NDArray[np.uint32]:
         """Keypoint indices into the input, ascending."""
     @property
+    def rank_score(self) -> npt.NDArray[np.float32]:
+        """(K,), one per keypoint: what max_keypoints ranks it by, its score (the product of its saliencies),
+        or refined, the highest score of the maxima refined onto it."""
+    @property
     def saliency(self) -> Dict[str, npt.NDArray[np.float32]]:
         """Modality name -> (N,) saliency of every point (0 below min_neighbors)."""
     @property
@@ -236,6 +240,9 @@ class TilePart:
     def cloud(self) -> Cloud: ...
     @property
     def saliency(self) -> Dict[str, npt.NDArray[np.float32]]: ...
+    @property
+    def rank(self) -> npt.NDArray[np.float32]:
+        """What each keypoint ranks by when the merge keeps the strongest (Result.rank_score)."""
     @property
     def thresholds(self) -> Dict[str, float]: ...
     @property
