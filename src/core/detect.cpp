@@ -136,14 +136,9 @@ std::vector<std::uint32_t> strongest(const std::vector<std::uint32_t>& keypoints
 }
 
 void keep_strongest(detection_result& result, std::size_t n) {
-  const std::vector<std::uint32_t> kept = strongest(result.keypoints, result.rank_score, n);
-  std::vector<float> rank(kept.size());
-  for (std::size_t j = 0, q = 0; j < kept.size(); ++j, ++q) {
-    while (result.keypoints[q] != kept[j]) ++q;  // both ascending, `kept` of `keypoints`
-    rank[j] = result.rank_score[q];
-  }
-  result.keypoints = kept;
-  result.rank_score = std::move(rank);
+  std::vector<std::uint32_t> kept = strongest(result.keypoints, result.rank_score, n);
+  result.rank_score = detail::ranks_of(result.keypoints, result.rank_score, kept);
+  result.keypoints = std::move(kept);
 }
 
 void release_cached_memory() noexcept { detail::chunk_arena::release_cache(); }

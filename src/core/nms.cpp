@@ -297,7 +297,7 @@ std::vector<std::uint32_t> refine_keypoints(const block_partition& blocks, const
   rank.clear();
   for (const auto& [j, s] : to) {
     if (!moved.empty() && moved.back() == j) {
-      if (detail::stronger({s, 0}, {rank.back(), 1})) rank.back() = s;
+      if (detail::stronger({s, 0}, {rank.back(), 1})) rank.back() = s;  // the higher score, NaN lowest
     } else {
       moved.push_back(j);
       rank.push_back(s);

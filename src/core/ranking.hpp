@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <vector>
 
 namespace ced::detail {
 
@@ -22,6 +23,18 @@ inline bool stronger(const rank_key& a, const rank_key& b) noexcept {
   const float inf = std::numeric_limits<float>::infinity();
   const float sa = std::isnan(a.score) ? -inf : a.score, sb = std::isnan(b.score) ? -inf : b.score;
   return sa != sb ? sa > sb : a.index < b.index;
+}
+
+/// The ranks of `subset`, keypoints of `keypoints` (both ascending), from
+/// `ranks` (aligned with `keypoints`: detection_result::rank_score).
+inline std::vector<float> ranks_of(const std::vector<std::uint32_t>& keypoints, const std::vector<float>& ranks,
+                                   const std::vector<std::uint32_t>& subset) {
+  std::vector<float> out(subset.size());
+  for (std::size_t j = 0, q = 0; j < subset.size(); ++j, ++q) {
+    while (keypoints[q] != subset[j]) ++q;
+    out[j] = ranks[q];
+  }
+  return out;
 }
 
 /// The score of a point from its `modalities` saliencies, saliency(k) the

@@ -19,6 +19,7 @@
 
 #include "ced/scaled.hpp"
 #include "core/neighbor_block.hpp"
+#include "core/ranking.hpp"
 #include "core/text.hpp"
 
 namespace ced {
@@ -479,7 +480,7 @@ void check_tile_reach(const tile_grid& grid, std::uint64_t t, const point_cloud&
 }
 
 namespace {
-/// Keypoints of tiles: every keypoint of their cores, by index.
+/// Keypoints of tiles: every keypoint of their cores (ascending within a tile).
 struct tiled_keypoints {
   std::vector<std::uint32_t> index;  ///< into the whole cloud
   std::vector<float> rank;           ///< detection_result::rank_score
@@ -497,12 +498,9 @@ tiled_keypoints core_of(const tile_grid& grid, std::uint64_t t, const cloud_tile
   tiled_keypoints kept;
   for (std::size_t i = 0; i < tile.cloud.size(); ++i)
     kept.candidates += r.candidate[i] != 0 && grid.tile_of(tile.cloud.position(i)) == t;
-  std::size_t q = 0;
-  for (std::uint32_t k : core_keypoints(grid, t, tile.cloud, r)) {
-    while (r.keypoints[q] != k) ++q;  // both ascending, the core's of r.keypoints
-    kept.index.push_back(tile.index[k]);
-    kept.rank.push_back(r.rank_score[q]);
-  }
+  const std::vector<std::uint32_t> core = core_keypoints(grid, t, tile.cloud, r);
+  for (std::uint32_t k : core) kept.index.push_back(tile.index[k]);
+  kept.rank = detail::ranks_of(r.keypoints, r.rank_score, core);
   return kept;
 }
 
@@ -533,8 +531,7 @@ std::optional<tiled_keypoints> tiles_at(const point_cloud& cloud, const detect_p
   detect_params per_tile = params;
   per_tile.max_keypoints = 0;
   per_tile.keypoint_share = 0;
-  std::vector<std::pair<std::uint32_t, float>> all;
-  std::uint64_t candidates = 0;
+  tiled_keypoints out;  // in tile order; strongest() sorts
   for (std::uint64_t t = 0; t < grid.count(); ++t) {
     if (!owns[t]) continue;
     auto done = passed.keypoints.find(t);
@@ -552,17 +549,11 @@ std::optional<tiled_keypoints> tiles_at(const point_cloud& cloud, const detect_p
       }
     }
     const tiled_keypoints& kept = done->second;
-    for (std::size_t q = 0; q < kept.index.size(); ++q) all.push_back({kept.index[q], kept.rank[q]});
-    candidates += kept.candidates;
+    out.index.insert(out.index.end(), kept.index.begin(), kept.index.end());
+    out.rank.insert(out.rank.end(), kept.rank.begin(), kept.rank.end());
+    out.candidates += kept.candidates;
   }
   if (shortfall.any) return std::nullopt;
-  std::sort(all.begin(), all.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-  tiled_keypoints out;
-  out.candidates = candidates;
-  for (const auto& [i, rank] : all) {
-    out.index.push_back(i);
-    out.rank.push_back(rank);
-  }
   return out;
 }
 }  // namespace
@@ -597,7 +588,8 @@ std::vector<std::uint32_t> detect_tiled(const point_cloud& cloud, const detect_p
     reach_shortfall shortfall;
     if (auto out = tiles_at(cloud, p, modalities, tile_size, lo, hi, grow, shortfall, passed)) {
       if (reach_used) *reach_used = p.neighborhood.reach;
-      // max_keypoints, keypoint_share: the strongest of all tiles' (the share of all cores' candidates).
+      // max_keypoints, keypoint_share: the strongest of all tiles' (the share of all cores' candidates);
+      // ascending by index, as strongest() returns them.
       return strongest(out->index, out->rank, keypoint_limit(params, out->candidates));
     }
     p.neighborhood.reach = grown_reach(p.neighborhood.reach, shortfall.needed, shortfall.unmeasured);

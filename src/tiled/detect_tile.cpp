@@ -9,6 +9,7 @@
 
 #include "ced/detect.hpp"
 #include "ced/scaled.hpp"
+#include "core/ranking.hpp"
 #include "tiled/internal.hpp"
 
 namespace ced {
@@ -251,7 +252,6 @@ tile_part detect_tile(const tile_plan& plan, const tile_points& points, unsigned
   check_tile_reach(plan.grid, points.tile, points.cloud, nullptr, params);
   const detection_result r = detect(points.cloud, params, modalities);
   check_tile_reach(plan.grid, points.tile, points.cloud, &r, params, tile_check_extra(params, modalities));
-  std::vector<std::uint32_t> kept;
   std::vector<std::uint64_t> tiles(points.cloud.size());
   plan.grid.tile_of_many(points.cloud.positions().data(), tiles.size(), tiles.data());
   for (std::size_t i = 0; i < points.cloud.size(); ++i) {
@@ -259,12 +259,11 @@ tile_part detect_tile(const tile_plan& plan, const tile_points& points, unsigned
     for (std::size_t k = 0; k < m; ++k) part.candidates[k] += r.saliency[k][i] >= r.thresholds[k];
     part.any_candidates += r.candidate[i] != 0;
   }
-  for (std::uint32_t k : core_keypoints(plan.grid, points.tile, points.cloud, r)) kept.push_back(k);
+  const std::vector<std::uint32_t> kept = core_keypoints(plan.grid, points.tile, points.cloud, r);
   part.keypoints = empty_cloud(plan, kept.size());
-  for (std::size_t j = 0, q = 0; j < kept.size(); ++j) {
+  part.rank = detail::ranks_of(r.keypoints, r.rank_score, kept);
+  for (std::size_t j = 0; j < kept.size(); ++j) {
     const std::uint32_t i = kept[j];
-    while (r.keypoints[q] != i) ++q;  // both ascending, `kept` of r.keypoints
-    part.rank.push_back(r.rank_score[q]);
     part.index.push_back(points.index[i]);
     part.file_index.push_back(points.file_index[i]);
     copy_points(points.cloud, i, part.keypoints, j);
