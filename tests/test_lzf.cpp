@@ -65,7 +65,7 @@ TEST(Lzf, SegmentsOnThreadsGiveTheBytesOfOneParse) {
   // must give exactly the bytes of one parse from the start.
   std::mt19937 rng(11);
   std::vector<std::string> inputs;
-  for (std::size_t size : {0u, 1u, 2u, 3u, 40u, 5000u, 60000u}) {
+  for (std::size_t size : {0u, 1u, 2u, 3u, 40u, 4097u, 4098u, 5000u, 60000u}) {
     std::string s(size, '\0');
     for (auto& ch : s) ch = static_cast<char>(rng());
     inputs.push_back(s);
@@ -78,6 +78,11 @@ TEST(Lzf, SegmentsOnThreadsGiveTheBytesOfOneParse) {
                                                 : std::string(1, static_cast<char>(rng()));
   inputs.push_back(copies);
   inputs.push_back(std::string(50000, 'z'));
+  for (std::size_t period : {8191u, 8192u, 8193u}) {  // repeats at the reach of a back-reference and just past it
+    std::string block(period, '\0');
+    for (auto& ch : block) ch = static_cast<char>(rng());
+    inputs.push_back(block + block + block.substr(0, 5000));
+  }
   std::string floats;  // like a PCD column: slowly varying floats
   for (int i = 0; i < 20000; ++i) {
     const float f = static_cast<float>(i % 700) * 0.01f + static_cast<float>(rng() % 50) * 1e-4f;
@@ -87,6 +92,12 @@ TEST(Lzf, SegmentsOnThreadsGiveTheBytesOfOneParse) {
   for (const std::string& in : inputs) {
     const std::string whole = ced::io::detail::lzf_compress_segmented(in, in.size() + 1, 1);
     EXPECT_EQ(whole, ced::io::lzf_compress(in));
+    // The windowed passes give the bytes of the plain parse, a position at a
+    // time, with and without the vector passes.
+    EXPECT_EQ(whole, ced::io::detail::lzf_compress_reference(in)) << "size " << in.size();
+    ced::io::detail::lzf_vector_passes = false;
+    EXPECT_EQ(ced::io::detail::lzf_compress_segmented(in, in.size() + 1, 1), whole) << "portable, size " << in.size();
+    ced::io::detail::lzf_vector_passes = true;
     ASSERT_EQ(ced::io::lzf_decompress(whole, in.size(), "lzf"), in);
     for (std::size_t segment : {1u, 2u, 7u, 64u, 1000u, 8192u, 8193u, 30000u}) {
       if (segment < 64 && in.size() > 5000) continue;  // each segment seeds 8 KiB: too slow

@@ -7,15 +7,24 @@
 #include <cstring>
 #include <vector>
 
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#endif
+
 #include "ced/io/error.hpp"
 #include "core/raw_vector.hpp"
 #include "scalar_io.hpp"
 
 namespace ced::io {
 
+namespace detail {
+bool lzf_vector_passes = true;
+}  // namespace detail
+
 namespace {
 
 constexpr unsigned k_hash_bits = 15;
+static_assert(k_hash_bits <= 16, "hashes are kept as 16 bits");
 constexpr std::size_t k_max_distance = 8192, k_max_match = 264;
 
 /// The three bytes at i as one value (i + 2 < n).
@@ -23,6 +32,100 @@ inline std::uint32_t triple(const unsigned char* in, std::size_t i) noexcept {
   return (std::uint32_t(in[i]) << 16) | (std::uint32_t(in[i + 1]) << 8) | in[i + 2];
 }
 inline std::uint32_t hash_of(std::uint32_t v) noexcept { return (v * 2654435761u) >> (32 - k_hash_bits); }
+
+/// The hashes of the n positions at `in` (n a multiple of 8, in[n + 3]
+/// readable) to h[0..returned), and their 3 bytes to own[] (the first in
+/// the low byte); the rest are the caller's.
+std::size_t lzf_hashes_scalar(const unsigned char* in, std::size_t n, std::uint16_t* h, std::uint32_t* own) noexcept {
+  for (std::size_t k = 0; k < n; ++k) {
+    h[k] = static_cast<std::uint16_t>(hash_of(triple(in, k)));
+    own[k] = std::uint32_t(in[k]) | (std::uint32_t(in[k + 1]) << 8) | (std::uint32_t(in[k + 2]) << 16);
+  }
+  return n;
+}
+/// Marks (bit k of marks, cleared before) the n positions at `in` (n a
+/// multiple of 8, in[n + 3] readable; own[] from lzf_hashes()) whose
+/// candidate dist[k] bytes before (0: none) is within reach and starts with
+/// the same 3 bytes; returns how many positions it did (the rest are the
+/// caller's).
+std::size_t lzf_matches_scalar(const unsigned char* in, std::size_t n, const std::uint32_t* dist,
+                               const std::uint32_t* /*own*/, std::uint64_t* marks) noexcept {
+  for (std::size_t w = 0; w * 64 < n; ++w) {
+    std::uint64_t bits = 0;
+    const std::size_t k_end = std::min(n, w * 64 + 64);
+    for (std::size_t k = w * 64; k < k_end; ++k) {
+      const std::uint32_t d = dist[k];
+      const bool near = d - 1 < k_max_distance;  // 0 wraps
+      const std::size_t back = near ? d : 0;     // out of reach: the position itself, in cache
+      bits |= std::uint64_t(near & (triple(in - back, k) == triple(in, k))) << (k % 64);
+    }
+    marks[w] = bits;
+  }
+  return n;
+}
+
+#if defined(__x86_64__) && defined(__GNUC__)
+__attribute__((target("avx2"))) std::size_t lzf_hashes_avx2(const unsigned char* in, std::size_t n, std::uint16_t* h,
+                                                            std::uint32_t* own) noexcept {
+  // Lane j of a 32-bit vector: bytes k + j, k + j + 1, k + j + 2 as triple() orders them.
+  const __m256i shuffle = _mm256_setr_epi8(2, 1, 0, -1, 3, 2, 1, -1, 4, 3, 2, -1, 5, 4, 3, -1,  //
+                                           2, 1, 0, -1, 3, 2, 1, -1, 4, 3, 2, -1, 5, 4, 3, -1);
+  const __m256i in_order = _mm256_setr_epi8(0, 1, 2, -1, 1, 2, 3, -1, 2, 3, 4, -1, 3, 4, 5, -1,  //
+                                            0, 1, 2, -1, 1, 2, 3, -1, 2, 3, 4, -1, 3, 4, 5, -1);
+  const __m256i mul = _mm256_set1_epi32(static_cast<int>(2654435761u));
+  for (std::size_t k = 0; k < n; k += 8) {
+    // bytes k..k+7 in the low lane, k+4..k+11 in the high one (each 8-byte load stays below k + 12 ≤ n + 4)
+    std::uint64_t lo, hi;
+    std::memcpy(&lo, in + k, 8);
+    std::memcpy(&hi, in + k + 4, 8);
+    const __m256i bytes = _mm256_set_epi64x(0, static_cast<long long>(hi), 0, static_cast<long long>(lo));
+    const __m256i v = _mm256_shuffle_epi8(bytes, shuffle);
+    const __m256i hv = _mm256_srli_epi32(_mm256_mullo_epi32(v, mul), 32 - k_hash_bits);
+    const __m128i packed = _mm_packus_epi32(_mm256_castsi256_si128(hv), _mm256_extracti128_si256(hv, 1));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(h + k), packed);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(own + k), _mm256_shuffle_epi8(bytes, in_order));
+  }
+  return n;
+}
+__attribute__((target("avx2"))) std::size_t lzf_matches_avx2(const unsigned char* in, std::size_t n,
+                                                             const std::uint32_t* dist, const std::uint32_t* own,
+                                                             std::uint64_t* marks) noexcept {
+  const __m256i one = _mm256_set1_epi32(1), flip = _mm256_set1_epi32(static_cast<int>(0x80000000u));
+  const __m256i reach = _mm256_set1_epi32(static_cast<int>(k_max_distance ^ 0x80000000u));
+  const __m256i low3 = _mm256_set1_epi32(0xffffff), lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  for (std::size_t k = 0; k < n; k += 8) {
+    const __m256i d = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(dist + k));
+    // d − 1 < k_max_distance, unsigned (0 wraps): signed with the sign bits flipped
+    const __m256i near = _mm256_cmpgt_epi32(reach, _mm256_xor_si256(_mm256_sub_epi32(d, one), flip));
+    // offsets from in + k: j − d in reach, j itself otherwise
+    const __m256i off = _mm256_sub_epi32(lanes, _mm256_and_si256(d, near));
+    const __m256i theirs = _mm256_i32gather_epi32(reinterpret_cast<const int*>(in + k), off, 1);
+    const __m256i mine = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(own + k));
+    const __m256i same = _mm256_cmpeq_epi32(_mm256_and_si256(theirs, low3), mine);
+    const auto bits = static_cast<std::uint64_t>(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(same, near))));
+    marks[k / 64] |= bits << (k % 64);
+  }
+  return n;
+}
+bool lzf_has_avx2() noexcept {
+  static const bool has = __builtin_cpu_supports("avx2");
+  return has && detail::lzf_vector_passes;
+}
+#endif
+
+std::size_t lzf_hashes(const unsigned char* in, std::size_t n, std::uint16_t* h, std::uint32_t* own) noexcept {
+#if defined(__x86_64__) && defined(__GNUC__)
+  if (lzf_has_avx2()) return lzf_hashes_avx2(in, n, h, own);
+#endif
+  return lzf_hashes_scalar(in, n, h, own);
+}
+std::size_t lzf_matches(const unsigned char* in, std::size_t n, const std::uint32_t* dist, const std::uint32_t* own,
+                        std::uint64_t* marks) noexcept {
+#if defined(__x86_64__) && defined(__GNUC__)
+  if (lzf_has_avx2()) return lzf_matches_avx2(in, n, dist, own, marks);
+#endif
+  return lzf_matches_scalar(in, n, dist, own, marks);
+}
 
 /// One back-reference of the parse: `len` bytes at `pos` repeat those
 /// `dist` bytes before.
@@ -40,7 +143,8 @@ struct lzf_match {
 /// matches of one that started at the beginning.
 class lzf_parser {
  public:
-  lzf_parser(const unsigned char* in, std::size_t n) : m_in(in), m_n(n), m_table(std::size_t(1) << k_hash_bits) {}
+  lzf_parser(const unsigned char* in, std::size_t n)
+      : m_in(in), m_n(n), m_last(n > 2 ? n - 2 : 0), m_table(std::size_t(1) << k_hash_bits) {}
 
   /// Ready to parse from `from`: the table as the whole parse has it there.
   void start(std::size_t from) {
@@ -48,6 +152,40 @@ class lzf_parser {
     m_base = from > k_max_distance ? from - k_max_distance : 0;
     for (std::size_t k = m_base; k < from && k + 2 < m_n; ++k) enter(k);
   }
+  /// The parse from start()'s position `i` until the first position it
+  /// considers at or after `to` (or the input's end), which it returns:
+  /// exactly what parse(i, match, [to](k) { return k >= to; }) does, but a
+  /// window of positions at a time, in passes without data-dependent
+  /// branches. Since every position enters the table whatever the parse
+  /// does, each position's candidate (and whether it starts a match of at
+  /// least 3 bytes) is known before the parse reaches it; the parse then
+  /// only jumps from one marked position to the next. The table is left
+  /// past the returned position, so parse() cannot go on from it.
+  template <class Match>
+  std::size_t parse_until(std::size_t i, std::size_t to, Match match) {
+    const std::size_t last = m_n > 2 ? m_n - 2 : 0;  // positions considered: k + 2 < n
+    std::size_t b = i;                               // positions below b have entered the table
+    while (i < last && i < to) {
+      const std::size_t a = b;
+      if (a <= i) {  // the next window: [i, …), the positions skipped by a match entered too
+        b = std::min(last, a + k_window);
+        mark(a, b);
+        m_window = a;
+      }
+      const std::size_t limit = std::min(b, to);
+      const std::size_t p = next_mark(i, limit);
+      if (p >= limit) {
+        i = limit;
+        continue;
+      }
+      const std::size_t c = p - m_dist[p - m_window];
+      const std::size_t len = match_length(c, p);
+      match(lzf_match{p, static_cast<std::uint32_t>(len), static_cast<std::uint32_t>(p - c)});
+      i = p + len;
+    }
+    return std::min(i, m_n);
+  }
+
   /// Parses from `i` (start()'s position, or where the last call stopped),
   /// calling match(m) for each back-reference, until stop(position) holds
   /// at a position the parse considers (a match's start or a literal) or
@@ -80,8 +218,76 @@ class lzf_parser {
  private:
   void enter(std::size_t k) noexcept { m_table[hash_of(triple(m_in, k))] = static_cast<std::uint32_t>(k - m_base + 1); }
 
+  /// How many bytes from p repeat those from c < p (at least 3, which the
+  /// caller knows), as the byte-by-byte loop of parse() counts them.
+  std::size_t match_length(std::size_t c, std::size_t p) const noexcept {
+    const std::size_t max_len = std::min(k_max_match, m_n - p);
+    std::size_t len = 3;
+    for (; detail::host_little_endian() && len + 8 <= max_len; len += 8) {
+      std::uint64_t x, y;
+      std::memcpy(&x, m_in + c + len, 8);
+      std::memcpy(&y, m_in + p + len, 8);
+      if (x != y) return len + static_cast<std::size_t>(__builtin_ctzll(x ^ y)) / 8;  // little-endian: the first byte
+    }
+    while (len < max_len && m_in[c + len] == m_in[p + len]) ++len;
+    return len;
+  }
+
+  /// Enters positions [a, b) (b + 2 ≤ n) in order and marks, in m_marks
+  /// (bit k − a), those whose candidate is within reach and starts with the
+  /// same three bytes, with its distance in m_dist[k − a].
+  void mark(std::size_t a, std::size_t b) noexcept {
+    const std::size_t count = b - a;
+    // Positions whose 4-byte loads stay inside the input go through the
+    // vector passes (AVX2 where the CPU has it); the last few, scalar.
+    const std::size_t fast = std::min(count, m_n >= a + 4 ? m_n - a - 4 : 0) / 8 * 8;
+    // 1. Each position's hash.
+    std::size_t k0 = lzf_hashes(m_in + a, fast, m_hash, m_own);
+    for (std::size_t k = k0; k < count; ++k) m_hash[k] = static_cast<std::uint16_t>(hash_of(triple(m_in, a + k)));
+    // 2. The table, in order: each position's candidate, as a distance (0: none).
+    std::uint32_t* const table = m_table.data();
+    const auto rel = static_cast<std::uint32_t>(a - m_base + 1);  // position a as the table has it
+    for (std::size_t k = 0; k < count; ++k) {
+      std::uint32_t& slot = table[m_hash[k]];
+      const std::uint32_t candidate = slot;
+      slot = rel + static_cast<std::uint32_t>(k);
+      m_dist[k] = candidate != 0 ? rel + static_cast<std::uint32_t>(k) - candidate : 0;
+    }
+    // 3. Which candidates are in reach and start with the same 3 bytes. One
+    // out of reach reads the position itself (in cache): most candidates
+    // are stale, and reading them would miss the cache.
+    std::fill(m_marks, m_marks + (count + 63) / 64, std::uint64_t(0));
+    k0 = lzf_matches(m_in + a, fast, m_dist, m_own, m_marks);
+    for (std::size_t k = k0; k < count; ++k) {
+      const std::uint32_t d = m_dist[k];
+      const bool near = d - 1 < k_max_distance;  // 0 wraps
+      const std::size_t c = a + k - (near ? d : 0);
+      const bool hit = near & (triple(m_in, c) == triple(m_in, a + k));
+      m_marks[k / 64] |= std::uint64_t(hit) << (k % 64);
+    }
+  }
+  /// The first marked position in [i, limit) of the window, or limit.
+  std::size_t next_mark(std::size_t i, std::size_t limit) const noexcept {
+    std::size_t k = i - m_window;
+    const std::size_t end = limit - m_window;
+    while (k < end) {
+      const std::uint64_t w = m_marks[k / 64] >> (k % 64);
+      if (w != 0) return std::min(limit, m_window + k + static_cast<std::size_t>(__builtin_ctzll(w)));
+      k = (k / 64 + 1) * 64;
+    }
+    return limit;
+  }
+
+  static constexpr std::size_t k_window = 1024;
+  std::uint64_t m_marks[k_window / 64];
+  std::uint16_t m_hash[k_window];
+  std::uint32_t m_own[k_window];
+  std::uint32_t m_dist[k_window];
+  std::size_t m_window = 0;  // the window's first position
+
   const unsigned char* m_in;
   std::size_t m_n;
+  std::size_t m_last;  // positions below it are entered and considered (k + 2 < n)
   std::vector<std::uint32_t> m_table;
   std::size_t m_base = 0;  // positions are entered relative to it (segments are far below 4 GiB)
 };
@@ -133,16 +339,13 @@ struct segment_parse {
     unsigned char* o = first;
     std::size_t lit = from;
     p.start(from);
-    end = p.parse(
-        from,
-        [&](const lzf_match& m) {
-          o = put_literals(in, lit, m.pos, o);
-          token_at.push_back(static_cast<std::size_t>(o - first));
-          o = put_match(m, o);
-          matches.push_back(m);
-          lit = m.pos + m.len;
-        },
-        [to](std::size_t i) { return i >= to; });
+    end = p.parse_until(from, to, [&](const lzf_match& m) {
+      o = put_literals(in, lit, m.pos, o);
+      token_at.push_back(static_cast<std::size_t>(o - first));
+      o = put_match(m, o);
+      matches.push_back(m);
+      lit = m.pos + m.len;
+    });
     size = static_cast<std::size_t>(o - first);
   }
   /// Whether the parse considered position q (not strictly inside a match).
@@ -182,18 +385,15 @@ void lzf_compress_into(std::string_view input, ced::detail::raw_column_vector<un
   out.resize(lzf_bound(n));
   unsigned char* const first = out.data();
   unsigned char* o = first;
-  const std::size_t batch = std::min<std::size_t>(segments, ced::detail::effective_threads(threads));
-  if (batch <= 1) {  // one thread: the parse straight into the output
+  const std::size_t workers = std::min<std::size_t>(segments, ced::detail::effective_threads(threads));
+  if (workers <= 1) {  // one thread: the parse straight into the output
     lzf_parser p(in, n);
     p.start(0);
     std::size_t lit = 0;
-    p.parse(
-        0,
-        [&](const lzf_match& m) {
-          o = put_match(m, put_literals(in, lit, m.pos, o));
-          lit = m.pos + m.len;
-        },
-        [](std::size_t) { return false; });
+    p.parse_until(0, n, [&](const lzf_match& m) {
+      o = put_match(m, put_literals(in, lit, m.pos, o));
+      lit = m.pos + m.len;
+    });
     o = put_literals(in, lit, n, o);
     out.resize(static_cast<std::size_t>(o - first));
     return;
@@ -206,6 +406,7 @@ void lzf_compress_into(std::string_view input, ced::detail::raw_column_vector<un
   // the same, and so are the bytes from the segment's next match on. Only
   // the literals before that match are coded again (their runs of 32 start
   // where the whole parse's literals do).
+  const std::size_t batch = workers;
   std::vector<segment_parse> parsed(batch);
   lzf_parser walker(in, n);
   std::size_t pos = 0, lit = 0;  // where the whole parse is; its pending literals' start
@@ -246,6 +447,27 @@ void lzf_compress_into(std::string_view input, ced::detail::raw_column_vector<un
   }
   o = put_literals(in, lit, n, o);
   out.resize(static_cast<std::size_t>(o - first));
+}
+
+std::string lzf_compress_reference(std::string_view input) {
+  const auto* in = reinterpret_cast<const unsigned char*>(input.data());
+  const std::size_t n = input.size();
+  std::string out(lzf_bound(n), '\0');
+  auto* const first = reinterpret_cast<unsigned char*>(out.data());
+  unsigned char* o = first;
+  lzf_parser p(in, n);
+  p.start(0);
+  std::size_t lit = 0;
+  p.parse(
+      0,
+      [&](const lzf_match& m) {
+        o = put_match(m, put_literals(in, lit, m.pos, o));
+        lit = m.pos + m.len;
+      },
+      [](std::size_t) { return false; });
+  o = put_literals(in, lit, n, o);
+  out.resize(static_cast<std::size_t>(o - first));
+  return out;
 }
 
 std::string lzf_compress_segmented(std::string_view input, std::size_t segment, unsigned threads) {

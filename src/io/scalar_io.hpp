@@ -95,6 +95,12 @@ void for_each_block(std::size_t blocks, F&& f) {
 void lzf_compress_into(std::string_view in, ced::detail::raw_column_vector<unsigned char>& out, std::size_t segment,
                        unsigned threads);
 std::string lzf_compress_segmented(std::string_view in, std::size_t segment, unsigned threads);
+/// Whether lzf_compress() may use its AVX2 passes where the CPU has them
+/// (tests turn them off to check the portable ones; not thread-safe).
+extern bool lzf_vector_passes;
+/// The greedy parse of lzf_compress(), a position at a time on one thread:
+/// the reference its faster passes must equal byte for byte (tests).
+std::string lzf_compress_reference(std::string_view in);
 /// The segment size lzf_compress() uses for n bytes.
 std::size_t lzf_segment_bytes(std::size_t n) noexcept;
 /// lzf_decompress() into the out_size bytes at `out` (ced/io/lzf.hpp; lzf.cpp).
