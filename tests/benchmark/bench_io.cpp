@@ -305,6 +305,26 @@ void BM_write_pcd_compressed(benchmark::State& s) {
   });
 }
 
+/// The text writers, on the 500 k points of the text readers.
+const ced::point_cloud& text_cloud_once() {
+  static const ced::point_cloud c = text_cloud();
+  return c;
+}
+void BM_write_csv(benchmark::State& s) {
+  write_file(s, "out.csv", text_cloud_once(),
+             [](const std::string& p, const ced::point_cloud& c) { ced::io::write_csv(p, c); });
+}
+void BM_write_ply_ascii(benchmark::State& s) {
+  write_file(s, "out_a.ply", text_cloud_once(), [](const std::string& p, const ced::point_cloud& c) {
+    ced::io::write_ply(p, c, ced::io::ply_format::ascii);
+  });
+}
+void BM_write_pcd_ascii(benchmark::State& s) {
+  write_file(s, "out_a.pcd", text_cloud_once(), [](const std::string& p, const ced::point_cloud& c) {
+    ced::io::write_pcd(p, c, ced::io::pcd_format::ascii);
+  });
+}
+
 }  // namespace
 
 BENCHMARK(BM_read_las)->Unit(benchmark::kMillisecond)->UseRealTime();
@@ -330,5 +350,8 @@ BENCHMARK(BM_write_las)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_write_ply)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_write_pcd)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_write_pcd_compressed)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_write_csv)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_write_ply_ascii)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_write_pcd_ascii)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 BENCHMARK_MAIN();
