@@ -20,14 +20,16 @@ folders, each of five frames 25 apart:
 The colour camera of 7-Scenes is not registered to the depth camera; the
 frames are used as they are, as tsdf-fusion-python uses them.
 
---check estimates each pair's ground-truth error: point-to-point ICP from
-the ground truth (1 cm voxels, 5 cm reach, depths beyond 3 m dropped), then
-how far that correction moves the source's points that lie within 5 cm of
-the target. Needs numpy and Open3D (Debian: python3-numpy, python3-open3d).
+--check estimates each pair's ground-truth error as slambook_pairs.py does
+(1 cm voxels, depths beyond 3 m dropped): point-to-point ICP from the
+ground truth (5 cm reach), then how far that correction moves the source's
+points that lie within 5 cm of the target. Needs numpy and Open3D (Debian: python3-numpy, python3-open3d).
 """
 import os
 import sys
 import urllib.request
+
+from slambook_pairs import gt_error  # beside this script in docs/
 
 COMMIT = "3f22a940d90f684145b1f29b1feaa92e09eb1db6"
 URL = "https://raw.githubusercontent.com/andyzeng/tsdf-fusion-python/" + COMMIT + "/data/"
@@ -108,19 +110,7 @@ def check(out):
         for j in range(1, len(poses)):
             t = load(j)
             gt = np.linalg.inv(poses[j]) @ poses[0]  # frame 0's points into frame j's
-            icp = o3d.pipelines.registration.registration_icp(
-                s, t, 0.05, gt, o3d.pipelines.registration.TransformationEstimationPointToPoint()
-            )
-            moved = np.asarray(s.points) @ gt[:3, :3].T + gt[:3, 3]
-            moved_cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(moved))
-            near = np.asarray(moved_cloud.compute_point_cloud_distance(t)) < 0.05
-            fix = icp.transformation @ np.linalg.inv(gt)
-            shift = np.linalg.norm(moved[near] @ fix[:3, :3].T + fix[:3, 3] - moved[near], axis=1)
-            print(
-                "%s 0-%d: %.0f %% of the source within 5 cm of the target; ICP moves those points by %.1f cm "
-                "(median), %.1f cm (90th percentile)"
-                % (name, j, 100 * near.mean(), 100 * np.median(shift), 100 * np.percentile(shift, 90))
-            )
+            print("%s 0-%d: %s" % (name, j, gt_error(s, t, gt)))
 
 
 def main(argv):
