@@ -27,9 +27,7 @@ points that lie within 5 cm of the target. Needs numpy and Open3D (Debian: pytho
 """
 import os
 import sys
-import urllib.request
-
-from slambook_pairs import gt_error  # beside this script in docs/
+from slambook_pairs import fetched, gt_error  # beside this script in docs/
 
 COMMIT = "3f22a940d90f684145b1f29b1feaa92e09eb1db6"
 URL = "https://raw.githubusercontent.com/andyzeng/tsdf-fusion-python/" + COMMIT + "/data/"
@@ -39,15 +37,7 @@ FX, FY, CX, CY = 585.0, 585.0, 320.0, 240.0
 
 def local(name, src, out):
     """A local path of data/NAME: in src when given, else downloaded once to OUT/download."""
-    if src:
-        return os.path.join(src, name)
-    cached = os.path.join(out, "download", name)
-    if not os.path.exists(cached):
-        os.makedirs(os.path.dirname(cached), exist_ok=True)
-        with urllib.request.urlopen(URL + name) as r, open(cached + ".part", "wb") as f:
-            f.write(r.read())
-        os.replace(cached + ".part", cached)
-    return cached
+    return fetched(URL, name, src, out)
 
 
 def read_bytes(path):

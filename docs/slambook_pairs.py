@@ -34,13 +34,20 @@ PAIRS = [(1, 2), (2, 3), (3, 4), (4, 5)]
 
 def local(name, src, out):
     """A local path of ch5/rgbd/NAME: in src when given, else downloaded once to OUT/download."""
+    return fetched(URL, name, src, out)
+
+
+def fetched(url, name, src, out):
+    """src/NAME when src is given, else url + NAME downloaded once to OUT/download/NAME (also
+    used by sevenscenes_pairs.py)."""
     if src:
         return os.path.join(src, name)
     cached = os.path.join(out, "download", name)
     if not os.path.exists(cached):
         os.makedirs(os.path.dirname(cached), exist_ok=True)
-        with urllib.request.urlopen(URL + name) as r, open(cached, "wb") as f:
+        with urllib.request.urlopen(url + name) as r, open(cached + ".part", "wb") as f:
             f.write(r.read())
+        os.replace(cached + ".part", cached)  # no half-downloaded file under the final name
     return cached
 
 
