@@ -33,38 +33,32 @@ inline std::uint32_t triple(const unsigned char* in, std::size_t i) noexcept {
 }
 inline std::uint32_t hash_of(std::uint32_t v) noexcept { return (v * 2654435761u) >> (32 - k_hash_bits); }
 
-/// The hashes of the n positions at `in` (n a multiple of 8, in[n + 3]
-/// readable) to h[0..returned), and their 3 bytes to own[] (the first in
-/// the low byte); the rest are the caller's.
-std::size_t lzf_hashes_scalar(const unsigned char* in, std::size_t n, std::uint16_t* h, std::uint32_t* own) noexcept {
-  for (std::size_t k = 0; k < n; ++k) {
-    h[k] = static_cast<std::uint16_t>(hash_of(triple(in, k)));
-    own[k] = std::uint32_t(in[k]) | (std::uint32_t(in[k + 1]) << 8) | (std::uint32_t(in[k + 2]) << 16);
-  }
-  return n;
+/// The hashes of positions [k0, n) at `in` (in[n + 1] readable) to h[k0..n).
+void lzf_hashes_scalar(const unsigned char* in, std::size_t k0, std::size_t n, std::uint16_t* h) noexcept {
+  for (std::size_t k = k0; k < n; ++k) h[k] = static_cast<std::uint16_t>(hash_of(triple(in, k)));
 }
-/// Marks (bit k of marks, cleared before) the n positions at `in` (n a
-/// multiple of 8, in[n + 3] readable; own[] from lzf_hashes()) whose
-/// candidate dist[k] bytes before (0: none) is within reach and starts with
-/// the same 3 bytes; returns how many positions it did (the rest are the
-/// caller's).
-std::size_t lzf_matches_scalar(const unsigned char* in, std::size_t n, const std::uint32_t* dist,
-                               const std::uint32_t* /*own*/, std::uint64_t* marks) noexcept {
-  for (std::size_t w = 0; w * 64 < n; ++w) {
-    std::uint64_t bits = 0;
-    const std::size_t k_end = std::min(n, w * 64 + 64);
-    for (std::size_t k = w * 64; k < k_end; ++k) {
+/// Marks (bit k of marks, cleared before) the positions k in [k0, n) at `in`
+/// (in[n + 1] readable) whose candidate dist[k] bytes before (0: none) is
+/// within reach and starts with the same 3 bytes.
+void lzf_matches_scalar(const unsigned char* in, std::size_t k0, std::size_t n, const std::uint32_t* dist,
+                        std::uint64_t* marks) noexcept {
+  for (std::size_t k = k0; k < n;) {
+    const std::size_t w = k / 64, k_end = std::min(n, w * 64 + 64);
+    std::uint64_t bits = 0;  // in a register: no store and reload of the word per position
+    for (; k < k_end; ++k) {
       const std::uint32_t d = dist[k];
       const bool near = d - 1 < k_max_distance;  // 0 wraps
       const std::size_t back = near ? d : 0;     // out of reach: the position itself, in cache
       bits |= std::uint64_t(near & (triple(in - back, k) == triple(in, k))) << (k % 64);
     }
-    marks[w] = bits;
+    marks[w] |= bits;
   }
-  return n;
 }
 
 #if defined(__x86_64__) && defined(__GNUC__)
+/// lzf_hashes_scalar() of [0, n) (n a multiple of 8, in[n + 3] readable),
+/// and each position's 3 bytes to own[] (the first in the low byte) for
+/// lzf_matches_avx2().
 __attribute__((target("avx2"))) std::size_t lzf_hashes_avx2(const unsigned char* in, std::size_t n, std::uint16_t* h,
                                                             std::uint32_t* own) noexcept {
   // Lane j of a 32-bit vector: bytes k + j, k + j + 1, k + j + 2 as triple() orders them.
@@ -87,6 +81,7 @@ __attribute__((target("avx2"))) std::size_t lzf_hashes_avx2(const unsigned char*
   }
   return n;
 }
+/// lzf_matches_scalar() of [0, n) (n a multiple of 8, in[n + 3] readable).
 __attribute__((target("avx2"))) std::size_t lzf_matches_avx2(const unsigned char* in, std::size_t n,
                                                              const std::uint32_t* dist, const std::uint32_t* own,
                                                              std::uint64_t* marks) noexcept {
@@ -113,18 +108,31 @@ bool lzf_has_avx2() noexcept {
 }
 #endif
 
-std::size_t lzf_hashes(const unsigned char* in, std::size_t n, std::uint16_t* h, std::uint32_t* own) noexcept {
+/// The hashes of positions [0, n) at `in` (in[n + 1] readable); the first
+/// `fast` (a multiple of 8, in[fast + 3] readable) in vectors where the CPU
+/// has AVX2, which also writes their own 3 bytes to own[] for lzf_matches().
+void lzf_hashes(const unsigned char* in, std::size_t n, std::size_t fast, std::uint16_t* h,
+                std::uint32_t* own) noexcept {
+  std::size_t done = 0;
 #if defined(__x86_64__) && defined(__GNUC__)
-  if (lzf_has_avx2()) return lzf_hashes_avx2(in, n, h, own);
+  if (lzf_has_avx2()) done = lzf_hashes_avx2(in, fast, h, own);
+#else
+  (void)fast;
+  (void)own;
 #endif
-  return lzf_hashes_scalar(in, n, h, own);
+  lzf_hashes_scalar(in, done, n, h);
 }
-std::size_t lzf_matches(const unsigned char* in, std::size_t n, const std::uint32_t* dist, const std::uint32_t* own,
-                        std::uint64_t* marks) noexcept {
+/// lzf_matches_scalar() of [0, n), the first `fast` in vectors as lzf_hashes() chose.
+void lzf_matches(const unsigned char* in, std::size_t n, std::size_t fast, const std::uint32_t* dist,
+                 const std::uint32_t* own, std::uint64_t* marks) noexcept {
+  std::size_t done = 0;
 #if defined(__x86_64__) && defined(__GNUC__)
-  if (lzf_has_avx2()) return lzf_matches_avx2(in, n, dist, own, marks);
+  if (lzf_has_avx2()) done = lzf_matches_avx2(in, fast, dist, own, marks);
+#else
+  (void)fast;
+  (void)own;
 #endif
-  return lzf_matches_scalar(in, n, dist, own, marks);
+  lzf_matches_scalar(in, done, n, dist, marks);
 }
 
 /// One back-reference of the parse: `len` bytes at `pos` repeat those
@@ -143,8 +151,7 @@ struct lzf_match {
 /// matches of one that started at the beginning.
 class lzf_parser {
  public:
-  lzf_parser(const unsigned char* in, std::size_t n)
-      : m_in(in), m_n(n), m_last(n > 2 ? n - 2 : 0), m_table(std::size_t(1) << k_hash_bits) {}
+  lzf_parser(const unsigned char* in, std::size_t n) : m_in(in), m_n(n), m_table(std::size_t(1) << k_hash_bits) {}
 
   /// Ready to parse from `from`: the table as the whole parse has it there.
   void start(std::size_t from) {
@@ -242,8 +249,7 @@ class lzf_parser {
     // vector passes (AVX2 where the CPU has it); the last few, scalar.
     const std::size_t fast = std::min(count, m_n >= a + 4 ? m_n - a - 4 : 0) / 8 * 8;
     // 1. Each position's hash.
-    std::size_t k0 = lzf_hashes(m_in + a, fast, m_hash, m_own);
-    for (std::size_t k = k0; k < count; ++k) m_hash[k] = static_cast<std::uint16_t>(hash_of(triple(m_in, a + k)));
+    lzf_hashes(m_in + a, count, fast, m_hash, m_own);
     // 2. The table, in order: each position's candidate, as a distance (0: none).
     std::uint32_t* const table = m_table.data();
     const auto rel = static_cast<std::uint32_t>(a - m_base + 1);  // position a as the table has it
@@ -257,14 +263,7 @@ class lzf_parser {
     // out of reach reads the position itself (in cache): most candidates
     // are stale, and reading them would miss the cache.
     std::fill(m_marks, m_marks + (count + 63) / 64, std::uint64_t(0));
-    k0 = lzf_matches(m_in + a, fast, m_dist, m_own, m_marks);
-    for (std::size_t k = k0; k < count; ++k) {
-      const std::uint32_t d = m_dist[k];
-      const bool near = d - 1 < k_max_distance;  // 0 wraps
-      const std::size_t c = a + k - (near ? d : 0);
-      const bool hit = near & (triple(m_in, c) == triple(m_in, a + k));
-      m_marks[k / 64] |= std::uint64_t(hit) << (k % 64);
-    }
+    lzf_matches(m_in + a, count, fast, m_dist, m_own, m_marks);
   }
   /// The first marked position in [i, limit) of the window, or limit.
   std::size_t next_mark(std::size_t i, std::size_t limit) const noexcept {
@@ -287,7 +286,6 @@ class lzf_parser {
 
   const unsigned char* m_in;
   std::size_t m_n;
-  std::size_t m_last;  // positions below it are entered and considered (k + 2 < n)
   std::vector<std::uint32_t> m_table;
   std::size_t m_base = 0;  // positions are entered relative to it (segments are far below 4 GiB)
 };
@@ -320,6 +318,24 @@ unsigned char* put_match(const lzf_match& m, unsigned char* o) noexcept {
 /// Literals cost one byte in 32, a back-reference at most as much as it
 /// covers: LZF of n bytes never takes more than this.
 constexpr std::size_t lzf_bound(std::size_t n) noexcept { return n + n / 32 + 16; }
+
+/// The LZF bytes of all n bytes at `in` as one parse, to o (room for
+/// lzf_bound(n)); returns their end. Windowed: parse_until()'s passes;
+/// otherwise parse(), a position at a time (the reference).
+unsigned char* compress_whole(const unsigned char* in, std::size_t n, unsigned char* o, bool windowed) {
+  lzf_parser p(in, n);
+  p.start(0);
+  std::size_t lit = 0;
+  const auto match = [&](const lzf_match& m) {
+    o = put_match(m, put_literals(in, lit, m.pos, o));
+    lit = m.pos + m.len;
+  };
+  if (windowed)
+    p.parse_until(0, n, match);
+  else
+    p.parse(0, match, [](std::size_t) { return false; });
+  return put_literals(in, lit, n, o);
+}
 
 /// One segment's parse and its LZF bytes, as if the whole parse were at its
 /// first byte with no literal pending: each back-reference after the
@@ -385,17 +401,9 @@ void lzf_compress_into(std::string_view input, ced::detail::raw_column_vector<un
   out.resize(lzf_bound(n));
   unsigned char* const first = out.data();
   unsigned char* o = first;
-  const std::size_t workers = std::min<std::size_t>(segments, ced::detail::effective_threads(threads));
-  if (workers <= 1) {  // one thread: the parse straight into the output
-    lzf_parser p(in, n);
-    p.start(0);
-    std::size_t lit = 0;
-    p.parse_until(0, n, [&](const lzf_match& m) {
-      o = put_match(m, put_literals(in, lit, m.pos, o));
-      lit = m.pos + m.len;
-    });
-    o = put_literals(in, lit, n, o);
-    out.resize(static_cast<std::size_t>(o - first));
+  const std::size_t batch = std::min<std::size_t>(segments, ced::detail::effective_threads(threads));
+  if (batch <= 1) {  // one thread: the parse straight into the output
+    out.resize(static_cast<std::size_t>(compress_whole(in, n, first, true) - first));
     return;
   }
   // Segments are parsed and coded on their own, a batch at a time in
@@ -406,7 +414,6 @@ void lzf_compress_into(std::string_view input, ced::detail::raw_column_vector<un
   // the same, and so are the bytes from the segment's next match on. Only
   // the literals before that match are coded again (their runs of 32 start
   // where the whole parse's literals do).
-  const std::size_t batch = workers;
   std::vector<segment_parse> parsed(batch);
   lzf_parser walker(in, n);
   std::size_t pos = 0, lit = 0;  // where the whole parse is; its pending literals' start
@@ -454,19 +461,7 @@ std::string lzf_compress_reference(std::string_view input) {
   const std::size_t n = input.size();
   std::string out(lzf_bound(n), '\0');
   auto* const first = reinterpret_cast<unsigned char*>(out.data());
-  unsigned char* o = first;
-  lzf_parser p(in, n);
-  p.start(0);
-  std::size_t lit = 0;
-  p.parse(
-      0,
-      [&](const lzf_match& m) {
-        o = put_match(m, put_literals(in, lit, m.pos, o));
-        lit = m.pos + m.len;
-      },
-      [](std::size_t) { return false; });
-  o = put_literals(in, lit, n, o);
-  out.resize(static_cast<std::size_t>(o - first));
+  out.resize(static_cast<std::size_t>(compress_whole(in, n, first, false) - first));
   return out;
 }
 
