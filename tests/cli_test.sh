@@ -200,6 +200,13 @@ check "pair: n/a says why" grep -q "xyz:0.2,intensity:0.1 on pair: n/a: .*needs 
 check "pair: the table goes on" grep -q "^random " "$T/pair_na.txt"
 check "pair: ced6d far above random" awk '$1 == "ced6d" { exit !($8 > 3) }' "$T/pair_na.txt"
 check "pair: csv n/a row" grep -q '^"xyz:0.2,intensity:0.1","pair",,,,,n/a' "$T/pair_na.csv"
+# A row's chance (few draws: noisy) is drawn for its own counts, whatever came before it.
+chance_of_ced3d() {
+  "$CED" eval repeatability --source "$sample" --target "$sample" "$@" -d ced3d --random-draws 2 -q |
+    awk '$1 == "ced3d" { print $7, $8 }'
+}
+check "pair: a row's chance does not depend on the rows before it" test "$(chance_of_ced3d)" = \
+  "$(chance_of_ced3d -d ced6d -d random)"
 "$CED" eval repeatability "$sample" -d 'xyz:0.2,intensity:0.1' -d ced6d --trials 1 --noise 0 > "$T/syn_na.txt" 2> "$T/syn_na.err"
 check "synthetic: n/a row" grep -q "^xyz:0.2,intensity:0.1 *0.00 *n/a" "$T/syn_na.txt"
 check "synthetic: the table goes on" grep -q "^ced6d *0.00 " "$T/syn_na.txt"

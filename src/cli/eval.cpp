@@ -174,7 +174,19 @@ struct pair_setup {
   const eval_setting& s;
   int draws;
   bool quiet;
+  std::uint64_t seed;
+  std::size_t index;  ///< of the pair
 };
+
+/// The random numbers of one use on one pair: seeded from --seed, the pair,
+/// the use and its counts alone, so that a row's figures do not depend on
+/// which detectors came before it (the same counts give the same chance).
+std::mt19937_64 pair_draws(const pair_setup& ps, std::uint32_t use, std::size_t source_count,
+                           std::size_t target_count) {
+  std::seed_seq seq{std::uint32_t(ps.seed),      std::uint32_t(ps.seed >> 32), std::uint32_t(ps.index), use,
+                    std::uint32_t(source_count), std::uint32_t(target_count)};
+  return std::mt19937_64(seq);
+}
 
 /// Each detector's lifts over the pairs (for the mean) and its n/a pairs.
 struct lift_stats {
@@ -184,10 +196,11 @@ struct lift_stats {
 
 /// One detector on the pair: a table row and a CSV row; "n/a" when it cannot
 /// run on the clouds. `last_count`: the count random draws (the previous detector's).
-void pair_row(const eval_detector& d, const pair_setup& ps, std::size_t& last_count, std::mt19937_64& rng,
-              lift_stats& st, std::ostream* csv) {
+void pair_row(const eval_detector& d, const pair_setup& ps, std::size_t& last_count, lift_stats& st,
+              std::ostream* csv) {
   std::string why;
-  const auto ab = try_detector(d, ps.in.p, ps.in.q, ps.s, last_count, rng, why);
+  std::mt19937_64 picks = pair_draws(ps, 1, last_count, last_count);  // (the random detector's keypoints)
+  const auto ab = try_detector(d, ps.in.p, ps.in.q, ps.s, last_count, picks, why);
   const char* pair = ps.in.name.c_str();
   if (!ab) {
     report_not_available(d.name + " on " + ps.in.name, why, ps.quiet);
@@ -200,7 +213,8 @@ void pair_row(const eval_detector& d, const pair_setup& ps, std::size_t& last_co
   const auto& [a, b] = *ab;
   if (d.type != eval_detector::kind::random) last_count = std::max<std::size_t>(1, a.keypoints.size());
   const auto r = ps.pair.measure(a.keypoints, b.keypoints);
-  const double chance = ps.pair.random_relative(a.keypoints.size(), b.keypoints.size(), std::size_t(ps.draws), rng);
+  std::mt19937_64 draws = pair_draws(ps, 2, a.keypoints.size(), b.keypoints.size());
+  const double chance = ps.pair.random_relative(a.keypoints.size(), b.keypoints.size(), std::size_t(ps.draws), draws);
   const double lift = chance > 0 ? r.relative() / chance : std::nan("");
   const double ms = (a.ms + b.ms) / 2;
   std::printf("%-28s %-10s %7zu %7zu %8zu %8.3f %8.3f %6.2f %8.1f\n", d.name.c_str(), pair, r.source_keypoints,
@@ -286,9 +300,9 @@ int run_eval_pairs(const eval_options& o, const std::vector<eval_detector>& dete
   if (csv) csv->stream() << pair_csv_header;
   std::printf("%-28s %-10s %7s %7s %8s %8s %8s %6s %8s\n", "detector", "pair", "kp(P)", "overlap", "repeated",
               "rel.rep.", "random", "lift", "ms");
-  std::mt19937_64 rng(o.seed);
   std::vector<lift_stats> stats(detectors.size());
-  for (const pair_input& in : pairs) {
+  for (std::size_t pi = 0; pi < pairs.size(); ++pi) {
+    const pair_input& in = pairs[pi];
     const double resolution = o.resolution > 0 ? o.resolution : voxel;
     const eval_setting s = make_setting(in.p, in.name, resolution, o.radius, o.min_neighbors, o.threads);
     const double eps = pair_epsilon(o, s.resolution);
@@ -300,9 +314,9 @@ int run_eval_pairs(const eval_options& o, const std::vector<eval_detector>& dete
                    in.name.c_str(), in.p.size(), in.q.size(), voxel, s.resolution, s.params.radius, eps,
                    pair.overlap_points(), 100.0 * double(pair.overlap_points()) / double(in.p.size()));
     std::size_t last_count = std::max<std::size_t>(1, in.p.size() / 100);
-    const pair_setup ps{in, pair, s, o.random_draws, o.quiet};
+    const pair_setup ps{in, pair, s, o.random_draws, o.quiet, o.seed, pi};
     for (std::size_t d = 0; d < detectors.size(); ++d)
-      pair_row(detectors[d], ps, last_count, rng, stats[d], csv ? &csv->stream() : nullptr);
+      pair_row(detectors[d], ps, last_count, stats[d], csv ? &csv->stream() : nullptr);
   }
   if (pairs.size() > 1) print_mean_lifts(detectors, stats);
   if (csv) csv->commit();
