@@ -10,6 +10,7 @@
 #include "ced/io/error.hpp"
 #include "ced/io/lzf.hpp"
 #include "file_support.hpp"
+#include "fuzz/lzf_entry.hpp"
 #include "io/scalar_io.hpp"
 
 using ced::io::io_error;
@@ -106,6 +107,21 @@ TEST(Lzf, SegmentsOnThreadsGiveTheBytesOfOneParse) {
             << "size " << in.size() << ", segments of " << segment << ", " << threads << " threads";
     }
   }
+}
+
+TEST(Lzf, GeneratedDataParsesAlikeEveryWay) {
+  // fuzz_lzf's check on programs drawn at random: literals, copies near and
+  // past the 8 KiB reach, runs, float columns (tests/fuzz/lzf_entry.hpp).
+  std::mt19937 rng(29);
+  std::size_t bytes = 0;
+  for (int i = 0; i < 300; ++i) {
+    std::string program(1 + rng() % 400, '\0');
+    for (auto& ch : program) ch = static_cast<char>(rng());
+    const std::string data = ced_fuzz::lzf_data(program);
+    bytes += data.size();
+    EXPECT_EQ(ced_fuzz::lzf_check(data, 64 + rng() % 20000), "") << "program " << i << ", " << data.size() << " bytes";
+  }
+  EXPECT_GT(bytes, std::size_t(1) << 20);  // the programs made data, not empty strings
 }
 
 TEST(Lzf, CorruptDataIsDetected) {
