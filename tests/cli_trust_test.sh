@@ -108,6 +108,9 @@ expect_exit 2 "is the plan's input" "--plan P --tile I -o INPUT" -- \
 unchanged "--plan P --tile I -o INPUT"
 expect_exit 2 "cannot be given with it" "--plan with -r and --preset" -- \
   detect --plan "$T/plan.json" --tile "$first" -r 0.1 --preset ced3d -o "$T/p.part" -q
+# The plan records its share of candidates too: a share given with it would be ignored.
+expect_exit 2 "--keypoint-share cannot be given with it" "--plan with --keypoint-share" -- \
+  detect --plan "$T/plan.json" --tile "$first" --keypoint-share 0.5 -o "$T/p.part" -q
 mkdir "$T/parts"
 for t in $tiles; do "$CED" detect --plan "$T/plan.json" --tile "$t" -o "$T/parts/p$t.cedpart" -q; done
 "$CED" merge "$T/plan.json" "$T"/parts/*.cedpart --indices "$T/merged.txt" -q

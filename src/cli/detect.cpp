@@ -339,9 +339,10 @@ command add_detect_command(CLI::App& app, std::function<int(const detect_options
   // What a plan fixes: with --plan, these options would be silently ignored.
   auto note_given = [det, o] {
     o->given_plan_options.clear();
-    for (const char* name : {"--radius", "--preset", "--modality", "--nms-radius", "--min-neighbors", "--refine",
-                             "--no-refine", "--max-keypoints", "--neighborhood", "--search", "--format", "--columns",
-                             "--voxel", "--radius-factor", "--tile-size", "--memory-limit", "--work-dir", "--resume"})
+    for (const char* name :
+         {"--radius", "--preset", "--modality", "--nms-radius", "--min-neighbors", "--refine", "--no-refine",
+          "--max-keypoints", "--keypoint-share", "--neighborhood", "--search", "--format", "--columns", "--voxel",
+          "--radius-factor", "--tile-size", "--memory-limit", "--work-dir", "--resume"})
       if (det->count(name) > 0) o->given_plan_options.push_back(name);
   };
   if (run)
