@@ -44,6 +44,20 @@ TEST(Detect, Ced6dMatchesBruteForceOracle) {
   }
 }
 
+TEST(Detect, RadiiFarBelowTheCloudsSpacingFindNothing) {
+  // Cells of such radii number past 2^64 along an axis: the grids grow
+  // their cells instead (a float-to-integer overflow before, which UBSan
+  // reported: fuzz_spec, `scale=8.1e-25`).
+  const auto c = make_room(500, 4);
+  for (double r : {1e-30, 1e-12}) {
+    ced::detect_params p;
+    p.radius = p.nms_radius = r;
+    p.threads = 1;
+    const auto res = ced::detect(c, p, ced::xyz{0.2}, ced::rgb{});
+    EXPECT_TRUE(res.keypoints.empty()) << "radius " << r;
+  }
+}
+
 TEST(Detect, NmsRadiusDifferentFromRadius) {
   const auto c = make_room(2500, 7);
   for (double nms : {0.02, 0.08}) {

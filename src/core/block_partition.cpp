@@ -136,13 +136,20 @@ block_partition::block_partition(const float* xyz, std::size_t n, double cell_si
   // Cells per axis, at whole multiples of the cell size (so that a part of
   // the cloud gets the same cells as the whole); grow the cell if the grid
   // would not fit a 64-bit key.
+  // (A span is checked before it becomes an integer: a cell far smaller
+  // than the cloud, from a tiny radius, gives spans past 2^64.)
   double cell = cell_size;
   for (;;) {
     m_inv = 1.0 / cell;
     long double total = 1;
-    for (int k = 0; k < 3; ++k) {
+    for (int k = 0; k < 3 && total < 1e18L; ++k) {
       m_base[k] = std::floor(double(lo[k]) * m_inv);
-      m_dims[k] = static_cast<std::uint64_t>(std::floor(double(hi[k]) * m_inv) - m_base[k]) + 1;
+      const double span = std::floor(double(hi[k]) * m_inv) - m_base[k];
+      if (!(span < 1e18)) {
+        total = 1e18L;
+        break;
+      }
+      m_dims[k] = static_cast<std::uint64_t>(span) + 1;
       total *= static_cast<long double>(m_dims[k]);
     }
     if (total < 1e18L) break;
