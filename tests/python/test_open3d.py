@@ -34,6 +34,20 @@ def test_open3d_without_colours_and_with_arbitrary_colours(sample_path):
     assert {"nx", "ny", "nz", "red"} <= set(cloud.fields)
 
 
+def test_cloud_and_normals_take_an_open3d_cloud(sample_path):
+    # As every other function of the package does (docs/PYTHON.md).
+    pcd = o3d.io.read_point_cloud(sample_path)
+    cloud = ced.Cloud(pcd)
+    from_arrays = ced.Cloud(*ced._from_open3d(pcd, None))
+    assert len(cloud) == len(pcd.points) and set(cloud.fields) == set(from_arrays.fields)
+    np.testing.assert_array_equal(cloud.points, from_arrays.points)
+    np.testing.assert_array_equal(cloud.fields["red"], from_arrays.fields["red"])
+    extra = ced.Cloud(pcd, {"nir": np.arange(len(pcd.points), dtype=np.float32)})
+    assert "nir" in extra.fields and "red" in extra.fields
+    np.testing.assert_array_equal(ced.estimate_normals(pcd, 0.05), ced.estimate_normals(from_arrays, 0.05))
+    assert isinstance(ced.voxel_downsample(cloud, 0.05), ced.Cloud)  # the C++ side still returns ced.Cloud
+
+
 def test_keypoints_back_to_open3d(sample_path, tmp_path):
     pcd = o3d.io.read_point_cloud(sample_path)
     r = ced.detect(pcd)

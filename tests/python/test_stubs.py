@@ -43,6 +43,28 @@ def test_stubs_match_the_package(module, stub):
         assert parameters(getattr(module, name)) == params, name
 
 
+def stub_members(name):
+    """Each stub class's public members: methods, properties and annotated attributes."""
+    tree = ast.parse((PACKAGE / name).read_text())
+    members = {}
+    for node in tree.body:
+        if isinstance(node, ast.ClassDef):
+            names = {n.name for n in node.body if isinstance(n, ast.FunctionDef)}
+            names |= {n.target.id for n in node.body if isinstance(n, ast.AnnAssign)}
+            members[node.name] = {n for n in names if not n.startswith("_")}
+    return members
+
+
+@pytest.mark.parametrize("module, stub", [(ced, "__init__.pyi"), (ced.eval, "eval.pyi")])
+def test_stub_classes_have_the_packages_members(module, stub):
+    # (What a class inherits, from OSError say, is its base's to describe.)
+    for name, members in stub_members(stub).items():
+        cls = getattr(module, name)
+        inherited = set().union(*(dir(b) for b in cls.__bases__))
+        public = {a for a in dir(cls) if not a.startswith("_") and a not in inherited}
+        assert public == members, name
+
+
 @pytest.mark.parametrize("module", [ced, ced.eval])
 def test_docstrings_are_present(module):
     for name in module.__all__:

@@ -21,7 +21,6 @@ from ._ced import (
     TilePlan,
     __version__,
     detect_tile,
-    estimate_normals,
     load_plugin,
     merge_parts,
     modalities,
@@ -144,6 +143,19 @@ def _cloud_args(points, channels):
     return points, channels
 
 
+_cloud_from_arrays = Cloud.__init__
+
+
+def _cloud_init(self, points, channels=None):
+    """Builds a cloud from an (N, 3) array and a dict of channels, a structured array, a Cloud (copied, channels
+    added), or an open3d.geometry.PointCloud (its colours and normals become channels, as for detect)."""
+    points, channels = _cloud_args(points, channels)
+    _cloud_from_arrays(self, points, channels)
+
+
+Cloud.__init__ = _cloud_init
+
+
 def _as_cloud(cloud):
     """A ced.Cloud of anything detect() takes as points (arrays are copied into it)."""
     if isinstance(cloud, Cloud):
@@ -156,6 +168,13 @@ def render(path, cloud, keypoints=None, view="iso", width=1280, height=960):
     """Draws the cloud (colours, or grey by depth) and its keypoints as red discs into a PNG file.
     view: 'iso', 'top' or 'front'."""
     _ced.render(path, _as_cloud(cloud), keypoints, view, width, height)
+
+
+def estimate_normals(cloud, radius, threads=0):
+    """Unit normals (N x 3) by PCA of the neighbours within `radius`, unoriented; (0, 0, 0) with fewer than 3
+    neighbours. What the normals modality uses when the cloud has no nx, ny, nz. `cloud`: a ced.Cloud, arrays as
+    for detect, or an Open3D cloud."""
+    return _ced.estimate_normals(_as_cloud(cloud), radius, threads)
 
 
 def estimate_resolution(cloud):

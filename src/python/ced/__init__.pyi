@@ -210,6 +210,13 @@ class TilePlan:
     @property
     def radius(self) -> float: ...
     @property
+    def neighborhood(self) -> str:
+        """The tiles' neighbourhood spec, with the reach they take ('knn:16,reach=0.43')."""
+    @property
+    def reach_estimated(self) -> bool:
+        """True when the neighbourhood's reach= is ced's estimate from the cloud's density (knn:K, or adaptive:K
+        without max, planned without reach=)."""
+    @property
     def tile_size(self) -> float: ...
     @property
     def halo(self) -> float: ...
