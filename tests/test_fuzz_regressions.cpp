@@ -25,6 +25,7 @@
 #include "ced/io/las.hpp"
 #include "ced/io/pcd.hpp"
 #include "ced/io/ply.hpp"
+#include "fuzz/lzf_entry.hpp"
 #include "fuzz/rgbd_entry.hpp"
 
 namespace fs = std::filesystem;
@@ -125,6 +126,10 @@ TEST(fuzz_regressions, spec) {
 }
 
 TEST(fuzz_regressions, rgbd) { replay("rgbd", ced_fuzz::rgbd_one); }
+
+TEST(fuzz_regressions, lzf) {
+  replay("lzf", [](std::string_view bytes) { EXPECT_EQ(ced_fuzz::lzf_one(bytes), ""); });
+}
 
 // Inputs too large to keep as files: headers naming more fields than the
 // readers accept (each would cost quadratic time to turn into cloud fields).
