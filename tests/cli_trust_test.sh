@@ -108,6 +108,10 @@ expect_exit 2 "is the plan's input" "--plan P --tile I -o INPUT" -- \
 unchanged "--plan P --tile I -o INPUT"
 expect_exit 2 "cannot be given with it" "--plan with -r and --preset" -- \
   detect --plan "$T/plan.json" --tile "$first" -r 0.1 --preset ced3d -o "$T/p.part" -q
+# -m without -r: ced detect would take --radius auto, which a plan cannot (not a silent 0.05).
+expect_exit 2 "ced plan with -m needs -r R" "ced plan -m without -r" -- \
+  plan "$T/s.las" -m xyz:0.2 --tile-size 1 -o "$T/plan_m.json" -q
+check "ced plan -m without -r: no plan written" test ! -e "$T/plan_m.json"
 # The plan records its share of candidates too: a share given with it would be ignored.
 expect_exit 2 "--keypoint-share cannot be given with it" "--plan with --keypoint-share" -- \
   detect --plan "$T/plan.json" --tile "$first" --keypoint-share 0.5 -o "$T/p.part" -q

@@ -405,7 +405,7 @@ command add_plan_command(CLI::App& app) {
                     "are read whole)",
                     o->format, o->columns)
       ->required();
-  add_detector_options(cmd, *o, "Neighbourhood radius in metres (default 0.05)");
+  add_detector_options(cmd, *o, "Neighbourhood radius in metres (default 0.05 with --preset; needed with -m)");
   cmd->add_option("--tile-size", o->tile_size, "Edge of a tile's core, in metres");
   cmd->add_option("--memory-limit", o->memory_limit, "Or: the tile size chosen so that a tile fits, e.g. 4G");
   cmd->add_option("-o,--output", *plan_path, "The plan (JSON)")->required();
@@ -419,6 +419,12 @@ command add_plan_command(CLI::App& app) {
       "  ced detect --plan plan.json --tile ID -o part_ID.cedpart     # for every tile id in plan.json\n"
       "  ced merge plan.json part_*.cedpart -o keypoints.las --indices kp.txt");
   return {cmd, [o, plan_path, scan] {
+            // As `ced detect`, whose -m without -r means --radius auto: a plan
+            // cannot estimate it (the tiles are read later), so it asks.
+            if (o->radius.empty() && o->preset.empty())
+              throw usage_error(
+                  "ced plan with -m needs -r R: the radius cannot be estimated from the whole cloud "
+                  "(--radius auto) before the tiles are read");
             if (o->radius.empty()) o->radius = "0.05";
             detect_plan plan = make_plan(*o);
             plan.read_opts.fields = {};  // all: merge may write keypoint clouds
