@@ -232,6 +232,10 @@ TEST(Scaled, SpecsAndPresets) {
   ced::detect_params params;
   params.radius = params.nms_radius = 0.05;
   EXPECT_THROW(ced::detect(room, params, specs({"rgb:0.1,scale=2,inner=1"})), std::invalid_argument);
+  // The compile-time form takes any numbers: they are checked when it is bound, as a spec's are when parsed.
+  EXPECT_THROW(ced::detect(room, params, ced::scaled<ced::xyz>{ced::xyz(0.2), 20}), std::invalid_argument);
+  EXPECT_THROW(ced::detect(room, params, ced::scaled<ced::xyz>{ced::xyz(0.2), 2, 2}), std::invalid_argument);
+  EXPECT_THROW(ced::detect(room, params, ced::scaled<ced::xyz>{ced::xyz(0.2), 0}), std::invalid_argument);
   const auto names = ced::preset_names();
   for (const char* p : {"robust3d", "robust6d"}) {
     EXPECT_NE(std::find(names.begin(), names.end(), p), names.end()) << p;

@@ -86,9 +86,20 @@ std::vector<float> centroid_shift_of(const point_cloud& cloud, const detect_para
   return s;
 }
 
+namespace {
+/// The factors' ranges (docs/MODALITIES.md), for specs, scaled_modality and scaled<M> alike.
+void check_scale_factors(double factor, double inner) {
+  if (!(factor > 0 && factor <= 16))
+    throw std::invalid_argument("scale must be a factor of the radius in (0, 16], got " + std::to_string(factor));
+  if (!(inner == 0 || (inner > 0 && inner < factor)))
+    throw std::invalid_argument("inner must be a factor of the radius in (0, scale), got " + std::to_string(inner));
+}
+}  // namespace
+
 precomputed_saliency bind_scaled(const point_cloud& cloud, const detect_params& params, double factor, double inner,
                                  const any_modality& base) {
-  if (inner == 1)  // the inner centroid is the detection's own
+  check_scale_factors(factor, inner);  // (scaled<M> is built without a check)
+  if (inner == 1)                      // the inner centroid is the detection's own
     return precomputed_saliency::centroid_shift(centroid_offsets_of(cloud, scaled_params(params, factor), base));
   if (inner > 0) return precomputed_saliency(centroid_shift_of(cloud, params, factor, inner, base));
   return precomputed_saliency(saliency_of(cloud, scaled_params(params, factor), base));
@@ -121,10 +132,7 @@ struct scaled_any {
 }  // namespace
 
 any_modality scaled_modality(any_modality base, double factor, double inner) {
-  if (!(factor > 0 && factor <= 16))
-    throw std::invalid_argument("scale must be a factor of the radius in (0, 16], got " + std::to_string(factor));
-  if (!(inner == 0 || (inner > 0 && inner < factor)))
-    throw std::invalid_argument("inner must be a factor of the radius in (0, scale), got " + std::to_string(inner));
+  check_scale_factors(factor, inner);
   if (!base) throw std::invalid_argument("scaled_modality: no modality");
   return scaled_any{std::move(base), factor, inner};
 }
