@@ -220,7 +220,26 @@ cloud_ptr to_cloud(py::handle points, py::handle channels) {
   return std::make_shared<ced::point_cloud>(std::move(cloud));
 }
 
+std::string path_arg(py::handle obj, const std::string& name) {
+  if (py::isinstance<py::str>(obj)) return obj.cast<std::string>();
+  if (py::hasattr(obj, "__fspath__")) {
+    const py::object p = py::module_::import("os").attr("fspath")(obj);
+    if (py::isinstance<py::str>(p)) return p.cast<std::string>();
+  }
+  throw py::type_error(name + ": expected a path, got " +
+                       py::str(py::type::of(obj).attr("__name__")).cast<std::string>());
+}
+
 std::vector<std::uint32_t> to_indices(py::handle indices, const std::string& argument, std::size_t n) {
+  // A boolean mask or floats would be cast to indices 0 and 1, or truncated: a wrong answer, not an error.
+  const py::array given = py::array::ensure(indices);
+  if (given) {
+    const char kind = given.dtype().kind();
+    if (kind == 'b')
+      throw py::type_error(argument + ": expected indices, got a boolean mask (pass np.flatnonzero(mask))");
+    if (kind != 'i' && kind != 'u')
+      throw py::type_error(argument + ": expected integer indices, got dtype " + std::string(py::str(given.dtype())));
+  }
   const auto idx = py::array_t<std::int64_t, py::array::forcecast>::ensure(indices);
   if (!idx || idx.ndim() != 1) throw py::type_error(argument + ": expected a 1-D array of integers");
   std::vector<std::uint32_t> out(std::size_t(idx.shape(0)));

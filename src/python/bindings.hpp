@@ -16,6 +16,9 @@ namespace ced_python {
 
 namespace py = pybind11;
 
+/// A path (str or os.PathLike), or a TypeError naming `name`.
+std::string path_arg(py::handle obj, const std::string& name);
+
 /// `refine=` of detect and plan_tiles: a bool, or None for the preset's
 /// (robust3d/robust6d refine; anything else does not).
 bool refine_of(py::handle modalities, py::handle refine);

@@ -3,6 +3,7 @@
 #include <pybind11/stl.h>
 
 #include <algorithm>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -100,11 +101,23 @@ void bind_cloud(py::module_& m) {
           },
           [](const py::tuple& state) {
             if (state.size() != 3) throw py::value_error("Cloud: bad pickle state");
-            const auto xyz = state[0].cast<py::array_t<float, py::array::c_style | py::array::forcecast>>();
+            // A foreign or damaged pickle must not read past its arrays.
+            const auto xyz = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(state[0]);
+            if (!xyz || xyz.ndim() != 2 || xyz.shape(1) != 3)
+              throw py::value_error("Cloud: bad pickle state (positions are not an (N, 3) array)");
+            const py::tuple origin = py::tuple(py::reinterpret_borrow<py::object>(state[1]));
+            if (origin.size() != 3) throw py::value_error("Cloud: bad pickle state (the origin is not 3 numbers)");
+            std::array<double, 3> o{};
+            for (std::size_t a = 0; a < 3; ++a) {
+              o[a] = origin[a].cast<double>();
+              if (!std::isfinite(o[a])) throw py::value_error("Cloud: bad pickle state (a non-finite origin)");
+            }
             auto c = std::make_shared<ced::point_cloud>();
             c->resize(std::size_t(xyz.shape(0)));
             std::copy_n(xyz.data(), 3 * c->size(), c->positions().data());
-            const auto o = state[1].cast<std::array<double, 3>>();
+            for (std::size_t k = 0; k < 3 * c->size(); ++k)
+              if (!std::isfinite(xyz.data()[k]))
+                throw py::value_error("Cloud: bad pickle state (a non-finite coordinate)");
             c->set_origin(o);
             add_channels(*c, state[2], "Cloud state");
             return c;
@@ -113,7 +126,8 @@ void bind_cloud(py::module_& m) {
 
   m.def(
       "read",
-      [](const std::string& path, std::optional<std::vector<std::string>> fields, std::optional<std::string> format) {
+      [](py::handle path_obj, std::optional<std::vector<std::string>> fields, std::optional<std::string> format) {
+        const std::string path = path_arg(path_obj, "path");
         ced::io::read_options o;
         o.format = format_arg(format);
         if (fields) o.fields = ced::field_selection::only(*fields);
@@ -124,7 +138,8 @@ void bind_cloud(py::module_& m) {
       "Reads a PLY, PCD, LAS or CSV file into a Cloud (only `fields` when given).");
   m.def(
       "write",
-      [](const std::string& path, py::handle cloud, std::optional<std::string> format) {
+      [](py::handle path_obj, py::handle cloud, std::optional<std::string> format) {
+        const std::string path = path_arg(path_obj, "path");
         const cloud_ptr c = to_cloud(cloud, py::none());
         const auto f = format_arg(format);
         py::gil_scoped_release release;
@@ -134,8 +149,9 @@ void bind_cloud(py::module_& m) {
       "Writes a cloud atomically; the format from the extension unless given.");
   m.def(
       "render",
-      [](const std::string& path, py::handle cloud, std::optional<std::vector<std::uint32_t>> keypoints,
+      [](py::handle path_obj, py::handle cloud, std::optional<std::vector<std::uint32_t>> keypoints,
          const std::string& view_name, int width, int height) {
+        const std::string path = path_arg(path_obj, "path");
         const cloud_ptr c = to_cloud(cloud, py::none());
         ced::render_options o;
         o.view = parse_view(view_name);

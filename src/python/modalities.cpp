@@ -172,9 +172,9 @@ void bind_modalities(py::module_& m) {
   m.def("modalities", &ced::registered_modalities, "(name, help) of every registered modality, sorted.");
   m.def(
       "load_plugin",
-      [](const std::string& path) {
+      [](py::handle path) {
         export_symbols_to_plugins();
-        const ced::plugin_info info = ced::load_plugin(path);
+        const ced::plugin_info info = ced::load_plugin(path_arg(path, "path"));
         return info.modalities;
       },
       py::arg("path"),

@@ -94,16 +94,6 @@ std::uint64_t int_arg(py::handle obj, const std::string& name, std::uint64_t max
   return i.cast<std::uint64_t>();
 }
 
-/// A path (str or os.PathLike), or a TypeError naming `name`.
-std::string path_arg(py::handle obj, const std::string& name) {
-  if (py::isinstance<py::str>(obj)) return obj.cast<std::string>();
-  if (py::hasattr(obj, "__fspath__")) {
-    const py::object p = py::module_::import("os").attr("fspath")(obj);
-    if (py::isinstance<py::str>(p)) return p.cast<std::string>();
-  }
-  throw py::type_error(name + ": expected a path, got " + type_name(obj));
-}
-
 /// Refuses to write `what` at `path` when that is the plan's input file
 /// (however spelled: links, "..") with a ValueError naming both: nothing
 /// ced writes may destroy what it reads.
@@ -152,7 +142,10 @@ void bind_tiled(py::module_& m) {
       .def_static(
           "from_json", [](const std::string& text) { return plan_from_json(text, "<json>"); }, py::arg("text"))
       .def_static(
-          "load", [](const std::string& path) { return std::make_shared<ced::tile_plan>(ced::tile_plan::load(path)); },
+          "load",
+          [](py::handle path) {
+            return std::make_shared<ced::tile_plan>(ced::tile_plan::load(path_arg(path, "path")));
+          },
           py::arg("path"), "Reads a plan written by `ced plan` or TilePlan.save.")
       .def("to_json", &ced::tile_plan::to_json)
       .def(
@@ -253,18 +246,19 @@ void bind_tiled(py::module_& m) {
 
   m.def(
       "plan_tiles",
-      [](const std::string& input, py::object tile_size, py::object memory_limit, py::object modalities,
-         py::object radius, py::object nms_radius, py::object min_neighbors, const std::string& format,
-         py::object refine, py::object max_keypoints, bool scan, const std::string& neighborhood,
-         const std::string& search, py::object keypoint_share) {
+      [](py::handle input_path, py::object tile_size, py::object memory_limit, py::object modalities, py::object radius,
+         py::object nms_radius, py::object min_neighbors, const std::string& format, py::object refine,
+         py::object max_keypoints, bool scan, const std::string& neighborhood, const std::string& search,
+         py::object keypoint_share) {
         ced::tiled_request r;
         set_neighborhood(r.params, neighborhood, search);
-        r.input = input;
+        r.input = path_arg(input_path, "input");
         r.scan = scan;
         r.read.format = ced::io::parse_format(format);
         r.params.radius = positive_arg(radius, "radius", "");
         r.params.nms_radius = nms_radius.is_none() ? r.params.radius : positive_arg(nms_radius, "nms_radius", "");
         r.params.min_neighbors = std::uint32_t(int_arg(min_neighbors, "min_neighbors", UINT32_MAX));
+        modalities = py::module_::import("ced").attr("_preset_of")(modalities);  // ced.preset()'s list: the preset
         r.modalities = specs_of(modalities);
         r.params.refine = refine_of(modalities, refine);
         r.params.max_keypoints = std::size_t(int_arg(max_keypoints, "max_keypoints", UINT32_MAX));
@@ -332,7 +326,8 @@ void bind_tiled(py::module_& m) {
       "part to `part` when "
       "given, and returns it. Any process that can read the file can run it.");
   m.def(
-      "read_part", [](const ced::tile_plan& plan, const std::string& path) { return ced::read_part(path, plan); },
+      "read_part",
+      [](const ced::tile_plan& plan, py::handle path) { return ced::read_part(path_arg(path, "path"), plan); },
       py::arg("plan"), py::arg("path"));
   m.def(
       "merge_parts",
@@ -340,7 +335,7 @@ void bind_tiled(py::module_& m) {
         std::vector<ced::tile_part> all;
         for (py::handle h : parts) {
           if (py::isinstance<py::str>(h) || py::hasattr(h, "__fspath__"))
-            all.push_back(ced::read_part(py::str(h).cast<std::string>(), plan));
+            all.push_back(ced::read_part(path_arg(h, "parts"), plan));
           else if (py::isinstance<ced::tile_part>(h))
             all.push_back(h.cast<const ced::tile_part&>());
           else

@@ -390,3 +390,99 @@ def test_pickled_plan_state_of_the_wrong_type_is_refused(plans):
         pickle.loads(tampered_pickle(a, 5))
     with pytest.raises(ced.FileError, match="<pickle>"):
         pickle.loads(tampered_pickle(a, "{"))
+
+
+# From an adversarial pass of 2026-12-05 ------------------------------------------------------------------------
+
+
+def test_masks_and_float_indices_are_refused(room_file):
+    # A boolean mask was cast to indices 0 and 1, floats truncated: a wrong answer, not an error.
+    cloud = ced.read(room_file)
+    mask = ced.detect(cloud).candidate
+    with pytest.raises(TypeError, match=r"indices: expected indices, got a boolean mask .*flatnonzero"):
+        cloud.select(mask)
+    with pytest.raises(TypeError, match=r"indices: expected integer indices, got dtype float64"):
+        cloud.select(np.array([1.9, 2.7]))
+    with pytest.raises(TypeError, match=r"boolean mask"):
+        ced.eval.measure(cloud, mask, cloud, mask, np.eye(4), 0.01)
+    assert len(cloud.select(np.flatnonzero(mask))) == mask.sum()
+
+
+def test_damaged_cloud_pickles_are_refused_not_read_past():
+    # A foreign or damaged state read 3N floats out of an N-float buffer (a segfault at 1e6).
+    code = """
+        import pickle, numpy as np, ced
+        keep = ced.Cloud.__getstate__
+        def dumped(state):
+            ced.Cloud.__getstate__ = lambda self: state
+            try:
+                return pickle.dumps(ced.Cloud(np.zeros((1, 3))))
+            finally:
+                ced.Cloud.__getstate__ = keep
+        for state, what in [((np.zeros(1_000_000, np.float32), (0., 0., 0.), {}), "(N, 3)"),
+                            ((np.zeros((3, 3), np.float32), (float("nan"), 0., 0.), {}), "non-finite origin"),
+                            ((np.zeros((3, 3), np.float32), (0., 0.), {}), "3 numbers"),
+                            ((np.full((3, 3), np.inf, np.float32), (0., 0., 0.), {}), "non-finite coordinate")]:
+            try:
+                pickle.loads(dumped(state))
+                print("accepted", what)
+            except ValueError as e:
+                assert what in str(e), str(e)
+        c = ced.Cloud(np.arange(12.).reshape(4, 3), {"i": np.arange(4)})
+        d = pickle.loads(pickle.dumps(c))
+        assert (d.points == c.points).all() and (d.fields["i"] == c.fields["i"]).all()
+        print("ok")
+    """
+    assert isolated(code).strip() == "ok"
+
+
+def test_paths_may_be_path_objects(room_file, tmp_path):
+    import pathlib
+
+    cloud = ced.read(pathlib.Path(room_file))
+    ced.write(tmp_path / "c.pcd", cloud)
+    assert len(ced.read(tmp_path / "c.pcd")) == len(cloud)
+    r = ced.detect(cloud)
+    ced.write_keypoints(tmp_path / "k.ply", cloud, r)
+    ced.render(tmp_path / "k.png", cloud, r.keypoints)
+    plan = ced.plan_tiles(pathlib.Path(room_file), tile_size=0.5, radius=0.08)
+    plan.save(tmp_path / "plan.json")
+    assert ced.TilePlan.load(tmp_path / "plan.json").digest == plan.digest
+    (tmp_path / "parts").mkdir()
+    for t, _, _ in plan.tiles:
+        ced.detect_tile(plan, t, part=tmp_path / "parts" / f"t{t}.part")
+    entries = list(os.scandir(tmp_path / "parts"))  # os.DirEntry was opened as str(entry)
+    merged = ced.merge_parts(plan, entries)
+    whole = ced.detect(cloud, radius=0.08)
+    np.testing.assert_array_equal(merged.keypoints, whole.keypoints)
+    first = entries[0]
+    np.testing.assert_array_equal(ced.read_part(plan, first).keypoints, ced.read_part(plan, first.path).keypoints)
+    with pytest.raises(TypeError, match=r"path: expected a path, got int"):
+        ced.read(3)
+
+
+def test_a_presets_list_runs_the_preset(room_file):
+    # ced.preset("robust3d") lost the preset's refinement and share: another detector, silently.
+    cloud = ced.read(room_file)
+    for name in ("robust3d", "robust6d", "ced6d"):
+        by_name, by_list = ced.detect(cloud, modalities=name), ced.detect(cloud, modalities=ced.preset(name))
+        np.testing.assert_array_equal(by_name.keypoints, by_list.keypoints)
+        assert (by_list.refine, by_list.keypoint_share) == (ced.preset_refines(name), ced.preset_keypoint_share(name))
+    changed = ced.preset("robust3d") + [ced.rgb()]  # no longer the preset: plain modalities
+    assert ced.detect(cloud, modalities=changed).refine is False
+    a = ced.plan_tiles(room_file, tile_size=0.5, radius=0.08, modalities="robust3d")
+    b = ced.plan_tiles(room_file, tile_size=0.5, radius=0.08, modalities=ced.preset("robust3d"))
+    assert a.digest == b.digest
+
+
+def test_counts_take_numpy_integers_and_name_the_parameter(room_file):
+    cloud = ced.read(room_file)
+    ref = ced.detect(cloud, min_neighbors=5, max_keypoints=20, threads=1)
+    got = ced.detect(cloud, min_neighbors=np.int64(5), max_keypoints=np.uint16(20), threads=np.int32(1))
+    np.testing.assert_array_equal(ref.keypoints, got.keypoints)
+    with pytest.raises(ValueError, match=r"max_keypoints: must be 0 \.\. "):
+        ced.detect(cloud, max_keypoints=2**64)
+    with pytest.raises(ValueError, match=r"threads: must be 0 \.\. "):
+        ced.detect(cloud, threads=-1)
+    with pytest.raises(TypeError, match=r"min_neighbors: expected an int, got bool_"):
+        ced.detect(cloud, min_neighbors=np.bool_(True))

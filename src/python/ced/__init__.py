@@ -11,6 +11,8 @@ reference; the common case is one call::
     print(result.keypoints, result.saliency["xyz"])
 """
 
+import operator
+
 from ._ced import (
     Cloud,
     FileError,
@@ -25,7 +27,6 @@ from ._ced import (
     merge_parts,
     modalities,
     plan_tiles,
-    preset,
     preset_names,
     preset_keypoint_share,
     preset_refines,
@@ -78,9 +79,9 @@ def modality(spec):
     return Modality(spec)
 
 
-def xyz(threshold=0.2, norm=None):
+def xyz(threshold=0.2):
     """Geometry: L2 distance to the neighbours' centroid; threshold is a ratio of the radius."""
-    return _spec("xyz", threshold, norm=norm)
+    return _spec("xyz", threshold)
 
 
 def rgb(threshold=0.1, norm=None, range=None):
@@ -88,9 +89,9 @@ def rgb(threshold=0.1, norm=None, range=None):
     return _spec("rgb", threshold, norm=norm, range=range)
 
 
-def lab(threshold=None, norm=None, range=None):
-    """Colour in CIELAB (perceptual distance)."""
-    return _spec("lab", threshold, norm=norm, range=range)
+def lab(threshold=None):
+    """Colour in CIELAB (perceptual distance, ΔE*76 / 100): the colour fields as rgb reads them."""
+    return _spec("lab", threshold)
 
 
 def normals(threshold=None, radius=None, source=None):
@@ -187,6 +188,45 @@ def voxel_downsample(cloud, size):
     return _ced.voxel_downsample(_as_cloud(cloud), size)
 
 
+class _Preset(list):
+    """The modalities of a preset, which remember the preset: detect() given them unchanged runs the preset,
+    its refinement and keypoint share included, as it does given the preset's name."""
+
+    def __init__(self, name):
+        super().__init__(_ced.preset(name))
+        self.preset_name = name
+
+
+def preset(name):
+    """The modalities of a preset: 'ced3d' (xyz:0.2), 'ced6d' (xyz:0.2, rgb:0.1), 'robust3d' (xyz:0.2,scale=2) or
+    'robust6d' (xyz:0.2,scale=2.25,inner=1, rgb:0.5), as a list. The robust presets also refine their keypoints
+    (preset_refines) and robust3d keeps at most a share of its candidates (preset_keypoint_share): detect() given
+    this list unchanged does both, as it does given the name."""
+    return _Preset(name)
+
+
+def _preset_of(modalities):
+    """The preset's name when `modalities` is preset()'s list, unchanged; else `modalities`."""
+    if isinstance(modalities, _Preset):
+        made = [m.name for m in _ced.preset(modalities.preset_name)]
+        if [getattr(m, "name", m) for m in modalities] == made:
+            return modalities.preset_name
+    return modalities
+
+
+def _count_arg(name, value, limit):
+    """An int parameter (Python's or numpy's integers, not bools) within 0 .. limit, or an error naming it."""
+    if isinstance(value, bool) or type(value).__name__ == "bool_":
+        raise TypeError(f"{name}: expected an int, got {type(value).__name__}")
+    try:
+        value = operator.index(value)
+    except TypeError:
+        raise TypeError(f"{name}: expected an int, got {type(value).__name__}") from None
+    if not 0 <= value <= limit:
+        raise ValueError(f"{name}: must be 0 .. {limit}, got {value}")
+    return value
+
+
 def detect(points, channels=None, modalities=None, radius=0.05, nms_radius=None, min_neighbors=5, threads=0,
            radius_factor=5.0, refine=None, max_keypoints=0, neighborhood="radius", search="grid",
            keypoint_share=None):
@@ -221,9 +261,10 @@ def detect(points, channels=None, modalities=None, radius=0.05, nms_radius=None,
     points, channels = _cloud_args(points, channels)
     if nms_radius is not None:
         nms_radius = float(nms_radius)
-    for name, value in (("min_neighbors", min_neighbors), ("threads", threads), ("max_keypoints", max_keypoints)):
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise TypeError(f"{name}: expected an int, got {type(value).__name__}")
+    min_neighbors = _count_arg("min_neighbors", min_neighbors, 2**32 - 1)
+    threads = _count_arg("threads", threads, 2**32 - 1)
+    max_keypoints = _count_arg("max_keypoints", max_keypoints, 2**63 - 1)
+    modalities = _preset_of(modalities)
     for name, value in (("neighborhood", neighborhood), ("search", search)):
         if not isinstance(value, str):
             raise TypeError(f"{name}: expected a str, got {type(value).__name__}")

@@ -141,16 +141,15 @@ def voxel_downsample(cloud: PointsLike, size: float) -> Cloud:
 def modality(spec: str) -> Modality:
     """A modality from a spec string."""
 
-def xyz(threshold: float = 0.2, norm: Optional[str] = None) -> Modality:
+def xyz(threshold: float = 0.2) -> Modality:
     """Geometry: L2 distance to the neighbours' centroid; threshold is a ratio of the radius."""
 
 def rgb(threshold: float = 0.1, norm: Optional[str] = None,
         range: Union[None, str, Tuple[float, float]] = None) -> Modality:
     """Colour: L1 distance to the neighbours' mean colour, channels scaled to [0, 1]."""
 
-def lab(threshold: Optional[float] = None, norm: Optional[str] = None,
-        range: Union[None, str, Tuple[float, float]] = None) -> Modality:
-    """Colour in CIELAB."""
+def lab(threshold: Optional[float] = None) -> Modality:
+    """Colour in CIELAB (perceptual distance, ΔE*76 / 100): the colour fields as rgb reads them."""
 
 def normals(threshold: Optional[float] = None, radius: Optional[float] = None,
             source: Optional[str] = None) -> Modality:
@@ -181,7 +180,9 @@ def preset_keypoint_share(name: str) -> float:
 
 def preset(name: str) -> List[Modality]:
     """'ced3d' (xyz:0.2), 'ced6d' (xyz:0.2, rgb:0.1), 'robust3d' (xyz:0.2,scale=2) or 'robust6d'
-    (xyz:0.2,scale=2.25,inner=1, rgb:0.5). The robust presets also refine their keypoints (ced.preset_refines)."""
+    (xyz:0.2,scale=2.25,inner=1, rgb:0.5). The robust presets also refine their keypoints (ced.preset_refines).
+    The list remembers the preset: detect() and plan_tiles() given it unchanged run the preset, its refinement
+    and keypoint share included."""
 
 def modalities() -> List[Tuple[str, str]]:
     """(name, help) of every registered modality, sorted."""
