@@ -13,8 +13,10 @@
 #include <string>
 #include <vector>
 
+#include "ced/ced.hpp"
 #include "ced/channels.hpp"
 #include "ced/cloud.hpp"
+#include "test_support.hpp"
 
 namespace {
 
@@ -258,6 +260,47 @@ TEST(Channels, RequireFiniteNamesModalityFieldAndPoint) {
       EXPECT_TRUE(contains(what, b.says));
       EXPECT_TRUE(names_point(what, at));
     }
+}
+
+TEST(Channels, NarrowValuesInWideIntegerFields) {
+  ced::point_cloud c = line_cloud(4);
+  c.add_field("a", ced::scalar_type::int64, std::vector<double>{0, 10, 255, 3});
+  c.add_field("b", ced::scalar_type::uint32, std::vector<double>{0, 10, 256, 3});
+  c.add_field("c", ced::scalar_type::int32, std::vector<double>{0, 10, 65536, 3});
+  c.add_field("d", ced::scalar_type::int64, std::vector<double>{0, -1, 25, 3});
+  c.add_field("e", ced::scalar_type::uint16, std::vector<double>{0, 10, 255, 3});
+  const auto range = [&](const char* name) { return ced::narrow_integer_range(c.get_field(name)); };
+  ASSERT_TRUE(range("a") && range("b"));
+  EXPECT_EQ(range("a")->hi, 255.0);
+  EXPECT_EQ(range("b")->hi, 65535.0);
+  EXPECT_FALSE(range("c"));            // beyond 16 bits
+  EXPECT_FALSE(range("d"));            // negative
+  EXPECT_FALSE(range("e"));            // 16 bits: holds_8bit_in_16's case
+  ced::field tile = c.get_field("a");  // a tile judges by the whole cloud's range
+  tile.whole_range = ced::value_range{0, 1000};
+  EXPECT_EQ(ced::narrow_integer_range(tile)->hi, 65535.0);
+}
+
+TEST(Channels, ColoursAndIntensitiesInInt64GiveTheKeypointsOfUint8) {
+  // numpy's default integers: by their type's range (2^64) the colours vanished.
+  const ced::point_cloud room = ced_test::make_room(3000, 5);
+  ced::point_cloud wide;
+  for (std::size_t i = 0; i < room.size(); ++i) {
+    const float* q = room.position(i);
+    wide.push_back(q[0], q[1], q[2]);
+  }
+  for (const char* name : {"red", "green", "blue"})
+    wide.add_field(name, ced::scalar_type::int64, room.get_field(name).values.to_doubles());
+  wide.add_field("intensity", ced::scalar_type::uint32, room.get_field("red").values.to_doubles());
+  ced::point_cloud narrow = room;
+  narrow.add_field("intensity", ced::scalar_type::uint8, room.get_field("red").values.to_doubles());
+  ced::detect_params p;
+  for (const char* spec : {"rgb:0.1", "lab:0.1", "intensity:0.05"}) {
+    const auto a = ced::detect(narrow, p, {ced::make_modality("xyz:0.2"), ced::make_modality(spec)});
+    const auto b = ced::detect(wide, p, {ced::make_modality("xyz:0.2"), ced::make_modality(spec)});
+    EXPECT_EQ(a.keypoints, b.keypoints) << spec;
+    EXPECT_EQ(a.saliency[1], b.saliency[1]) << spec;
+  }
 }
 
 TEST(Channels, EightBitValuesIn16BitFields) {

@@ -38,6 +38,13 @@ value_range resolve_range(const field& f, const range_policy& policy);
 /// common in LAS files, which rgb and intensity then scale by 255.
 bool holds_8bit_in_16(const field& f);
 
+/// For integer fields wider than 16 bits (numpy's default int64, PLY's int):
+/// [0, 255] when every value (its whole_range when set, as in a tile) lies
+/// in it, else [0, 65535] when every value does, else nothing. rgb, lab and
+/// intensity then scale them as 8- or 16-bit data: by their type's own
+/// range (2^32 or 2^64 wide) the colours would all but vanish.
+std::optional<value_range> narrow_integer_range(const field& f);
+
 /// N×D floats, row-major: the raw values of `fields` (D = fields.size()).
 /// Throws std::invalid_argument naming the field and point when a value is
 /// NaN, infinite or beyond the float range (it would become infinite).

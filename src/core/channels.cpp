@@ -28,6 +28,31 @@ bool holds_8bit_in_16(const field& f) {
   });
 }
 
+std::optional<value_range> narrow_integer_range(const field& f) {
+  const scalar_type t = f.type();
+  if (t != scalar_type::int32 && t != scalar_type::uint32 && t != scalar_type::int64 && t != scalar_type::uint64)
+    return std::nullopt;
+  double lo = 0, hi = 0;
+  if (f.whole_range) {
+    lo = f.whole_range->lo;
+    hi = f.whole_range->hi;
+  } else if (f.values.size() > 0) {
+    f.values.visit([&](const auto* v, std::size_t n) {
+      auto mn = v[0], mx = v[0];
+      for (std::size_t i = 1; i < n; ++i) {
+        mn = std::min(mn, v[i]);
+        mx = std::max(mx, v[i]);
+      }
+      lo = double(mn);
+      hi = double(mx);
+    });
+  }
+  if (lo < 0) return std::nullopt;
+  if (hi <= 255) return value_range{0.0, 255.0};
+  if (hi <= 65535) return value_range{0.0, 65535.0};
+  return std::nullopt;
+}
+
 range_policy range_policy::parse(std::string_view text, const std::string& option) {
   range_policy p;
   if (text == "auto") {

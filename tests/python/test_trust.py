@@ -486,3 +486,12 @@ def test_counts_take_numpy_integers_and_name_the_parameter(room_file):
         ced.detect(cloud, threads=-1)
     with pytest.raises(TypeError, match=r"min_neighbors: expected an int, got bool_"):
         ced.detect(cloud, min_neighbors=np.bool_(True))
+
+
+def test_numpys_default_integers_as_colours(sample):
+    # int64 colours (np.array of Python ints, pandas) were scaled by 2^64: no colour saliency at all.
+    c = sample
+    rgb = np.c_[c.fields["red"], c.fields["green"], c.fields["blue"]]
+    ref = ced.detect(c.points, {"rgb": rgb.astype(np.uint8)})
+    for dt in (np.int64, np.int32, np.uint32):
+        np.testing.assert_array_equal(ced.detect(c.points, {"rgb": rgb.astype(dt)}).keypoints, ref.keypoints)

@@ -32,9 +32,12 @@ struct intensity {
     auto f = require_fields(cloud, {field_name}, name());
     // 8-bit intensities in a 16-bit field (LAS files from 8-bit sensors):
     // by 255, as rgb does, unless a range is given.
-    const value_range r = range.how == range_policy::kind::natural && holds_8bit_in_16(*f[0])
-                              ? value_range{0.0, 255.0}
-                              : resolve_range(*f[0], range);
+    // The same for integers wider than 16 bits (narrow_integer_range).
+    const bool natural = range.how == range_policy::kind::natural;
+    const std::optional<value_range> narrow = natural ? narrow_integer_range(*f[0]) : std::nullopt;
+    const value_range r = natural && holds_8bit_in_16(*f[0]) ? value_range{0.0, 255.0}
+                          : narrow                           ? *narrow
+                                                             : resolve_range(*f[0], range);
     return centroid_distance<1>(interleave(f, params.threads), {1.0 / (r.hi - r.lo)}, norm_type::l1);
   }
   static intensity from_spec(modality_spec& s) {

@@ -41,13 +41,21 @@ struct rgb {
   }
 
   /// Per-channel scale 1/(hi-lo) under `range`, or the default rule above.
+  /// (8-bit values in wider integer fields: by 255 when all three hold
+  /// them; integers wider than 16 bits otherwise by 65535 where their values
+  /// fit, narrow_integer_range.)
   static std::array<double, 3> scale(const std::array<const field*, 3>& f, const std::optional<range_policy>& range) {
-    bool eight_bit_in_16 = !range;
-    for (const field* c : f) eight_bit_in_16 = eight_bit_in_16 && holds_8bit_in_16(*c);
+    std::array<std::optional<value_range>, 3> narrow;
+    bool eight_bit = !range;
+    for (std::size_t c = 0; c < 3; ++c) {
+      if (!range) narrow[c] = narrow_integer_range(*f[c]);
+      eight_bit = eight_bit && (holds_8bit_in_16(*f[c]) || (narrow[c] && narrow[c]->hi == 255));
+    }
     std::array<double, 3> s{};
     for (std::size_t c = 0; c < 3; ++c) {
-      const value_range r =
-          eight_bit_in_16 ? value_range{0.0, 255.0} : resolve_range(*f[c], range.value_or(range_policy{}));
+      const value_range r = eight_bit   ? value_range{0.0, 255.0}
+                            : narrow[c] ? value_range{0.0, 65535.0}
+                                        : resolve_range(*f[c], range.value_or(range_policy{}));
       s[c] = 1.0 / (r.hi - r.lo);
     }
     return s;
