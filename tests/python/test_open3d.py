@@ -55,3 +55,13 @@ def test_keypoints_back_to_open3d(sample_path, tmp_path):
     assert len(keypoints.points) == len(r.keypoints)
     ced.write(str(tmp_path / "from_o3d.ply"), pcd)
     assert len(ced.read(str(tmp_path / "from_o3d.ply"))) == len(pcd.points)
+
+
+def test_eval_takes_open3d_clouds(sample_path):
+    pcd = o3d.io.read_point_cloud(sample_path)
+    arrays = ced.Cloud(pcd)
+    kp = ced.detect(pcd).keypoints
+    m = ced.eval.measure
+    assert m(pcd, kp, pcd, kp, np.eye(4), 0.01) == m(arrays, kp, arrays, kp, np.eye(4), 0.01)
+    moved = ced.eval.transform(pcd, np.eye(4), 0.0, ced.eval.Random(1))
+    np.testing.assert_array_equal(moved.points, arrays.points)

@@ -495,3 +495,10 @@ def test_numpys_default_integers_as_colours(sample):
     ref = ced.detect(c.points, {"rgb": rgb.astype(np.uint8)})
     for dt in (np.int64, np.int32, np.uint32):
         np.testing.assert_array_equal(ced.detect(c.points, {"rgb": rgb.astype(dt)}).keypoints, ref.keypoints)
+
+
+def test_write_keypoints_of_another_cloud_is_refused(sample, room_file, tmp_path):
+    other = ced.read(room_file)
+    with pytest.raises(ValueError, match=r"result: detected on a cloud of 2000 points, not on this one of 24574"):
+        ced.write_keypoints(tmp_path / "k.ply", sample, ced.detect(other))
+    assert not (tmp_path / "k.ply").exists()

@@ -287,9 +287,15 @@ def write_keypoints(path, cloud, result, format=None):
 
     points, channels = _cloud_args(cloud, None)
     full = Cloud(points, channels) if channels or not isinstance(points, Cloud) else points
+    if len(result.candidate) != len(full):
+        raise ValueError(f"result: detected on a cloud of {len(result.candidate)} points, not on this one of "
+                         f"{len(full)}")
     kp = result.keypoints
-    extra = {}
+    extra, made_by = {}, {}
     for name, values in result.saliency.items():
-        column = "".join(c if c.isalnum() else "_" for c in name).rstrip("_")
-        extra["saliency_" + column] = np.ascontiguousarray(values[kp])
+        column = "saliency_" + "".join(c if c.isalnum() else "_" for c in name).rstrip("_")
+        if column in made_by:
+            raise ValueError(f"modalities {made_by[column]!r} and {name!r} would both write the column {column!r}")
+        made_by[column] = name
+        extra[column] = np.ascontiguousarray(values[kp])
     _write(path, Cloud(full.select(kp), extra), format)

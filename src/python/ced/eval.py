@@ -8,8 +8,15 @@ from ._ced import _eval as _e
 
 Random = _e.Random
 random_transform = _e.random_transform
-transform = _e.transform
 random_keypoints = _e.random_keypoints
+
+
+def transform(cloud, transform, sigma, rng):
+    """A copy of `cloud` (a ced.Cloud, arrays as for ced.detect, or an Open3D cloud) moved by `transform` (4x4)
+    with Gaussian noise of `sigma` metres added to each coordinate."""
+    from . import _as_cloud
+
+    return _e.transform(_as_cloud(cloud), transform, sigma, rng)
 
 __all__ = ["Random", "measure", "random_keypoints", "random_transform", "repeatability", "transform"]
 
@@ -17,7 +24,9 @@ __all__ = ["Random", "measure", "random_keypoints", "random_transform", "repeata
 def measure(source, source_keypoints, target, target_keypoints, transform, epsilon):
     """(|K_P|, |K_Q|, repeated): keypoints of `source` whose image under `transform` (4x4, local frames) has a
     keypoint of `target` within `epsilon`."""
-    return _e.measure(source, source_keypoints, target, target_keypoints, transform, epsilon)
+    from . import _as_cloud
+
+    return _e.measure(_as_cloud(source), source_keypoints, _as_cloud(target), target_keypoints, transform, epsilon)
 
 
 def _detector(d):
