@@ -314,5 +314,22 @@ numbers -d ced3d > "$T/ev_ball.txt"
 check "eval: DETECTOR|SPEC = --neighborhood SPEC" cmp -s "$T/ev_bar.txt" "$T/ev_global.txt"
 check "eval: the neighbourhood changes the figures" bash -c "! cmp -s '$T/ev_bar.txt' '$T/ev_ball.txt'"
 
+# --- An adversarial pass of 2026-12-05 ---
+# A repeatable option takes one value an occurrence: not the input after it, nor after a --config key.
+"$CED" detect "$sample" -m xyz:0.2 -m rgb:0.1 -r 0.05 -q > "$T/m_after.txt"
+"$CED" detect -m xyz:0.2 -m rgb:0.1 "$sample" -r 0.05 -q > "$T/m_before.txt"
+check "-m before the input: the same keypoints" cmp -s "$T/m_after.txt" "$T/m_before.txt"
+printf 'radius = 0.05\nmodality = ["xyz:0.2", "rgb:0.1"]\n' > "$T/m_last.toml"
+"$CED" detect "$sample" --config "$T/m_last.toml" -q > "$T/m_toml.txt"
+check "--config: a modality key last keeps the input" cmp -s "$T/m_after.txt" "$T/m_toml.txt"
+"$CED" eval repeatability -d ced3d "$sample" --trials 1 --noise 0 -q > "$T/d_before.txt"
+check "eval -d before the input" grep -q "^ced3d " "$T/d_before.txt"
+# Radii the float kernels cannot square (an NMS radius of 1e39 never finished), and NaN.
+expect_exit 2 "must be a positive finite number, got 'nan'" "--nms-radius nan" -- detect "$sample" --nms-radius nan -q
+expect_exit 2 "at most 1e30" "--nms-radius 1e39" -- detect "$sample" --preset ced3d --nms-radius 1e39 -q
+expect_exit 2 "at most 1e30" "--radius 1e39" -- detect "$sample" -m xyz:0.2 -r 1e39 -q
+expect_exit 2 "min must be a number from 0 to 1e30" "adaptive min=1e39" -- \
+  detect "$sample" --preset ced3d --neighborhood 'adaptive:8,min=1e39,nms=own' -q
+
 echo "cli_edges: $pass passed, $fail failed"
 [ "$fail" = 0 ]

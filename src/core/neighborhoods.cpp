@@ -121,12 +121,14 @@ void validate(const neighborhood_spec& n) {
   if (!std::isfinite(n.scale) || !(n.scale > 0))
     throw std::invalid_argument("neighbourhood adaptive: scale must be a positive finite number, got " +
                                 std::to_string(n.scale));
-  if (!std::isfinite(n.min_radius) || n.min_radius < 0)
-    throw std::invalid_argument("neighbourhood adaptive: min must be a finite number >= 0, got " +
+  // (At most 1e30, as radii are: the kernels square them in float.)
+  if (!std::isfinite(n.min_radius) || n.min_radius < 0 || n.min_radius > 1e30)
+    throw std::invalid_argument("neighbourhood adaptive: min must be a number from 0 to 1e30, got " +
                                 std::to_string(n.min_radius));
-  if (std::isnan(n.max_radius) || !(n.max_radius > 0))
-    throw std::invalid_argument("neighbourhood adaptive: max must be a positive number, got " +
-                                std::to_string(n.max_radius));
+  if (std::isnan(n.max_radius) || !(n.max_radius > 0) || (std::isfinite(n.max_radius) && n.max_radius > 1e30))
+    throw std::invalid_argument(
+        "neighbourhood adaptive: max must be a positive number of at most 1e30 (or none), got " +
+        std::to_string(n.max_radius));
   if (n.min_radius > n.max_radius)
     throw std::invalid_argument("neighbourhood adaptive: min (" + std::to_string(n.min_radius) +
                                 ") is larger than max (" + std::to_string(n.max_radius) + ")");

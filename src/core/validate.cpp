@@ -11,9 +11,12 @@
 namespace ced {
 
 void validate(const detect_params& p) {
+  // At most 1e30: the kernels square radii in float, whose range ends at 3.4e38 (an NMS radius of 1e39 never
+  // finished).
   auto positive = [](double v, const char* what) {
-    if (!std::isfinite(v) || !(v > 0))
-      throw std::invalid_argument(std::string(what) + " must be a positive finite number, got " + std::to_string(v));
+    if (!std::isfinite(v) || !(v > 0) || v > 1e30)
+      throw std::invalid_argument(std::string(what) + " must be a positive finite number of at most 1e30, got " +
+                                  std::to_string(v));
   };
   positive(p.radius, "radius");
   positive(p.nms_radius, "nms_radius");
