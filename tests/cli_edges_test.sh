@@ -331,5 +331,14 @@ expect_exit 2 "at most 1e30" "--radius 1e39" -- detect "$sample" -m xyz:0.2 -r 1
 expect_exit 2 "min must be a number from 0 to 1e30" "adaptive min=1e39" -- \
   detect "$sample" --preset ced3d --neighborhood 'adaptive:8,min=1e39,nms=own' -q
 
+# Counts are decimal (CLI11 read 010 as octal 8, and 08 as an error); empty output paths are refused.
+"$CED" detect "$sample" --preset ced6d --max-keypoints 010 -q > "$T/kp010.txt"
+check "--max-keypoints 010 keeps 10" test "$(wc -l < "$T/kp010.txt")" = 10
+"$CED" detect "$sample" --preset ced6d --max-keypoints 08 -q > "$T/kp08.txt"
+check "--max-keypoints 08 keeps 8" test "$(wc -l < "$T/kp08.txt")" = 8
+for opt in -o --indices --viewer --png --html --summary --indices-original; do
+  expect_exit 2 ": an empty path: give a file name" "$opt ''" -- detect "$sample" --preset ced3d "$opt" "" -q
+done
+
 echo "cli_edges: $pass passed, $fail failed"
 [ "$fail" = 0 ]

@@ -223,8 +223,44 @@ std::vector<std::string> expand_config(const std::vector<std::string>& args, CLI
   return out;
 }
 
+namespace {
+
+/// Every output path option of `app` and its subcommands refuses an empty
+/// path (an unset $OUT in a script would otherwise pass as "not given"),
+/// and every count option reads its digits as decimal: CLI11 takes a
+/// leading 0 as octal (--tile 010 was tile 8, --max-keypoints 08 an error).
+void harden_options(CLI::App* app) {
+  static const char* const outputs[] = {"output", "indices", "indices-original", "viewer",
+                                        "png",    "html",    "summary",          "csv"};
+  static const char* const counts[] = {"tile", "min-neighbors", "max-keypoints", "threads", "html-max-points",
+                                       "seed", "trials",        "random-draws",  "knn"};
+  const CLI::Validator non_empty(
+      [](std::string& v) { return v.empty() ? std::string("an empty path: give a file name") : std::string(); },
+      "PATH");
+  const CLI::Validator decimal(
+      [](std::string& v) {
+        std::size_t digits = v.size() > 1 && (v[0] == '-' || v[0] == '+') ? 1 : 0;
+        std::size_t zeros = digits;
+        while (zeros + 1 < v.size() && v[zeros] == '0') ++zeros;
+        if (zeros > digits && v.find_first_not_of("0123456789", digits) == std::string::npos)
+          v.erase(digits, zeros - digits);
+        return std::string();
+      },
+      "");
+  for (CLI::Option* opt : app->get_options([](const CLI::Option*) { return true; })) {
+    for (const char* name : outputs)
+      if (opt->check_lname(name)) opt->check(non_empty);
+    for (const char* name : counts)
+      if (opt->check_lname(name)) opt->transform(decimal);
+  }
+  for (CLI::App* sub : app->get_subcommands([](CLI::App*) { return true; })) harden_options(sub);
+}
+
+}  // namespace
+
 std::optional<int> parse_command_line(CLI::App& app, CLI::App& detect, int argc, char** argv, const std::string& name,
                                       bool report) {
+  harden_options(&app);
   std::vector<std::string> args(argv + 1, argv + argc);
   try {
     args = expand_config(args, detect);
