@@ -220,14 +220,27 @@ cloud_ptr to_cloud(py::handle points, py::handle channels) {
   return std::make_shared<ced::point_cloud>(std::move(cloud));
 }
 
+std::string type_name(py::handle obj) { return py::str(py::type::of(obj).attr("__name__")).cast<std::string>(); }
+
 std::string path_arg(py::handle obj, const std::string& name) {
   if (py::isinstance<py::str>(obj)) return obj.cast<std::string>();
   if (py::hasattr(obj, "__fspath__")) {
     const py::object p = py::module_::import("os").attr("fspath")(obj);
     if (py::isinstance<py::str>(p)) return p.cast<std::string>();
   }
-  throw py::type_error(name + ": expected a path, got " +
-                       py::str(py::type::of(obj).attr("__name__")).cast<std::string>());
+  throw py::type_error(name + ": expected a path, got " + type_name(obj));
+}
+
+std::uint64_t int_arg(py::handle obj, const std::string& name, std::uint64_t max, const std::string& range) {
+  // (numpy's bool_ is not a Python bool, but no more a count.)
+  if (py::isinstance<py::bool_>(obj) || type_name(obj) == "bool_" || !PyIndex_Check(obj.ptr()))
+    throw py::type_error(name + ": expected an int, got " + type_name(obj));
+  const auto i = py::reinterpret_steal<py::int_>(PyNumber_Index(obj.ptr()));
+  if (!i) throw py::error_already_set();
+  if (i < py::int_(0) || i > py::int_(max))
+    throw py::value_error(name + ": must be " + (range.empty() ? "0 .. " + std::to_string(max) : range) + ", got " +
+                          py::str(obj).cast<std::string>());
+  return i.cast<std::uint64_t>();
 }
 
 std::vector<std::uint32_t> to_indices(py::handle indices, const std::string& argument, std::size_t n) {

@@ -16,8 +16,13 @@ namespace ced_python {
 
 namespace py = pybind11;
 
+/// The name of obj's type ("float", "bool_"), for messages.
+std::string type_name(py::handle obj);
 /// A path (str or os.PathLike), or a TypeError naming `name`.
 std::string path_arg(py::handle obj, const std::string& name);
+/// An int (or a numpy integer; not a bool) in 0 .. max, or a TypeError /
+/// ValueError naming `name` (and `range`, when given, for the range).
+std::uint64_t int_arg(py::handle obj, const std::string& name, std::uint64_t max, const std::string& range = "");
 
 /// `refine=` of detect and plan_tiles: a bool, or None for the preset's
 /// (robust3d/robust6d refine; anything else does not).

@@ -117,7 +117,7 @@ ced::detection_result run_interruptible(const ced::point_cloud& cloud, ced::dete
 }
 
 ced::detect_params make_params(const ced::point_cloud& cloud, py::handle radius, double radius_factor,
-                               std::optional<double> nms_radius, long long min_neighbors, long long threads) {
+                               std::optional<double> nms_radius, py::handle min_neighbors, py::handle threads) {
   ced::detect_params p;
   if (py::isinstance<py::str>(radius)) {
     if (radius.cast<std::string>() != "auto")
@@ -137,10 +137,8 @@ ced::detect_params make_params(const ced::point_cloud& cloud, py::handle radius,
     }
   }
   p.nms_radius = nms_radius.value_or(p.radius);
-  if (min_neighbors < 0 || min_neighbors > UINT32_MAX) throw py::value_error("min_neighbors: must be 0 .. 2^32-1");
-  if (threads < 0 || threads > 4096) throw py::value_error("threads: must be 0 (all cores) .. 4096");
-  p.min_neighbors = std::uint32_t(min_neighbors);
-  p.threads = unsigned(threads);
+  p.min_neighbors = std::uint32_t(int_arg(min_neighbors, "min_neighbors", UINT32_MAX));
+  p.threads = unsigned(int_arg(threads, "threads", 4096));
   ced::validate(p);  // std::invalid_argument -> ValueError, naming the parameter
   return p;
 }
@@ -248,8 +246,8 @@ void bind_result(py::module_& m) {
 
 /// ced._detect (ced.detect's work, behind its Python signature).
 std::shared_ptr<result> detect_cloud(py::handle points, py::handle channels, py::handle modalities, py::handle radius,
-                                     double radius_factor, std::optional<double> nms_radius, long long min_neighbors,
-                                     long long threads, py::handle refine, long long max_keypoints,
+                                     double radius_factor, std::optional<double> nms_radius, py::handle min_neighbors,
+                                     py::handle threads, py::handle refine, py::handle max_keypoints,
                                      const std::string& neighborhood, const std::string& search,
                                      py::handle keypoint_share) {
   const cloud_ptr cloud = to_cloud(points, channels);
@@ -257,9 +255,7 @@ std::shared_ptr<result> detect_cloud(py::handle points, py::handle channels, py:
   ced::detect_params p = make_params(*cloud, radius, radius_factor, nms_radius, min_neighbors, threads);
   set_neighborhood(p, neighborhood, search);
   p.refine = refine_of(modalities, refine);
-  if (max_keypoints < 0)
-    throw py::value_error("max_keypoints: must be >= 0 (0: no limit), got " + std::to_string(max_keypoints));
-  p.max_keypoints = static_cast<std::size_t>(max_keypoints);
+  p.max_keypoints = std::size_t(int_arg(max_keypoints, "max_keypoints", INT64_MAX));
   p.keypoint_share = keypoint_share_of(modalities, keypoint_share);
   const auto mods = make_modalities(*cloud, modalities);
   auto res = std::make_shared<result>();

@@ -56,8 +56,6 @@ std::vector<std::string> specs_of(py::handle modalities) {
   return out;
 }
 
-std::string type_name(py::handle obj) { return py::str(py::type::of(obj).attr("__name__")).cast<std::string>(); }
-
 /// A number (int, float, a numpy scalar; not bool or str) as a double, or a
 /// TypeError naming `name`. An int too large for a double is infinite.
 double number_arg(py::handle obj, const std::string& name, const std::string& expected) {
@@ -79,19 +77,6 @@ double positive_arg(py::handle obj, const std::string& name, const std::string& 
   if (!(v > 0) || !std::isfinite(v))
     throw py::value_error(name + ": must be a positive number" + unit + ", got " + py::str(obj).cast<std::string>());
   return v;
-}
-
-/// An int (or a numpy integer; not bool) in 0 .. max, or a TypeError /
-/// ValueError naming `name` (and `range`, when given, for the range).
-std::uint64_t int_arg(py::handle obj, const std::string& name, std::uint64_t max, const std::string& range = "") {
-  if (py::isinstance<py::bool_>(obj) || !PyIndex_Check(obj.ptr()))
-    throw py::type_error(name + ": expected an int, got " + type_name(obj));
-  const auto i = py::reinterpret_steal<py::int_>(PyNumber_Index(obj.ptr()));
-  if (!i) throw py::error_already_set();
-  if (i < py::int_(0) || i > py::int_(max))
-    throw py::value_error(name + ": must be " + (range.empty() ? "0 .. " + std::to_string(max) : range) + ", got " +
-                          py::str(obj).cast<std::string>());
-  return i.cast<std::uint64_t>();
 }
 
 /// Refuses to write `what` at `path` when that is the plan's input file

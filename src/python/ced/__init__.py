@@ -11,8 +11,6 @@ reference; the common case is one call::
     print(result.keypoints, result.saliency["xyz"])
 """
 
-import operator
-
 from ._ced import (
     Cloud,
     FileError,
@@ -214,19 +212,6 @@ def _preset_of(modalities):
     return modalities
 
 
-def _count_arg(name, value, limit):
-    """An int parameter (Python's or numpy's integers, not bools) within 0 .. limit, or an error naming it."""
-    if isinstance(value, bool) or type(value).__name__ == "bool_":
-        raise TypeError(f"{name}: expected an int, got {type(value).__name__}")
-    try:
-        value = operator.index(value)
-    except TypeError:
-        raise TypeError(f"{name}: expected an int, got {type(value).__name__}") from None
-    if not 0 <= value <= limit:
-        raise ValueError(f"{name}: must be 0 .. {limit}, got {value}")
-    return value
-
-
 def detect(points, channels=None, modalities=None, radius=0.05, nms_radius=None, min_neighbors=5, threads=0,
            radius_factor=5.0, refine=None, max_keypoints=0, neighborhood="radius", search="grid",
            keypoint_share=None):
@@ -261,10 +246,7 @@ def detect(points, channels=None, modalities=None, radius=0.05, nms_radius=None,
     points, channels = _cloud_args(points, channels)
     if nms_radius is not None:
         nms_radius = float(nms_radius)
-    min_neighbors = _count_arg("min_neighbors", min_neighbors, 2**32 - 1)
-    threads = _count_arg("threads", threads, 2**32 - 1)
-    max_keypoints = _count_arg("max_keypoints", max_keypoints, 2**63 - 1)
-    modalities = _preset_of(modalities)
+    modalities = _preset_of(modalities)  # (the counts are checked by _detect, as by plan_tiles)
     for name, value in (("neighborhood", neighborhood), ("search", search)):
         if not isinstance(value, str):
             raise TypeError(f"{name}: expected a str, got {type(value).__name__}")
