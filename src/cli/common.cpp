@@ -32,12 +32,11 @@
 
 namespace ced_cli {
 
+CLI::Option* one_value_each(CLI::Option* opt) { return opt->expected(1)->allow_extra_args(false)->take_all(); }
+
 void add_plugin_option(CLI::App* app, std::vector<std::string>& plugins) {
-  app->add_option("--plugin", plugins,
-                  "Load modalities from a plugin, a shared library built with ced/plugin.hpp (repeatable)")
-      ->expected(1)
-      ->allow_extra_args(false)
-      ->take_all();  // one value an occurrence: never the input that follows
+  one_value_each(app->add_option(
+      "--plugin", plugins, "Load modalities from a plugin, a shared library built with ced/plugin.hpp (repeatable)"));
 }
 
 void check_paths(const std::vector<ced::io::named_path>& inputs, const std::vector<ced::io::named_path>& outputs) {

@@ -65,6 +65,10 @@ void check_paths(const std::vector<ced::io::named_path>& inputs, const std::vect
 /// arrive: a full disk or a closed pipe is an error, not a silent loss.
 void check_stdout();
 
+/// A repeatable option takes one value an occurrence (`-m A -m B`), so that
+/// it never takes the input that follows it (`-m xyz:0.2 in.ply`, or an
+/// input after a --config key); returns it.
+CLI::Option* one_value_each(CLI::Option* opt);
 /// `--plugin FILE.so` (repeatable) on a subcommand.
 void add_plugin_option(CLI::App* app, std::vector<std::string>& plugins);
 /// Loads the plugins (ced::load_plugin); a plugin that cannot be loaded is a

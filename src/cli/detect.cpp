@@ -256,15 +256,10 @@ void add_detector_options(CLI::App* cmd, detect_options& o, const std::string& r
                   "ced3d (xyz:0.2), ced6d (xyz:0.2 + rgb:0.1), robust3d (xyz:0.2,scale=2, refined) or "
                   "robust6d (xyz:0.2,scale=2.25,inner=1 + rgb:0.5, refined); radius 0.05 unless given")
       ->check(CLI::IsMember(ced::preset_names()));
-  // One value an occurrence (repeat the option): else `-m xyz:0.2 in.ply`,
-  // or a --config key written before the input, takes the input as a spec.
-  cmd->add_option(
-         "-m,--modality", o.modalities,
-         "Modality spec, repeatable: xyz:0.2, rgb:0.1, lab:0.1, intensity:0.05, bands(nir,red):0.1,range=0..255"
-         " (default: ced6d when the cloud has colour, else ced3d)")
-      ->expected(1)
-      ->allow_extra_args(false)
-      ->take_all();
+  one_value_each(cmd->add_option(
+      "-m,--modality", o.modalities,
+      "Modality spec, repeatable: xyz:0.2, rgb:0.1, lab:0.1, intensity:0.05, bands(nir,red):0.1,range=0..255"
+      " (default: ced6d when the cloud has colour, else ced3d)"));
   add_plugin_option(cmd, o.plugins);
   cmd->add_option("-r,--radius", o.radius, radius_help);
   cmd->add_option("--nms-radius", o.nms_radius, "Non-maximum-suppression radius (default: the radius)")

@@ -405,14 +405,11 @@ command add_repeatability_command(CLI::App& eval) {
   rep->add_option("--intrinsics", o->intrinsics, "Camera JSON for --rgbd (default DIR/camera_primesense.json)");
   auto* depth_opt =
       rep->add_option("--depth-max", o->depth_max, "For --rgbd: drop depths beyond this, metres (default 3; 0 = none)");
-  rep->add_option(
-         "-d,--detector", o->detectors,
-         "Repeatable: ced6d, ced3d, random, iss3d, harris3d, harris6d, sift (PCL builds), or modality specs "
-         "joined by commas (default: ced6d ced3d random); a sweep: 'xyz:{0.1,0.2,0.3},rgb:0.1' is three detectors; "
-         "'ced3d|adaptive:16,max=0.2' gives a ced detector its own neighbourhood")
-      ->expected(1)
-      ->allow_extra_args(false)
-      ->take_all();  // one value an occurrence: never the input that follows
+  one_value_each(rep->add_option(
+      "-d,--detector", o->detectors,
+      "Repeatable: ced6d, ced3d, random, iss3d, harris3d, harris6d, sift (PCL builds), or modality specs "
+      "joined by commas (default: ced6d ced3d random); a sweep: 'xyz:{0.1,0.2,0.3},rgb:0.1' is three detectors; "
+      "'ced3d|adaptive:16,max=0.2' gives a ced detector its own neighbourhood"));
   rep->add_option("--neighborhood", o->neighborhood,
                   "Neighbourhood of ced's detectors, as in ced detect (default radius; 'DETECTOR|SPEC' overrides it)");
   rep->add_option("--search", o->search, "grid (default) or cgal, as in ced detect");

@@ -305,12 +305,10 @@ command add_registration_command(CLI::App& eval) {
                   "Open3D RGB-D folder (color/NNNNN.jpg, depth/NNNNN.png, odometry.log): consecutive frame pairs");
   reg->add_option("--intrinsics", o->intrinsics, "Camera JSON for --rgbd (default DIR/camera_primesense.json)");
   reg->add_option("--depth-max", o->depth_max, "For --rgbd: drop depths beyond this, metres (default 3; 0 = none)");
-  reg->add_option("-d,--detector", o->detectors,
-                  "Repeatable, as for repeatability (default: ced6d random ced3d iss3d harris3d harris6d sift; "
-                  "'ced3d|knn:16' gives a ced detector its own neighbourhood)")
-      ->expected(1)
-      ->allow_extra_args(false)
-      ->take_all();  // one value an occurrence: never the input that follows
+  one_value_each(
+      reg->add_option("-d,--detector", o->detectors,
+                      "Repeatable, as for repeatability (default: ced6d random ced3d iss3d harris3d harris6d sift; "
+                      "'ced3d|knn:16' gives a ced detector its own neighbourhood)"));
   reg->add_option("--neighborhood", o->neighborhood,
                   "Neighbourhood of ced's detectors, as in ced detect (default radius; 'DETECTOR|SPEC' overrides it)");
   reg->add_option("--search", o->search, "grid (default) or cgal, as in ced detect");
