@@ -1027,12 +1027,12 @@ TEST(LasWrite, SmallestFormatAndColourValuesAsTheyAre) {
   EXPECT_EQ(values(r, "blue"), (std::vector<double>{128, 3}));
   EXPECT_EQ(r.get_field("red").type(), scalar_type::uint16);
 
-  c.add_field("NIR", scalar_type::uint8, {9, 10});  // any case
+  c.add_field("NIR", scalar_type::uint8, {9, 10});  // any case; 8 bits become 16 (bands reads v / 255 back)
   s.str("");
   ced::io::write_las(s, c);
   r = ced::io::read_las_buffer(s.str(), "mem.las", &info);
   EXPECT_EQ(info.point_format, 8);
-  EXPECT_EQ(values(r, "nir"), (std::vector<double>{9, 10}));
+  EXPECT_EQ(values(r, "nir"), (std::vector<double>{9 * 257, 10 * 257}));
   EXPECT_EQ(r.find_field("NIR"), nullptr);
 
   // nir without colour: format 6 with nir as extra bytes.
@@ -1046,10 +1046,48 @@ TEST(LasWrite, SmallestFormatAndColourValuesAsTheyAre) {
   EXPECT_EQ(values(r, "nir"), (std::vector<double>{300}));
 }
 
+TEST(LasWrite, FloatColoursAreFractionsAndSixteenBitSlotsAreNeverClamped) {
+  point_cloud c;
+  for (int i = 0; i < 3; ++i) c.push_back(0, 0, 0);
+  c.add_field("red", scalar_type::float32, {0, 0.5, 1});  // Open3D's colours: fractions of the full scale
+  c.add_field("green", scalar_type::float64, {1, 0.25, 0});
+  c.add_field("blue", scalar_type::float32, {0.2, 0, 1});
+  c.add_field("nir", scalar_type::float32, {0.75, 1, 0});
+  c.add_field("intensity", scalar_type::float32, {0, 12.4, 65535});
+  std::stringstream s;
+  ced::io::write_las(s, c);
+  const point_cloud r = ced::io::read_las_buffer(s.str(), "mem.las");
+  EXPECT_EQ(values(r, "red"), (std::vector<double>{0, 32768, 65535}));
+  EXPECT_EQ(values(r, "green"), (std::vector<double>{65535, 16384, 0}));
+  EXPECT_EQ(values(r, "blue"), (std::vector<double>{13107, 0, 65535}));
+  EXPECT_EQ(values(r, "nir"), (std::vector<double>{49151, 65535, 0}));
+  EXPECT_EQ(values(r, "intensity"), (std::vector<double>{0, 12, 65535}));  // rounded, not scaled
+
+  const auto refused = [](const char* name, scalar_type type, std::vector<double> v, const std::string& what) {
+    point_cloud d;
+    for (int i = 0; i < 3; ++i) d.push_back(0, 0, 0);
+    for (const char* colour : {"red", "green", "blue"})
+      if (std::string(colour) != name) d.add_field(colour, scalar_type::float32, {0, 0.5, 1});
+    d.add_field(name, type, std::move(v));
+    std::stringstream t;
+    try {
+      ced::io::write_las(t, d);
+      ADD_FAILURE() << name << ": written";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+    }
+  };
+  refused("green", scalar_type::float32, {0, 1.5, 1}, "field 'green' cannot be written as LAS green: point 1 has 1.5");
+  refused("nir", scalar_type::float64, {-0.25, 0, 1}, "point 0 has -0.25 (a float nir must be a fraction in [0, 1]");
+  refused("intensity", scalar_type::float32, {-5, 0, 0}, "point 0 has -5 (LAS stores it as an integer in 0 .. 65535)");
+  refused("intensity", scalar_type::int32, {0, 70000, 0}, "point 1 has 70000");
+  refused("intensity", scalar_type::float32, {0, 0, std::nan("")}, "point 2 has nan");
+}
+
 TEST(LasWrite, StandardNamesWithOtherTypesAreConvertedAndClamped) {
   point_cloud c;
   for (int i = 0; i < 4; ++i) c.push_back(0, 0, 0);
-  c.add_field("Intensity", scalar_type::float32, {-5, 12.6, 70000, std::nan("")});
+  c.add_field("Intensity", scalar_type::float32, {0, 12.6, 65535, 7});
   c.add_field("classification", scalar_type::int32, {-1, 2, 300, 7});
   c.add_field("return_number", scalar_type::float64, {0, 3, 99, 2});
   c.add_field("synthetic", scalar_type::float32, {0, 0.5, -1, std::nan("")});
@@ -1057,7 +1095,7 @@ TEST(LasWrite, StandardNamesWithOtherTypesAreConvertedAndClamped) {
   std::stringstream s;
   ced::io::write_las(s, c);
   const point_cloud r = ced::io::read_las_buffer(s.str(), "mem.las");
-  EXPECT_EQ(values(r, "intensity"), (std::vector<double>{0, 13, 65535, 0}));
+  EXPECT_EQ(values(r, "intensity"), (std::vector<double>{0, 13, 65535, 7}));
   EXPECT_EQ(values(r, "classification"), (std::vector<double>{0, 2, 255, 7}));
   EXPECT_EQ(values(r, "return_number"), (std::vector<double>{0, 3, 15, 2}));
   EXPECT_EQ(values(r, "synthetic"), (std::vector<double>{0, 1, 1, 0}));

@@ -848,6 +848,47 @@ struct las_plan {
   const field* return_number = nullptr;  ///< the field written as return_number, if any
 };
 
+/// The factor `f` is written into standard slot `s` with, so that reading the
+/// file back gives what ced read from the field: a float colour or nir is a
+/// fraction of the full scale (the rgb and bands modalities take floats as
+/// [0, 1]: x 65535), an 8-bit nir becomes 16 bits (x 257, which bands reads
+/// back as v / 255), a scan angle changes units; other values are written as
+/// they are. In the 16-bit slots (intensity, colour, nir) a value that does
+/// not fit (NaN, outside 0 .. 65535, a float colour outside [0, 1]) is an
+/// error naming the field, never clamped.
+double slot_factor(const field& f, const slot_spec& s, bool extended) {
+  const std::string_view name = s.name;
+  const bool is_float = f.type() == scalar_type::float32 || f.type() == scalar_type::float64;
+  const bool colour = name == "red" || name == "green" || name == "blue" || name == "nir";
+  double factor = 1;
+  if (colour && is_float) factor = 65535;
+  if (name == "nir" && f.type() == scalar_type::uint8) factor = 257;
+  if (name == "scan_angle") {
+    const bool degrees = f.type() == scalar_type::int8;
+    if (extended && degrees) factor = 1 / 0.006;
+    if (!extended && !degrees) factor = 0.006;
+  }
+  // The 16-bit slots hold measurements; the others are codes and counts, which
+  // an older point format clamps (return numbers to 7, classes to 31).
+  if (s.kind != slot_kind::u16 || f.type() == scalar_type::uint16 || f.type() == scalar_type::uint8) return factor;
+  const double lo = 0, hi = 65535;
+  f.values.visit([&](const auto* v, std::size_t n) {
+    for (std::size_t i = 0; i < n; ++i) {
+      const double x = std::round(static_cast<double>(v[i]) * factor);
+      if (x >= lo && x <= hi) continue;
+      std::ostringstream msg;
+      msg << "field '" << f.name << "' cannot be written as LAS " << name << ": point " << i << " has "
+          << static_cast<double>(v[i]);
+      if (colour && is_float)
+        msg << " (a float " << name << " must be a fraction in [0, 1], written x 65535)";
+      else
+        msg << " (LAS stores it as an integer in " << lo << " .. " << hi << ")";
+      throw std::invalid_argument(msg.str());
+    }
+  });
+  return factor;
+}
+
 /// The columns of the standard slots that the cloud has a field for (and
 /// return_number, number_of_returns = 1 when it has none); `used` receives
 /// those fields.
@@ -873,11 +914,7 @@ void plan_standard_columns(const point_cloud& cloud, const std::array<const fiel
     if (f) {
       c.values = &f->values;
       used.push_back(f);
-      if (name == "scan_angle") {
-        const bool degrees = f->type() == scalar_type::int8;
-        if (layout.extended && degrees) c.factor = 1 / 0.006;
-        if (!layout.extended && !degrees) c.factor = 0.006;
-      }
+      c.factor = slot_factor(*f, s, layout.extended);
       if (name == "return_number") plan.return_number = f;
     } else if (name == "return_number" || name == "number_of_returns") {
       c.constant = 1;
