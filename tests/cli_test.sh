@@ -280,11 +280,13 @@ else
 fi
 
 # --- Refinement: the robust presets refine, --no-refine keeps the NMS maxima ---
-check "modalities: robust presets list --refine" sh -c "'$CED' modalities | grep -q '^robust6d.*-m rgb:0.5 --refine'"
+check "modalities: robust presets list --refine and the share" \
+  sh -c "'$CED' modalities | grep -q '^robust6d.*-m rgb:0.5 --refine --keypoint-share 0.01'"
 "$CED" detect "$sample" --preset robust6d --indices "$T/r6.txt" --summary "$T/r6.json" -q
-"$CED" detect "$sample" -m xyz:0.2,scale=2.25,inner=1 -m rgb:0.5 --radius 0.05 --refine --indices "$T/r6m.txt" -q
+"$CED" detect "$sample" -m xyz:0.2,scale=2.25,inner=1 -m rgb:0.5 --radius 0.05 --refine --keypoint-share 0.01 \
+  --indices "$T/r6m.txt" -q
 "$CED" detect "$sample" --preset robust6d --no-refine --indices "$T/r6n.txt" -q
-check "refine: the preset is its specs with --refine" cmp -s "$T/r6.txt" "$T/r6m.txt"
+check "refine: the preset is its specs with --refine and its share" cmp -s "$T/r6.txt" "$T/r6m.txt"
 check "refine: --no-refine changes the keypoints" sh -c "! cmp -s '$T/r6.txt' '$T/r6n.txt'"
 check "refine: the summary says so" grep -q '"refine": *true' "$T/r6.json"
 printf '{"preset": "robust6d", "no-refine": true}' > "$T/norefine.json"

@@ -246,9 +246,9 @@ TEST(KeypointShare, OutOfRangeIsRefused) {
   }
 }
 
-TEST(KeypointShare, TheRobust3dPresetsShareAndAnyThreadCount) {
-  EXPECT_EQ(ced::preset_keypoint_share("robust3d"), 0.01);
-  for (const char* other : {"ced3d", "ced6d", "robust6d"}) EXPECT_EQ(ced::preset_keypoint_share(other), 0.0);
+TEST(KeypointShare, TheRobustPresetsShareAndAnyThreadCount) {
+  for (const char* robust : {"robust3d", "robust6d"}) EXPECT_EQ(ced::preset_keypoint_share(robust), 0.01);
+  for (const char* other : {"ced3d", "ced6d"}) EXPECT_EQ(ced::preset_keypoint_share(other), 0.0);
   EXPECT_THROW(ced::preset_keypoint_share("robust9d"), std::invalid_argument);
   // Same for any thread count.
   const auto c = make_room(20000, 28);

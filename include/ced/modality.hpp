@@ -347,8 +347,8 @@ std::vector<std::string> preset_names();
 /// robust presets do, the paper's (ced3d, ced6d) do not.
 bool preset_refines(std::string_view name);
 /// The share of the candidates a preset keeps as keypoints at most
-/// (detect_params::keypoint_share): 0.01 for robust3d, whose count would
-/// otherwise grow with noise; 0 (no limit) for the others.
+/// (detect_params::keypoint_share): 0.01 for robust3d and robust6d, whose
+/// counts would otherwise grow with noise; 0 (no limit) for the others.
 double preset_keypoint_share(std::string_view name);
 
 /// Parses a number; throws std::invalid_argument naming `what` on failure.

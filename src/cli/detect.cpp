@@ -287,7 +287,7 @@ void add_detector_options(CLI::App* cmd, detect_options& o, const std::string& r
                   "(default 0: no limit)");
   cmd->add_option("--keypoint-share", o.keypoint_share,
                   "Keep at most this share of the candidate points as keypoints, the strongest, as --max-keypoints "
-                  "ranks them (0 to 1; 0: no limit; robust3d: 0.01): holds the count steady under noise");
+                  "ranks them (0 to 1; 0: no limit; robust3d, robust6d: 0.01): holds the count steady under noise");
 }
 
 command add_detect_command(CLI::App& app, std::function<int(const detect_options&)> run) {

@@ -29,7 +29,7 @@ struct eval_detector {
   kind type = kind::ced;
   std::vector<ced::any_modality> modalities;
   bool refine = false;        ///< a robust preset, or "refine" among the specs
-  double keypoint_share = 0;  ///< robust3d's, or "share:Q" among the specs
+  double keypoint_share = 0;  ///< the robust presets', or "share:Q" among the specs
   /// At most this many keypoints, the strongest (--counts); 0: the detector's
   /// natural count. Random picks exactly this many.
   std::size_t count = 0;

@@ -166,7 +166,7 @@ void bind_modalities(py::module_& m) {
         "Whether a preset refines its keypoints (detect(refine=...)): the robust presets do, ced3d and ced6d not.");
   m.def("preset_keypoint_share", &ced::preset_keypoint_share, py::arg("name"),
         "The share of the candidates a preset keeps at most as keypoints (detect(keypoint_share=...)): 0.01 for "
-        "robust3d, whose count would otherwise grow with noise; 0 (no limit) for the others.");
+        "robust3d and robust6d, whose counts would otherwise grow with noise; 0 (no limit) for the others.");
   m.def("_split_modality_specs", &ced::split_modality_specs, py::arg("text"),
         "Modality specs joined by commas, split as `ced eval --detector` splits them.");
   m.def("modalities", &ced::registered_modalities, "(name, help) of every registered modality, sorted.");

@@ -30,10 +30,11 @@ def test_refine_follows_the_preset_and_can_be_set(cli, sample, sample_path):
     robust = ced.detect(sample, modalities="robust6d")
     assert robust.refine
     specs = ["xyz:0.2,scale=2.25,inner=1", "rgb:0.5"]
-    plain = ced.detect(sample, modalities=specs)  # a list of specs: no refinement unless asked
+    plain = ced.detect(sample, modalities=specs, keypoint_share=0.01)  # specs: no refinement unless asked
     assert not plain.refine
     np.testing.assert_array_equal(ced.detect(sample, modalities="robust6d", refine=False).keypoints, plain.keypoints)
-    np.testing.assert_array_equal(ced.detect(sample, modalities=specs, refine=True).keypoints, robust.keypoints)
+    np.testing.assert_array_equal(ced.detect(sample, modalities=specs, refine=True, keypoint_share=0.01).keypoints,
+                                  robust.keypoints)
     # Refinement moves keypoints, and the CLI's flags do the same.
     assert not np.array_equal(robust.keypoints, plain.keypoints)
     np.testing.assert_array_equal(cli_keypoints(cli, sample_path, "-m", "xyz:0.2", "--radius", "0.05", "--refine"),
@@ -91,8 +92,9 @@ def test_keypoint_share_keeps_the_strongest_share_of_the_candidates(cli, sample,
         np.testing.assert_array_equal(got.keypoints, ced.detect(sample, modalities="ced6d", max_keypoints=n).keypoints)
         np.testing.assert_array_equal(
             cli_keypoints(cli, sample_path, "--preset", "ced6d", "--keypoint-share", str(share)), got.keypoints)
-    # robust3d's own share unless told otherwise; the other presets have none.
-    assert ced.preset_keypoint_share("robust3d") == 0.01 and ced.preset_keypoint_share("robust6d") == 0
+    # The robust presets' own share unless told otherwise; the paper's presets have none.
+    assert ced.preset_keypoint_share("robust3d") == ced.preset_keypoint_share("robust6d") == 0.01
+    assert ced.preset_keypoint_share("ced6d") == ced.preset_keypoint_share("ced3d") == 0
     r3 = ced.detect(sample, modalities="robust3d")
     assert r3.keypoint_share == 0.01
     assert ced.detect(sample, modalities="robust3d", keypoint_share=0).keypoint_share == 0

@@ -198,7 +198,7 @@ class _Preset(list):
 def preset(name):
     """The modalities of a preset: 'ced3d' (xyz:0.2), 'ced6d' (xyz:0.2, rgb:0.1), 'robust3d' (xyz:0.2,scale=2) or
     'robust6d' (xyz:0.2,scale=2.25,inner=1, rgb:0.5), as a list. The robust presets also refine their keypoints
-    (preset_refines) and robust3d keeps at most a share of its candidates (preset_keypoint_share): detect() given
+    (preset_refines) and keep at most a share of their candidates (preset_keypoint_share): detect() given
     this list unchanged does both, as it does given the name."""
     return _Preset(name)
 

@@ -176,7 +176,7 @@ def preset_refines(name: str) -> bool:
 
 def preset_keypoint_share(name: str) -> float:
     """The share of the candidates a preset keeps at most as keypoints (detect(keypoint_share=...)): 0.01 for
-    robust3d, whose count would otherwise grow with noise; 0 (no limit) for the others."""
+    robust3d and robust6d, whose counts would otherwise grow with noise; 0 (no limit) for the others."""
 
 def preset(name: str) -> List[Modality]:
     """'ced3d' (xyz:0.2), 'ced6d' (xyz:0.2, rgb:0.1), 'robust3d' (xyz:0.2,scale=2) or 'robust6d'
