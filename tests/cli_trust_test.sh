@@ -141,6 +141,14 @@ if [ -w /dev/full ]; then
   "$CED" detect "$T/in.ply" -m xyz:0.2 -q > /dev/full 2> "$T/err"
   check "indices to a full stdout: exit 1" test $? = 1
   check "indices to a full stdout: said" grep -q "standard output" "$T/err"
+  # All outputs or none: a summary that cannot be written leaves the earlier
+  # indices, keypoints and viewer files of the same run where they were.
+  "$CED" detect "$T/in.ply" -m xyz:0.2 --indices "$T/all.txt" -o "$T/all.ply" --viewer "$T/allv.ply" -q
+  for f in all.txt all.ply allv.ply; do cp "$T/$f" "$T/$f.before"; done
+  expect_exit 1 "error writing '/dev/full'" "all or none: the failing summary is named" -- \
+    detect "$T/in.ply" -m xyz:0.1 --indices "$T/all.txt" -o "$T/all.ply" --viewer "$T/allv.ply" --summary /dev/full -q
+  for f in all.txt all.ply allv.ply; do check "all or none: $f untouched" cmp -s "$T/$f" "$T/$f.before"; done
+  check "all or none: no temporaries left" sh -c "! ls -a '$T' | grep -q '\.tmp\.'"
 fi
 # Temporaries of a killed process (a process id past pid_max runs nothing).
 dead=$(($(cat /proc/sys/kernel/pid_max 2> /dev/null || echo 4194304) + 5))

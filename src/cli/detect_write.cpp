@@ -245,6 +245,8 @@ void write_outputs(const detect_options& o, const detect_plan& plan, const detec
   if (out.html)
     out.html->stream() << ced::html_page(in.cloud, r.keypoints, ced::html_layers(r), html_options_of(o, plan, in, r));
   if (out.summary) out.summary->stream() << summary_json(o, plan, in, r).dump(2) << '\n';
+  // All or none: every file written out before any lands on its path.
+  for (auto& file : out.files) file->finish();
   for (auto& file : out.files) file->commit();
 }
 

@@ -255,6 +255,8 @@ void merged_writer::finish(const ced::tile_plan& p, const ced::tile_part& m, dou
     j["times_ms"] = {{"detect_tiles", m.detect_ms}, {"total", total_ms}};
     m_out.summary->stream() << j.dump(2) << '\n';
   }
+  // All or none: every file written out before any lands on its path.
+  for (auto& f : m_out.files) f->finish();
   for (auto& f : m_out.files) f->commit();
 }
 

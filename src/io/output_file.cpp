@@ -124,12 +124,19 @@ void remove_temporaries_on_signals() {
 #endif
 }
 
-void atomic_output_file::commit() {
+void atomic_output_file::finish() {
+  if (m_finished) return;
   if (m_committed) throw io_error("'" + m_path + "' was already committed");
   m_stream.flush();
   if (!m_stream) throw io_error("error writing '" + m_path + "' (disk full?)");
   m_stream.close();
   if (m_stream.fail()) throw io_error("error closing '" + m_path + "' (disk full?)");
+  m_finished = true;
+}
+
+void atomic_output_file::commit() {
+  if (m_committed) throw io_error("'" + m_path + "' was already committed");
+  finish();
   if (m_direct) {
     m_committed = true;
     return;

@@ -39,9 +39,15 @@ class atomic_output_file {
 
   /// The stream to write to (the temporary file).
   std::ostream& stream() noexcept { return m_stream; }
-  /// Flushes, checks that every write succeeded, closes and renames the
-  /// temporary file onto the final path. Throws io_error on any failure (the
-  /// temporary file is then removed by the destructor). Call at most once.
+  /// Flushes, checks that every write succeeded and closes the file, without
+  /// renaming it yet (a device or FIFO has then had all its bytes). Throws
+  /// io_error on failure. For several files that land together: finish()
+  /// each, then commit() each, so that a write that fails leaves every final
+  /// path untouched. Calling it again does nothing.
+  void finish();
+  /// finish(), then renames the temporary file onto the final path. Throws
+  /// io_error on any failure (the temporary file is then removed by the
+  /// destructor). Call at most once.
   void commit();
 
   const std::string& path() const noexcept { return m_path; }
@@ -54,6 +60,7 @@ class atomic_output_file {
   std::string m_temp_path;
   std::ofstream m_stream;
   bool m_direct = false;  // a device or FIFO, written in place
+  bool m_finished = false;
   bool m_committed = false;
   int m_slot = -1;  // in the table the signal handler cleans
 };
