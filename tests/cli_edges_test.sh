@@ -131,6 +131,18 @@ expect_exit 1 "fields present: red, green, blue" "missing field: -o" -- \
   detect "$sample" -m intensity:0.05 -o "$T/x.ply" -q
 check "missing field: no output" test ! -e "$T/x.ply"
 
+# --- 6b. Options that would be ignored are usage errors ---
+for opt in "--view top" "--png-size 100x80" "--png-color height" "--png-top"; do
+  expect_exit 2 "${opt%% *} shapes the --png picture: give --png FILE" "without --png: $opt" -- \
+    detect "$sample" --preset ced3d $opt -q
+done
+expect_exit 2 "this run's radius is the preset's 0.05" "radius-factor with a preset" -- \
+  detect "$sample" --preset ced3d --radius-factor 3 -q
+expect_exit 2 "this run's radius is '0.04'" "radius-factor with a radius" -- \
+  detect "$sample" -m xyz:0.2 --radius 0.04 --radius-factor 3 -q
+"$CED" detect "$sample" -m xyz:0.2 --radius auto --radius-factor 3 --indices "$T/rf.txt" -q
+check "radius-factor with --radius auto runs" test -s "$T/rf.txt"
+
 # --- 7. --png-size is WIDTHxHEIGHT, nothing else ---
 for s in 100x100junk 100x100x 100x100.5 ' 100x100' '+100x100' '100x 100' 100X100 100x -100x100 x100 \
   99999999999x100 100x100' '; do

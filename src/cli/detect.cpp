@@ -62,6 +62,12 @@ void check_numbers(const detect_options& o, detect_plan& plan) {
   }
   if (!(o.radius_factor > 0) || !std::isfinite(o.radius_factor))
     throw usage_error("--radius-factor must be a positive number");
+  if (o.radius_factor_given && !plan.auto_radius)
+    throw usage_error("--radius-factor sets the radius of --radius auto, and this run's radius is " +
+                      (o.radius.empty() ? "the preset's 0.05" : "'" + o.radius + "'") +
+                      ": give --radius auto, or drop --radius-factor");
+  if (o.png.empty() && !o.given_png_options.empty())
+    throw usage_error(o.given_png_options.front() + " shapes the --png picture: give --png FILE, or drop it");
   check_counts(o.min_neighbors, o.threads);
   if (o.voxel < 0 || !std::isfinite(o.voxel)) throw usage_error("--voxel must be a positive size in metres");
   if (o.html_max_points < 1) throw usage_error("--html-max-points must be at least 1");
@@ -352,6 +358,10 @@ command add_detect_command(CLI::App& app, std::function<int(const detect_options
           "--max-keypoints", "--keypoint-share", "--neighborhood", "--search", "--format", "--columns", "--voxel",
           "--radius-factor", "--tile-size", "--memory-limit", "--work-dir", "--resume"})
       if (det->count(name) > 0) o->given_plan_options.push_back(name);
+    o->radius_factor_given = det->count("--radius-factor") > 0;
+    o->given_png_options.clear();
+    for (const char* name : {"--view", "--png-size", "--png-color", "--png-top"})
+      if (det->count(name) > 0) o->given_png_options.push_back(name);
   };
   if (run)
     return {det, [o, run, note_given] {

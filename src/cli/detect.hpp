@@ -46,6 +46,10 @@ struct detect_options {
   std::string config;  // --config: expand_config() has already replaced it by the file's options
   /// Options given on the command line that a --plan fixes (a usage error with --plan).
   std::vector<std::string> given_plan_options;
+  /// Given on the command line or in --config: --radius-factor (only for --radius auto) and
+  /// the options that shape the --png picture (only with --png).
+  bool radius_factor_given = false;
+  std::vector<std::string> given_png_options;
 };
 
 /// The detector's options of `ced detect` and `ced plan`: --preset,
