@@ -143,6 +143,20 @@ expect_exit 2 "this run's radius is '0.04'" "radius-factor with a radius" -- \
 "$CED" detect "$sample" -m xyz:0.2 --radius auto --radius-factor 3 --indices "$T/rf.txt" -q
 check "radius-factor with --radius auto runs" test -s "$T/rf.txt"
 
+# --- 6c. A stray point far from georeferenced data costs precision: said ---
+printf 'ply\nformat ascii 1.0\nelement vertex %s\nproperty double x\nproperty double y\nproperty double z\nend_header\n' \
+  5 > "$T/geo.ply"
+for i in 1 2 3 4 5; do echo "500000.$i 4000000.$i 100.$i" >> "$T/geo.ply"; done
+sed 's/vertex 5/vertex 6/' "$T/geo.ply" > "$T/stray.ply" && echo "0 0 0" >> "$T/stray.ply"
+"$CED" detect "$T/stray.ply" -m xyz:0.2 -r 0.5 -q > /dev/null 2> "$T/err"
+check "stray point: detect warns" grep -q "points lie up to 4000000 m from the cloud's origin" "$T/err"
+"$CED" convert "$T/stray.ply" "$T/w.ply" 2> "$T/err"
+check "stray point: convert warns" grep -q "keep only about 0.24 m" "$T/err"
+"$CED" detect "$T/geo.ply" -m xyz:0.2 -r 0.5 -q > /dev/null 2> "$T/err"
+check "no stray point: detect says nothing" test ! -s "$T/err"
+"$CED" convert "$T/geo.ply" "$T/w2.ply" 2> "$T/err"
+check "no stray point: convert says nothing" test ! -s "$T/err"
+
 # --- 7. --png-size is WIDTHxHEIGHT, nothing else ---
 for s in 100x100junk 100x100x 100x100.5 ' 100x100' '+100x100' '100x 100' 100X100 100x -100x100 x100 \
   99999999999x100 100x100' '; do

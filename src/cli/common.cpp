@@ -490,3 +490,29 @@ void set_neighborhood(ced::detect_params& params, const std::string& neighborhoo
 }
 
 }  // namespace ced_cli
+
+namespace ced_cli {
+
+void warn_float_precision(const ced::point_cloud& cloud, const std::string& input) {
+  // Half a float ulp above 1 cm: |x| > 2^24 x 0.01 m. A test that vectorises
+  // first (NaN fails it); the largest only when one passes.
+  constexpr float limit = 167772.16f;
+  const float* p = cloud.positions().data();
+  const std::size_t m = 3 * cloud.size();
+  int beyond = 0;
+  for (std::size_t i = 0; i < m; ++i) beyond |= std::fabs(p[i]) > limit;
+  if (!beyond) return;
+  float far = 0;
+  for (std::size_t i = 0; i < m; ++i)
+    if (std::fabs(p[i]) > far) far = std::fabs(p[i]);
+  const auto& o = cloud.origin();
+  std::fprintf(stderr,
+               "ced: warning: %s: points lie up to %.0f m from the cloud's origin (%.3f, %.3f, %.3f) on an axis, so "
+               "their positions, stored as floats relative to it, keep only about %.2g m. A few points far from the "
+               "others (such as a stray one at (0, 0, 0) in georeferenced data) do this: remove them, or crop the "
+               "cloud\n",
+               input.c_str(), static_cast<double>(far), o[0], o[1], o[2],
+               static_cast<double>(far) * 5.9604644775390625e-08);
+}
+
+}  // namespace ced_cli

@@ -99,6 +99,13 @@ double parse_share(const std::string& text, const std::string& bad);
 /// both are set), or nothing: the keypoint limit of `params`, for messages.
 std::string keypoint_limit_text(const ced::detect_params& params);
 
+/// Warns on stderr when positions, stored as floats relative to the cloud's
+/// origin, lie so far from it that they keep less than a centimetre (more
+/// than 167 km away): one point far from the others, such as a stray
+/// (0, 0, 0) in georeferenced data, moves the origin and costs every point
+/// its precision. Says how much is kept.
+void warn_float_precision(const ced::point_cloud& cloud, const std::string& input);
+
 /// Asks glibc's malloc to keep freed memory for reuse instead of returning it
 /// to the system (large blocks from the heap, no trimming): a run allocates
 /// and frees large arrays stage after stage, chunk after chunk, tile after

@@ -25,6 +25,7 @@ int run_convert(const convert_options& o) {
   check_paths({{"the input", o.input}}, {{"the output", o.output}});
   ced::io::atomic_output_file out(o.output);
   ced::point_cloud c = ced::io::read_cloud(o.input, make_read_options(o.format, o.columns));
+  warn_float_precision(c, o.input);
   if (o.voxel > 0) {
     ced::remove_nonfinite(c);
     c = ced::voxel_downsample(c, o.voxel).cloud;

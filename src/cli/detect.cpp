@@ -196,6 +196,7 @@ detect_input read_input(const detect_options& o, const ced::io::read_options& re
   in.n_finite = in.cloud.size();
   in.n_dropped = in.n_file - in.n_finite;  // by the reader (PCD) and just now
   if (in.cloud.empty()) throw ced::io::io_error(o.input + ": the cloud has no (finite) points");
+  warn_float_precision(in.cloud, o.input);
   if (o.voxel > 0) {
     progress.stage("voxels");
     const auto t = clock_type::now();
