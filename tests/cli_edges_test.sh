@@ -57,6 +57,15 @@ expect_exit 2 "cannot open" "config: missing" -- detect "$sample" --config "$T/m
 expect_exit 2 "no file given" "config: ''" -- detect "$sample" --config '' -q
 expect_exit 2 "no file given" "config: --config=" -- detect "$sample" --config= -q
 expect_exit 2 "given twice" "config: twice" -- detect "$sample" --config "$T/flat.json" --config "$T/c.toml" -q
+# A key given twice in one file: an error, not "the last wins" (JSON) or CLI11's bare message (TOML).
+printf '{"preset": "ced3d", "radius": 0.05, "radius": 0.1}\n' > "$T/dup.json"
+expect_exit 2 "dup.json: 'radius' is given twice" "config: a JSON key twice" -- detect "$sample" --config "$T/dup.json" -q
+printf '{"preset": "ced3d", "modality": {"radius": 1, "radius": 2}, "radius": 0.05}\n' > "$T/nested.json"
+expect_exit 2 "modality" "config: a key twice deeper is not a top-level duplicate" -- \
+  detect "$sample" --config "$T/nested.json" -q
+check "config: ... and is not called one" sh -c "! grep -q 'given twice' '$T/err'"
+printf 'preset = "ced3d"\nradius = 0.05\nradius = 0.1\n' > "$T/dup.toml"
+expect_exit 2 "dup.toml: 'radius' is given twice" "config: a TOML key twice" -- detect "$sample" --config "$T/dup.toml" -q
 
 # --- 3. A flag's value is true or false ---
 for v in '"yes"' '"no"' 2 '"on"' '[]' '[true, false]' '{}' null; do

@@ -59,11 +59,20 @@ void load_plugins(const std::vector<std::string>& plugins) {
 
 std::vector<CLI::ConfigItem> json_config::from_config(std::istream& in) const {
   nlohmann::json j;
+  std::unordered_set<std::string> keys;  // of the top object: JSON keeps the last of a duplicate
+  std::string twice;
+  const auto key_once = [&](int depth, nlohmann::json::parse_event_t event, nlohmann::json& parsed) {
+    if (event == nlohmann::json::parse_event_t::key && depth == 1 && !keys.insert(parsed.get<std::string>()).second &&
+        twice.empty())
+      twice = parsed.get<std::string>();
+    return true;
+  };
   try {
-    j = nlohmann::json::parse(in);
+    j = nlohmann::json::parse(in, key_once);
   } catch (const nlohmann::json::exception& e) {
     throw CLI::ConversionError("--config: not valid JSON: " + std::string(e.what()));
   }
+  if (!twice.empty()) throw CLI::ConversionError("'" + twice + "' is given twice");
   if (!j.is_object()) throw CLI::ConversionError("--config: the JSON file must hold one object");
   std::vector<CLI::ConfigItem> config_items;
   auto text = [](const nlohmann::json& v) { return v.is_string() ? v.get<std::string>() : v.dump(); };
@@ -147,11 +156,34 @@ std::vector<CLI::ConfigItem> read_config_items(const std::string& path) {
                       " deep (line " + std::to_string(line) +
                       "); a config holds options with a value or an array of values");
   std::istringstream in(text);
+  std::vector<CLI::ConfigItem> items;
   try {
-    return json ? json_config().from_config(in) : CLI::ConfigTOML().from_config(in);
+    items = json ? json_config().from_config(in) : CLI::ConfigTOML().from_config(in);
   } catch (const std::exception& e) {
     throw usage_error("--config " + path + ": " + e.what());
   }
+  // One value an option: a key given twice is a mistake, not "the last wins".
+  // CLI11 merges a TOML key given on consecutive lines into one item: the lines say.
+  if (!json) {
+    std::unordered_set<std::string> keys;
+    std::istringstream lines(text);
+    std::string section, line;
+    while (std::getline(lines, line)) {
+      const auto b = line.find_first_not_of(" \t");
+      if (b == std::string::npos) continue;
+      if (line[b] == '[') section = line.substr(b, line.find(']', b) - b + 1);
+      const auto eq = line.find('=', b);
+      if (!(std::isalpha(static_cast<unsigned char>(line[b])) || line[b] == '_') || eq == std::string::npos) continue;
+      std::string key = line.substr(b, eq - b);
+      key.erase(key.find_last_not_of(" \t") + 1);
+      if (!keys.insert(section + key).second) throw usage_error("--config " + path + ": '" + key + "' is given twice");
+    }
+  }
+  std::unordered_set<std::string> seen;
+  for (const auto& item : items)
+    if (item.name != "++" && item.name != "--" && !seen.insert(item.fullname()).second)
+      throw usage_error("--config " + path + ": '" + item.fullname() + "' is given twice");
+  return items;
 }
 
 /// A flag's value in a config: true or false (also 1 or 0).
