@@ -45,6 +45,32 @@ bool python_callbacks_running();
 /// python_callbacks_running(), else `threads`. Results do not depend on it.
 unsigned threads_for(unsigned threads);
 
+/// Releases the GIL for C++ work, as py::gil_scoped_release, and counts the
+/// calls inside such work. At interpreter exit (atexit) the module waits for
+/// that count to reach 0 (wait_for_released_calls()): a daemon thread still
+/// inside ced.detect would otherwise be killed when it takes the GIL back,
+/// through C++ frames that cannot unwind, and abort the process. Throws
+/// RuntimeError once the wait has begun (work started at exit).
+class released_gil {
+ public:
+  released_gil() = default;
+  released_gil(const released_gil&) = delete;
+  released_gil& operator=(const released_gil&) = delete;
+
+ private:
+  // Counted before the GIL is released, and again after it is taken back
+  // (members are destroyed in reverse order).
+  struct counted {
+    counted();
+    ~counted();
+    counted(const counted&) = delete;
+    counted& operator=(const counted&) = delete;
+  } m_counted;
+  py::gil_scoped_release m_release;
+};
+/// Waits, the GIL released, until no released_gil is alive (for atexit).
+void wait_for_released_calls();
+
 /// A cloud shared between Python objects (Cloud, Result's views) and C++.
 using cloud_ptr = std::shared_ptr<ced::point_cloud>;
 

@@ -131,7 +131,7 @@ void bind_cloud(py::module_& m) {
         ced::io::read_options o;
         o.format = format_arg(format);
         if (fields) o.fields = ced::field_selection::only(*fields);
-        py::gil_scoped_release release;
+        released_gil release;
         return std::make_shared<ced::point_cloud>(ced::io::read_cloud(path, o));
       },
       py::arg("path"), py::arg("fields") = py::none(), py::arg("format") = py::none(),
@@ -142,7 +142,7 @@ void bind_cloud(py::module_& m) {
         const std::string path = path_arg(path_obj, "path");
         const cloud_ptr c = to_cloud(cloud, py::none());
         const auto f = format_arg(format);
-        py::gil_scoped_release release;
+        released_gil release;
         ced::io::write_cloud(path, *c, f);
       },
       py::arg("path"), py::arg("cloud"), py::arg("format") = py::none(),
@@ -158,7 +158,7 @@ void bind_cloud(py::module_& m) {
         o.width = width;
         o.height = height;
         const std::vector<std::uint32_t> kp = keypoints.value_or(std::vector<std::uint32_t>{});
-        py::gil_scoped_release release;
+        released_gil release;
         ced::render_png(path, *c, kp, o);
       },
       py::arg("path"), py::arg("cloud"), py::arg("keypoints") = py::none(), py::arg("view") = "iso",
@@ -167,7 +167,7 @@ void bind_cloud(py::module_& m) {
       "estimate_resolution",
       [](py::handle cloud) {
         const cloud_ptr c = to_cloud(cloud, py::none());
-        py::gil_scoped_release release;
+        released_gil release;
         return ced::estimate_resolution(*c);
       },
       py::arg("cloud"), "Median nearest-neighbour distance over up to 20000 evenly spread points.");
@@ -177,7 +177,7 @@ void bind_cloud(py::module_& m) {
         const cloud_ptr c = to_cloud(cloud, py::none());
         std::vector<float> n;
         {
-          py::gil_scoped_release release;
+          released_gil release;
           n = ced::estimate_normals(*c, radius, threads_for(threads));
         }
         py::array_t<float> out({py::ssize_t(c->size()), py::ssize_t(3)});
@@ -191,7 +191,7 @@ void bind_cloud(py::module_& m) {
       "voxel_downsample",
       [](py::handle cloud, double size) {
         const cloud_ptr c = to_cloud(cloud, py::none());
-        py::gil_scoped_release release;
+        released_gil release;
         return std::make_shared<ced::point_cloud>(ced::voxel_downsample(*c, size).cloud);
       },
       py::arg("cloud"), py::arg("size"), "Voxel-grid down-sampling as PCL's VoxelGrid (fields averaged).");

@@ -87,7 +87,7 @@ ced::detection_result run_interruptible(const ced::point_cloud& cloud, ced::dete
   std::future<ced::detection_result> job;
   bool interrupted = false;
   {
-    py::gil_scoped_release release;
+    released_gil release;
     job = std::async(std::launch::async, [&] { return ced::detect(cloud, params, modalities); });
     while (job.wait_for(std::chrono::milliseconds(20)) != std::future_status::ready) {
       py::gil_scoped_acquire gil;
@@ -266,7 +266,7 @@ std::shared_ptr<result> detect_cloud(py::handle points, py::handle channels, py:
     // outside TBB (bindings.hpp). The result is the same for any
     // thread count; Ctrl-C then stops the outer detection, after it.
     p.threads = 1;
-    py::gil_scoped_release release;
+    released_gil release;
     res->r = ced::detect(*cloud, p, mods);
   } else {
     res->r = run_interruptible(*cloud, p, mods);

@@ -62,7 +62,7 @@ void bind_eval(py::module_& root) {
         if (!(sigma >= 0) || !std::isfinite(sigma)) throw py::value_error("sigma: must be a finite number >= 0");
         const cloud_ptr c = to_cloud(cloud, py::none());
         const rigid_transform t = from_matrix(matrix);
-        py::gil_scoped_release release;
+        released_gil release;
         return std::make_shared<ced::point_cloud>(ced::eval::transform(*c, t, sigma, rng));
       },
       py::arg("cloud"), py::arg("transform"), py::arg("sigma"), py::arg("rng"),

@@ -1,9 +1,36 @@
 // SPDX-License-Identifier: MIT
 // The Python extension module ced._ced (the package `ced` wraps it).
+#include <atomic>
+#include <chrono>
+#include <thread>
+
 #include "bindings.hpp"
 #include "ced/io/output_file.hpp"
 #include "ced/plugin.hpp"
 #include "ced/version.hpp"
+
+namespace ced_python {
+namespace {
+std::atomic<int> g_released{0};      // calls inside released_gil
+std::atomic<bool> g_exiting{false};  // wait_for_released_calls() has begun
+}  // namespace
+
+// The exit wait ends only once each thread is back in Python, holding the
+// GIL, where the interpreter may stop it safely.
+released_gil::counted::counted() {
+  if (g_exiting.load()) throw std::runtime_error("ced: the interpreter is exiting; no new work is started");
+  ++g_released;
+}
+released_gil::counted::~counted() { --g_released; }
+
+void wait_for_released_calls() {
+  g_exiting.store(true);
+  while (g_released.load() > 0) {
+    py::gil_scoped_release release;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+}
+}  // namespace ced_python
 
 PYBIND11_MODULE(_ced, m) {
   namespace py = pybind11;
@@ -19,4 +46,6 @@ PYBIND11_MODULE(_ced, m) {
   ced_python::bind_detect(m);
   ced_python::bind_eval(m);
   ced_python::bind_tiled(m);
+  m.def("_wait_for_released_calls", &ced_python::wait_for_released_calls,
+        "For atexit: waits until no thread is inside ced's C++ work, then refuses new work.");
 }

@@ -215,7 +215,7 @@ void bind_tiled(py::module_& m) {
           [](const ced::tile_part& p, const ced::tile_plan& plan, const py::object& path) {
             const std::string file = path_arg(path, "path");
             check_not_input(plan, "path", file);
-            py::gil_scoped_release release;
+            released_gil release;
             try {
               ced::write_part(file, plan, p);  // refuses a part of another plan
             } catch (const std::invalid_argument& e) {
@@ -263,7 +263,7 @@ void bind_tiled(py::module_& m) {
           r.memory_limit = static_cast<std::uint64_t>(v);
         }
         try {
-          py::gil_scoped_release release;
+          released_gil release;
           return std::make_shared<ced::tile_plan>(ced::plan_tiles(r));
         } catch (const std::invalid_argument& e) {
           // The core names the CLI's option; here it is the argument.
@@ -299,7 +299,7 @@ void bind_tiled(py::module_& m) {
         if (!path.empty()) check_not_input(plan, "part", path);  // before any work
         std::shared_ptr<ced::tile_part> out;
         {
-          py::gil_scoped_release release;
+          released_gil release;
           const ced::tile_points pts = ced::read_tile(plan, tile);
           out = std::make_shared<ced::tile_part>(ced::detect_tile(plan, pts, threads_for(threads)));
           if (!path.empty()) ced::write_part(path, plan, *out);
@@ -326,7 +326,7 @@ void bind_tiled(py::module_& m) {
           else
             throw py::type_error("parts: expected ced.TilePart objects or paths of part files, got " + type_name(h));
         }
-        py::gil_scoped_release release;
+        released_gil release;
         return std::make_shared<ced::tile_part>(ced::merge_parts(plan, std::move(all)));
       },
       py::arg("plan"), py::arg("parts"),

@@ -502,3 +502,22 @@ def test_write_keypoints_of_another_cloud_is_refused(sample, room_file, tmp_path
     with pytest.raises(ValueError, match=r"result: detected on a cloud of 2000 points, not on this one of 24574"):
         ced.write_keypoints(tmp_path / "k.ply", sample, ced.detect(other))
     assert not (tmp_path / "k.ply").exists()
+
+
+def test_a_daemon_thread_inside_detect_at_exit_does_not_abort():
+    # The interpreter stopped the thread when it took the GIL back, inside C++
+    # frames that cannot unwind: "terminate called without an active exception".
+    out = isolated("""
+        import threading, time
+        import numpy as np, ced
+        pts = np.random.default_rng(0).random((300000, 3)).astype(np.float32)
+        started = threading.Event()
+        def work():
+            started.set()
+            ced.detect(pts, modalities="ced3d", radius=0.03)
+        threading.Thread(target=work, daemon=True).start()
+        started.wait()
+        time.sleep(0.05)
+        print("main exits")
+    """)
+    assert "main exits" in out

@@ -11,6 +11,8 @@ reference; the common case is one call::
     print(result.keypoints, result.saliency["xyz"])
 """
 
+import atexit
+
 from ._ced import (
     Cloud,
     FileError,
@@ -36,6 +38,10 @@ from ._ced import (
 from ._ced import _detect, write as _write
 from . import _ced
 from . import eval  # noqa: F401  (ced.eval.repeatability)
+
+# A daemon thread still inside ced's C++ work when the interpreter exits would
+# be stopped in it and abort the process: exit waits for that work instead.
+atexit.register(_ced._wait_for_released_calls)
 
 __all__ = [
     "Cloud", "FileError", "Modality", "PluginError", "Result", "TilePart", "TilePlan", "__version__", "bands",
