@@ -200,20 +200,38 @@ void block_partition::for_each_in_box(const float lo[3], const float hi[3], F&& 
   // Cells in key order, points of a cell in index order: the same order for
   // any part of the cloud that holds the cells' points.
   const auto dx = static_cast<std::int64_t>(m_dims[0]), dy = static_cast<std::int64_t>(m_dims[1]);
+  const auto cell_points = [&](std::size_t c) {
+    for (std::size_t i = m_cell_starts[c]; i < m_cell_starts[c + 1]; ++i) {
+      const std::uint32_t j = m_order[i];
+      const float p[3] = {m_x[i], m_y[i], m_z[i]};
+      if (p[0] >= lo[0] && p[0] <= hi[0] && p[1] >= lo[1] && p[1] <= hi[1] && p[2] >= lo[2] && p[2] <= hi[2]) f(j, p);
+    }
+  };
+  // A box of far more rows than occupied cells between its first and last
+  // key (a box much larger than the cells: knn or adaptive neighbourhoods
+  // with a radius far below the spacing) walks those cells instead, in the
+  // same key order: the same points in the same order.
+  const auto key = [&](std::int64_t x, std::int64_t y, std::int64_t z) {
+    return static_cast<std::uint64_t>((z * dy + y) * dx + x);
+  };
+  const auto rows = static_cast<std::uint64_t>((c1[1] - c0[1] + 1) * (c1[2] - c0[2] + 1));
+  const auto from = std::lower_bound(m_cell_keys.begin(), m_cell_keys.end(), key(c0[0], c0[1], c0[2]));
+  const auto to = std::upper_bound(from, m_cell_keys.end(), key(c1[0], c1[1], c1[2]));
+  if (static_cast<std::uint64_t>(to - from) < rows) {
+    for (auto it = from; it != to; ++it) {
+      const auto x = static_cast<std::int64_t>(*it % std::uint64_t(dx));
+      const auto yz = static_cast<std::int64_t>(*it / std::uint64_t(dx));
+      const std::int64_t y = yz % dy, z = yz / dy;
+      if (x >= c0[0] && x <= c1[0] && y >= c0[1] && y <= c1[1] && z >= c0[2] && z <= c1[2])
+        cell_points(static_cast<std::size_t>(it - m_cell_keys.begin()));
+    }
+    return;
+  }
   for (std::int64_t z = c0[2]; z <= c1[2]; ++z)
     for (std::int64_t y = c0[1]; y <= c1[1]; ++y) {
-      const auto row = static_cast<std::uint64_t>((z * dy + y) * dx);
-      const std::uint64_t first = row + std::uint64_t(c0[0]), last = row + std::uint64_t(c1[0]);
-      auto it = std::lower_bound(m_cell_keys.begin(), m_cell_keys.end(), first);
-      for (; it != m_cell_keys.end() && *it <= last; ++it) {
-        const auto c = static_cast<std::size_t>(it - m_cell_keys.begin());
-        for (std::size_t i = m_cell_starts[c]; i < m_cell_starts[c + 1]; ++i) {
-          const std::uint32_t j = m_order[i];
-          const float p[3] = {m_x[i], m_y[i], m_z[i]};
-          if (p[0] >= lo[0] && p[0] <= hi[0] && p[1] >= lo[1] && p[1] <= hi[1] && p[2] >= lo[2] && p[2] <= hi[2])
-            f(j, p);
-        }
-      }
+      const std::uint64_t first = key(c0[0], y, z), last = key(c1[0], y, z);
+      auto it = std::lower_bound(from, to, first);
+      for (; it != to && *it <= last; ++it) cell_points(static_cast<std::size_t>(it - m_cell_keys.begin()));
     }
 }
 
