@@ -246,6 +246,23 @@ if [ "$dup" -ge 0 ]; then
   merge_bad "an index of another part" "given twice\|outside tile\|comes after"
 fi
 
+# --- A plan of a file read whole (ASCII PCD) with a NaN point: its tiles are the whole run ---
+# (every tile failed with "the file changed since the plan was made": the plan
+# counted the NaN point, the tiles' reader had dropped it)
+awk 'BEGIN { srand(5); n = 1500
+  printf "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH %d\nHEIGHT 1\n", n
+  printf "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS %d\nDATA ascii\n", n
+  for (i = 0; i < n; ++i) if (i == 7) print "nan nan nan"; else print rand(), rand(), rand() }' > "$T/nan.pcd"
+"$CED" plan "$T/nan.pcd" -m xyz:0.2 -r 0.1 --tile-size 0.5 -o "$T/nanplan.json" -q
+nan_tiles=$(python3 -c "import json,sys; print(' '.join(str(t[0]) for t in json.load(open(sys.argv[1]))['tiles']))" \
+  "$T/nanplan.json")
+rm -f "$T"/nan_*.cedpart
+for t in $nan_tiles; do "$CED" detect --plan "$T/nanplan.json" --tile "$t" -o "$T/nan_$t.cedpart" -q; done
+"$CED" merge "$T/nanplan.json" "$T"/nan_*.cedpart --indices "$T/nan_merged.txt" -q
+"$CED" detect "$T/nan.pcd" -m xyz:0.2 -r 0.1 --indices "$T/nan_whole.txt" -q
+check "ASCII PCD with NaN: plan tiles merge to the whole run" cmp -s "$T/nan_merged.txt" "$T/nan_whole.txt"
+check "ASCII PCD with NaN: keypoints found" test -s "$T/nan_whole.txt"
+
 # --- Small tiles under a large halo: only tiles that own points are cached ---
 # (ced6d at r 0.05 has a halo of about 0.4: with tiles of 0.05 a point is
 # near ~4000 tiles, most of them empty air; all of them were cached.)

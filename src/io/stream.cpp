@@ -138,11 +138,14 @@ void box_stream::set_positions(point_cloud& out, const double* x, const double* 
 namespace {
 class whole_file_stream final : public point_stream {
  public:
-  whole_file_stream(const std::string& path, const read_options& options) {
+  // Every point of the file, non-finite ones included, as the streaming
+  // readers give them: the counts of a plan and of its tiles are the file's
+  // (an ASCII PCD read without them failed every tile of its plan).
+  whole_file_stream(const std::string& path, read_options options) {
+    options.keep_nonfinite = true;
     read_report report;
     m_cloud = read_cloud(path, options, &report);
     m_details = report.details;
-    m_dropped = report.nonfinite_removed;
   }
   std::size_t read(std::size_t max, const std::array<double, 3>& origin, point_cloud& out) override {
     const std::size_t n = std::min(max, m_cloud.size() - m_next);
@@ -188,7 +191,7 @@ class whole_file_stream final : public point_stream {
  private:
   point_cloud m_cloud;
   std::string m_details;
-  std::size_t m_next = 0, m_dropped = 0;
+  std::size_t m_next = 0;
 };
 }  // namespace
 
