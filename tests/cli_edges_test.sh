@@ -152,6 +152,15 @@ expect_exit 2 "this run's radius is '0.04'" "radius-factor with a radius" -- \
 "$CED" detect "$sample" -m xyz:0.2 --radius auto --radius-factor 3 --indices "$T/rf.txt" -q
 check "radius-factor with --radius auto runs" test -s "$T/rf.txt"
 
+# --- 6b'. Two modalities that would write one saliency column: refused, not one column lost ---
+expect_exit 2 "would both write the column 'saliency_xyz'" "saliency column clash: -o" -- \
+  detect "$sample" -m xyz:0.2 -m xyz:0.3 -r 0.05 -o "$T/clash.ply" -q
+check "saliency column clash: no output" test ! -e "$T/clash.ply"
+expect_exit 2 "would both write the column 'saliency_bands_red'" "saliency column clash: --viewer" -- \
+  detect "$sample" -m 'bands(red):0.1' -m 'bands(red):0.2' -r 0.05 --viewer "$T/clash.ply" -q
+"$CED" detect "$sample" -m xyz:0.2 -m xyz:0.3 -r 0.05 --indices "$T/clash.txt" -q
+check "saliency column clash: indices alone run" test -s "$T/clash.txt"
+
 # --- 6c. A stray point far from georeferenced data costs precision: said ---
 printf 'ply\nformat ascii 1.0\nelement vertex %s\nproperty double x\nproperty double y\nproperty double z\nend_header\n' \
   5 > "$T/geo.ply"

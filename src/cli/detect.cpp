@@ -168,6 +168,15 @@ detect_plan make_plan(const detect_options& o) {
   detect_plan plan;
   check_numbers(o, plan);
   plan.modalities = chosen_modalities(o);
+  if (!o.output.empty() || !o.viewer.empty()) {
+    std::vector<std::string> names;
+    for (const auto& m : plan.modalities) names.push_back(m.name());
+    try {
+      check_saliency_columns(names);
+    } catch (const std::invalid_argument& e) {
+      throw usage_error(e.what());
+    }
+  }
   plan.view = render_view(o);
   check_png_color(o, plan.modalities);
   if (!o.output.empty()) plan.out_format = ced::io::format_of(o.output);

@@ -101,6 +101,8 @@ std::size_t png_saliency_index(const std::string& name, const std::vector<std::s
 /// The column of a modality's saliency in output clouds: its name with every
 /// character but letters and digits replaced by '_'.
 std::string column_name(const std::string& modality);
+/// std::invalid_argument when two modality names give one saliency column.
+void check_saliency_columns(const std::vector<std::string>& names);
 
 /// -o's cloud: `kp` (the keypoints with their fields) plus saliency_<modality>
 /// fields, saliency[m][k] for keypoint k.
