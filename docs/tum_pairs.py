@@ -51,6 +51,7 @@ import sys
 import urllib.request
 
 import numpy as np
+from slambook_pairs import write_ply  # beside this script in docs/
 
 DEPTH_SCALE, DEPTH_MAX = 5000.0, 4.0
 FR1 = (517.3, 516.5, 318.6, 255.3)  # fx, fy, cx, cy
@@ -117,19 +118,6 @@ def backproject(depth_path, colour_path, fx, fy, cx, cy):
     m = (d > 0) & (d <= DEPTH_MAX) & np.isfinite(d)
     z = d[m]
     return np.stack([(u[m] - cx) * z / fx, (v[m] - cy) * z / fy, z], 1), c[m]
-
-
-def write_ply(path, xyz, rgb):
-    rec = np.zeros(len(xyz), dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("r", "u1"), ("g", "u1"), ("b", "u1")])
-    rec["x"], rec["y"], rec["z"] = xyz[:, 0], xyz[:, 1], xyz[:, 2]
-    rec["r"], rec["g"], rec["b"] = rgb[:, 0], rgb[:, 1], rgb[:, 2]
-    header = (
-        "ply\nformat binary_little_endian 1.0\nelement vertex %d\n"
-        "property float x\nproperty float y\nproperty float z\n"
-        "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n" % len(xyz)
-    )
-    with open(path, "wb") as f:
-        f.write(header.encode() + rec.tobytes())
 
 
 def ground_truth(path):
