@@ -521,10 +521,6 @@ void set_neighborhood(ced::detect_params& params, const std::string& neighborhoo
   }
 }
 
-}  // namespace ced_cli
-
-namespace ced_cli {
-
 void warn_float_precision(const ced::point_cloud& cloud, const std::string& input) {
   // Half a float ulp above 1 cm: |x| > 2^24 x 0.01 m. A test that vectorises
   // first (NaN fails it); the largest only when one passes.

@@ -172,7 +172,7 @@ detect_plan make_plan(const detect_options& o) {
     std::vector<std::string> names;
     for (const auto& m : plan.modalities) names.push_back(m.name());
     try {
-      check_saliency_columns(names);
+      saliency_columns(names);
     } catch (const std::invalid_argument& e) {
       throw usage_error(e.what());
     }

@@ -101,8 +101,9 @@ std::size_t png_saliency_index(const std::string& name, const std::vector<std::s
 /// The column of a modality's saliency in output clouds: its name with every
 /// character but letters and digits replaced by '_'.
 std::string column_name(const std::string& modality);
-/// std::invalid_argument when two modality names give one saliency column.
-void check_saliency_columns(const std::vector<std::string>& names);
+/// The saliency columns of modalities `names` (column_name() of each), or
+/// std::invalid_argument naming two that would give the same column.
+std::vector<std::string> saliency_columns(const std::vector<std::string>& names);
 
 /// -o's cloud: `kp` (the keypoints with their fields) plus saliency_<modality>
 /// fields, saliency[m][k] for keypoint k.

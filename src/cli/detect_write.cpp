@@ -29,20 +29,24 @@ std::string column_name(const std::string& modality) {
   return s;
 }
 
-void check_saliency_columns(const std::vector<std::string>& names) {
-  for (std::size_t a = 0; a < names.size(); ++a)
-    for (std::size_t b = a + 1; b < names.size(); ++b)
-      if (column_name(names[a]) == column_name(names[b]))
-        throw std::invalid_argument("modalities '" + names[a] + "' and '" + names[b] +
-                                    "' would both write the column 'saliency_" + column_name(names[a]) +
+std::vector<std::string> saliency_columns(const std::vector<std::string>& names) {
+  std::vector<std::string> columns;
+  for (const auto& name : names) {
+    columns.push_back(column_name(name));
+    for (std::size_t a = 0; a + 1 < columns.size(); ++a)
+      if (columns[a] == columns.back())
+        throw std::invalid_argument("modalities '" + names[a] + "' and '" + name +
+                                    "' would both write the column 'saliency_" + columns.back() +
                                     "' (of -o and --viewer): give each modality once");
+  }
+  return columns;
 }
 
 ced::point_cloud keypoint_cloud(ced::point_cloud kp, const std::vector<std::string>& names,
                                 const std::vector<std::vector<float>>& saliency) {
-  check_saliency_columns(names);
+  const auto columns = saliency_columns(names);
   for (std::size_t m = 0; m < names.size(); ++m)
-    kp.add_field("saliency_" + column_name(names[m]), ced::scalar_type::float32,
+    kp.add_field("saliency_" + columns[m], ced::scalar_type::float32,
                  std::vector<double>(saliency[m].begin(), saliency[m].end()));
   return kp;
 }
@@ -66,14 +70,14 @@ namespace {
 /// Adds one saliency field per modality to `c`: of every point, or of `subset`'s.
 void add_saliency(ced::point_cloud& c, const ced::detection_result& r, const std::vector<std::uint32_t>* subset,
                   const std::string& prefix) {
-  check_saliency_columns(r.names);
+  const auto columns = saliency_columns(r.names);
   for (std::size_t m = 0; m < r.names.size(); ++m) {
     std::vector<double> v;
     if (subset)
       for (std::uint32_t k : *subset) v.push_back(r.saliency[m][k]);
     else
       v.assign(r.saliency[m].begin(), r.saliency[m].end());
-    c.add_field(prefix + column_name(r.names[m]), ced::scalar_type::float32, std::move(v));
+    c.add_field(prefix + columns[m], ced::scalar_type::float32, std::move(v));
   }
 }
 

@@ -142,7 +142,7 @@ std::vector<eval_detector> at_counts(const std::vector<eval_detector>& detectors
     for (std::size_t n : counts) {
       out.push_back(d);
       out.back().count = n;
-      out.back().keypoint_share = 0;  // exactly N, as every detector of the row (the robust presets' share would cap it)
+      out.back().keypoint_share = 0;  // exactly N, as every row (a robust preset's share would cap it)
       out.back().name += "@" + std::to_string(n);
     }
   }
