@@ -47,6 +47,11 @@ if(CED_COMPILER_HAS_AVX2 AND CMAKE_SYSTEM_PROCESSOR MATCHES "x86_64|AMD64|amd64|
 endif()
 set_source_files_properties(src/core/kernel/block_kernel_generic.cpp PROPERTIES COMPILE_OPTIONS
   "-ffp-contract=off;-Wno-psabi")
+# CGAL's searches are one template instantiation each in this unit: with
+# GCC's default unit growth, adding code here stopped bounded_priority_queue's
+# insert from being inlined into CGAL's k-nearest search (+5 M instructions
+# on loft's --radius auto). More room keeps it inlined.
+set_source_files_properties(src/core/neighbor_index.cpp PROPERTIES COMPILE_OPTIONS "--param=inline-unit-growth=80")
 # CGAL stays private: only src/core/neighbor_index.cpp includes it.
 target_link_libraries(ced_core PUBLIC Threads::Threads PRIVATE CGAL::CGAL ${CMAKE_DL_LIBS})
 if(CED_WITH_TBB)

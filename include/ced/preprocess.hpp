@@ -29,8 +29,16 @@ voxel_result voxel_downsample(const point_cloud& cloud, double size);
 
 /// The cloud's resolution: the median distance from a point to its nearest
 /// other point, over up to `max_samples` points spread evenly through the
-/// cloud (deterministic). 0 for clouds of fewer than two distinct points.
+/// cloud (deterministic). Samples with a coincident twin are left out; when
+/// every sample has one (each point stored several times), the distance to
+/// the nearest point at another position counts instead. 0 for clouds of
+/// fewer than two distinct points.
 double estimate_resolution(const point_cloud& cloud, std::size_t max_samples = 20000);
+
+/// How many points share their position with another point (coincident
+/// points: invalid returns stored at one place, a scan merged with itself).
+/// Positions compare as floats (-0 equals +0); 0 when every point is alone.
+std::size_t coincident_points(const point_cloud& cloud);
 
 /// Quantiles `q` (each in [0, 1]) of the distance from a point to its k-th
 /// nearest point, the point itself counted first (knn:k's own radius, see

@@ -34,6 +34,10 @@ void print_extent(const ced::point_cloud& cloud) {
   std::cout << "bounds: x " << lo[0] + o[0] << " .. " << hi[0] + o[0] << ", y " << lo[1] + o[1] << " .. "
             << hi[1] + o[1] << ", z " << lo[2] + o[2] << " .. " << hi[2] + o[2] << "\n";
   std::cout.precision(6);
+  if (const std::size_t shared = ced::coincident_points(cloud))
+    std::cout << "coincident points: " << shared
+              << " points share a position with another (each counts as a neighbour; invalid returns stored at one "
+                 "place are such points)\n";
   const double res = ced::estimate_resolution(cloud);
   std::cout << "resolution (median nearest-neighbour distance): " << res << "  -> --radius auto = " << 5 * res << "\n";
 }

@@ -123,6 +123,13 @@ void list_block::fill_nearest(const neighbor_index& index, const block_partition
     for (std::size_t q = 0; q < m_count; ++q) m_ranked[q] = {0.0f, m_points[q]};
     return;
   }
+  // A point among k or more coincident ones has them as its k nearest: its
+  // ball would hold every one of them (50,000 invalid returns at the origin
+  // made each point's ball 50,000 points).
+  m_short.clear();
+  for (std::size_t q = 0; q < m_count; ++q)
+    if (!index.coincident_nearest(m_points[q], k, m_ranked.data() + q * k))
+      m_short.push_back(static_cast<std::uint32_t>(q));
   // ρ: the largest k-distance of every 32nd point (bounded by CGAL's k
   // nearest within the tree that holds it), or its adaptive radius if
   // larger (so that the ball holds the point's own ball too). Any ρ
@@ -136,8 +143,6 @@ void list_block::fill_nearest(const neighbor_index& index, const block_partition
     if (n.kind == neighborhood_kind::adaptive) rho = std::max(rho, adaptive_radius(n, k < n.k ? HUGE_VAL : dk));
   }
   rho = rho * 1.25 + 1e-30;  // a quarter to spare: points between the samples may be sparser
-  m_short.resize(m_count);   // m_balls keeps its lists (neighbor_block's default)
-  for (std::size_t q = 0; q < m_count; ++q) m_short[q] = static_cast<std::uint32_t>(q);
   for (int round = 0; round < 3 && !m_short.empty(); ++round, rho *= 2) {
     m_asked.resize(m_short.size());
     for (std::size_t t = 0; t < m_short.size(); ++t) m_asked[t] = m_points[m_short[t]];

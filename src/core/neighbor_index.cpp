@@ -16,8 +16,10 @@
 #include <boost/iterator/function_output_iterator.hpp>
 #include <boost/iterator/transform_iterator.hpp>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
+#include <tuple>
 
 #include "core/parallel.hpp"
 
@@ -52,17 +54,6 @@ using knn = CGAL::Orthogonal_k_neighbor_search<traits, distance, splitter, tree_
 
 point_3 at(const float c[3]) noexcept { return point_3(c[0], c[1], c[2]); }
 
-/// Appends the ids of reported points to a vector (copy-assignable, as the
-/// output iterator needs).
-struct append_id {
-  std::vector<std::uint32_t>* out;
-  void operator()(const indexed_point& k) const { out->push_back(k.id); }
-};
-/// Appends reported points with their positions.
-struct append_located {
-  std::vector<neighbor_index::located_point>* out;
-  void operator()(const indexed_point& k) const { out->push_back({{k.p.x(), k.p.y(), k.p.z()}, k.id}); }
-};
 }  // namespace
 
 namespace {
@@ -87,18 +78,164 @@ bool boxes_meet(const float alo[3], const float ahi[3], const float blo[3], cons
     if (!(alo[k] <= bhi[k] && blo[k] <= ahi[k])) return false;
   return true;
 }
+
+/// Coincident points: more than a bucket's worth of points at one position
+/// would make a degenerate tree (one point split off a level: a recursion
+/// as deep as the points, and searches as slow as a list), so each such
+/// group is one key of the tree, which stands for all of its points.
+struct coincident_groups {
+  /// Each group's point ids, ascending; group g is members[begin[g] .. begin[g + 1]).
+  std::vector<std::uint32_t> members, begin{0};
+  /// (a group's key id, which is its smallest member, group) by key id.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> by_key;
+
+  bool empty() const noexcept { return by_key.empty(); }
+  /// The group whose key is `id`, or UINT32_MAX.
+  [[gnu::noinline]] std::uint32_t group_of_key(std::uint32_t id) const noexcept {
+    const auto it = std::lower_bound(by_key.begin(), by_key.end(), std::make_pair(id, std::uint32_t(0)));
+    return it != by_key.end() && it->first == id ? it->second : UINT32_MAX;
+  }
+  const std::uint32_t* first(std::uint32_t g) const noexcept { return members.data() + begin[g]; }
+  std::size_t size(std::uint32_t g) const noexcept { return begin[g + 1] - begin[g]; }
+};
+
+/// The bits of a coordinate, -0 as +0 (they are the same place).
+std::uint32_t place_bits(float v) noexcept {
+  v += 0.0f;
+  std::uint32_t b;
+  std::memcpy(&b, &v, sizeof b);
+  return b;
+}
+
+/// The groups of more than `bucket` coincident points among order[begin..end)
+/// (or begin..end), found by counting hashed positions first, so that a
+/// cloud without such groups costs one pass and a table of counts.
+coincident_groups find_groups(const float* xyz, const std::uint32_t* order, std::size_t begin, std::size_t end,
+                              unsigned bucket) {
+  coincident_groups g;
+  const std::size_t m = end - begin;
+  if (m <= bucket) return g;
+  std::size_t slots = 64;
+  while (slots < 2 * m) slots *= 2;
+  int shift = 64;
+  for (std::size_t s = slots; s > 1; s /= 2) --shift;
+  const auto hash = [&](std::uint32_t i) {
+    const float* p = xyz + 3 * std::size_t(i);
+    const std::uint64_t h = (place_bits(p[0]) * 0x9E3779B97F4A7C15ull) ^ (place_bits(p[1]) * 0xBF58476D1CE4E5B9ull) ^
+                            (place_bits(p[2]) * 0x94D049BB133111EBull);
+    return std::size_t(h >> shift);
+  };
+  const auto id = [&](std::size_t t) { return order ? order[t] : static_cast<std::uint32_t>(t); };
+  // Counts that stop at 255 (a bucket is far fewer).
+  std::vector<std::uint8_t> count(slots, 0);
+  std::uint8_t most = 0;
+  for (std::size_t t = begin; t < end; ++t) {
+    std::uint8_t& c = count[hash(id(t))];
+    c = static_cast<std::uint8_t>(c + (c != 255));
+    most = std::max(most, c);
+  }
+  if (most <= std::min(bucket, 254u)) return g;  // (a count of 255 is 255 or more)
+  // The points of crowded slots, by position then id: runs of one position.
+  struct placed {
+    std::uint32_t x, y, z, id;
+    bool operator<(const placed& o) const noexcept { return std::tie(x, y, z, id) < std::tie(o.x, o.y, o.z, o.id); }
+  };
+  std::vector<placed> crowded;
+  for (std::size_t t = begin; t < end; ++t) {
+    const std::uint32_t i = id(t);
+    if (count[hash(i)] <= std::min(bucket, 254u)) continue;
+    const float* p = xyz + 3 * std::size_t(i);
+    if (!(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]))) continue;
+    crowded.push_back({place_bits(p[0]), place_bits(p[1]), place_bits(p[2]), i});
+  }
+  std::sort(crowded.begin(), crowded.end());
+  for (std::size_t a = 0, b; a < crowded.size(); a = b) {
+    for (b = a + 1; b < crowded.size() && crowded[b].x == crowded[a].x && crowded[b].y == crowded[a].y &&
+                    crowded[b].z == crowded[a].z;
+         ++b) {
+    }
+    if (b - a <= bucket) continue;
+    g.by_key.push_back({crowded[a].id, static_cast<std::uint32_t>(g.begin.size() - 1)});
+    for (std::size_t q = a; q < b; ++q) g.members.push_back(crowded[q].id);
+    g.begin.push_back(static_cast<std::uint32_t>(g.members.size()));
+  }
+  std::sort(g.by_key.begin(), g.by_key.end());
+  return g;
+}
+
+/// The keys of a tree with groups: every point but the groups' other members.
+std::vector<indexed_point> keys_of(const float* xyz, const std::uint32_t* order, std::size_t begin, std::size_t end,
+                                   const coincident_groups& groups) {
+  std::vector<std::uint8_t> hidden;  // by id - lowest id of the part's groups' members
+  std::vector<std::uint32_t> others;
+  for (std::uint32_t g = 0; g + 1 < groups.begin.size(); ++g)
+    others.insert(others.end(), groups.first(g) + 1, groups.first(g) + groups.size(g));
+  std::sort(others.begin(), others.end());
+  std::vector<indexed_point> keys;
+  keys.reserve(end - begin - others.size());
+  const point_at at{xyz, order};
+  for (std::size_t t = begin; t < end; ++t) {
+    const indexed_point k = at(t);
+    if (!std::binary_search(others.begin(), others.end(), k.id)) keys.push_back(k);
+  }
+  return keys;
+}
 }  // namespace
 
 struct neighbor_index::impl {
   /// One tree over points order[begin..end), and their bounds.
   struct part {
+    const float* points;  // the indexed array (a group's members are read from it)
+    coincident_groups groups;
     tree_type tree;
     float lo[3], hi[3];
-    /// The tree copies its points straight from the array, in the given order.
+    /// The tree copies its points straight from the array, in the given
+    /// order (a group of coincident points as one key).
     part(const float* xyz, const std::uint32_t* order, std::size_t begin, std::size_t end, unsigned bucket)
-        : tree(boost::make_transform_iterator(boost::counting_iterator<std::size_t>(begin), point_at{xyz, order}),
+        : points(xyz),
+          groups(find_groups(xyz, order, begin, end, bucket)),
+          tree(boost::make_transform_iterator(boost::counting_iterator<std::size_t>(groups.empty() ? begin : end),
+                                              point_at{xyz, order}),
                boost::make_transform_iterator(boost::counting_iterator<std::size_t>(end), point_at{xyz, order}),
-               splitter(bucket), traits(point_of{})) {}
+               splitter(bucket), traits(point_of{})) {
+      if (groups.empty()) return;
+      const std::vector<indexed_point> keys = keys_of(xyz, order, begin, end, groups);
+      tree.insert(keys.begin(), keys.end());
+    }
+    /// Appends key `k`'s point at `d2` to `out` and, when it stands for a
+    /// group, its other members: at most `most` of them, the smallest ids,
+    /// and `self` if it is one (the rest are never among the `most` nearest).
+    void take(const indexed_point& k, float d2, std::size_t most, std::uint32_t self,
+              std::vector<neighbor_index::ranked_point>& out) const {
+      out.push_back({d2, k.id});
+      if (!groups.empty()) take_group(k, d2, most, self, out);
+    }
+    [[gnu::noinline]] void take_group(const indexed_point& k, float d2, std::size_t most, std::uint32_t self,
+                                      std::vector<neighbor_index::ranked_point>& out) const {
+      const std::uint32_t g = groups.group_of_key(k.id);
+      if (g == UINT32_MAX) return;
+      const std::uint32_t* m = groups.first(g);
+      const std::size_t n = groups.size(g), shown = std::min(n, most == SIZE_MAX ? most : most + 1);
+      for (std::size_t q = 1; q < shown; ++q) out.push_back({d2, m[q]});
+      if (self != UINT32_MAX && self != k.id && !std::binary_search(m, m + shown, self) &&
+          std::binary_search(m, m + n, self))
+        out.push_back({d2, self});
+    }
+    /// True when key `id` stands for a group (its other members too).
+    [[gnu::noinline, gnu::cold]] bool stands_for_more(std::uint32_t id) const noexcept {
+      return !groups.empty() && groups.group_of_key(id) != UINT32_MAX;
+    }
+    /// Calls out(id) for the point of key `k` and, when it stands for a
+    /// group, for its other members (at most `most` of them, the smallest ids).
+    template <class Out>
+    void expand(const indexed_point& k, Out&& out, std::size_t most = SIZE_MAX) const {
+      out(k.id);
+      if (groups.empty()) return;
+      const std::uint32_t g = groups.group_of_key(k.id);
+      if (g == UINT32_MAX) return;
+      const std::size_t m = std::min(groups.size(g), most == SIZE_MAX ? most : most + 1);
+      for (std::size_t q = 1; q < m; ++q) out(groups.first(g)[q]);
+    }
     /// Once built: the bounds of the tree's points, which CGAL computed.
     void take_bounds() {
       const auto& box = tree.bounding_box();
@@ -110,6 +247,31 @@ struct neighbor_index::impl {
   };
   std::vector<std::unique_ptr<part>> parts;
 };
+
+namespace {
+/// Appends the ids of reported points (a group's every member) to a vector
+/// (copy-assignable, as the output iterator needs).
+struct append_id {
+  std::vector<std::uint32_t>* out;
+  const neighbor_index::impl::part* part;
+  void operator()(const indexed_point& k) const {
+    part->expand(k, [this](std::uint32_t id) { out->push_back(id); });
+  }
+};
+/// Appends reported points with their positions.
+struct append_located {
+  std::vector<neighbor_index::located_point>* out;
+  const neighbor_index::impl::part* part;
+  void operator()(const indexed_point& k) const {
+    part->expand(k, [&](std::uint32_t id) {
+      // A group's other members at their own bits (-0 where the key has +0).
+      const float* p = id == k.id ? nullptr : part->points + 3 * std::size_t(id);
+      out->push_back(p ? neighbor_index::located_point{{p[0], p[1], p[2]}, id}
+                       : neighbor_index::located_point{{k.p.x(), k.p.y(), k.p.z()}, id});
+    });
+  }
+};
+}  // namespace
 
 neighbor_index::neighbor_index(const float* xyz, std::size_t n, unsigned bucket_size, unsigned threads,
                                const std::uint32_t* order)
@@ -134,6 +296,7 @@ neighbor_index::neighbor_index(const float* xyz, std::size_t n, unsigned bucket_
     parts[0] = std::make_unique<impl::part>(xyz, order, 0, n, bucket_size);
     detail::with_threads(threads, [&] { parts[0]->tree.build<CGAL::Parallel_tag>(); });
     parts[0]->take_bounds();
+    index_groups();
     return;
   }
 #endif
@@ -144,6 +307,43 @@ neighbor_index::neighbor_index(const float* xyz, std::size_t n, unsigned bucket_
       parts[t]->take_bounds();
     }
   });
+  index_groups();
+}
+
+void neighbor_index::index_groups() {
+  // A group is the points of one tree at one place; the place may have
+  // points in other trees too: the set is every point there, in any tree.
+  std::vector<std::array<std::uint32_t, 3>> places;
+  for (const auto& part : m_impl->parts)
+    for (const auto& [key, g] : part->groups.by_key) {
+      const float* p = m_xyz + 3 * std::size_t(key);
+      places.push_back({place_bits(p[0]), place_bits(p[1]), place_bits(p[2])});
+    }
+  std::sort(places.begin(), places.end());
+  places.erase(std::unique(places.begin(), places.end()), places.end());
+  std::vector<std::uint32_t> ids;
+  for (const auto& bits : places) {
+    float p[3];
+    for (int k = 0; k < 3; ++k) std::memcpy(&p[k], &bits[std::size_t(k)], sizeof p[k]);
+    box_search(p, p, ids);
+    std::sort(ids.begin(), ids.end());
+    for (std::uint32_t id : ids) m_grouped.push_back({id, m_sets.size()});
+    m_sets.push_back(ids);
+  }
+  std::sort(m_grouped.begin(), m_grouped.end());
+}
+
+bool neighbor_index::coincident_nearest_in_sets(std::uint32_t i, std::size_t k, ranked_point* out) const {
+  if (k == 0) return false;
+  const auto it = std::lower_bound(m_grouped.begin(), m_grouped.end(), std::make_pair(i, std::uint64_t(0)));
+  if (it == m_grouped.end() || it->first != i) return false;
+  const std::vector<std::uint32_t>& set = m_sets[std::size_t(it->second)];
+  if (set.size() < k) return false;
+  out[0] = {0.0f, i};
+  std::size_t n = 1;
+  for (std::size_t m = 0; n < k; ++m)
+    if (set[m] != i) out[n++] = {0.0f, set[m]};
+  return true;
 }
 
 neighbor_index::~neighbor_index() = default;
@@ -160,15 +360,16 @@ void neighbor_index::radius_search(const float c[3], double r, std::vector<std::
     const float* c;
     float r2;
     std::vector<std::uint32_t>* out;
+    const impl::part* part;
     void operator()(const indexed_point& k) const {
       const float q[3] = {k.p.x(), k.p.y(), k.p.z()};
-      if (squared_distance(q, c) < r2) out->push_back(k.id);
+      if (squared_distance(q, c) < r2) part->expand(k, [this](std::uint32_t id) { out->push_back(id); });
     }
   };
   const float qlo[3] = {c[0] - rq, c[1] - rq, c[2] - rq}, qhi[3] = {c[0] + rq, c[1] + rq, c[2] + rq};
   for (const auto& part : m_impl->parts) {
     if (!boxes_meet(qlo, qhi, part->lo, part->hi)) continue;
-    auto sink = boost::make_function_output_iterator(strict_filter{c, r2, &out});
+    auto sink = boost::make_function_output_iterator(strict_filter{c, r2, &out, part.get()});
     part->tree.search(sink, sphere(at(c), rq, 0.0f, part->tree.traits()));
   }
 }
@@ -180,7 +381,7 @@ std::size_t neighbor_index::home_tree(std::size_t position, std::size_t k) const
   std::size_t t = position * parts.size() / m_n;
   while (t + 1 < parts.size() && m_n * (t + 1) / parts.size() <= position) ++t;
   while (t > 0 && m_n * t / parts.size() > position) --t;
-  return parts[t]->tree.size() >= k ? t : SIZE_MAX;
+  return parts[t]->tree.size() >= k ? t : SIZE_MAX;  // (k keys: at least k points)
 }
 
 float neighbor_index::k_distance_bound(const float c[3], std::size_t k, std::size_t position,
@@ -225,7 +426,7 @@ void neighbor_index::k_nearest(const float c[3], std::size_t k, std::uint32_t se
     const knn search(part->tree, at(c), static_cast<unsigned>(ask), 0.0f, true, distance(point_of{}), false);
     for (const auto& hit : search) {
       const float q[3] = {hit.first.p.x(), hit.first.p.y(), hit.first.p.z()};
-      out.push_back({squared_distance(q, c), hit.first.id});
+      part->take(hit.first, squared_distance(q, c), ask, self, out);
     }
   }
   if (one_tree && out.size() <= k) {  // the whole index
@@ -255,16 +456,19 @@ void neighbor_index::k_nearest(const float c[3], std::size_t k, std::uint32_t se
   struct within_bound {
     const float* c;
     float bound;
+    const impl::part* part;
+    std::size_t k;
+    std::uint32_t self;
     std::vector<ranked_point>* out;
     void operator()(const indexed_point& key) const {
       const float q[3] = {key.p.x(), key.p.y(), key.p.z()};
       const float d2 = squared_distance(q, c);
-      if (d2 <= bound) out->push_back({d2, key.id});
+      if (d2 <= bound) part->take(key, d2, k, self, *out);
     }
   };
   for (const auto& part : m_impl->parts) {
     if (!boxes_meet(qlo, qhi, part->lo, part->hi)) continue;
-    auto sink = boost::make_function_output_iterator(within_bound{c, bound, &out});
+    auto sink = boost::make_function_output_iterator(within_bound{c, bound, part.get(), k, self, &out});
     part->tree.search(sink, sphere(at(c), rq, 0.0f, part->tree.traits()));
   }
   if (out.size() > k) {
@@ -285,7 +489,30 @@ float neighbor_index::nearest_other_distance(std::uint32_t i) const {
     const knn search(part->tree, at(p), 2, 0.0f, true, distance(point_of{}));
     for (const auto& hit : search) {
       const std::uint32_t j = hit.first.id;
-      if (j != i) best = std::min(best, std::sqrt(squared_distance(m_xyz + 3 * std::size_t(j), p)));
+      // (A group's key stands for two points or more: one of them is not i.)
+      if (j != i || part->stands_for_more(j))
+        best = std::min(best, std::sqrt(squared_distance(m_xyz + 3 * std::size_t(j), p)));
+    }
+  }
+  return best;
+}
+
+float neighbor_index::nearest_distinct_distance(std::uint32_t i) const {
+  if (i >= m_n) throw std::out_of_range("neighbor_index::nearest_distinct_distance: index out of range");
+  const float* p = m_xyz + 3 * std::size_t(i);
+  float best = std::numeric_limits<float>::infinity();
+  // Keys at p's position: light duplicates (at most a bucket of them) and
+  // one key a group, so a few doublings of k reach past them.
+  for (const auto& part : m_impl->parts) {
+    const std::size_t keys = part->tree.size();
+    for (std::size_t k = 2;; k *= 2) {
+      const knn search(part->tree, at(p), static_cast<unsigned>(std::min(k, keys)), 0.0f, true, distance(point_of{}));
+      bool found = false;
+      for (const auto& hit : search) {
+        const float d2 = squared_distance(m_xyz + 3 * std::size_t(hit.first.id), p);
+        if (d2 > 0) best = std::min(best, std::sqrt(d2)), found = true;
+      }
+      if (found || k >= keys) break;
     }
   }
   return best;
@@ -295,7 +522,7 @@ void neighbor_index::box_search(const float lo[3], const float hi[3], std::vecto
   out.clear();
   for (const auto& part : m_impl->parts)
     if (boxes_meet(lo, hi, part->lo, part->hi))
-      part->tree.search(boost::make_function_output_iterator(append_id{&out}),
+      part->tree.search(boost::make_function_output_iterator(append_id{&out, part.get()}),
                         iso_box(at(lo), at(hi), 0.0f, part->tree.traits()));
 }
 
@@ -303,7 +530,7 @@ void neighbor_index::box_search(const float lo[3], const float hi[3], std::vecto
   out.clear();
   for (const auto& part : m_impl->parts)
     if (boxes_meet(lo, hi, part->lo, part->hi))
-      part->tree.search(boost::make_function_output_iterator(append_located{&out}),
+      part->tree.search(boost::make_function_output_iterator(append_located{&out, part.get()}),
                         iso_box(at(lo), at(hi), 0.0f, part->tree.traits()));
 }
 

@@ -20,6 +20,10 @@ namespace ced {
 /// and report their points tree after tree. The number of trees depends on
 /// the number of points only, so results never depend on the thread count.
 ///
+/// More than `bucket_size` points at one position (invalid LiDAR returns
+/// stored at the origin) are one key of their tree, which stands for each of
+/// them: the tree stays balanced and a search reports every one of them.
+///
 /// Semantics match the CED paper's implementation (FLANN): point j is a
 /// neighbour of centre c when the squared distance, computed in float, is
 /// strictly less than r² (float).
@@ -75,6 +79,17 @@ class neighbor_index {
   /// Distance from point i (an index of the indexed set) to its nearest
   /// other point (0 for a duplicate; +inf when it is alone).
   float nearest_other_distance(std::uint32_t i) const;
+  /// When point i is one of more than a bucket's worth of coincident points
+  /// (see above), and at least k of them: its k nearest into `out` (as
+  /// k_nearest gives them: i, then the others by index, all at distance 0)
+  /// and true. Else false, `out` unchanged. Cheap when the index has no
+  /// such group.
+  bool coincident_nearest(std::uint32_t i, std::size_t k, ranked_point* out) const {
+    return !m_grouped.empty() && coincident_nearest_in_sets(i, k, out);
+  }
+  /// Distance from point i to the nearest point at another position (+inf
+  /// when every point is at i's position).
+  float nearest_distinct_distance(std::uint32_t i) const;
 
   /// Replaces `out` with the indices of all points inside the closed box
   /// [lo, hi] (deterministic order, not sorted).
@@ -88,12 +103,20 @@ class neighbor_index {
   /// the tree itself, so the caller need not look them up).
   void box_search(const float lo[3], const float hi[3], std::vector<located_point>& out) const;
 
- private:
   struct impl;
+
+ private:
   /// The tree that holds position `position` of the order, if it has at
   /// least k points (SIZE_MAX otherwise, or when position is unknown).
   std::size_t home_tree(std::size_t position, std::size_t k) const noexcept;
+  /// Fills m_sets and m_grouped from the trees' groups.
+  void index_groups();
+  bool coincident_nearest_in_sets(std::uint32_t i, std::size_t k, ranked_point* out) const;
   std::unique_ptr<impl> m_impl;
+  /// The points at each place that holds a coincident group (in any tree),
+  /// ids ascending; and every such point with its set, by id.
+  std::vector<std::vector<std::uint32_t>> m_sets;
+  std::vector<std::pair<std::uint32_t, std::uint64_t>> m_grouped;
   const float* m_xyz = nullptr;
   std::size_t m_n = 0;
 };

@@ -2,7 +2,9 @@
 #include "ced/preprocess.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -111,9 +113,34 @@ double estimate_resolution(const point_cloud& cloud, std::size_t max_samples) {
     const float v = index.nearest_other_distance(static_cast<std::uint32_t>(s * n / samples));
     if (v > 0 && std::isfinite(v)) d.push_back(v);
   }
+  // Every sample has a twin (each point stored two times or more): the
+  // spacing is that of the distinct positions.
+  if (d.empty())
+    for (std::size_t s = 0; s < samples; ++s) {
+      const float v = index.nearest_distinct_distance(static_cast<std::uint32_t>(s * n / samples));
+      if (v > 0 && std::isfinite(v)) d.push_back(v);
+    }
   if (d.empty()) return 0.0;
   std::nth_element(d.begin(), d.begin() + std::ptrdiff_t(d.size() / 2), d.end());
   return d[d.size() / 2];
+}
+
+std::size_t coincident_points(const point_cloud& cloud) {
+  const std::size_t n = cloud.size();
+  std::vector<std::array<std::uint32_t, 3>> at(n);
+  for (std::size_t i = 0; i < n; ++i)
+    for (int k = 0; k < 3; ++k) {
+      float v = cloud.position(i)[k] + 0.0f;  // -0 as +0: one place
+      std::memcpy(&at[i][std::size_t(k)], &v, sizeof v);
+    }
+  std::sort(at.begin(), at.end());
+  std::size_t shared = 0;
+  for (std::size_t a = 0, b; a < n; a = b) {
+    for (b = a + 1; b < n && at[b] == at[a]; ++b) {
+    }
+    if (b - a > 1) shared += b - a;
+  }
+  return shared;
 }
 
 std::vector<double> k_distance_quantiles(const point_cloud& cloud, std::size_t k, const std::vector<double>& q,

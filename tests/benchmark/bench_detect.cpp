@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "ced/ced.hpp"
+#include "ced/preprocess.hpp"
 #include "core/neighbor_block.hpp"
 #include "core/neighbor_index.hpp"
 #ifdef CED_HAS_PCL
@@ -243,6 +244,45 @@ void bm_generated(benchmark::State& state) {
       benchmark::Counter(double(n), benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 
+/// 10,000 points spread over 10 x 10 x 1 m, and with `crowd` 50,000 more
+/// at (0, 0, 0), as LiDAR stores invalid returns (#57).
+const ced::point_cloud& crowded_cloud(bool crowd) {
+  static ced::point_cloud clouds[2];
+  ced::point_cloud& c = clouds[crowd];
+  if (!c.empty()) return c;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (int i = 0; i < 60000; ++i)
+    if (i % 6 == 0)
+      c.push_back(u(rng) * 10, u(rng) * 10, u(rng));
+    else if (crowd)
+      c.push_back(0, 0, 0);
+  return c;
+}
+
+/// What coincident points cost (#57): the resolution estimate and the
+/// detection at r = 0.5 by each neighbourhood, with the 50,000 points at the
+/// origin (arg 1) and without them (arg 0). Before, the estimate crashed and
+/// knn:8 took over 20 s with them; the other points took 0.1 s.
+void bm_crowded(benchmark::State& state, const std::string& what) {
+  const ced::point_cloud& c = crowded_cloud(state.range(0) != 0);
+  ced::detect_params p;
+  p.radius = p.nms_radius = 0.5;
+  p.threads = 1;
+  if (what != "resolution" && what != "radius")
+    p.neighborhood = ced::parse_neighborhood(what.substr(0, what.find('_')));
+  if (what.find("_cgal") != std::string::npos) p.search = ced::search_kind::cgal;
+  for (auto _ : state) {
+    if (what == "resolution") {
+      benchmark::DoNotOptimize(ced::estimate_resolution(c));
+      continue;
+    }
+    const auto r = ced::detect(c, p, ced::xyz{});
+    benchmark::DoNotOptimize(r.keypoints.data());
+  }
+  state.counters["points"] = double(c.size());
+}
+
 }  // namespace
 
 /// Resident memory now (`VmRSS`) or at its peak since the last reset
@@ -379,6 +419,12 @@ int main(int argc, char** argv) {
                    mine.size(), base.size(), common);
     }
   }
+  for (const char* what : {"resolution", "knn:8", "adaptive:8", "knn:8_cgal", "radius"})
+    benchmark::RegisterBenchmark((std::string("crowded/") + what).c_str(), bm_crowded, std::string(what))
+        ->Arg(0)
+        ->Arg(1)
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime();
   for (const auto& name : names) {
     for (int t : {1, 2}) {
       benchmark::RegisterBenchmark(("ced6d/" + name).c_str(), bm_ced, name, std::string("ced6d"))
