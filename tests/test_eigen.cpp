@@ -166,6 +166,16 @@ TEST(Eigen, BadInputIsAClearError) {
       "channels['intensity']: 9 values, but there are 10 points");
   Eigen::MatrixXf two(10, 2);
   expect_error([&] { ced::from_eigen(pts, {{"a,b,c", two}}); }, "names 3 columns but the array has 2");
+  // A field given twice was kept once without a word (#57).
+  Eigen::VectorXf intensity = Eigen::VectorXf::Random(10);
+  expect_error(
+      [&] {
+        ced::from_eigen(pts, {{"intensity", intensity}, {"intensity", intensity}});
+      },
+      "channels['intensity']: the field 'intensity' is given twice");
+  Eigen::MatrixXf rgb = Eigen::MatrixXf::Random(10, 3);
+  expect_error([&] { ced::from_eigen(pts, {{"rgb", rgb}, {"red", intensity}}); }, "the field 'red' is given twice");
+  expect_error([&] { ced::from_eigen(pts, {{"a,a", two}}); }, "the field 'a' is named twice");
   expect_error([&] { ced::detect(pts, p, ced::rgb{}); }, "red");  // the modality names the missing field
 }
 

@@ -96,8 +96,12 @@ std::vector<std::string> channel_field_names(const std::string& name, std::size_
     else
       for (std::size_t j = 0; j < k; ++j) names.push_back(name + "_" + std::to_string(j));
   }
-  for (const auto& n : names)
-    if (n.empty()) throw std::invalid_argument(std::string(what) + ": empty field name");
+  for (std::size_t j = 0; j < names.size(); ++j) {
+    if (names[j].empty()) throw std::invalid_argument(std::string(what) + ": empty field name");
+    for (std::size_t i = 0; i < j; ++i)
+      if (names[i] == names[j])
+        throw std::invalid_argument(std::string(what) + ": the field '" + names[j] + "' is named twice");
+  }
   return names;
 }
 

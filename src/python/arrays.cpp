@@ -106,6 +106,9 @@ void add_channel(ced::point_cloud& cloud, const std::string& name, py::handle va
   const ced::scalar_type type = storage_type(a, argument);
   const py::ssize_t k = a.ndim() == 2 ? a.shape(1) : 1;
   const auto names = ced::channel_field_names(name, std::size_t(k), argument);
+  for (const auto& n : names)
+    if (cloud.find_field(n))
+      throw py::value_error(argument + ": the field '" + n + "' is given twice (by another channel or the cloud)");
   for (py::ssize_t j = 0; j < k; ++j) cloud.add_field(names[std::size_t(j)], to_column(a, type, j));
 }
 
@@ -248,6 +251,8 @@ std::vector<std::uint32_t> to_indices(py::handle indices, const std::string& arg
   const py::array given = py::array::ensure(indices);
   if (given) {
     const char kind = given.dtype().kind();
+    // An empty list or tuple becomes a float64 array: it asks for no points.
+    if (given.size() == 0 && given.ndim() == 1 && !py::isinstance<py::array>(indices)) return {};
     if (kind == 'b')
       throw py::type_error(argument + ": expected indices, got a boolean mask (pass np.flatnonzero(mask))");
     if (kind != 'i' && kind != 'u')

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "ced/ced.hpp"
+#include "ced/tiled.hpp"
 
 namespace ced_python {
 
@@ -112,4 +113,47 @@ void bind_detect(py::module_& m);
 void bind_eval(py::module_& m);
 void bind_tiled(py::module_& m);
 
+/// Throws TypeError when `src` is an instance of `type` (or of a Python
+/// subclass) whose C++ value was never made: an object from
+/// `Class.__new__(Class)` without `__init__` or `__setstate__`. pybind11
+/// would otherwise hand its methods uninitialised memory.
+void check_initialised(py::handle src, const std::type_info& type);
+
 }  // namespace ced_python
+
+/// The casters of ced's bound classes, by value and by holder: as pybind11's
+/// own, after check_initialised(). Declare one with CED_PYTHON_CHECKED_CLASS
+/// in every translation unit that converts the type (before its first use).
+namespace ced_python::detail {
+template <class T>
+struct checked_caster : pybind11::detail::type_caster_base<T> {
+  bool load(pybind11::handle src, bool convert) {
+    check_initialised(src, typeid(T));
+    return pybind11::detail::type_caster_base<T>::load(src, convert);
+  }
+};
+template <class T, class Holder>
+struct checked_holder_caster : pybind11::detail::copyable_holder_caster<T, Holder> {
+  bool load(pybind11::handle src, bool convert) {
+    check_initialised(src, typeid(T));
+    return pybind11::detail::copyable_holder_caster<T, Holder>::load(src, convert);
+  }
+};
+}  // namespace ced_python::detail
+
+#define CED_PYTHON_CHECKED_CLASS(T)                                       \
+  namespace pybind11::detail {                                            \
+  template <>                                                             \
+  class type_caster<T> : public ced_python::detail::checked_caster<T> {}; \
+  }
+#define CED_PYTHON_CHECKED_HOLDER(T)                                                                                  \
+  CED_PYTHON_CHECKED_CLASS(T)                                                                                         \
+  namespace pybind11::detail {                                                                                        \
+  template <>                                                                                                         \
+  class type_caster<std::shared_ptr<T>> : public ced_python::detail::checked_holder_caster<T, std::shared_ptr<T>> {}; \
+  }
+
+CED_PYTHON_CHECKED_HOLDER(ced::point_cloud)
+CED_PYTHON_CHECKED_HOLDER(ced::tile_plan)
+CED_PYTHON_CHECKED_HOLDER(ced::tile_part)
+CED_PYTHON_CHECKED_CLASS(ced::any_modality)

@@ -44,6 +44,14 @@ struct result {
   double keypoint_share = 0;
 };
 
+}  // namespace
+}  // namespace ced_python
+
+CED_PYTHON_CHECKED_HOLDER(ced_python::result)
+
+namespace ced_python {
+namespace {
+
 /// Unique keys for the modalities (a name given twice gets "#2", ...).
 std::vector<std::string> keys(const std::vector<std::string>& names) {
   std::vector<std::string> out;

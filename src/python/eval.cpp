@@ -11,6 +11,8 @@
 
 #include "bindings.hpp"
 
+CED_PYTHON_CHECKED_CLASS(std::mt19937_64)
+
 namespace ced_python {
 namespace {
 

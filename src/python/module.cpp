@@ -30,6 +30,17 @@ void wait_for_released_calls() {
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
 }
+
+void check_initialised(py::handle src, const std::type_info& type) {
+  const auto* info = py::detail::get_type_info(type);
+  if (!info || !src || !PyObject_TypeCheck(src.ptr(), info->type)) return;  // not of the type: pybind11's own checks
+  auto* inst = reinterpret_cast<py::detail::instance*>(src.ptr());
+  const auto v_h = inst->get_value_and_holder(info, false);
+  if (v_h && v_h.instance_registered()) return;
+  const std::string name = py::str(py::handle(reinterpret_cast<PyObject*>(info->type)).attr("__qualname__"));
+  throw py::type_error("ced." + name + " object is not initialised (made by " + name + ".__new__ without __init__); " +
+                       "create it with ced." + name + "(...) or the function that returns one");
+}
 }  // namespace ced_python
 
 PYBIND11_MODULE(_ced, m) {

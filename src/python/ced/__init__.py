@@ -129,6 +129,10 @@ def _from_open3d(pcd, channels):
 
     points = np.asarray(pcd.points)
     extra = {}
+    # Open3D's has_colors()/has_normals() are False when the counts differ from the points': say so instead.
+    for what, values in (("colours", pcd.colors), ("normals", pcd.normals)):
+        if len(values) and len(values) != len(points):
+            raise ValueError(f"Open3D cloud: {len(values)} {what} for {len(points)} points")
     if pcd.has_colors():
         colors = np.asarray(pcd.colors)
         as8 = np.rint(colors * 255.0)
