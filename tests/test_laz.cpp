@@ -365,8 +365,11 @@ TEST(LazMalformed, LaszipVlr) {
   EXPECT_CONTAINS(with(o.vlr + 34 + 4, 1), "of versions 1 and 2 mixed");
   EXPECT_CONTAINS(with(o.vlr + 34 + 4, 5),
                   "point10 v5 (20 bytes): not supported (pointwise items are versions 1 and 2");
-  EXPECT_CONTAINS(with(o.vlr + 34 + 6, 9), "do not match point format 3");       // gpstime11 -> wavepacket13
-  EXPECT_CONTAINS(with(o.vlr + 34 + 12 + 2, 7), "do not match point format 3");  // rgb12 of 7 bytes
+  EXPECT_CONTAINS(with(o.vlr + 34 + 6, 9), "do not match point format 3");  // gpstime11 -> wavepacket13
+  // An item whose size lies is named with its size (it was "do not match point format 3").
+  EXPECT_CONTAINS(with(o.vlr + 34 + 12 + 2, 7), "item 3, rgb12, says it has 7 bytes; that item has 6");
+  EXPECT_CONTAINS(with(o.vlr + 34 + 12 + 2, 8), "item 3, rgb12, says it has 8 bytes; that item has 6");
+  EXPECT_CONTAINS(with(o.vlr + 34 + 2, 0), "item 1, point10, says it has 0 bytes; that item has 20");
   EXPECT_CONTAINS(with(o.vlr + 32, 40), "items do not fit");
   {
     std::string b = file;  // the point format byte says LAZ, but no VLR says how

@@ -195,6 +195,11 @@ TEST(Neighborhoods, BadSpecsNameTheParameter) {
       {"adaptive:8,min=-1", "min must be"},
       {"adaptive:8,max=0", "max must be"},
       {"adaptive:8,foo=1", "unknown option"},
+      {"knn:8,", "an empty option"},  // (#57: accepted, while "adaptive:8,,max=1" was refused)
+      {"adaptive:8,", "an empty option"},
+      {"adaptive:8,max=1,", "an empty option"},
+      {"knn:8,nms=own, ", "an empty option"},
+      {"adaptive:8,,max=1", "an empty option"},
       {"adaptive:8,scale=1,scale=2", "given twice"},
       {"sphere", "must be radius, knn:K"},
   };

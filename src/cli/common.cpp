@@ -15,6 +15,7 @@
 #include <fstream>
 #include <iostream>
 #include <limits>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -233,8 +234,13 @@ std::vector<std::string> expand_config(const std::vector<std::string>& args, CLI
   if (path.empty()) throw usage_error("--config: no file given");
   const std::vector<CLI::ConfigItem> items = read_config_items(path);
   std::vector<std::string> out(args.begin(), sub + 1);
+  std::map<std::string, std::string> where;  // option -> the key that gave it (a section's keys count too)
   for (const auto& item : items) {
     if (item.name == "++" || item.name == "--") continue;  // TOML section markers
+    const auto [at, added] = where.emplace(item.name, item.fullname());
+    if (!added)
+      throw usage_error("--config " + path + ": '" + item.name + "' is given twice ('" + at->second + "' and '" +
+                        item.fullname() + "')");
     const CLI::Option* opt = det.get_option_no_throw("--" + item.name);
     if (!opt || item.name == "config") throw usage_error("--config " + path + ": unknown key '" + item.name + "'");
     if (opt->get_expected_max() == 0) {  // a flag (CLI11 gives flags a type size of 1)
@@ -268,13 +274,53 @@ void harden_options(CLI::App* app) {
   const CLI::Validator non_empty(
       [](std::string& v) { return v.empty() ? std::string("an empty path: give a file name") : std::string(); },
       "PATH");
+  const auto decimal_digits = [](std::string& v, bool sign) {
+    std::size_t digits = v.size() > 1 && (v[0] == '+' || (sign && v[0] == '-')) ? 1 : 0;
+    if (v.size() == digits || v.find_first_not_of("0123456789", digits) != std::string::npos)
+      return v.empty()     ? std::string("an empty value: give a whole number")
+             : v[0] == '-' ? "'" + v + "' is negative: give a whole number from 0"
+                           : "'" + v + "' is not a whole decimal number";
+    std::size_t zeros = digits;
+    while (zeros + 1 < v.size() && v[zeros] == '0') ++zeros;
+    v.erase(digits, zeros - digits);
+    return std::string();
+  };
+  // (An unsigned option read "-1" as 2^64 - 1.)
+  const CLI::Validator unsigned_decimal([=](std::string& v) { return decimal_digits(v, false); }, "");
   const CLI::Validator decimal(
       [](std::string& v) {
         std::size_t digits = v.size() > 1 && (v[0] == '-' || v[0] == '+') ? 1 : 0;
+        if (v.size() == digits || v.find_first_not_of("0123456789", digits) != std::string::npos)
+          return v.empty() ? std::string("an empty value: give a whole number")
+                           : "'" + v + "' is not a whole decimal number";
         std::size_t zeros = digits;
         while (zeros + 1 < v.size() && v[zeros] == '0') ++zeros;
-        if (zeros > digits && v.find_first_not_of("0123456789", digits) == std::string::npos)
-          v.erase(digits, zeros - digits);
+        v.erase(digits, zeros - digits);
+        return std::string();
+      },
+      "");
+  // Numbers: decimal and finite. CLI11 reads "" as 0 and takes hexadecimal
+  // ("0x10", "0x1p4"), "nan" and "inf" as C's strtod does.
+  const CLI::Validator finite(
+      [](std::string& v) {
+        if (v.empty()) return std::string("an empty value: give a number");
+        if (v.find_first_of("xX") != std::string::npos) return "'" + v + "' is not a decimal number";
+        const char* b = v.c_str();
+        char* e = nullptr;
+        const double d = std::strtod(b, &e);
+        if (e != b && *e == '\0' && !std::isfinite(d)) return "'" + v + "' is not a finite number";
+        return std::string();
+      },
+      "");
+  // Options kept as text that take a number or a list of them (or "auto",
+  // "4G"), and numbers with a check of their own (which reads C's way):
+  // never empty, never hexadecimal.
+  static const char* const numbers_as_text[] = {"radius",     "keypoint-share", "tile-size", "memory-limit",
+                                                "nms-radius", "noise",          "counts"};
+  const CLI::Validator number_text(
+      [](std::string& v) {
+        if (v.empty()) return std::string("an empty value: give a number");
+        if (v.find_first_of("xX") != std::string::npos) return "'" + v + "' is not a decimal number";
         return std::string();
       },
       "");
@@ -284,11 +330,22 @@ void harden_options(CLI::App* app) {
       if (name == n) return true;
     return false;
   };
-  for (CLI::Option* opt : app->get_options([](const CLI::Option*) { return true; }))
+  for (CLI::Option* opt : app->get_options([](const CLI::Option*) { return true; })) {
+    bool count = false;
     for (const std::string& l : opt->get_lnames()) {
       if (is_in(l, outputs)) opt->check(non_empty);
-      if (is_in(l, counts)) opt->transform(decimal);
+      if (is_in(l, counts)) count = true;
+      if (is_in(l, numbers_as_text)) opt->check(number_text);
     }
+    if (opt->get_expected_max() == 0) continue;  // a flag
+    const std::string type = opt->get_type_name();
+    if (type == "UINT")
+      opt->transform(unsigned_decimal);
+    else if (count || type == "INT")
+      opt->transform(decimal);
+    else if (type == "FLOAT")
+      opt->check(finite);
+  }
   for (CLI::App* sub : app->get_subcommands([](CLI::App*) { return true; })) harden_options(sub);
 }
 
@@ -530,9 +587,12 @@ void warn_float_precision(const ced::point_cloud& cloud, const std::string& inpu
   int beyond = 0;
   for (std::size_t i = 0; i < m; ++i) beyond |= std::fabs(p[i]) > limit;
   if (!beyond) return;
+  // The farthest finite coordinate: a non-finite point is no far point (it is
+  // dropped, or refused, on its own).
   float far = 0;
   for (std::size_t i = 0; i < m; ++i)
-    if (std::fabs(p[i]) > far) far = std::fabs(p[i]);
+    if (std::fabs(p[i]) > far && std::isfinite(p[i])) far = std::fabs(p[i]);
+  if (!(far > limit)) return;
   const auto& o = cloud.origin();
   std::fprintf(stderr,
                "ced: warning: %s: points lie up to %.0f m from the cloud's origin (%.3f, %.3f, %.3f) on an axis, so "

@@ -217,8 +217,14 @@ void pair_row(const eval_detector& d, const pair_setup& ps, std::size_t& last_co
   const double chance = ps.pair.random_relative(a.keypoints.size(), b.keypoints.size(), std::size_t(ps.draws), draws);
   const double lift = chance > 0 ? r.relative() / chance : std::nan("");
   const double ms = (a.ms + b.ms) / 2;
-  std::printf("%-28s %-10s %7zu %7zu %8zu %8.3f %8.3f %6.2f %8.1f\n", d.name.c_str(), pair, r.source_keypoints,
-              r.overlap_keypoints, r.repeated, r.relative(), chance, lift, ms);
+  // No lift without a chance to beat: no keypoint in the overlap (the clouds
+  // do not overlap), or none that a random detector repeats.
+  const std::string no_lift = r.overlap_keypoints == 0 ? "no overlap" : "n/a";
+  char lift_text[32];
+  std::snprintf(lift_text, sizeof lift_text, "%6.2f", lift);
+  std::printf("%-28s %-10s %7zu %7zu %8zu %8.3f %8.3f %6s %8.1f\n", d.name.c_str(), pair, r.source_keypoints,
+              r.overlap_keypoints, r.repeated, r.relative(), chance, std::isfinite(lift) ? lift_text : no_lift.c_str(),
+              ms);
   if (std::isfinite(lift)) {
     st.sum += lift;
     ++st.n;
@@ -228,10 +234,15 @@ void pair_row(const eval_detector& d, const pair_setup& ps, std::size_t& last_co
                  "ced eval: warning: %s on %s: only %zu keypoints lie in the overlap (fewer than 50): its "
                  "figures are noisy\n",
                  d.name.c_str(), pair, r.overlap_keypoints);
-  if (csv)
+  if (csv) {
     *csv << '"' << d.name << "\",\"" << ps.in.name << "\"," << r.source_keypoints << ',' << r.target_keypoints << ','
-         << r.overlap_keypoints << ',' << r.repeated << ',' << r.relative() << ',' << chance << ',' << lift << ',' << ms
-         << '\n';
+         << r.overlap_keypoints << ',' << r.repeated << ',' << r.relative() << ',' << chance << ',';
+    if (std::isfinite(lift))
+      *csv << lift;
+    else
+      *csv << no_lift;
+    *csv << ',' << ms << '\n';
+  }
 }
 
 /// The match distance of a given pair: --epsilon × resolution when given,

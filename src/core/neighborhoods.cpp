@@ -47,10 +47,15 @@ neighborhood_spec parse_neighborhood(const std::string& text) {
   rest.remove_prefix(comma + 1);
   const bool knn = n.kind == neighborhood_kind::knn;
   bool seen[5] = {false, false, false, false, false};
-  while (!rest.empty()) {
+  // Every comma is followed by an option: "knn:8," and "adaptive:8,max=1,"
+  // leave one out, as "adaptive:8,,max=1" does.
+  for (bool more = true; more;) {
     const auto end = rest.find(',');
     const std::string_view option = rest.substr(0, end);
-    rest.remove_prefix(end == std::string_view::npos ? rest.size() : end + 1);
+    more = end != std::string_view::npos;
+    rest.remove_prefix(more ? end + 1 : rest.size());
+    if (detail::trim(option).empty())
+      throw std::invalid_argument("neighbourhood '" + t + "': an empty option (a trailing or doubled comma)");
     const auto eq = option.find('=');
     const std::string key(detail::trim(option.substr(0, eq)));
     const int slot = key == "nms"     ? 3

@@ -5,8 +5,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <stdexcept>
 #include <string>
+
+#include "core/text.hpp"
 
 namespace ced {
 
@@ -18,8 +21,17 @@ void validate(const detect_params& p) {
       throw std::invalid_argument(std::string(what) + " must be a positive finite number of at most 1e30, got " +
                                   std::to_string(v));
   };
+  // A normal double: of a denormal radius, a threshold's 0.2 r may be 0, which made every point a candidate
+  // (r = 1e-323: all of them keypoints). Any radius from there on below the spacing finds nothing.
+  auto not_tiny = [](double v, const char* what) {
+    if (v < std::numeric_limits<double>::min())
+      throw std::invalid_argument(std::string(what) + " must be at least 2.2e-308 (a normal number), got " +
+                                  detail::number_text(v));
+  };
   positive(p.radius, "radius");
   positive(p.nms_radius, "nms_radius");
+  not_tiny(p.radius, "radius");
+  not_tiny(p.nms_radius, "nms_radius");
   positive(p.block_scale, "block_scale");
   if (!(p.keypoint_share >= 0 && p.keypoint_share <= 1))
     throw std::invalid_argument("keypoint_share must be a share from 0 to 1 (0: no limit), got " +

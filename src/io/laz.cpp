@@ -162,9 +162,13 @@ laz_layout parse_laszip_vlr(const unsigned char* p, std::size_t len, int format,
   };
   std::size_t i = 0;
   for (; i < want.size(); ++i) {
-    if (i >= l.items.size() || l.items[i].type != want[i] || l.items[i].size != item_size(want[i]))
+    if (i >= l.items.size() || l.items[i].type != want[i])
       throw io_error(file, where + "items [" + l.describe() + "] do not match point format " + std::to_string(format) +
                                " (it needs " + item_name(want[i]) + " as item " + std::to_string(i + 1) + ")");
+    if (l.items[i].size != item_size(want[i]))
+      throw io_error(file, where + "item " + std::to_string(i + 1) + ", " + item_name(want[i]) + ", says it has " +
+                               std::to_string(l.items[i].size) + " bytes; that item has " +
+                               std::to_string(item_size(want[i])));
     check_version(l.items[i]);
   }
   const std::uint16_t extra_type = layered ? std::uint16_t(laz_item::byte14) : std::uint16_t(laz_item::byte);
