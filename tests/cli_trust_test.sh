@@ -199,6 +199,29 @@ tamper "radius NaN" "j['request']['radius']=float('nan')" "radius"
 tamper "a tile owning more than it reads" "j['tiles'][0][1]=j['tiles'][0][2]+1" "counts are inconsistent"
 tamper "a bad modality" "j['request']['modalities']=['xyz:zero']" "invalid tile plan"
 check "no part written from a tampered plan" test ! -e "$T/x.cedpart"
+# A forged plan (#57): a run's box moved off the tiles that read it only
+# through their halo. The box decides which tiles read the run, so the tiles
+# that still read it check it against the run's points, and refuse it.
+python3 - "$T/plan.json" "$T/forged.json" << 'PY'
+import json, sys
+j = json.load(open(sys.argv[1]))
+r = max(j["runs"], key=lambda e: e[5] - e[2])  # the run widest in x
+r[5] = r[2] + (r[5] - r[2]) / 2                # its box cut to its lower half
+json.dump(j, open(sys.argv[2], "w"))
+PY
+refused=0
+accepted=0
+for t in $tiles; do
+  if "$CED" detect --plan "$T/forged.json" --tile "$t" -o "$T/forged$t.cedpart" -q 2> "$T/err"; then
+    accepted=$((accepted + 1))
+  else
+    grep -q "is not its points' box" "$T/err" && refused=$((refused + 1))
+  fi
+done
+check "a forged run box: a tile that reads the run refuses the plan" test "$refused" -ge 1
+expect_exit 1 "" "a forged run box: the merge lacks the refused tiles' parts" -- \
+  merge "$T/forged.json" "$T"/forged*.cedpart --indices "$T/forged.txt" -q
+check "a forged run box: no keypoints" test ! -e "$T/forged.txt"
 # Parts whose records were changed: a record's indices (after the
 # header: magic, format version, digest, tile, count, modalities, fields,
 # candidates, any, ms: src/tiled/part_file.cpp).

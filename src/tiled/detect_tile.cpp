@@ -171,6 +171,13 @@ std::optional<tile_points> read_tile_runs(const tile_plan& plan, std::uint64_t i
       if (h != e.hash)
         input_changed(plan, "the points " + std::to_string(e.first) + ".." + std::to_string(e.first + e.count - 1) +
                                 " hash to " + hex(h) + ", the plan's to " + hex(e.hash));
+      // The box decides which tiles read the run: it must be the points' own
+      // (an edited box would leave the run out of a tile's halo unseen).
+      if (run_box(c, at, std::size_t(e.count)) != e.box)
+        throw io::io_error(plan.request.input, "invalid tile plan: the box of the run of points " +
+                                                   std::to_string(e.first) + ".." +
+                                                   std::to_string(e.first + e.count - 1) +
+                                                   " is not its points' box (an edited plan?): make a new plan");
       at += std::size_t(e.count);
     }
     const field_bytes fields = plan_fields_of(plan, c, tile_fields, converted);

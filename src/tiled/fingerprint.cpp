@@ -3,6 +3,7 @@
 // fingerprint of the file's bytes, and a hash of every decoded point.
 // Both hash little-endian values whatever the host, so that a plan made on
 // one machine checks its input on another.
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <string>
@@ -48,6 +49,19 @@ std::string hex(std::uint64_t v) {
   char buf[17];
   std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(v));
   return buf;
+}
+
+std::array<float, 6> run_box(const point_cloud& c, std::size_t first, std::size_t n) {
+  const float* q0 = c.position(first);
+  std::array<float, 6> box = {q0[0], q0[1], q0[2], q0[0], q0[1], q0[2]};
+  for (std::size_t i = first; i < first + n; ++i) {
+    const float* q = c.position(i);
+    for (std::size_t k = 0; k < 3; ++k) {
+      box[k] = std::min(box[k], q[k]);
+      box[3 + k] = std::max(box[3 + k], q[k]);
+    }
+  }
+  return box;
 }
 
 std::uint64_t hash_chunk(const point_cloud& c, std::uint64_t h) { return hash_points(c, 0, c.size(), h); }

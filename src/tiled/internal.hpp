@@ -123,6 +123,9 @@ std::uint64_t hash_chunk(const point_cloud& c, std::uint64_t h);
 /// hash_chunk() of the points [first, first + n) of `c`, as of a cloud of
 /// those alone (a run of tile_plan::runs).
 std::uint64_t hash_points(const point_cloud& c, std::size_t first, std::size_t n, std::uint64_t h);
+/// The box of the points [first, first + n) of `c` (n > 0): a run's
+/// plan_run::box, which a tile that reads the run checks.
+std::array<float, 6> run_box(const point_cloud& c, std::size_t first, std::size_t n);
 /// The file's size (into `bytes`), and a hash of it (check_plan_input()).
 std::string fingerprint_of(const std::string& path, std::uint64_t& bytes);
 /// The request as a plan writes it (and as a resumed run compares it).

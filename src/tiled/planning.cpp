@@ -425,16 +425,8 @@ void count_tiles_by_runs(io::point_stream& s, tile_plan& p, const std::vector<io
       e.first = runs[r].first;
       e.count = runs[r].count;
       e.hash = hash_points(c, at, n, 0);
-      const float* q0 = c.position(at);
-      e.box = {q0[0], q0[1], q0[2], q0[0], q0[1], q0[2]};
-      for (std::size_t i = at; i < at + n; ++i) {
-        const float* q = c.position(i);
-        for (std::size_t k = 0; k < 3; ++k) {
-          e.box[k] = std::min(e.box[k], q[k]);
-          e.box[3 + k] = std::max(e.box[3 + k], q[k]);
-        }
-        counts.point(p.grid, q, near);
-      }
+      e.box = run_box(c, at, n);
+      for (std::size_t i = at; i < at + n; ++i) counts.point(p.grid, c.position(i), near);
       at += n;
     }
     done += c.size();
