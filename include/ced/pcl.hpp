@@ -215,17 +215,20 @@ class CEDKeypoint : public ::pcl::Keypoint<PointInT, PointOutT> {
   bool initCompute() override {
     if (!::pcl::PCLBase<PointInT>::initCompute()) return false;
     const double nms = non_max_radius();
-    const char* problem = nullptr;
+    std::string problem;
     if (k_ != 0)
       problem = "k nearest neighbours are set with setNeighborhood(\"knn:K\"), not setKSearch";
     else if (!(search_radius_ > 0) || !std::isfinite(search_radius_))
       problem = "the search radius (setRadiusSearch) must be positive";
-    else if (!(nms > 0) || !std::isfinite(nms))
-      problem = "the non maxima radius (setNonMaxRadius) must be positive";
+    else if (!(m_non_max_radius >= 0) || !std::isfinite(m_non_max_radius))
+      problem = "the non maxima radius (setNonMaxRadius) must be positive, or 0 for the search radius";
     else if (m_min_neighbors < 0)
       problem = "the minimum number of neighbors (setMinNeighbors) must not be negative";
-    if (problem) {
-      ::pcl::console::print(::pcl::console::L_ERROR, "[ced::pcl::%s::initCompute] %s\n", name_.c_str(), problem);
+    else
+      problem = check_thresholds(nms);
+    if (!problem.empty()) {
+      ::pcl::console::print(::pcl::console::L_ERROR, "[ced::pcl::%s::initCompute] %s\n", name_.c_str(),
+                            problem.c_str());
       return false;
     }
     keypoints_indices_.reset(new ::pcl::PointIndices);
@@ -263,6 +266,26 @@ class CEDKeypoint : public ::pcl::Keypoint<PointInT, PointOutT> {
  private:
   /// The NMS radius: setNonMaxRadius's, or the search radius when it is 0.
   double non_max_radius() const noexcept { return m_non_max_radius > 0 ? m_non_max_radius : search_radius_; }
+
+  /// What is wrong with the modalities' thresholds at these radii (a
+  /// negative or non-finite centroid threshold), or "" when nothing is:
+  /// checked before the detection, so that the output is left alone.
+  std::string check_thresholds(double nms) const {
+    detect_params p = m_params;
+    p.radius = search_radius_;
+    p.nms_radius = nms;
+    try {
+      for (const auto& m : modalities()) {
+        const double t = m.threshold(p);
+        if (!std::isfinite(t) || t < 0)
+          return "the threshold of modality '" + m.name() +
+                 "' (setCentroidThreshold, setCentroidThresholdRGB, setModalities) must be a finite number >= 0";
+      }
+    } catch (const std::exception& e) {
+      return e.what();
+    }
+    return {};
+  }
 
   /// Detection on the finite points, mapped back to the input's indices.
   detection_result run(const detect_params& p) const {

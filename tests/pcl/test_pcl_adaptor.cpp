@@ -228,6 +228,30 @@ TEST(PclAdaptor, HolesAndErrors) {
   bad.compute(none);
   EXPECT_TRUE(none.empty());
   bad.setKSearch(0);
+  // #57: a negative or NaN NMS radius, or a negative centroid threshold,
+  // is refused before the detection, the output left alone (as a bad
+  // radius). Before, -0.05 and NaN ran with the search radius, and -0.2
+  // emptied the output.
+  bad.compute(out);
+  const auto good = out.size();
+  ASSERT_GT(good, 100u);
+  for (double nms : {-0.05, std::nan("")}) {
+    bad.setNonMaxRadius(nms);
+    bad.compute(out);
+    EXPECT_EQ(out.size(), good) << nms;
+    EXPECT_TRUE(bad.getResult().keypoints.size() == good) << "no detection ran";
+  }
+  bad.setNonMaxRadius(0);
+  for (double t : {-0.2, std::nan("")}) {
+    bad.setCentroidThreshold(t);
+    bad.compute(out);
+    EXPECT_EQ(out.size(), good) << t;
+  }
+  bad.setCentroidThreshold(0.2);
+  bad.setCentroidThresholdRGB(-0.1);
+  bad.compute(out);
+  EXPECT_EQ(out.size(), good);
+  bad.setCentroidThresholdRGB(0.05);
   bad.setNeighborhood("knn:16");
   bad.compute(out);
   EXPECT_GT(out.size(), 100u);
