@@ -1,8 +1,10 @@
 // SPDX-License-Identifier: MIT
 // `ced convert`: between formats (by extension), optionally voxel down-sampled.
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "ced/ced.hpp"
 #include "ced/io/io.hpp"
@@ -24,13 +26,33 @@ int run_convert(const convert_options& o) {
   // Refused rather than converted in place: ced never writes over what it reads.
   check_paths({{"the input", o.input}}, {{"the output", o.output}});
   ced::io::atomic_output_file out(o.output);
-  ced::point_cloud c = ced::io::read_cloud(o.input, make_read_options(o.format, o.columns));
+  ced::io::read_report report;
+  ced::point_cloud c = ced::io::read_cloud(o.input, make_read_options(o.format, o.columns), &report);
   warn_float_precision(c, o.input);
   if (o.voxel > 0) {
     ced::remove_nonfinite(c);
     c = ced::voxel_downsample(c, o.voxel).cloud;
   }
-  ced::io::write_named(out, [&](std::ostream& s) { ced::io::write_cloud(s, c, fmt); });
+  using ced::io::file_format;
+  if (report.las && (fmt == file_format::las || fmt == file_format::laz || fmt == file_format::copc)) {
+    // LAS to LAS: the source's version, point format, scale and offset, so
+    // that the point records come back as they were.
+    std::vector<std::string> changes;
+    const auto las = ced::io::las_write_options_like(*report.las, c, fmt == file_format::copc, &changes);
+    if (!changes.empty()) {
+      std::string line;
+      for (const auto& m : changes) line += (line.empty() ? "" : "; ") + m;
+      std::fprintf(stderr, "ced: note: %s: %s\n", o.output.c_str(), line.c_str());
+    }
+    ced::io::write_named(out, [&](std::ostream& s) { ced::io::write_cloud(s, c, fmt, las); });
+  } else {
+    if (fmt == file_format::las || fmt == file_format::laz || fmt == file_format::copc)
+      std::fprintf(stderr,
+                   "ced: note: %s: %s has no LAS scale: positions are written at scale 0.001 (rounded to 0.5 mm) "
+                   "with the offset at the cloud's origin\n",
+                   o.output.c_str(), o.input.c_str());
+    ced::io::write_named(out, [&](std::ostream& s) { ced::io::write_cloud(s, c, fmt); });
+  }
   out.commit();
   return exit_ok;
 }

@@ -234,9 +234,9 @@ std::string copc_from_las(std::string_view las, const std::string& name) {
   return out;
 }
 
-void write_copc(std::ostream& out, const point_cloud& cloud) {
+void write_copc(std::ostream& out, const point_cloud& cloud, const las_write_options* options) {
   std::ostringstream las;
-  write_las(las, cloud);  // LAS 1.4: point format 6, 7 or 8
+  write_las(las, cloud, options ? *options : las_write_options{});  // LAS 1.4: point format 6, 7 or 8
   const std::string copc = copc_from_las(las.str(), "the LAS records of the output");
   out.write(copc.data(), static_cast<std::streamsize>(copc.size()));
 }

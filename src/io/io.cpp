@@ -85,6 +85,7 @@ point_cloud read_cloud_here(const std::string& path, const read_options& options
       las_read_info info;
       c = read_las(path, &info, options.fields);
       r.details = detail::las_details(info);
+      r.las = info;
       break;
     }
     case file_format::csv: {
@@ -105,6 +106,22 @@ point_cloud read_cloud(const std::string& path, const read_options& options, rea
   point_cloud c;
   ced::detail::with_thread_limit(options.threads, [&] { c = read_cloud_here(path, options, report); });
   return c;
+}
+
+void write_cloud(std::ostream& out, const point_cloud& cloud, file_format format, const las_write_options& las) {
+  switch (format) {
+    case file_format::las:
+      write_las(out, cloud, las);
+      return;
+    case file_format::laz:
+      detail::write_laz(out, cloud, &las);
+      return;
+    case file_format::copc:
+      detail::write_copc(out, cloud, &las);
+      return;
+    default:
+      write_cloud(out, cloud, format);
+  }
 }
 
 void write_cloud(std::ostream& out, const point_cloud& cloud, file_format format) {

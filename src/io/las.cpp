@@ -311,6 +311,7 @@ void fill_info(las_read_info& info, const las_header& h, const unsigned char* d)
   info.system_identifier = fixed_string(d + 26, 32);
   info.generating_software = fixed_string(d + 58, 32);
   info.compressed = h.compressed;
+  info.global_encoding = load_le<std::uint16_t>(d + 6);
 }
 
 /// The raw integer bounds of the n point records (`stride` bytes apart from
@@ -831,7 +832,21 @@ void check_writable(const point_cloud& cloud, const las_write_options& opt, std:
     if (!std::isfinite(opt.scale[k]) || opt.scale[k] <= 0)
       throw std::invalid_argument("invalid LAS scale " + num(opt.scale[k]) + " (it must be finite and positive)");
     if (!std::isfinite(cloud.origin()[k])) throw std::invalid_argument("the cloud's origin is not finite");
+    if (opt.offset && !std::isfinite((*opt.offset)[k]))
+      throw std::invalid_argument("invalid LAS offset " + num((*opt.offset)[k]) + " (not finite)");
   }
+  const int pf = opt.point_format;
+  if (pf != -1 && (pf < 0 || pf > k_max_format || (pf >= 6 && minor < 4)))
+    throw std::invalid_argument("LAS point format " + std::to_string(pf) + " cannot be written in LAS 1." +
+                                std::to_string(minor) + " (formats 0-3, and 6-8 in LAS 1.4)");
+  if (pf == 4 || pf == 5 || pf == 9 || pf == 10)
+    throw std::invalid_argument("LAS point format " + std::to_string(pf) +
+                                " holds waveform packets, which ced does not write (use " +
+                                std::to_string(pf == 4   ? 1
+                                               : pf == 5 ? 3
+                                               : pf == 9 ? 6
+                                                         : 8) +
+                                ")");
   for (const auto& f : cloud.fields()) check_field_size(f, cloud.size());
   if (minor < 4 && n > std::numeric_limits<std::uint32_t>::max())
     throw std::invalid_argument("LAS 1." + std::to_string(minor) + " cannot hold " + std::to_string(n) +
@@ -950,8 +965,10 @@ void plan_extra_columns(const point_cloud& cloud, las_plan& plan, const std::vec
     throw std::invalid_argument("too many fields for LAS extra bytes (" + std::to_string(plan.extras.size()) + ")");
 }
 
-/// The point format for the cloud's fields (colour, nir, gps_time) and its columns.
-las_plan plan_records(const point_cloud& cloud, int minor) {
+/// The point format (opt.point_format, or the one for the cloud's fields:
+/// colour, nir, gps_time) and its columns.
+las_plan plan_records(const point_cloud& cloud, const las_write_options& opt) {
+  const int minor = opt.version_minor;
   const auto rgb = find_rgb_fields(cloud);
   const bool has_rgb = rgb[0] != nullptr;
   const field* nir = cloud.find_field("nir");
@@ -962,11 +979,27 @@ las_plan plan_records(const point_cloud& cloud, int minor) {
     plan.format = has_rgb ? (nir ? 8 : 7) : 6;
   else
     plan.format = has_rgb ? (has_gps ? 3 : 2) : (has_gps ? 1 : 0);
+  if (opt.point_format >= 0) plan.format = opt.point_format;
   plan.layout = &k_formats[plan.format];
   std::vector<const field*> used;
   plan_standard_columns(cloud, rgb, nir, plan, used);
   plan_extra_columns(cloud, plan, used);
   return plan;
+}
+
+/// The header's offsets: options.offset, or the cloud's origin.
+std::array<double, 3> header_offset(const point_cloud& cloud, const las_write_options& opt) {
+  return opt.offset ? *opt.offset : cloud.origin();
+}
+
+/// offset - origin: a position p relative to the origin is written as the
+/// integer round((p - shift) / scale), which read_las() reads back as
+/// float(integer * scale + shift). 0 with the default offset (the origin).
+std::array<double, 3> position_shift(const point_cloud& cloud, const las_write_options& opt) {
+  std::array<double, 3> d{0, 0, 0};
+  if (opt.offset)
+    for (std::size_t k = 0; k < 3; ++k) d[k] = (*opt.offset)[k] - cloud.origin()[k];
+  return d;
 }
 
 /// What a LAS header says of the points: their number, the bounding box of
@@ -984,6 +1017,7 @@ struct las_stats {
 /// same bounds and error as one pass.
 void add_stats(const point_cloud& cloud, const las_write_options& opt, const las_plan& plan, las_stats& s) {
   const float* xyz = cloud.positions().data();
+  const std::array<double, 3> shift = position_shift(cloud, opt);
   constexpr std::size_t chunk = 65536;
   const std::size_t chunks = (cloud.size() + chunk - 1) / chunk;
   struct chunk_stats {
@@ -1002,11 +1036,12 @@ void add_stats(const point_cloud& cloud, const las_write_options& opt, const las
             part[c].error = "point " + std::to_string(s.n + i) + " has a non-finite coordinate; LAS cannot store it";
             return;
           }
-          const double q = std::round(static_cast<double>(p) / opt.scale[k]);
+          const double q = std::round((static_cast<double>(p) - shift[k]) / opt.scale[k]);
           if (q < std::numeric_limits<std::int32_t>::min() || q > std::numeric_limits<std::int32_t>::max()) {
             part[c].error = "point " + std::to_string(s.n + i) + ": coordinate " + num(p) +
                             " (relative to the origin) does not fit a 32-bit LAS integer at scale " +
-                            num(opt.scale[k]) + " (choose a coarser scale)";
+                            num(opt.scale[k]) + (opt.offset ? " and offset " + num((*opt.offset)[k]) : "") +
+                            " (choose a coarser scale)";
             return;
           }
           qmin[k] = i == b ? q : std::min(qmin[k], q);
@@ -1057,13 +1092,14 @@ std::string make_header(const point_cloud& cloud, const las_write_options& opt, 
   const double* qmin = s.qmin;
   const double* qmax = s.qmax;
   const std::array<std::uint64_t, 15>& by_return = s.by_return;
-  const auto& origin = cloud.origin();
+  const std::array<double, 3> offset = header_offset(cloud, opt);
   const std::size_t header_size = header_size_for(minor);
   const std::size_t vlr_size =
       plan.extras.empty() ? 0 : k_vlr_header_size + plan.extras.size() * k_extra_bytes_descriptor_size;
   std::string h(header_size + vlr_size, '\0');
   put_string(h, 0, 4, "LASF");
-  put<std::uint16_t>(h, 6, plan.layout->extended ? 0x10 : 0);  // formats 6-10: the WKT bit must be set
+  // Formats 6-10: the WKT bit must be set. Bit 0: the GPS time type.
+  put<std::uint16_t>(h, 6, (plan.layout->extended ? 0x10 : 0) | (opt.adjusted_standard_gps_time ? 1 : 0));
   put<std::uint8_t>(h, 24, 1);
   put<std::uint8_t>(h, 25, static_cast<std::uint8_t>(minor));
   put_string(h, 26, 32, "OTHER");
@@ -1089,9 +1125,9 @@ std::string make_header(const point_cloud& cloud, const las_write_options& opt, 
   }
   for (std::size_t k = 0; k < 3; ++k) {
     put<double>(h, 131 + 8 * k, opt.scale[k]);
-    put<double>(h, 155 + 8 * k, origin[k]);
-    put<double>(h, 179 + 16 * k, n ? origin[k] + qmax[k] * opt.scale[k] : 0.0);
-    put<double>(h, 187 + 16 * k, n ? origin[k] + qmin[k] * opt.scale[k] : 0.0);
+    put<double>(h, 155 + 8 * k, offset[k]);
+    put<double>(h, 179 + 16 * k, n ? offset[k] + qmax[k] * opt.scale[k] : 0.0);
+    put<double>(h, 187 + 16 * k, n ? offset[k] + qmin[k] * opt.scale[k] : 0.0);
   }
   if (minor >= 4) {
     put<std::uint64_t>(h, 247, n);
@@ -1106,6 +1142,7 @@ void write_records(std::ostream& out, const point_cloud& cloud, const las_write_
   const std::size_t n = cloud.size();
   const std::size_t record = plan.record;
   const float* xyz = cloud.positions().data();
+  const std::array<double, 3> shift = position_shift(cloud, opt);
   constexpr std::size_t chunk = 8192;
   write_chunks(out, (n + chunk - 1) / chunk, [&](std::size_t k, std::string& bytes) {
     const std::size_t i0 = k * chunk, m = std::min(chunk, n - i0);
@@ -1113,7 +1150,7 @@ void write_records(std::ostream& out, const point_cloud& cloud, const las_write_
     auto* buf = reinterpret_cast<unsigned char*>(bytes.data());
     for (std::size_t i = 0; i < m; ++i)
       for (std::size_t a = 0; a < 3; ++a) {
-        const double q = std::round(static_cast<double>(xyz[3 * (i0 + i) + a]) / opt.scale[a]);
+        const double q = std::round((static_cast<double>(xyz[3 * (i0 + i) + a]) - shift[a]) / opt.scale[a]);
         store_le<std::int32_t>(buf + i * record + 4 * a, static_cast<std::int32_t>(q));
       }
     for (const auto& c : plan.cols) encode_column(c, i0, m, buf, record);
@@ -1122,7 +1159,7 @@ void write_records(std::ostream& out, const point_cloud& cloud, const las_write_
 
 void write_las_unchecked(std::ostream& out, const point_cloud& cloud, const las_write_options& opt) {
   check_writable(cloud, opt, cloud.size());
-  const las_plan plan = plan_records(cloud, opt.version_minor);
+  const las_plan plan = plan_records(cloud, opt);
   las_stats stats;
   add_stats(cloud, opt, plan, stats);
   const std::string header = make_header(cloud, opt, plan, stats);
@@ -1147,6 +1184,95 @@ void write_las(std::ostream& out, const point_cloud& cloud, const las_write_opti
 
 void write_las(const std::string& path, const point_cloud& cloud, const las_write_options& options) {
   detail::write_to_file(path, [&](std::ostream& o) { write_las_unchecked(o, cloud, options); });
+}
+
+namespace {
+/// True when every position of `cloud` is exact in `scale` and `offset`: its
+/// integer, read back as read_las() reads it, gives the same float.
+bool positions_exact(const point_cloud& cloud, const std::array<double, 3>& scale,
+                     const std::array<double, 3>& offset) {
+  double shift[3];
+  for (std::size_t k = 0; k < 3; ++k) {
+    if (!std::isfinite(scale[k]) || scale[k] <= 0 || !std::isfinite(offset[k])) return false;
+    shift[k] = offset[k] - cloud.origin()[k];
+  }
+  const float* xyz = cloud.positions().data();
+  const std::size_t n = cloud.size();
+  constexpr std::size_t chunk = 65536;
+  std::vector<std::uint8_t> exact((n + chunk - 1) / chunk, 1);
+  ced::detail::parallel_for(exact.size(), 0, 1, [&](std::size_t c0, std::size_t c1) {
+    for (std::size_t c = c0; c < c1; ++c)
+      for (std::size_t i = c * chunk; i < std::min(n, (c + 1) * chunk) && exact[c]; ++i)
+        for (std::size_t k = 0; k < 3; ++k) {
+          const float p = xyz[3 * i + k];
+          const double q = std::round((static_cast<double>(p) - shift[k]) / scale[k]);
+          if (!(q >= std::numeric_limits<std::int32_t>::min() && q <= std::numeric_limits<std::int32_t>::max()) ||
+              static_cast<float>(static_cast<std::int32_t>(q) * scale[k] + shift[k]) != p) {
+            exact[c] = 0;
+            break;
+          }
+        }
+  });
+  return std::all_of(exact.begin(), exact.end(), [](std::uint8_t e) { return e != 0; });
+}
+
+std::string triple(const std::array<double, 3>& v) { return num(v[0]) + ", " + num(v[1]) + ", " + num(v[2]); }
+}  // namespace
+
+las_write_options las_write_options_like(const las_read_info& source, const point_cloud& cloud, bool copc,
+                                         std::vector<std::string>* changes) {
+  const auto note = [&](const std::string& what) {
+    if (changes) changes->push_back(what);
+  };
+  las_write_options o;
+  const int minor = source.version_major == 1 ? std::clamp(source.version_minor, 2, 4) : 4;
+  if (source.version_major != 1 || source.version_minor != minor)
+    note("LAS " + std::to_string(source.version_major) + "." + std::to_string(source.version_minor) +
+         " is written as LAS 1." + std::to_string(minor));
+  o.version_minor = minor;
+  int pf = std::clamp(source.point_format, 0, k_max_format);
+  static constexpr int k_no_waveform[k_max_format + 1] = {0, 1, 2, 3, 1, 3, 6, 7, 8, 6, 8};
+  if (k_no_waveform[pf] != pf) {
+    note("point format " + std::to_string(pf) + " is written as " + std::to_string(k_no_waveform[pf]) +
+         ": ced does not keep waveform packets");
+    pf = k_no_waveform[pf];
+  }
+  if (copc && pf < 6) {
+    const int to = k_formats[pf].rgb >= 0 ? 7 : 6;
+    note("COPC holds LAS 1.4 point formats 6-8: point format " + std::to_string(pf) + " (LAS 1." +
+         std::to_string(minor) + ") is written as " + std::to_string(to) +
+         " (scan angles in 0.006-degree steps, not whole degrees)");
+    pf = to;
+  }
+  if (pf >= 6 && o.version_minor < 4 && !copc) {  // (COPC said so)
+    note("point format " + std::to_string(pf) + " needs LAS 1.4: written as LAS 1.4, not 1." + std::to_string(minor));
+    o.version_minor = 4;
+  }
+  if (copc) o.version_minor = 4;
+  o.point_format = pf;
+  o.adjusted_standard_gps_time = (source.global_encoding & 1) != 0;
+  if (positions_exact(cloud, source.scale, source.offset)) {
+    o.scale = source.scale;
+    o.offset = source.offset;
+    // Floats as far from the origin as the farthest point step by more than
+    // the scale: the file's integers were rounded on reading.
+    float far[3] = {0, 0, 0};
+    const std::vector<float>& xyz = cloud.positions();
+    for (std::size_t i = 0; i < xyz.size(); ++i) far[i % 3] = std::max(far[i % 3], std::fabs(xyz[i]));
+    for (std::size_t k = 0; k < 3; ++k) {
+      const double step = static_cast<double>(std::nextafter(far[k], 2 * far[k]) - far[k]);
+      if (far[k] > 0 && step >= source.scale[k])
+        note(std::string(1, static_cast<char>('X' + k)) + " positions are floats relative to the origin " +
+             num(cloud.origin()[k]) + ": up to " + num(far[k]) + " from it their step, " + num(step) +
+             ", is coarser than the scale " + num(source.scale[k]) + ", so the source's integers can move by up to " +
+             num(step / 2) + " (a second conversion gives back the first's)");
+    }
+  } else {
+    note("the positions are not on the source's grid (scale " + triple(source.scale) + ", offset " +
+         triple(source.offset) + "), as after voxel down-sampling or a transform: they are written at scale " +
+         triple(o.scale) + " with the offset at the cloud's origin " + triple(cloud.origin()));
+  }
+  return o;
 }
 
 namespace detail {
@@ -1183,18 +1309,16 @@ class las_piece_writer final : public piece_writer {
   las_piece_writer(std::ostream& out, const point_cloud& layout, std::uint64_t n, const las_write_options& options = {})
       : m_layout(layout), m_opt(options) {
     check_writable(m_layout, m_opt, n);
-    const std::string header = make_header(m_layout, m_opt, plan_records(m_layout, m_opt.version_minor), m_stats);
+    const std::string header = make_header(m_layout, m_opt, plan_records(m_layout, m_opt), m_stats);
     out.write(header.data(), static_cast<std::streamsize>(header.size()));
   }
   void write(std::ostream& out, const point_cloud& chunk) override {
     check_writable(chunk, m_opt, m_stats.n + chunk.size());
-    const las_plan plan = plan_records(chunk, m_opt.version_minor);
+    const las_plan plan = plan_records(chunk, m_opt);
     add_stats(chunk, m_opt, plan, m_stats);
     write_records(out, chunk, m_opt, plan);
   }
-  std::string final_header() override {
-    return make_header(m_layout, m_opt, plan_records(m_layout, m_opt.version_minor), m_stats);
-  }
+  std::string final_header() override { return make_header(m_layout, m_opt, plan_records(m_layout, m_opt), m_stats); }
 
  private:
   point_cloud m_layout;
@@ -1329,14 +1453,22 @@ las_head read_las_head(std::string_view las, const std::string& name) {
 std::string laz_from_las(std::string_view las, const std::string& name, std::uint32_t chunk_size,
                          const std::vector<std::uint32_t>& chunk_points) {
   const las_head h = read_las_head(las, name);
-  if (h.format > 3) throw std::invalid_argument(name + ": LAZ is written for point formats 0-3 only");
+  const bool layered = h.format >= 6 && h.format <= 8;
+  if (h.format > 3 && !layered)
+    throw std::invalid_argument(name + ": LAZ is written for point formats 0-3 and 6-8 only");
   if (h.evlr_offset != 0 || h.evlr_count != 0)
     throw std::invalid_argument(name + ": extended VLRs are not carried into LAZ");
-  const bool variable = !chunk_points.empty();
-  if (!variable && chunk_size == 0) throw std::invalid_argument("laz_from_las: a chunk size of 0");
-  const laz_layout layout = pointwise_layout(h.format, h.record_length, variable ? 0xFFFFFFFFu : chunk_size);
-  // The chunks' points, and their bytes coded in parallel.
+  // Layered chunks (formats 6-8) are variable: chunks of chunk_size points
+  // unless chunk_points says otherwise.
   std::vector<std::uint32_t> points = chunk_points;
+  if (layered && points.empty() && chunk_size > 0)
+    for (std::uint64_t left = h.count; left > 0; left -= points.back())
+      points.push_back(static_cast<std::uint32_t>(std::min<std::uint64_t>(left, chunk_size)));
+  const bool variable = !points.empty() || layered;
+  if (!variable && chunk_size == 0) throw std::invalid_argument("laz_from_las: a chunk size of 0");
+  const laz_layout layout = layered ? layered_layout(h.format, h.record_length)
+                                    : pointwise_layout(h.format, h.record_length, variable ? 0xFFFFFFFFu : chunk_size);
+  // The chunks' points, and their bytes coded in parallel.
   if (!variable)
     for (std::uint64_t left = h.count; left > 0; left -= points.back())
       points.push_back(static_cast<std::uint32_t>(std::min<std::uint64_t>(left, chunk_size)));
@@ -1359,10 +1491,13 @@ std::string laz_from_las(std::string_view las, const std::string& name, std::uin
   return out;
 }
 
-void write_laz(std::ostream& out, const point_cloud& cloud) {
+void write_laz(std::ostream& out, const point_cloud& cloud, const las_write_options* options) {
   std::ostringstream las;
   las_write_options o;
-  o.version_minor = 2;
+  if (options)
+    o = *options;
+  else
+    o.version_minor = 2;
   write_las(las, cloud, o);
   const std::string laz = laz_from_las(las.str(), "the LAS records of the output");
   out.write(laz.data(), static_cast<std::streamsize>(laz.size()));

@@ -165,9 +165,10 @@ struct las_head {
 };
 las_head read_las_head(std::string_view las, const std::string& name);
 
-/// The LAZ file of a LAS file held in `las` (point format 0-3, no extended
-/// VLRs): the LASzip VLR after its VLRs, its records in chunks of
-/// `chunk_size` points coded in parallel, then the chunk table; with
+/// The LAZ file of a LAS file held in `las` (point format 0-3, pointwise, or
+/// 6-8, layered; no extended VLRs): the LASzip VLR after its VLRs, its
+/// records in chunks of `chunk_size` points coded in parallel, then the
+/// chunk table (variable for formats 6-8); with
 /// `chunk_points` not empty, chunks of those sizes instead (variable chunks;
 /// they must add up to the point count). std::invalid_argument for what it
 /// cannot compress. For the tests and the benchmarks' inputs.

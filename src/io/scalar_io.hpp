@@ -27,6 +27,10 @@
 #include "core/raw_vector.hpp"
 #include "core/text.hpp"
 
+namespace ced::io {
+struct las_write_options;
+}
+
 namespace ced::io::detail {
 
 /// The whole file at `path`; io_error naming it when it is a directory,
@@ -164,12 +168,15 @@ std::unique_ptr<piece_writer> ply_pieces(std::ostream& out, const point_cloud& l
 std::unique_ptr<piece_writer> pcd_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n);
 std::unique_ptr<piece_writer> las_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n);
 std::unique_ptr<piece_writer> laz_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n);
-/// `cloud` as LAZ: LAS 1.2 (point formats 0-3), compressed (laz.hpp).
-void write_laz(std::ostream& out, const point_cloud& cloud);
+/// `cloud` as LAZ (laz.hpp): LAS 1.2 (point formats 0-3, pointwise) without
+/// `options`; with them, what write_las() writes with them, compressed
+/// (formats 6-8 layered).
+void write_laz(std::ostream& out, const point_cloud& cloud, const las_write_options* options = nullptr);
 /// COPC in pieces: held in memory, written whole by finish() (copc.cpp).
 std::unique_ptr<piece_writer> copc_pieces(const point_cloud& layout, std::uint64_t n);
-/// `cloud` as COPC: LAZ 1.4 (point formats 6-8, layered) in octree nodes.
-void write_copc(std::ostream& out, const point_cloud& cloud);
+/// `cloud` as COPC: LAZ 1.4 (point formats 6-8, layered) in octree nodes;
+/// `options` (version 1.4, point format 6-8 or -1) as write_las() takes them.
+void write_copc(std::ostream& out, const point_cloud& cloud, const las_write_options* options = nullptr);
 /// The COPC file of a LAS 1.4 file held in `las` (point formats 6-8, no
 /// extended VLRs): its records grouped by octree node (grid sampling, 128
 /// cells a side), a LAZ chunk a node, the hierarchy in one page.

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <iosfwd>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "ced/cloud.hpp"
@@ -20,7 +21,8 @@ namespace ced::io {
 
 /// laz: LAZ (compressed LAS). Read by the LAS reader, which decodes it;
 /// written as LAS 1.2 (point formats 0-3, other fields as extra bytes),
-/// compressed in chunks of 50,000 points.
+/// compressed in chunks of 50,000 points; with las_write_options, as they
+/// say (LAS 1.4 point formats 6-8 with layered compression).
 /// copc: COPC (cloud-optimised LAZ, `.copc.laz`). Read as LAZ (its octree
 /// serves tiled plans); written as LAZ 1.4 (point formats 6-8, layered
 /// compression) grouped into octree nodes, one chunk a node.
@@ -55,6 +57,8 @@ struct read_report {
   file_format format = file_format::automatic;
   std::size_t nonfinite_removed = 0;  ///< PCD: NaN points of organized clouds, dropped while reading (unless kept)
   std::string details;                ///< e.g. "PCD binary_compressed, organized 640x480"
+  /// LAS, LAZ and COPC: the file's header (see las_write_options_like()).
+  std::optional<las_read_info> las;
 };
 
 /// Reads a cloud; errors are io_error naming the file and the problem.
@@ -63,6 +67,10 @@ point_cloud read_cloud(const std::string& path, const read_options& options = {}
 /// Writes `cloud` in `format` (not automatic) to a stream: PLY binary little
 /// endian, PCD binary, LAS 1.4, CSV.
 void write_cloud(std::ostream& out, const point_cloud& cloud, file_format format);
+/// The same, LAS, LAZ and COPC written with `las` (e.g. from
+/// las_write_options_like(), to keep a LAS source's scale, offset, point
+/// format and version); the other formats ignore it.
+void write_cloud(std::ostream& out, const point_cloud& cloud, file_format format, const las_write_options& las);
 
 /// Writes atomically to `path`, the format from its extension unless given.
 void write_cloud(const std::string& path, const point_cloud& cloud, file_format format = file_format::automatic);

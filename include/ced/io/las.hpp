@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdint>
 #include <iosfwd>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -23,6 +24,9 @@ struct las_read_info {
   std::string system_identifier, generating_software;  ///< trailing NULs and spaces trimmed
   bool compressed = false;                             ///< LAZ
   bool copc = false;  ///< COPC: a LAZ with a COPC info VLR (an octree index of its chunks)
+  /// The header's global encoding; bit 0: gps_time is adjusted standard GPS
+  /// time (GPS seconds - 1e9), not GPS week seconds.
+  std::uint16_t global_encoding = 0;
 };
 
 /// Reads an uncompressed LAS file, versions 1.0 to 1.4, point data record
@@ -85,17 +89,61 @@ bool las_header_box(const double min[3], const double max[3], const double scale
 
 /// Options for write_las().
 struct las_write_options {
-  /// Coordinate resolution per axis (> 0). The offset is the cloud's origin, so
-  /// absolute coordinates round-trip to within scale / 2.
+  las_write_options() = default;
+  /// `las_write_options{scale, version_minor}`, as when these were its only members.
+  las_write_options(const std::array<double, 3>& scale_, int version_minor_ = 4)
+      : scale(scale_), version_minor(version_minor_) {}
+
+  /// Coordinate resolution per axis (> 0). With the default offset (the
+  /// cloud's origin), absolute coordinates round-trip to within scale / 2.
   std::array<double, 3> scale{0.001, 0.001, 0.001};
   /// LAS 1.x: 4 writes point formats 6 (no colour), 7 (red/green/blue) or 8
   /// (red/green/blue and nir); 2 or 3 write the legacy formats 0-3 (1 and 3
   /// when a gps_time field is present, 2 and 3 with colour).
   int version_minor = 4;
+  /// The header's offsets (X = raw X * scale + offset); unset: the cloud's
+  /// origin. Each coordinate is written as round((origin + position -
+  /// offset) / scale).
+  std::optional<std::array<double, 3>> offset;
+  /// The point data record format: 0-3, or 6-8 with version_minor 4 (the
+  /// waveform formats 4, 5, 9 and 10 are not written); -1 (the default):
+  /// the one version_minor gives, as above. Fields that the format has no
+  /// slot for are written as extra bytes.
+  int point_format = -1;
+  /// Sets bit 0 of the global encoding: gps_time is adjusted standard GPS
+  /// time, not seconds of the GPS week.
+  bool adjusted_standard_gps_time = false;
 };
 
+/// The options that write `cloud`, read by read_las() from a file that
+/// `source` describes, back as that file held it: the source's version,
+/// point format, scale and offset, so that LAS -> LAS keeps the point
+/// records byte for byte (see below for the positions).
+///
+/// - `copc`: for a COPC file, which holds only LAS 1.4 point formats 6-8:
+///   formats 0-5 become 6 or 7 (with colour), 9 and 10 become 6 and 8.
+/// - The waveform formats become those without waveform packets (4 -> 1,
+///   5 -> 3, 9 -> 6, 10 -> 8; read_las() skips the packets); LAS 1.0 and 1.1
+///   are written as 1.2.
+/// - The GPS time type (global encoding bit 0) is kept.
+/// - The scale and offset are kept when every position is exact in them:
+///   when the integer round((origin + position - offset) / scale) reads
+///   back as the same float position, as it does for a cloud nothing moved.
+///   Otherwise (e.g. voxel centroids) the defaults are kept instead: scale
+///   0.001, offset the cloud's origin.
+///
+/// Each change from the source is described by one line added to `changes`.
+/// Positions are floats relative to the cloud's origin, so a file whose
+/// scale is finer than a float's resolution there (about 6e-8 times the
+/// distance from the origin) cannot give back its own integers: the first
+/// write moves them by less than that resolution, and writes after it are
+/// stable.
+las_write_options las_write_options_like(const las_read_info& source, const point_cloud& cloud, bool copc = false,
+                                         std::vector<std::string>* changes = nullptr);
+
 /// Writes `cloud` as uncompressed LAS to `path` atomically (see
-/// atomic_output_file), with the smallest point format that holds its fields.
+/// atomic_output_file), with the smallest point format that holds its fields
+/// unless options.point_format says which.
 ///
 /// Fields with a standard LAS name (those read_las() produces; any case, an
 /// exact match first; colour as found by find_rgb_fields()) go into their
@@ -103,7 +151,7 @@ struct las_write_options {
 /// range (NaN becomes 0), flags become 1 when non-zero. Colour values are
 /// written as they are (uint8 colour is not scaled to 16 bits). scan_angle
 /// fields of type int8 are taken as whole degrees, others as 0.006-degree
-/// units, and converted to the version's unit. Missing return numbers are
+/// units, and converted to the point format's unit. Missing return numbers are
 /// written as 1 of 1. Every other field is written as an extra-bytes field
 /// with its own type (no scale/offset).
 ///
@@ -111,7 +159,7 @@ struct las_write_options {
 /// written: a field of the wrong size, an extra-bytes field name that is
 /// empty, longer than 32 characters or named x/y/z, a non-finite coordinate or
 /// origin, a coordinate beyond the int32 range at the chosen scale, an
-/// invalid scale or version, more than 2^32-1 points in LAS 1.2/1.3.
+/// invalid scale, offset, version or point format (for the version), more than 2^32-1 points in LAS 1.2/1.3.
 void write_las(const std::string& path, const point_cloud& cloud, const las_write_options& options = {});
 /// Same, to a stream opened in binary mode.
 void write_las(std::ostream& out, const point_cloud& cloud, const las_write_options& options = {});
