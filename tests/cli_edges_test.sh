@@ -225,8 +225,11 @@ rep "noise" "--noise -1" --noise -1
 rep "noise" "--noise 0,inf" --noise 0,inf
 rep "detector" "-d ''" -d ''
 check "eval: no CSV after errors" test ! -e "$T/e.csv"
-expect_exit 2 "noise applies to INPUT" "eval repeatability: --noise '' with a pair" -- \
+# (An empty value is refused as such before the pair is looked at.)
+expect_exit 2 "noise: an empty value" "eval repeatability: --noise '' with a pair" -- \
   eval repeatability --source "$sample" --target "$sample" --noise '' -q
+expect_exit 2 "noise applies to INPUT" "eval repeatability: --noise 0 with a pair" -- \
+  eval repeatability --source "$sample" --target "$sample" --noise 0 -q
 reg() {
   expect_exit 2 "$1" "eval registration: $2" -- eval registration "$sample" -d random --trials 1 -q --csv "$T/e.csv" \
     "${@:3}"

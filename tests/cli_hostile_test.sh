@@ -3,9 +3,10 @@
 # a denormal radius, a non-finite point's precision warning, a key given at a
 # config's top and in its [detect] section, convert's output format, and
 # `ced eval` on a pair without overlap. Each case failed before the fix.
-#   tests/cli_hostile_test.sh path/to/ced
+#   tests/cli_hostile_test.sh path/to/ced path/to/tests/data
 set -u
 CED=$1
+DATA=$2
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
 # shellcheck source=cli_support.sh
@@ -76,6 +77,19 @@ check "eval without overlap: exit 0" test $? = 0
 check "eval without overlap: the table says so" grep -q "no overlap" "$T/no.txt"
 check "eval without overlap: the CSV says so" grep -q "no overlap" "$T/no.csv"
 check "eval without overlap: no nan" sh -c "! grep -qi 'nan' '$T/no.txt' '$T/no.csv'"
+
+# --- ced convert: the output's format when its name does not say ---
+expect_exit 2 "name the output's format with --to" "convert to /dev/stdout without --to" -- \
+  convert "$T/five.csv" /dev/stdout
+"$CED" convert "$T/five.csv" /dev/stdout --to las > "$T/stdout.las" 2> "$T/err"
+check "convert --to las to /dev/stdout: exit 0" test $? = 0
+check "convert --to las to /dev/stdout: a LAS file" sh -c "head -c 4 '$T/stdout.las' | grep -q LASF"
+expect_exit 2 "unknown format 'e57'" "convert --to e57" -- convert "$T/five.csv" "$T/x.las" --to e57
+# --- A LAS file's VLRs that no writer carries (its coordinate system) are named, not dropped in silence ---
+"$CED" convert "$DATA/file_with_both_wkt_and_geotiff_vlrs.las" "$T/crs.las" 2> "$T/err"
+check "convert drops the CRS VLRs: said" grep -q "'LASF_Projection' .* are not copied" "$T/err"
+"$CED" convert "$DATA/1_4_w_evlr.las" "$T/evlr.ply" 2> "$T/err"
+check "convert drops extended VLRs: said" grep -q "extended VLR(s).* are not copied" "$T/err"
 
 echo "cli_hostile: $pass passed, $fail failed"
 [ "$fail" = 0 ]

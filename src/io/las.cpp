@@ -253,7 +253,8 @@ las_header read_header(const unsigned char* d, std::size_t size, const std::stri
 /// header and the point data), placed after the standard fields and checked
 /// to fit in a point record; none without an extra-bytes VLR.
 std::vector<extra_desc> read_vlrs(const unsigned char* d, const las_header& h, const std::string& file,
-                                  laz_layout* laz = nullptr, std::optional<copc_info>* copc = nullptr) {
+                                  laz_layout* laz = nullptr, std::optional<copc_info>* copc = nullptr,
+                                  std::vector<std::string>* others = nullptr) {
   std::vector<extra_desc> extras;
   bool have_laz = false;
   bool have_extras = false;
@@ -282,6 +283,9 @@ std::vector<extra_desc> read_vlrs(const unsigned char* d, const las_header& h, c
       if (laz) *laz = l;
       have_laz = true;
     }
+    const bool known = (user_id == "LASF_Spec" && record_id == 4) || (user_id == "copc" && record_id == 1) ||
+                       (user_id == "laszip encoded" && record_id == 22204);
+    if (others && !known) others->push_back("'" + user_id + "' " + std::to_string(record_id));
     pos += k_vlr_header_size + len;
   }
   if (h.compressed && !have_laz)
@@ -312,6 +316,7 @@ void fill_info(las_read_info& info, const las_header& h, const unsigned char* d)
   info.generating_software = fixed_string(d + 58, 32);
   info.compressed = h.compressed;
   info.global_encoding = load_le<std::uint16_t>(d + 6);
+  info.extended_vlrs = h.minor >= 4 && h.header_size >= 247 ? load_le<std::uint32_t>(d + 243) : 0;
 }
 
 /// The raw integer bounds of the n point records (`stride` bytes apart from
@@ -684,10 +689,12 @@ point_cloud read_las_records(const unsigned char* d, const las_header& h, std::u
                              const field_selection& selection) {
   laz_layout layout;
   std::optional<copc_info> copc;
-  const std::vector<extra_desc> extras = read_vlrs(d, h, file, &layout, &copc);
+  std::vector<std::string> others;
+  const std::vector<extra_desc> extras = read_vlrs(d, h, file, &layout, &copc, &others);
   if (info) {
     fill_info(*info, h, d);
     info->copc = copc.has_value();
+    info->other_vlrs = std::move(others);
   }
   if (!h.compressed) return read_records(plain, h, extras, selection);
   const laz_points z = open_laz(h, layout, size, read, file);

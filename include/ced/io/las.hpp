@@ -27,6 +27,11 @@ struct las_read_info {
   /// The header's global encoding; bit 0: gps_time is adjusted standard GPS
   /// time (GPS seconds - 1e9), not GPS week seconds.
   std::uint16_t global_encoding = 0;
+  /// The VLRs ced does not read, as "'user id' record id" (a coordinate
+  /// system's 'LASF_Projection' 34735 or 2112, ...): no writer carries
+  /// them over; and the count of extended VLRs (LAS 1.4), likewise.
+  std::vector<std::string> other_vlrs;
+  std::uint32_t extended_vlrs = 0;
 };
 
 /// Reads an uncompressed LAS file, versions 1.0 to 1.4, point data record
