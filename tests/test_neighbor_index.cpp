@@ -14,6 +14,32 @@
 #include "core/neighbor_index.hpp"
 #include "test_support.hpp"
 
+namespace {
+/// box_search() gives the points inside [lo, hi] (brute force), and with
+/// positions the same points in the same order, each with its own position
+/// (bitwise).
+void expect_box_search(const ced::neighbor_index& index, const ced::point_cloud& c, const float lo[3],
+                       const float hi[3]) {
+  std::vector<std::uint32_t> got;
+  std::vector<ced::neighbor_index::located_point> located(3);
+  index.box_search(lo, hi, located);
+  index.box_search(lo, hi, got);
+  ASSERT_EQ(located.size(), got.size());
+  for (std::size_t t = 0; t < got.size(); ++t) {
+    EXPECT_EQ(located[t].index, got[t]);
+    EXPECT_EQ(std::memcmp(located[t].xyz, c.position(got[t]), sizeof located[t].xyz), 0);
+  }
+  std::sort(got.begin(), got.end());
+  std::vector<std::uint32_t> want;
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    const float* q = c.position(i);
+    if (q[0] >= lo[0] && q[0] <= hi[0] && q[1] >= lo[1] && q[1] <= hi[1] && q[2] >= lo[2] && q[2] <= hi[2])
+      want.push_back(static_cast<std::uint32_t>(i));
+  }
+  EXPECT_EQ(got, want);
+}
+}  // namespace
+
 TEST(NeighborIndex, MatchesBruteForce) {
   const auto c = ced_test::make_room(2000, 3);
   // With the identity order and with a block order (the tree over permuted points).
@@ -30,24 +56,7 @@ TEST(NeighborIndex, MatchesBruteForce) {
       }
     }
     const float lo[3] = {0.1f, 0.1f, -1}, hi[3] = {0.3f, 0.2f, 1};
-    // With positions: the same points in the same order, each with its own
-    // position (bitwise).
-    std::vector<ced::neighbor_index::located_point> located(3);
-    index.box_search(lo, hi, located);
-    index.box_search(lo, hi, got);
-    ASSERT_EQ(located.size(), got.size());
-    for (std::size_t t = 0; t < got.size(); ++t) {
-      EXPECT_EQ(located[t].index, got[t]);
-      EXPECT_EQ(std::memcmp(located[t].xyz, c.position(got[t]), sizeof located[t].xyz), 0);
-    }
-    std::sort(got.begin(), got.end());
-    std::vector<std::uint32_t> want;
-    for (std::size_t i = 0; i < c.size(); ++i) {
-      const float* q = c.position(i);
-      if (q[0] >= lo[0] && q[0] <= hi[0] && q[1] >= lo[1] && q[1] <= hi[1] && q[2] >= lo[2] && q[2] <= hi[2])
-        want.push_back(static_cast<std::uint32_t>(i));
-    }
-    EXPECT_EQ(got, want);
+    expect_box_search(index, c, lo, hi);
     index.radius_search(c.position(0), -1, got);
     EXPECT_TRUE(got.empty());
     float nearest = INFINITY;
@@ -175,22 +184,7 @@ TEST(NeighborIndex, CoincidentPointsMatchBruteForce) {
           }
         }
         const float lo[3] = {p[0] - 0.01f, p[1] - 0.01f, p[2] - 0.01f}, hi[3] = {p[0], p[1] + 0.01f, p[2] + 0.02f};
-        index.box_search(lo, hi, got);
-        std::vector<ced::neighbor_index::located_point> located;
-        index.box_search(lo, hi, located);
-        ASSERT_EQ(located.size(), got.size());
-        for (std::size_t t = 0; t < got.size(); ++t) {
-          EXPECT_EQ(located[t].index, got[t]);
-          EXPECT_EQ(std::memcmp(located[t].xyz, c.position(got[t]), sizeof located[t].xyz), 0);
-        }
-        std::sort(got.begin(), got.end());
-        std::vector<std::uint32_t> want;
-        for (std::size_t j = 0; j < c.size(); ++j) {
-          const float* q = c.position(j);
-          if (q[0] >= lo[0] && q[0] <= hi[0] && q[1] >= lo[1] && q[1] <= hi[1] && q[2] >= lo[2] && q[2] <= hi[2])
-            want.push_back(static_cast<std::uint32_t>(j));
-        }
-        ASSERT_EQ(got, want) << i;
+        expect_box_search(index, c, lo, hi);
       }
       EXPECT_GT(shortcuts, 100u) << "points of coincident groups were sampled";
     }
