@@ -25,12 +25,17 @@ check "info on coincident points: a resolution" grep -q "resolution" "$T/info.tx
 check "info on coincident points: says how many coincide" grep -q "50000 points share a position" "$T/info.txt"
 "$CED" detect "$T/crowded.csv" -m xyz:0.2 --indices "$T/auto.txt" -q
 check "detect --radius auto on coincident points: exit 0" test $? = 0
+# A fixed radius stays quadratic in the coincident points (each has all of
+# them as neighbours; CGAL's reference path sorts each list): 2,000 of them.
+awk -F, 'NR == 1 || $1 != 0 || n++ < 2000' "$T/crowded.csv" > "$T/crowd2k.csv"
 for nb in knn:8 adaptive:8 radius; do
-  "$CED" detect "$T/crowded.csv" -r 0.5 -m xyz:0.2 --neighborhood "$nb" --indices "$T/$nb.txt" -q
+  cloud=$T/crowded.csv
+  [ "$nb" = radius ] && cloud=$T/crowd2k.csv
+  "$CED" detect "$cloud" -r 0.5 -m xyz:0.2 --neighborhood "$nb" --indices "$T/$nb.txt" -q
   check "detect --neighborhood $nb on coincident points: exit 0" test $? = 0
-  "$CED" detect "$T/crowded.csv" -r 0.5 -m xyz:0.2 --neighborhood "$nb" --search cgal --indices "$T/$nb.cgal.txt" -q
+  "$CED" detect "$cloud" -r 0.5 -m xyz:0.2 --neighborhood "$nb" --search cgal --indices "$T/$nb.cgal.txt" -q
   check "detect --neighborhood $nb --search cgal: the grid's keypoints" cmp -s "$T/$nb.txt" "$T/$nb.cgal.txt"
-  "$CED" detect "$T/crowded.csv" -r 0.5 -m xyz:0.2 --neighborhood "$nb" --tile-size 3 \
+  "$CED" detect "$cloud" -r 0.5 -m xyz:0.2 --neighborhood "$nb" --tile-size 3 \
     --indices "$T/$nb.tiled.txt" -q 2> "$T/err"
   check "detect --neighborhood $nb in tiles: the whole run's keypoints" cmp -s "$T/$nb.txt" "$T/$nb.tiled.txt"
 done
