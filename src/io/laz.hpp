@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: MIT
 // Private to src/io: LAZ, the LASzip compression of LAS point records
-// (laz.cpp, laz_items.cpp). The LAS reader (las.cpp) finds a LAZ file by its
+// (laz.cpp, the driver; the items in laz_items.hpp, laz_items_v1.hpp,
+// laz_pointwise.hpp, laz_layered.hpp and laz_layered_encode.hpp, the coder
+// in laz_coder.hpp). The LAS reader (las.cpp) finds a LAZ file by its
 // point format byte, and asks this for its chunks, decoded back into the LAS
 // point records they were made from; everything after that is the LAS reader's.
 //

@@ -63,8 +63,9 @@ struct las_read_info {
 ///   Extended VLRs (EVLRs, LAS 1.4) are not read.
 ///
 /// Throws io_error, naming the file, for anything malformed: no "LASF"
-/// signature, unsupported version or point format, LAZ-compressed points
-/// (with how to decompress them), a header or VLR that does not fit, a record
+/// signature, unsupported version or point format, LAZ items it does not
+/// decode (point formats 4, 5, 9, 10: waveforms) or whose chunks are
+/// damaged (a LAZ file is decoded, src/io/laz.hpp), a header or VLR that does not fit, a record
 /// length too small for the format or its extra bytes, zero or non-finite
 /// scale factors, and more points declared than the file holds (checked
 /// before allocating).
