@@ -18,7 +18,8 @@ using namespace ced_cli;
 int main(int argc, char** argv) {
   keep_freed_memory();
   CLI::App app{"ced " CED_VERSION_STRING
-               ": N-modal CEntroid Distance keypoint detection in point clouds (Teng et al., WACV 2023)"};
+               ": N-modal CEntroid Distance keypoint detection in point clouds (Teng et al., WACV 2023)",
+               "ced"};  // the name: "Usage: ced [OPTIONS] SUBCOMMAND"
   app.require_subcommand(1);
   app.set_version_flag("--version", CED_VERSION_STRING);
 

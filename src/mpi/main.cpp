@@ -245,7 +245,7 @@ int main(int argc, char** argv) {
   keep_freed_memory();
   mpi::environment env(argc, argv);
   mpi::communicator world;
-  CLI::App app{"ced-mpi " CED_VERSION_STRING ": `ced detect` tile by tile on MPI ranks"};
+  CLI::App app{"ced-mpi " CED_VERSION_STRING ": `ced detect` tile by tile on MPI ranks", "ced-mpi"};
   app.require_subcommand(1);
   const command detect = add_detect_command(app, [&](const detect_options& o) { return run_mpi(o, world); });
   detect.app->footer(
