@@ -274,12 +274,13 @@ void harden_options(CLI::App* app) {
   const CLI::Validator non_empty(
       [](std::string& v) { return v.empty() ? std::string("an empty path: give a file name") : std::string(); },
       "PATH");
+  // Digits only (after a sign, where one is allowed), leading zeros dropped.
   const auto decimal_digits = [](std::string& v, bool sign) {
     std::size_t digits = v.size() > 1 && (v[0] == '+' || (sign && v[0] == '-')) ? 1 : 0;
     if (v.size() == digits || v.find_first_not_of("0123456789", digits) != std::string::npos)
-      return v.empty()     ? std::string("an empty value: give a whole number")
-             : v[0] == '-' ? "'" + v + "' is negative: give a whole number from 0"
-                           : "'" + v + "' is not a whole decimal number";
+      return v.empty()              ? std::string("an empty value: give a whole number")
+             : !sign && v[0] == '-' ? "'" + v + "' is negative: give a whole number from 0"
+                                    : "'" + v + "' is not a whole decimal number";
     std::size_t zeros = digits;
     while (zeros + 1 < v.size() && v[zeros] == '0') ++zeros;
     v.erase(digits, zeros - digits);
@@ -287,24 +288,18 @@ void harden_options(CLI::App* app) {
   };
   // (An unsigned option read "-1" as 2^64 - 1.)
   const CLI::Validator unsigned_decimal([=](std::string& v) { return decimal_digits(v, false); }, "");
-  const CLI::Validator decimal(
-      [](std::string& v) {
-        std::size_t digits = v.size() > 1 && (v[0] == '-' || v[0] == '+') ? 1 : 0;
-        if (v.size() == digits || v.find_first_not_of("0123456789", digits) != std::string::npos)
-          return v.empty() ? std::string("an empty value: give a whole number")
-                           : "'" + v + "' is not a whole decimal number";
-        std::size_t zeros = digits;
-        while (zeros + 1 < v.size() && v[zeros] == '0') ++zeros;
-        v.erase(digits, zeros - digits);
-        return std::string();
-      },
-      "");
-  // Numbers: decimal and finite. CLI11 reads "" as 0 and takes hexadecimal
-  // ("0x10", "0x1p4"), "nan" and "inf" as C's strtod does.
+  const CLI::Validator decimal([=](std::string& v) { return decimal_digits(v, true); }, "");
+  // Numbers: never empty, never hexadecimal. CLI11 reads "" as 0 and takes
+  // hexadecimal ("0x10", "0x1p4"), "nan" and "inf" as C's strtod does.
+  const auto not_decimal = [](const std::string& v) {
+    if (v.empty()) return std::string("an empty value: give a number");
+    if (v.find_first_of("xX") != std::string::npos) return "'" + v + "' is not a decimal number";
+    return std::string();
+  };
+  // ... and finite.
   const CLI::Validator finite(
-      [](std::string& v) {
-        if (v.empty()) return std::string("an empty value: give a number");
-        if (v.find_first_of("xX") != std::string::npos) return "'" + v + "' is not a decimal number";
+      [=](std::string& v) {
+        if (std::string bad = not_decimal(v); !bad.empty()) return bad;
         const char* b = v.c_str();
         char* e = nullptr;
         const double d = std::strtod(b, &e);
@@ -317,13 +312,7 @@ void harden_options(CLI::App* app) {
   // never empty, never hexadecimal.
   static const char* const numbers_as_text[] = {"radius",     "keypoint-share", "tile-size", "memory-limit",
                                                 "nms-radius", "noise",          "counts"};
-  const CLI::Validator number_text(
-      [](std::string& v) {
-        if (v.empty()) return std::string("an empty value: give a number");
-        if (v.find_first_of("xX") != std::string::npos) return "'" + v + "' is not a decimal number";
-        return std::string();
-      },
-      "");
+  const CLI::Validator number_text([=](std::string& v) { return not_decimal(v); }, "");
   // (Names compared as they are: check_lname() folds case for every call, which cost ~1 M instructions a start.)
   const auto is_in = [](const std::string& name, const auto& list) {
     for (const char* n : list)

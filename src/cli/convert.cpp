@@ -62,7 +62,8 @@ int run_convert(const convert_options& o) {
     c = ced::voxel_downsample(c, o.voxel).cloud;
   }
   using ced::io::file_format;
-  if (report.las && (fmt == file_format::las || fmt == file_format::laz || fmt == file_format::copc)) {
+  const bool to_las = fmt == file_format::las || fmt == file_format::laz || fmt == file_format::copc;
+  if (report.las && to_las) {
     // LAS to LAS: the source's version, point format, scale and offset, so
     // that the point records come back as they were.
     std::vector<std::string> changes;
@@ -74,7 +75,7 @@ int run_convert(const convert_options& o) {
     }
     ced::io::write_named(out, [&](std::ostream& s) { ced::io::write_cloud(s, c, fmt, las); });
   } else {
-    if (fmt == file_format::las || fmt == file_format::laz || fmt == file_format::copc)
+    if (to_las)
       std::fprintf(stderr,
                    "ced: note: %s: %s has no LAS scale: positions are written at scale 0.001 (rounded to 0.5 mm) "
                    "with the offset at the cloud's origin\n",

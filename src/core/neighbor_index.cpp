@@ -91,21 +91,13 @@ struct coincident_groups {
 
   bool empty() const noexcept { return by_key.empty(); }
   /// The group whose key is `id`, or UINT32_MAX.
-  [[gnu::noinline]] std::uint32_t group_of_key(std::uint32_t id) const noexcept {
+  std::uint32_t group_of_key(std::uint32_t id) const noexcept {
     const auto it = std::lower_bound(by_key.begin(), by_key.end(), std::make_pair(id, std::uint32_t(0)));
     return it != by_key.end() && it->first == id ? it->second : UINT32_MAX;
   }
   const std::uint32_t* first(std::uint32_t g) const noexcept { return members.data() + begin[g]; }
   std::size_t size(std::uint32_t g) const noexcept { return begin[g + 1] - begin[g]; }
 };
-
-/// The bits of a coordinate, -0 as +0 (they are the same place).
-std::uint32_t place_bits(float v) noexcept {
-  v += 0.0f;
-  std::uint32_t b;
-  std::memcpy(&b, &v, sizeof b);
-  return b;
-}
 
 /// The groups of more than `bucket` coincident points among order[begin..end)
 /// (or begin..end), found by counting hashed positions first, so that a
@@ -126,7 +118,8 @@ coincident_groups find_groups(const float* xyz, const std::uint32_t* order, std:
     return std::size_t(h >> shift);
   };
   const auto id = [&](std::size_t t) { return order ? order[t] : static_cast<std::uint32_t>(t); };
-  // Counts that stop at 255 (a bucket is far fewer).
+  // Counts that stop at 255 (a count of 255 is 255 or more).
+  const unsigned crowd = std::min(bucket, 254u);
   std::vector<std::uint8_t> count(slots, 0);
   std::uint8_t most = 0;
   for (std::size_t t = begin; t < end; ++t) {
@@ -134,7 +127,7 @@ coincident_groups find_groups(const float* xyz, const std::uint32_t* order, std:
     c = static_cast<std::uint8_t>(c + (c != 255));
     most = std::max(most, c);
   }
-  if (most <= std::min(bucket, 254u)) return g;  // (a count of 255 is 255 or more)
+  if (most <= crowd) return g;
   // The points of crowded slots, by position then id: runs of one position.
   struct placed {
     std::uint32_t x, y, z, id;
@@ -143,7 +136,7 @@ coincident_groups find_groups(const float* xyz, const std::uint32_t* order, std:
   std::vector<placed> crowded;
   for (std::size_t t = begin; t < end; ++t) {
     const std::uint32_t i = id(t);
-    if (count[hash(i)] <= std::min(bucket, 254u)) continue;
+    if (count[hash(i)] <= crowd) continue;
     const float* p = xyz + 3 * std::size_t(i);
     if (!(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]))) continue;
     crowded.push_back({place_bits(p[0]), place_bits(p[1]), place_bits(p[2]), i});
@@ -166,7 +159,6 @@ coincident_groups find_groups(const float* xyz, const std::uint32_t* order, std:
 /// The keys of a tree with groups: every point but the groups' other members.
 std::vector<indexed_point> keys_of(const float* xyz, const std::uint32_t* order, std::size_t begin, std::size_t end,
                                    const coincident_groups& groups) {
-  std::vector<std::uint8_t> hidden;  // by id - lowest id of the part's groups' members
   std::vector<std::uint32_t> others;
   for (std::uint32_t g = 0; g + 1 < groups.begin.size(); ++g)
     others.insert(others.end(), groups.first(g) + 1, groups.first(g) + groups.size(g));
@@ -215,26 +207,25 @@ struct neighbor_index::impl {
       const std::uint32_t g = groups.group_of_key(k.id);
       if (g == UINT32_MAX) return;
       const std::uint32_t* m = groups.first(g);
-      const std::size_t n = groups.size(g), shown = std::min(n, most == SIZE_MAX ? most : most + 1);
+      const std::size_t n = groups.size(g), shown = std::min(n, most + 1);
       for (std::size_t q = 1; q < shown; ++q) out.push_back({d2, m[q]});
       if (self != UINT32_MAX && self != k.id && !std::binary_search(m, m + shown, self) &&
           std::binary_search(m, m + n, self))
         out.push_back({d2, self});
     }
     /// True when key `id` stands for a group (its other members too).
-    [[gnu::noinline, gnu::cold]] bool stands_for_more(std::uint32_t id) const noexcept {
+    bool stands_for_more(std::uint32_t id) const noexcept {
       return !groups.empty() && groups.group_of_key(id) != UINT32_MAX;
     }
     /// Calls out(id) for the point of key `k` and, when it stands for a
-    /// group, for its other members (at most `most` of them, the smallest ids).
+    /// group, for each of its other members.
     template <class Out>
-    void expand(const indexed_point& k, Out&& out, std::size_t most = SIZE_MAX) const {
+    void expand(const indexed_point& k, Out&& out) const {
       out(k.id);
       if (groups.empty()) return;
       const std::uint32_t g = groups.group_of_key(k.id);
       if (g == UINT32_MAX) return;
-      const std::size_t m = std::min(groups.size(g), most == SIZE_MAX ? most : most + 1);
-      for (std::size_t q = 1; q < m; ++q) out(groups.first(g)[q]);
+      for (std::size_t q = 1; q < groups.size(g); ++q) out(groups.first(g)[q]);
     }
     /// Once built: the bounds of the tree's points, which CGAL computed.
     void take_bounds() {
@@ -327,7 +318,7 @@ void neighbor_index::index_groups() {
     for (int k = 0; k < 3; ++k) std::memcpy(&p[k], &bits[std::size_t(k)], sizeof p[k]);
     box_search(p, p, ids);
     std::sort(ids.begin(), ids.end());
-    for (std::uint32_t id : ids) m_grouped.push_back({id, m_sets.size()});
+    for (std::uint32_t id : ids) m_grouped.push_back({id, static_cast<std::uint32_t>(m_sets.size())});
     m_sets.push_back(ids);
   }
   std::sort(m_grouped.begin(), m_grouped.end());
@@ -335,9 +326,9 @@ void neighbor_index::index_groups() {
 
 bool neighbor_index::coincident_nearest_in_sets(std::uint32_t i, std::size_t k, ranked_point* out) const {
   if (k == 0) return false;
-  const auto it = std::lower_bound(m_grouped.begin(), m_grouped.end(), std::make_pair(i, std::uint64_t(0)));
+  const auto it = std::lower_bound(m_grouped.begin(), m_grouped.end(), std::make_pair(i, std::uint32_t(0)));
   if (it == m_grouped.end() || it->first != i) return false;
-  const std::vector<std::uint32_t>& set = m_sets[std::size_t(it->second)];
+  const std::vector<std::uint32_t>& set = m_sets[it->second];
   if (set.size() < k) return false;
   out[0] = {0.0f, i};
   std::size_t n = 1;

@@ -3,6 +3,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <memory>
 #include <vector>
@@ -116,10 +117,19 @@ class neighbor_index {
   /// The points at each place that holds a coincident group (in any tree),
   /// ids ascending; and every such point with its set, by id.
   std::vector<std::vector<std::uint32_t>> m_sets;
-  std::vector<std::pair<std::uint32_t, std::uint64_t>> m_grouped;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> m_grouped;
   const float* m_xyz = nullptr;
   std::size_t m_n = 0;
 };
+
+/// The bits of a coordinate as a place: -0 as +0 (they are the same place),
+/// so that positions compare as floats do (coincident points).
+inline std::uint32_t place_bits(float v) noexcept {
+  v += 0.0f;
+  std::uint32_t b;
+  std::memcpy(&b, &v, sizeof b);
+  return b;
+}
 
 /// Squared radius as the paper's code compares it: float(r*r).
 inline float squared_radius(double r) noexcept { return static_cast<float>(r * r); }

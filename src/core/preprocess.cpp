@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -129,10 +128,7 @@ std::size_t coincident_points(const point_cloud& cloud) {
   const std::size_t n = cloud.size();
   std::vector<std::array<std::uint32_t, 3>> at(n);
   for (std::size_t i = 0; i < n; ++i)
-    for (int k = 0; k < 3; ++k) {
-      float v = cloud.position(i)[k] + 0.0f;  // -0 as +0: one place
-      std::memcpy(&at[i][std::size_t(k)], &v, sizeof v);
-    }
+    for (std::size_t k = 0; k < 3; ++k) at[i][k] = place_bits(cloud.position(i)[k]);
   std::sort(at.begin(), at.end());
   std::size_t shared = 0;
   for (std::size_t a = 0, b; a < n; a = b) {
