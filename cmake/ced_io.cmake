@@ -1,15 +1,22 @@
-# ced::io — reading and writing PLY, PCD, LAS, CSV; RGB-D frames.
+# ced::io — reading and writing PLY, PCD, LAS/LAZ/COPC, CSV; RGB-D frames.
+# A staircase: base/ (scalar IO, records, output files, stream support) is
+# used by every format; las/ and laz/ by LAS, LAZ and COPC; io.cpp and
+# stream.cpp, on top, dispatch through the table of formats (formats.cpp).
 ced_library(ced_io io
+  src/io/base/records.cpp
+  src/io/base/output_file.cpp
+  src/io/las/header.cpp
+  src/io/las/read.cpp
+  src/io/las/write.cpp
+  src/io/las/pieces.cpp
+  src/io/las/stream.cpp
+  src/io/laz/chunks.cpp
+  src/io/laz/copc.cpp
   src/io/ply.cpp
-  src/io/las.cpp
-  src/io/laz.cpp
-  src/io/copc.cpp
-  src/io/stream.cpp
-  src/io/records.cpp
   src/io/pcd.cpp
   src/io/lzf.cpp
   src/io/csv.cpp
-  src/io/output_file.cpp
+  src/io/stream.cpp
   src/io/io.cpp
   src/io/rgbd.cpp
   src/io/transform_io.cpp)

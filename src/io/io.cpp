@@ -5,8 +5,8 @@
 
 #include "core/parallel.hpp"
 #include "core/text.hpp"
-#include "scalar_io.hpp"
-#include "stream_support.hpp"
+#include "io/base/scalar_io.hpp"
+#include "io/base/stream_support.hpp"
 
 namespace ced::io {
 

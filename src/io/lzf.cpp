@@ -13,7 +13,7 @@
 
 #include "ced/io/error.hpp"
 #include "core/raw_vector.hpp"
-#include "scalar_io.hpp"
+#include "io/base/scalar_io.hpp"
 
 namespace ced::io {
 

@@ -19,9 +19,9 @@
 #include <type_traits>
 #include <unordered_set>
 
-#include "records.hpp"
-#include "scalar_io.hpp"
-#include "stream_support.hpp"
+#include "io/base/records.hpp"
+#include "io/base/scalar_io.hpp"
+#include "io/base/stream_support.hpp"
 
 namespace ced::io {
 

@@ -16,7 +16,7 @@
 
 #include "ced/io/output_file.hpp"
 #include "ced/io/transform.hpp"
-#include "scalar_io.hpp"
+#include "io/base/scalar_io.hpp"
 
 // stb_image is compiled in with internal linkage (as stb_image_write in
 // render.cpp); its warnings are silenced as a system header's (CMake).

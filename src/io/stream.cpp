@@ -14,8 +14,8 @@
 #include <system_error>
 #include <utility>
 
-#include "scalar_io.hpp"
-#include "stream_support.hpp"
+#include "io/base/scalar_io.hpp"
+#include "io/base/stream_support.hpp"
 
 namespace ced::io {
 

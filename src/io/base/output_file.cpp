@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "ced/io/output_file.hpp"
 
-#include "scalar_io.hpp"
+#include "io/base/scalar_io.hpp"
 
 #ifdef _WIN32
 #include <process.h>

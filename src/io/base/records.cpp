@@ -1,14 +1,14 @@
 // SPDX-License-Identifier: MIT
 // Points of fixed-size records (records.hpp): the binary PLY and PCD readers,
 // whole-file and streaming.
-#include "records.hpp"
+#include "io/base/records.hpp"
 
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
 #include <type_traits>
 
-#include "scalar_io.hpp"
+#include "io/base/scalar_io.hpp"
 
 namespace ced::io::detail {
 

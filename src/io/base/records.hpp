@@ -15,7 +15,7 @@
 
 #include "ced/cloud.hpp"
 #include "core/parallel.hpp"
-#include "stream_support.hpp"
+#include "io/base/stream_support.hpp"
 
 namespace ced::io::detail {
 

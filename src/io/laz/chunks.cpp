@@ -2,7 +2,7 @@
 // LAZ: the LASzip VLR, the chunk table, and chunks decoded back into LAS
 // point records (laz.hpp). The items' decoders are in laz_items.hpp.
 
-#include "laz.hpp"
+#include "io/laz/types.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -12,12 +12,12 @@
 
 #include "ced/io/error.hpp"
 #include "core/parallel.hpp"
-#include "laz_coder.hpp"
-#include "laz_items.hpp"
-#include "laz_layered.hpp"
-#include "laz_layered_encode.hpp"
-#include "laz_pointwise.hpp"
-#include "scalar_io.hpp"
+#include "io/laz/coder.hpp"
+#include "io/laz/items.hpp"
+#include "io/laz/layered.hpp"
+#include "io/laz/layered_encode.hpp"
+#include "io/laz/pointwise.hpp"
+#include "io/base/scalar_io.hpp"
 
 namespace ced::io::detail {
 

@@ -15,10 +15,10 @@
 #include <string>
 #include <vector>
 
-#include "laz.hpp"
-#include "laz_coder.hpp"
-#include "laz_items.hpp"
-#include "scalar_io.hpp"
+#include "io/laz/types.hpp"
+#include "io/laz/coder.hpp"
+#include "io/laz/items.hpp"
+#include "io/base/scalar_io.hpp"
 
 namespace ced::io::detail::laz {
 

@@ -14,9 +14,9 @@
 #include <memory>
 #include <vector>
 
-#include "laz_coder.hpp"
-#include "laz_items.hpp"
-#include "scalar_io.hpp"
+#include "io/laz/coder.hpp"
+#include "io/laz/items.hpp"
+#include "io/base/scalar_io.hpp"
 
 namespace ced::io::detail::laz {
 

@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
-#include "laz.hpp"
-#include "laz_coder.hpp"
-#include "scalar_io.hpp"
+#include "io/laz/types.hpp"
+#include "io/laz/coder.hpp"
+#include "io/base/scalar_io.hpp"
 
 namespace ced::io::detail::laz {
 

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "laz_layered.hpp"
+#include "io/laz/layered.hpp"
 
 namespace ced::io::detail::laz {
 

@@ -10,10 +10,10 @@
 #include <string>
 #include <vector>
 
-#include "laz.hpp"
-#include "laz_coder.hpp"
-#include "laz_items.hpp"
-#include "laz_items_v1.hpp"
+#include "io/laz/types.hpp"
+#include "io/laz/coder.hpp"
+#include "io/laz/items.hpp"
+#include "io/laz/items_v1.hpp"
 
 namespace ced::io::detail::laz {
 
