@@ -10,6 +10,7 @@ ced_library(ced_io io
   src/io/las/write.cpp
   src/io/las/pieces.cpp
   src/io/las/stream.cpp
+  src/io/las/entries.cpp
   src/io/laz/chunks.cpp
   src/io/laz/copc.cpp
   src/io/ply.cpp
@@ -18,6 +19,7 @@ ced_library(ced_io io
   src/io/csv.cpp
   src/io/stream.cpp
   src/io/io.cpp
+  src/io/formats.cpp
   src/io/rgbd.cpp
   src/io/transform_io.cpp)
 target_include_directories(ced_io SYSTEM PRIVATE ${CED_STB_INCLUDE_DIR})

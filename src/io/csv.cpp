@@ -16,6 +16,7 @@
 #include <system_error>
 #include <type_traits>
 
+#include "io/base/formats.hpp"
 #include "io/base/records.hpp"
 #include "io/base/scalar_io.hpp"
 #include "io/base/stream_support.hpp"
@@ -702,6 +703,25 @@ std::unique_ptr<piece_writer> csv_pieces(std::ostream& out, const point_cloud& l
 std::unique_ptr<point_stream> open_csv_stream(const std::string& path, const csv_options& options,
                                               const field_selection& fields) {
   return std::make_unique<csv_stream>(std::make_unique<input_file>(path), options, fields);
+}
+
+format_entry csv_entry() {
+  format_entry e;
+  e.id = file_format::csv;
+  e.name = "csv";
+  e.aliases = {"xyz", "txt", "pts"};
+  e.extensions = {"csv", "xyz", "txt", "pts"};
+  e.read = [](const std::string& path, const read_options& o, read_report& r) {
+    point_cloud c = read_csv(path, o.csv);
+    r.details = "CSV";
+    return c;
+  };
+  e.write = [](std::ostream& out, const point_cloud& c, const las_write_options*) { write_csv(out, c); };
+  e.pieces = [](std::ostream& out, const point_cloud& layout, std::uint64_t n, bool) {
+    return csv_pieces(out, layout, n);
+  };
+  e.stream = [](const std::string& path, const read_options& o) { return open_csv_stream(path, o.csv, o.fields); };
+  return e;
 }
 }  // namespace detail
 

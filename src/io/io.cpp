@@ -5,39 +5,38 @@
 
 #include "core/parallel.hpp"
 #include "core/text.hpp"
+#include "io/base/formats.hpp"
 #include "io/base/scalar_io.hpp"
-#include "io/base/stream_support.hpp"
 
 namespace ced::io {
 
+namespace {
+using detail::format_entry;
+using detail::formats;
+
+/// The entry whose name or other name is `name`, or nullptr.
+const format_entry* named(const std::string& name) {
+  for (const format_entry& e : formats()) {
+    if (e.name == name) return &e;
+    for (const std::string& a : e.aliases)
+      if (a == name) return &e;
+  }
+  return nullptr;
+}
+}  // namespace
+
 file_format parse_format(const std::string& name) {
   if (name == "auto") return file_format::automatic;
-  if (name == "ply") return file_format::ply;
-  if (name == "pcd") return file_format::pcd;
-  if (name == "las") return file_format::las;
-  if (name == "laz") return file_format::laz;
-  if (name == "copc") return file_format::copc;
-  if (name == "csv" || name == "xyz" || name == "txt" || name == "pts") return file_format::csv;
-  throw std::invalid_argument("unknown format '" + name + "' (known: ply, pcd, las, laz, copc, csv, auto)");
+  if (const format_entry* e = named(name)) return e->id;
+  std::string known;
+  for (const format_entry& e : formats()) known += e.name + ", ";
+  throw std::invalid_argument("unknown format '" + name + "' (known: " + known + "auto)");
 }
 
 std::string format_name(file_format f) {
-  switch (f) {
-    case file_format::automatic:
-      return "auto";
-    case file_format::ply:
-      return "ply";
-    case file_format::pcd:
-      return "pcd";
-    case file_format::las:
-      return "las";
-    case file_format::csv:
-      return "csv";
-    case file_format::laz:
-      return "laz";
-    case file_format::copc:
-      return "copc";
-  }
+  if (f == file_format::automatic) return "auto";
+  for (const format_entry& e : formats())
+    if (e.id == f) return e.name;
   return "?";
 }
 
@@ -49,15 +48,29 @@ file_format format_of(const std::string& path) {
   if (ext == "e57")
     throw io_error(path + ": E57 is not supported; convert it first, e.g. `pdal translate " + path +
                    " out.las` or with CloudCompare to PLY");
-  if (ext.empty()) throw io_error(path + ": no file extension; say the format with --format ply|pcd|las|csv");
-  const std::string lower = ced::detail::to_lower(path);
-  if (lower.size() >= 9 && lower.compare(lower.size() - 9, 9, ".copc.laz") == 0) return file_format::copc;
-  try {
-    return parse_format(ext);
-  } catch (const std::invalid_argument&) {
-    throw io_error(path + ": unsupported file type '." + ext +
-                   "' (ced reads .ply, .pcd, .las, .laz, .csv/.xyz/.txt/.pts)");
+  std::string names, listed;
+  for (const format_entry& e : formats()) {
+    names += (names.empty() ? "" : "|") + e.name;
+    std::string mine;
+    for (const std::string& x : e.extensions)
+      if (x.find('.') == std::string::npos) mine += (mine.empty() ? "." : "/.") + x;
+    if (!mine.empty()) listed += (listed.empty() ? "" : ", ") + mine;
   }
+  if (ext.empty()) throw io_error(path + ": no file extension; say the format with --format " + names);
+  // The longest extension that ends the path (.copc.laz before .laz).
+  const std::string lower = ced::detail::to_lower(path);
+  const format_entry* best = nullptr;
+  std::size_t best_size = 0;
+  for (const format_entry& e : formats())
+    for (const std::string& x : e.extensions)
+      if (x.size() + 1 > best_size && lower.size() > x.size() &&
+          lower.compare(lower.size() - x.size() - 1, x.size() + 1, "." + x) == 0) {
+        best = &e;
+        best_size = x.size() + 1;
+      }
+  if (best) return best->id;
+  if (const format_entry* e = named(ext)) return e->id;
+  throw io_error(path + ": unsupported file type '." + ext + "' (ced reads " + listed + ")");
 }
 
 namespace {
@@ -65,37 +78,7 @@ point_cloud read_cloud_here(const std::string& path, const read_options& options
   const file_format f = options.format == file_format::automatic ? format_of(path) : options.format;
   read_report r;
   r.format = f;
-  point_cloud c;
-  switch (f) {
-    case file_format::ply: {
-      c = detail::read_ply_file(path, options.fields);
-      r.details = "PLY";
-      break;
-    }
-    case file_format::pcd: {
-      pcd_read_info info;
-      c = detail::read_pcd_file(path, &info, options.keep_nonfinite, options.fields);
-      r.nonfinite_removed = info.nonfinite_removed;
-      r.details = detail::pcd_details(info);
-      break;
-    }
-    case file_format::las:
-    case file_format::laz:
-    case file_format::copc: {
-      las_read_info info;
-      c = read_las(path, &info, options.fields);
-      r.details = detail::las_details(info);
-      r.las = info;
-      break;
-    }
-    case file_format::csv: {
-      c = read_csv(path, options.csv);
-      r.details = "CSV";
-      break;
-    }
-    case file_format::automatic:
-      break;
-  }
+  point_cloud c = detail::format_entry_of(f).read(path, options, r);
   c.keep_fields(options.fields);
   if (report) *report = r;
   return c;
@@ -109,45 +92,13 @@ point_cloud read_cloud(const std::string& path, const read_options& options, rea
 }
 
 void write_cloud(std::ostream& out, const point_cloud& cloud, file_format format, const las_write_options& las) {
-  switch (format) {
-    case file_format::las:
-      write_las(out, cloud, las);
-      return;
-    case file_format::laz:
-      detail::write_laz(out, cloud, &las);
-      return;
-    case file_format::copc:
-      detail::write_copc(out, cloud, &las);
-      return;
-    default:
-      write_cloud(out, cloud, format);
-  }
+  if (format == file_format::automatic) throw std::invalid_argument("write_cloud: no format given");
+  detail::format_entry_of(format).write(out, cloud, &las);
 }
 
 void write_cloud(std::ostream& out, const point_cloud& cloud, file_format format) {
-  switch (format) {
-    case file_format::ply:
-      write_ply(out, cloud, ply_format::binary_little_endian);
-      return;
-    case file_format::pcd:
-      write_pcd(out, cloud, pcd_format::binary);
-      return;
-    case file_format::las:
-      write_las(out, cloud);
-      return;
-    case file_format::laz:
-      detail::write_laz(out, cloud);
-      return;
-    case file_format::copc:
-      detail::write_copc(out, cloud);
-      return;
-    case file_format::csv:
-      write_csv(out, cloud);
-      return;
-    case file_format::automatic:
-      break;
-  }
-  throw std::invalid_argument("write_cloud: no format given");
+  if (format == file_format::automatic) throw std::invalid_argument("write_cloud: no format given");
+  detail::format_entry_of(format).write(out, cloud, nullptr);
 }
 
 void write_cloud(const std::string& path, const point_cloud& cloud, file_format format) {
@@ -165,32 +116,8 @@ cloud_writer::cloud_writer(std::ostream& out, const point_cloud& layout, std::ui
     : m_out(out), m_layout(layout), m_points(points) {
   if (m_layout.size() > 0) m_layout.filter(std::vector<std::uint8_t>(m_layout.size(), 0));
   m_start = out.tellp();
-  switch (format) {
-    case file_format::ply:
-      m_pieces = detail::ply_pieces(out, m_layout, points);
-      break;
-    case file_format::pcd:
-      m_pieces = detail::pcd_pieces(out, m_layout, points);
-      break;
-    case file_format::las:
-      if (m_start == std::streampos(-1))
-        throw std::invalid_argument("cloud_writer: LAS in pieces needs a seekable output (a file)");
-      m_pieces = detail::las_pieces(out, m_layout, points);
-      break;
-    case file_format::laz:
-      if (m_start == std::streampos(-1))
-        throw std::invalid_argument("cloud_writer: LAZ in pieces needs a seekable output (a file)");
-      m_pieces = detail::laz_pieces(out, m_layout, points);
-      break;
-    case file_format::copc:
-      m_pieces = detail::copc_pieces(m_layout, points);
-      break;
-    case file_format::csv:
-      m_pieces = detail::csv_pieces(out, m_layout, points);
-      break;
-    case file_format::automatic:
-      throw std::invalid_argument("cloud_writer: no format given");
-  }
+  if (format == file_format::automatic) throw std::invalid_argument("cloud_writer: no format given");
+  m_pieces = detail::format_entry_of(format).pieces(out, m_layout, points, m_start != std::streampos(-1));
 }
 
 cloud_writer::~cloud_writer() = default;

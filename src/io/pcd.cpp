@@ -19,6 +19,7 @@
 #include <type_traits>
 #include <unordered_set>
 
+#include "io/base/formats.hpp"
 #include "io/base/records.hpp"
 #include "io/base/scalar_io.hpp"
 #include "io/base/stream_support.hpp"
@@ -863,6 +864,11 @@ void write_pcd(const std::string& path, const point_cloud& cloud, pcd_format fmt
   detail::write_to_file(path, [&](std::ostream& o) { write_pcd_unchecked(o, cloud, fmt); });
 }
 
+namespace detail {
+/// read_report::details of a PCD file ("PCD binary, organized 640x480").
+std::string pcd_details(const pcd_read_info& info);
+}  // namespace detail
+
 namespace {
 /// The points of a binary PCD file, chunk by chunk (read_pcd()'s semantics,
 /// but every record is kept: non-finite points too).
@@ -958,6 +964,28 @@ std::unique_ptr<point_stream> open_pcd_stream(const std::string& path, const fie
 point_cloud read_pcd_file(const std::string& path, pcd_read_info* info, bool keep_nonfinite,
                           const field_selection& fields) {
   return read_pcd_path(path, info, keep_nonfinite, fields);
+}
+
+format_entry pcd_entry() {
+  format_entry e;
+  e.id = file_format::pcd;
+  e.name = "pcd";
+  e.extensions = {"pcd"};
+  e.read = [](const std::string& path, const read_options& o, read_report& r) {
+    pcd_read_info info;
+    point_cloud c = read_pcd_file(path, &info, o.keep_nonfinite, o.fields);
+    r.nonfinite_removed = info.nonfinite_removed;
+    r.details = pcd_details(info);
+    return c;
+  };
+  e.write = [](std::ostream& out, const point_cloud& c, const las_write_options*) {
+    write_pcd(out, c, pcd_format::binary);
+  };
+  e.pieces = [](std::ostream& out, const point_cloud& layout, std::uint64_t n, bool) {
+    return pcd_pieces(out, layout, n);
+  };
+  e.stream = [](const std::string& path, const read_options& o) { return open_pcd_stream(path, o.fields); };
+  return e;
 }
 }  // namespace detail
 

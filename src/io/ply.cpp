@@ -18,6 +18,7 @@
 #include <type_traits>
 #include <unordered_set>
 
+#include "io/base/formats.hpp"
 #include "io/base/records.hpp"
 #include "io/base/scalar_io.hpp"
 #include "io/base/stream_support.hpp"
@@ -848,6 +849,26 @@ std::unique_ptr<point_stream> open_ply_stream(const std::string& path, const fie
   find_vertex(h, path, axis);
   if (h.format == ply_format::ascii) return nullptr;
   return std::make_unique<ply_stream>(std::move(file), std::move(h), axis, fields);
+}
+
+format_entry ply_entry() {
+  format_entry e;
+  e.id = file_format::ply;
+  e.name = "ply";
+  e.extensions = {"ply"};
+  e.read = [](const std::string& path, const read_options& o, read_report& r) {
+    point_cloud c = read_ply_file(path, o.fields);
+    r.details = "PLY";
+    return c;
+  };
+  e.write = [](std::ostream& out, const point_cloud& c, const las_write_options*) {
+    write_ply(out, c, ply_format::binary_little_endian);
+  };
+  e.pieces = [](std::ostream& out, const point_cloud& layout, std::uint64_t n, bool) {
+    return ply_pieces(out, layout, n);
+  };
+  e.stream = [](const std::string& path, const read_options& o) { return open_ply_stream(path, o.fields); };
+  return e;
 }
 }  // namespace detail
 

@@ -14,6 +14,7 @@
 #include <system_error>
 #include <utility>
 
+#include "io/base/formats.hpp"
 #include "io/base/scalar_io.hpp"
 #include "io/base/stream_support.hpp"
 
@@ -246,17 +247,13 @@ std::optional<std::vector<point_stream::point_run>> point_stream::runs_within(co
 
 std::unique_ptr<point_stream> open_point_stream(const std::string& path, const read_options& options) {
   const file_format f = options.format == file_format::automatic ? format_of(path) : options.format;
-  if (f == file_format::las || f == file_format::laz || f == file_format::copc)
-    return open_las_stream(path, options.fields);
+  const detail::format_entry& format = detail::format_entry_of(f);
+  if (format.streams_any_file) return format.stream(path, options);
   read_options o = options;
   o.format = f;
   std::error_code ec;
-  if (std::filesystem::is_regular_file(path, ec)) {  // else read whole, with read_cloud()'s errors
-    std::unique_ptr<point_stream> s;
-    if (f == file_format::ply) s = detail::open_ply_stream(path, options.fields);
-    if (f == file_format::pcd) s = detail::open_pcd_stream(path, options.fields);
-    if (f == file_format::csv) s = detail::open_csv_stream(path, options.csv, options.fields);
-    if (s) return s;
+  if (format.stream && std::filesystem::is_regular_file(path, ec)) {  // else read whole, with read_cloud()'s errors
+    if (auto s = format.stream(path, options)) return s;
   }
   return std::make_unique<whole_file_stream>(path, o);
 }

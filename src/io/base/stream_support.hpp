@@ -14,9 +14,6 @@
 #include <string_view>
 
 #include "ced/cloud.hpp"
-#include "ced/io/csv.hpp"
-#include "ced/io/las.hpp"
-#include "ced/io/pcd.hpp"
 #include "ced/io/stream.hpp"
 
 namespace ced::io::detail {
@@ -183,24 +180,5 @@ class box_stream : public point_stream {
   finite_box m_box;
   bool m_first_pass_done = false;
 };
-
-/// read_report::details of a PCD file ("PCD binary, organized 640x480").
-std::string pcd_details(const pcd_read_info& info);
-/// read_report::details of a LAS file ("LAS 1.4, point format 6").
-std::string las_details(const las_read_info& info);
-
-/// read_ply() and read_pcd() decoding only the selected fields (read_cloud()).
-point_cloud read_ply_file(const std::string& path, const field_selection& fields);
-point_cloud read_pcd_file(const std::string& path, pcd_read_info* info, bool keep_nonfinite,
-                          const field_selection& fields);
-
-/// Streaming readers of the other formats (defined with their whole-file
-/// readers). nullptr for the encodings that are not streamed (PLY ascii;
-/// PCD ascii and binary_compressed): open_point_stream then reads the file
-/// whole. Errors in the header are thrown as read_cloud() throws them.
-std::unique_ptr<point_stream> open_ply_stream(const std::string& path, const field_selection& fields);
-std::unique_ptr<point_stream> open_pcd_stream(const std::string& path, const field_selection& fields);
-std::unique_ptr<point_stream> open_csv_stream(const std::string& path, const csv_options& options,
-                                              const field_selection& fields);
 
 }  // namespace ced::io::detail

@@ -340,3 +340,8 @@ void write_records(std::ostream& out, const point_cloud& cloud, const las_write_
 void write_las_unchecked(std::ostream& out, const point_cloud& cloud, const las_write_options& opt);
 
 }  // namespace ced::io::las_detail
+
+namespace ced::io::detail {
+/// read_report::details of a LAS file ("LAS 1.4, point format 6").
+std::string las_details(const las_read_info& info);
+}  // namespace ced::io::detail

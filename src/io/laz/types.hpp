@@ -19,9 +19,15 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <iosfwd>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include "ced/cloud.hpp"
+#include "ced/io/las.hpp"
+#include "io/base/scalar_io.hpp"
 
 namespace ced::io::detail {
 
@@ -181,5 +187,23 @@ std::string laz_from_las(std::string_view las, const std::string& name, std::uin
 /// (LAZ decoded), back to back; the header's checks as read_las(). For tests
 /// and the fuzz target: a LAZ file must give exactly its LAS twin's records.
 std::string las_point_records(std::string_view bytes, const std::string& name);
+
+/// LAS, LAZ and COPC written whole and in pieces (las/pieces.cpp, laz/copc.cpp).
+std::unique_ptr<piece_writer> las_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n);
+std::unique_ptr<piece_writer> laz_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t n);
+/// `cloud` as LAZ: LAS 1.2 (point formats 0-3, pointwise) without
+/// `options`; with them, what write_las() writes with them, compressed
+/// (formats 6-8 layered).
+void write_laz(std::ostream& out, const point_cloud& cloud, const las_write_options* options = nullptr);
+/// COPC in pieces: held in memory, written whole by finish() (copc.cpp).
+std::unique_ptr<piece_writer> copc_pieces(const point_cloud& layout, std::uint64_t n);
+/// `cloud` as COPC: LAZ 1.4 (point formats 6-8, layered) in octree nodes;
+/// `options` (version 1.4, point format 6-8 or -1) as write_las() takes them.
+void write_copc(std::ostream& out, const point_cloud& cloud, const las_write_options* options = nullptr);
+/// The COPC file of a LAS 1.4 file held in `las` (point formats 6-8, no
+/// extended VLRs): its records grouped by octree node (grid sampling, 128
+/// cells a side), a LAZ chunk a node, the hierarchy in one page.
+/// std::invalid_argument naming `name` for what it cannot write.
+std::string copc_from_las(std::string_view las, const std::string& name);
 
 }  // namespace ced::io::detail
