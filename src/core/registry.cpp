@@ -9,13 +9,9 @@
 #include <mutex>
 #include <set>
 #include <stdexcept>
+#include <type_traits>
 
-#include "ced/modalities/bands.hpp"
-#include "ced/modalities/intensity.hpp"
-#include "ced/modalities/lab.hpp"
-#include "ced/modalities/normals.hpp"
-#include "ced/modalities/rgb.hpp"
-#include "ced/modalities/xyz.hpp"
+#include "ced/modalities/builtin.hpp"
 #include "ced/modality.hpp"
 #include "ced/scaled.hpp"
 #include "core/text.hpp"
@@ -141,10 +137,6 @@ std::vector<std::string> modality_spec::unused_options() const {
 }
 
 namespace {
-template <class M>
-void add_builtin(std::map<std::string, std::pair<modality_factory, std::string>>& f, const char* help) {
-  f[M::spec_name] = {factory_of<M>(), help};
-}
 
 struct registry {
   using table = std::map<std::string, std::pair<modality_factory, std::string>>;
@@ -155,13 +147,10 @@ struct registry {
   std::vector<std::string> log;
 
   registry() {
-    add_builtin<xyz>(factories, "geometry: L2 distance to the neighbours' centroid; threshold = ratio of the radius");
-    add_builtin<rgb>(factories, "colour: L1 distance in RGB scaled to [0,1]; options norm=, range=");
-    add_builtin<lab>(factories, "colour in CIELAB: dE*76/100 to the neighbours' mean");
-    add_builtin<normals>(factories,
-                         "surface normals (nx,ny,nz or PCA): orientation-tensor distance; options radius=, from=");
-    add_builtin<intensity>(factories, "a scalar field (default 'intensity'); intensity(FIELD); options range=");
-    add_builtin<bands>(factories, "bands(F1,F2,...): named channels as one vector; options norm=, range=");
+    builtin_modalities::for_each([this](auto* type) {
+      using M = std::remove_pointer_t<decltype(type)>;
+      factories[M::spec_name] = {factory_of<M>(), M::spec_help};
+    });
   }
   static registry& instance() {
     static registry r;

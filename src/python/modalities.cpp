@@ -8,9 +8,11 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "bindings.hpp"
+#include "ced/modalities/builtin.hpp"
 #include "ced/plugin.hpp"
 
 namespace ced_python {
@@ -170,6 +172,17 @@ void bind_modalities(py::module_& m) {
   m.def("_split_modality_specs", &ced::split_modality_specs, py::arg("text"),
         "Modality specs joined by commas, split as `ced eval --detector` splits them.");
   m.def("modalities", &ced::registered_modalities, "(name, help) of every registered modality, sorted.");
+  m.def(
+      "_builtin_modalities",
+      [] {
+        std::vector<std::pair<std::string, std::string>> out;
+        ced::builtin_modalities::for_each([&](auto* type) {
+          using M = std::remove_pointer_t<decltype(type)>;
+          out.emplace_back(M::spec_name, M::spec_help);
+        });
+        return out;
+      },
+      "(name, help) of each built-in modality (ced/modalities/builtin.hpp), in its order.");
   m.def(
       "load_plugin",
       [](py::handle path) {

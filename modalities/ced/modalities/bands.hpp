@@ -15,6 +15,8 @@ namespace ced {
 
 struct bands {
   static constexpr const char* spec_name = "bands";
+  /// One line for `ced modalities` and ced.modalities().
+  static constexpr const char* spec_help = "bands(F1,F2,...): named channels as one vector; options norm=, range=";
   std::vector<std::string> names;
   double threshold_value = 0.1;
   norm_type norm = norm_type::l1;

@@ -16,6 +16,8 @@ namespace ced {
 
 struct intensity {
   static constexpr const char* spec_name = "intensity";
+  /// One line for `ced modalities` and ced.modalities().
+  static constexpr const char* spec_help = "a scalar field (default 'intensity'); intensity(FIELD); options range=";
   double threshold_value = 0.05;
   std::string field_name = "intensity";
   range_policy range;

@@ -12,6 +12,8 @@ namespace ced {
 
 struct lab {
   static constexpr const char* spec_name = "lab";
+  /// One line for `ced modalities` and ced.modalities().
+  static constexpr const char* spec_help = "colour in CIELAB: dE*76/100 to the neighbours' mean";
   double threshold_value = 0.1;
 
   lab() = default;

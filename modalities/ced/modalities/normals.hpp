@@ -27,6 +27,9 @@ namespace ced {
 
 struct normals {
   static constexpr const char* spec_name = "normals";
+  /// One line for `ced modalities` and ced.modalities().
+  static constexpr const char* spec_help =
+      "surface normals (nx,ny,nz or PCA): orientation-tensor distance; options radius=, from=";
   enum class source { automatic, fields, estimate };
   double threshold_value = 0.2;
   double radius_factor = 1;  ///< estimation radius, × the detection radius, in (0, 1]

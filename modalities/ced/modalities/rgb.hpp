@@ -15,6 +15,8 @@ namespace ced {
 
 struct rgb {
   static constexpr const char* spec_name = "rgb";
+  /// One line for `ced modalities` and ced.modalities().
+  static constexpr const char* spec_help = "colour: L1 distance in RGB scaled to [0,1]; options norm=, range=";
   double threshold_value = 0.1;
   norm_type norm = norm_type::l1;
   std::optional<range_policy> range;

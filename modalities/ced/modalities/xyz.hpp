@@ -9,6 +9,9 @@ namespace ced {
 
 struct xyz {
   static constexpr const char* spec_name = "xyz";
+  /// One line for `ced modalities` and ced.modalities().
+  static constexpr const char* spec_help =
+      "geometry: L2 distance to the neighbours' centroid; threshold = ratio of the radius";
   /// Candidate when the distance to the centroid is ≥ ratio × radius.
   double ratio = 0.2;
 

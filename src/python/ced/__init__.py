@@ -118,6 +118,24 @@ def bands(fields, threshold=0.1, norm=None, range=None):
     return _spec("bands", threshold, fields, norm=norm, range=range)
 
 
+def _builtin_helper(name, help_text):
+    def helper(threshold=None, fields=None, **options):
+        return _spec(name, threshold, fields, **options)
+
+    helper.__name__ = helper.__qualname__ = name
+    helper.__doc__ = (f"{help_text}. ced.{name}(threshold=None, fields=None, **options) makes the spec "
+                      f"'{name}[(fields)][:threshold][,key=value...]'.")
+    return helper
+
+
+# Every built-in modality has a helper: those above, and one made here for
+# each other entry of the built-in list (ced/modalities/builtin.hpp).
+for _name, _help in _ced._builtin_modalities():
+    if _name not in globals():
+        globals()[_name] = _builtin_helper(_name, _help)
+        __all__.append(_name)
+
+
 def _is_open3d(obj):
     return type(obj).__module__.startswith("open3d") and hasattr(obj, "points") and hasattr(obj, "has_colors")
 

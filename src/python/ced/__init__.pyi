@@ -141,6 +141,10 @@ def voxel_downsample(cloud: PointsLike, size: float) -> Cloud:
 def modality(spec: str) -> Modality:
     """A modality from a spec string."""
 
+def __getattr__(name: str) -> Callable[..., Modality]:
+    """A built-in modality with no helper listed here (ced/modalities/builtin.hpp): ced.<name>(threshold=None,
+    fields=None, **options)."""
+
 def xyz(threshold: float = 0.2) -> Modality:
     """Geometry: L2 distance to the neighbours' centroid; threshold is a ratio of the radius."""
 
