@@ -19,7 +19,7 @@
 #include "ced/io/las.hpp"
 #include "ced/io/stream.hpp"
 #include "file_support.hpp"
-#include "io/laz.hpp"
+#include "io/laz/types.hpp"
 
 namespace fs = std::filesystem;
 using ced::point_cloud;

@@ -21,8 +21,8 @@
 #include "ced/tiled.hpp"
 #include "core/parallel.hpp"
 #include "file_support.hpp"
-#include "io/laz.hpp"
-#include "io/scalar_io.hpp"
+#include "io/laz/types.hpp"
+#include "io/base/scalar_io.hpp"
 
 using ced::io::io_error;
 using ced::io::detail::las_point_records;

@@ -11,7 +11,7 @@
 #include "ced/io/lzf.hpp"
 #include "file_support.hpp"
 #include "fuzz/lzf_entry.hpp"
-#include "io/scalar_io.hpp"
+#include "io/base/scalar_io.hpp"
 
 using ced::io::io_error;
 

@@ -25,7 +25,7 @@
 #include "ced/io/stream.hpp"
 #include "ced/modality.hpp"
 #include "ced/tiled.hpp"
-#include "io/scalar_io.hpp"
+#include "io/base/scalar_io.hpp"
 
 namespace ced::tiled_detail {
 

@@ -24,8 +24,8 @@
 
 #include "ced/ced.hpp"
 #include "ced/io/stream.hpp"
-#include "io/laz.hpp"
-#include "io/scalar_io.hpp"
+#include "io/laz/types.hpp"
+#include "io/base/scalar_io.hpp"
 
 namespace {
 

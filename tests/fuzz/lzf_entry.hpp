@@ -15,7 +15,7 @@
 #include <string_view>
 
 #include "ced/io/lzf.hpp"
-#include "io/scalar_io.hpp"
+#include "io/base/scalar_io.hpp"
 
 namespace ced_fuzz {
 
