@@ -1,11 +1,15 @@
 // SPDX-License-Identifier: MIT
 // Docs drift (#26 item 7): the numbers the docs quote from code constants are
 // the constants, and docs/ARCHITECTURE.md's parts name every source file.
+// The front door (#58): README.md's length, no measured figure outside
+// docs/RESULTS.md, every result's date, machine, command and commit, and
+// every relative link of the docs.
 // Each check builds the sentence the doc should hold from the code and looks
 // for it; a failure shows what the doc says instead.
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -188,6 +192,299 @@ TEST(Docs, ArchitectureNamesEverySourceFile) {
     }
     EXPECT_TRUE(exists) << "docs/ARCHITECTURE.md's parts name `" << q << "`, which is no file of the project";
   }
+}
+
+// The front door and the results page (#58): README.md is short and shows code
+// early, the README and the reference pages quote no measured figure of their
+// own (docs/RESULTS.md holds them, each row with its date, machine, command and
+// commit), and every relative link of the docs reaches a file and a heading.
+namespace {
+
+std::vector<std::string> lines_of(const std::string& text) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    lines.push_back(line);
+  }
+  return lines;
+}
+
+std::string trimmed(const std::string& s) {
+  const auto b = s.find_first_not_of(" \t");
+  if (b == std::string::npos) return {};
+  return s.substr(b, s.find_last_not_of(" \t") - b + 1);
+}
+
+/// A line that opens or closes a fenced code block.
+bool is_fence(const std::string& line) { return trimmed(line).rfind("```", 0) == 0; }
+
+/// The pages that quote no measured figure of their own: the README and the
+/// reference pages. docs/RESULTS.md holds the figures, docs/journal/ the
+/// dated experiments; neither is checked here.
+const std::vector<std::string> pages_without_figures = {
+    "README.md",       "docs/ALGORITHM.md", "docs/ARCHITECTURE.md", "docs/BENCHMARKS.md",
+    "docs/CLI.md",     "docs/CPP.md",       "docs/EVALUATION.md",   "docs/MODALITIES.md",
+    "docs/PYTHON.md",  "docs/ROBUSTNESS.md", "docs/SCALE.md",       "docs/VIEWER.md"};
+
+/// A page's prose outside code: one string a paragraph, list item or table
+/// row, its lines joined by a space (Markdown wraps a figure and its unit
+/// anywhere). Fenced blocks and indented code blocks are left out.
+std::vector<std::string> prose_units(const std::string& text) {
+  static const std::regex list_item(R"(^(-|\*|\d+\.)\s)");
+  std::vector<std::string> units;
+  std::string unit;
+  bool fence = false;
+  const auto flush = [&] {
+    if (!unit.empty()) units.push_back(unit);
+    unit.clear();
+  };
+  for (const auto& line : lines_of(text)) {
+    const std::string s = trimmed(line);
+    if (is_fence(line)) {
+      flush();
+      fence = !fence;
+      continue;
+    }
+    if (fence) continue;
+    if (unit.empty() && line.rfind("    ", 0) == 0 && !s.empty() && s[0] != '-' && s[0] != '|') continue;
+    if (s.empty() || s[0] == '#') {
+      flush();
+      continue;
+    }
+    if (s[0] == '|' || std::regex_search(s, list_item)) {
+      flush();
+      unit = s;
+      if (s[0] == '|') flush();
+      continue;
+    }
+    unit += (unit.empty() ? "" : " ") + s;
+  }
+  flush();
+  return units;
+}
+
+/// What a measured figure looks like in this project's docs: a number with a
+/// unit of time or throughput, a speed-up, a lift or a repeatability, a peak
+/// of memory, an instruction count, a count of tests. Parameters (radii,
+/// thresholds, budgets, sizes of formats, multiples of the resolution) do not
+/// match. Checked against the README and the pages as they were before #58,
+/// which all fail.
+const std::vector<std::pair<std::string, std::regex>>& figure_patterns() {
+  static const std::string n = R"(\d+(?:,\d{3})*(?:\.\d+)?)";
+  static const std::string r = n + R"((?:\s?(?:–|-)\s?)" + n + ")?";
+  static const std::vector<std::pair<std::string, std::regex>> patterns = {
+      {"a time", std::regex(r + R"(\s?(?:ms|µs|ns|s|min)(?![\w/]))")},
+      {"a throughput", std::regex(r + R"(\s?(?:[kMG]i?B/s|M? ?points(?:/s| a second| per second))(?!\w))")},
+      {"a speed-up",
+       std::regex(r + R"(\s?(?:×|x)(?=\s*(?:$|[),;:.]|faster|slower|ced6d|the time|its time|as fast|the paper|over |before|against|in |on )))")},
+      {"a speed-up", std::regex(r + R"((?:×|x) (?!the resolution|res\b|the radius|r\b|voxel|spacing|the NMS|as many))")},
+      {"a lift", std::regex(R"(\blifts?\b(?:(?!\. )[^|]){0,60}?\b)" + n)},
+      {"a repeatability", std::regex(R"(\brepeat(?:s|ed|ability)?\b(?:(?!\. )[^|]){0,60}?\b(?:0\.\d{2,3}|\d+\s?%))")},
+      {"a peak of memory", std::regex(R"(\b(?:peak|peaks|RSS)\b(?:(?!\. )[^|]){0,40}?)" + r + R"(\s?(?:[kMG]i?B|bytes)\b)")},
+      {"memory a point", std::regex(r + R"(\s?(?:B/point|B a point)\b)")},
+      {"an instruction count", std::regex(r + R"(\s?M instructions)")},
+      {"a count of tests", std::regex(R"(\b\d+(?:,\d{3})* (?:tests|test cases)\b(?!/))")}};
+  return patterns;
+}
+
+/// The first measured figure of a prose unit that does not link to
+/// docs/RESULTS.md, with its kind; empty when there is none.
+std::string measured_figure(const std::string& unit) {
+  if (unit.find("RESULTS.md") != std::string::npos) return {};
+  for (const auto& [kind, pattern] : figure_patterns()) {
+    std::smatch m;
+    if (std::regex_search(unit, m, pattern)) return kind + " \"" + m.str() + "\"";
+  }
+  return {};
+}
+
+/// GitHub's anchor of a heading: lower case, spaces to '-', punctuation
+/// dropped but '-' and '_' (and, beyond ASCII, the Latin-1 and general
+/// punctuation, arrows and mathematical operators; letters stay).
+std::string heading_slug(const std::string& heading) {
+  std::string slug;
+  for (std::size_t i = 0; i < heading.size();) {
+    const auto c = static_cast<unsigned char>(heading[i]);
+    if (c < 0x80) {
+      if (std::isalnum(c) || c == '-' || c == '_') slug += static_cast<char>(std::tolower(c));
+      else if (c == ' ') slug += '-';
+      ++i;
+      continue;
+    }
+    const std::size_t len = c >= 0xF0 ? 4 : c >= 0xE0 ? 3 : 2;
+    char32_t cp = c & (len == 2 ? 0x1F : len == 3 ? 0x0F : 0x07);
+    for (std::size_t k = 1; k < len && i + k < heading.size(); ++k) cp = (cp << 6) | (heading[i + k] & 0x3F);
+    const bool punctuation = (cp >= 0xA0 && cp <= 0xBF) || cp == 0xD7 || cp == 0xF7 ||
+                             (cp >= 0x2000 && cp <= 0x206F) || (cp >= 0x2190 && cp <= 0x23FF);
+    if (!punctuation) slug += heading.substr(i, len);
+    i += len;
+  }
+  return slug;
+}
+
+/// The anchors of a Markdown file: its headings' slugs (a repeated slug gets
+/// -1, -2, ... as on GitHub) and its `<a id="...">` tags.
+std::set<std::string> anchors_of(const fs::path& file) {
+  static const std::regex heading(R"(^#{1,6} (.*?)\s*#*\s*$)");
+  static const std::regex id(R"re(<a id="([^"]+)")re");
+  std::set<std::string> anchors;
+  std::map<std::string, int> seen;
+  bool fence = false;
+  for (const auto& line : lines_of(ced_test::read_bytes(file.string()))) {
+    if (is_fence(line)) fence = !fence;
+    if (fence || is_fence(line)) continue;
+    std::smatch m;
+    if (std::regex_match(line, m, heading)) {
+      const std::string slug = heading_slug(m[1]);
+      const int n = seen[slug]++;
+      anchors.insert(n == 0 ? slug : slug + "-" + std::to_string(n));
+    }
+    for (std::sregex_iterator i(line.begin(), line.end(), id), e; i != e; ++i) anchors.insert((*i)[1]);
+  }
+  return anchors;
+}
+
+/// The Markdown files whose links are checked: README.md, docs/*.md and docs/journal/*.md.
+std::vector<fs::path> markdown_files() {
+  std::vector<fs::path> files = {root / "README.md"};
+  for (const auto& dir : {root / "docs", root / "docs" / "journal"})
+    if (fs::is_directory(dir))
+      for (const auto& entry : fs::directory_iterator(dir))
+        if (entry.is_regular_file() && entry.path().extension() == ".md") files.push_back(entry.path());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+std::vector<std::string> table_cells(const std::string& row) {
+  std::vector<std::string> cells;
+  std::string cell;
+  for (std::size_t i = 1; i < row.size(); ++i) {  // row[0] is the leading '|'
+    if (row[i] == '\\' && i + 1 < row.size() && row[i + 1] == '|') {
+      cell += '|';
+      ++i;
+    } else if (row[i] == '|') {
+      cells.push_back(trimmed(cell));
+      cell.clear();
+    } else {
+      cell += row[i];
+    }
+  }
+  if (!trimmed(cell).empty()) cells.push_back(trimmed(cell));
+  return cells;
+}
+
+}  // namespace
+
+TEST(Docs, ReadmeIsShortAndShowsCodeEarly) {
+  const auto lines = lines_of(ced_test::read_bytes((root / "README.md").string()));
+  ASSERT_FALSE(lines.empty()) << "README.md is missing or empty";
+  EXPECT_LE(lines.size(), 150u) << "README.md has " << lines.size()
+                                << " lines; the front door holds at most 150 (figures go to docs/RESULTS.md)";
+  const auto fence = std::find_if(lines.begin(), lines.end(), is_fence);
+  ASSERT_NE(fence, lines.end()) << "README.md has no code block";
+  EXPECT_LE(fence - lines.begin() + 1, 40) << "README.md's first code block opens at line "
+                                           << fence - lines.begin() + 1 << "; it must by line 40";
+}
+
+TEST(Docs, NoMeasuredFigureOutsideTheResultsPage) {
+  for (const auto& page : pages_without_figures) {
+    const std::string text = ced_test::read_bytes((root / page).string());
+    EXPECT_FALSE(text.empty()) << page << " is missing or empty";
+    for (const auto& unit : prose_units(text)) {
+      const std::string figure = measured_figure(unit);
+      EXPECT_TRUE(figure.empty()) << page << " quotes a measured figure, " << figure << ", in:\n  \""
+                                  << unit.substr(0, 200) << (unit.size() > 200 ? "...\"" : "\"")
+                                  << "\n  Put it in a row of docs/RESULTS.md and link the row instead.";
+    }
+  }
+  // The check itself: figures as the README quoted them before #58 are found.
+  EXPECT_FALSE(measured_figure("A whole `ced detect` took 47 ms on our 2-vCPU machine").empty());
+  EXPECT_FALSE(measured_figure("against 1,322 ms for the paper's own code: 28× faster").empty());
+  EXPECT_FALSE(measured_figure("robust6d's mean lift is 11.14 and robust3d's 7.78").empty());
+  EXPECT_FALSE(measured_figure("a whole ced6d run peaks at 103 bytes a point (1.0 GB)").empty());
+  EXPECT_FALSE(measured_figure("binary PLY, PCD and LAS read at 1.1–3.9 GB/s").empty());
+  EXPECT_FALSE(measured_figure("robust6d repeats 0.72–0.76 of its keypoints").empty());
+  EXPECT_TRUE(measured_figure("within a budget of 64 MiB or 16 bytes a point, whichever is more").empty());
+  EXPECT_TRUE(measured_figure("the radius is 5 × voxel, epsilon 2 × the resolution").empty());
+  EXPECT_TRUE(measured_figure("47 ms ([results](docs/RESULTS.md#whole-process-now))").empty());
+}
+
+TEST(Docs, EveryResultHasItsDateMachineCommandAndCommit) {
+  const auto lines = lines_of(ced_test::read_bytes((root / "docs" / "RESULTS.md").string()));
+  ASSERT_FALSE(lines.empty()) << "docs/RESULTS.md is missing or empty";
+  const std::regex separator(R"(^\|(\s*:?-+:?\s*\|)+\s*$)");
+  const std::regex date(R"(^\d{4}-\d{2}-\d{2}$)");
+  const std::regex command_link(R"(\[[^\]]+\]\([^)]+\)|`[^`]+`)");
+  const std::regex commit(R"(^[0-9a-f]{7,40}$)");
+  std::size_t rows = 0;
+  bool fence = false;
+  for (std::size_t i = 0; i + 1 < lines.size(); ++i) {
+    if (is_fence(lines[i])) fence = !fence;
+    if (fence || lines[i].rfind("|", 0) != 0 || !std::regex_match(lines[i + 1], separator)) continue;
+    // A table: its header names the columns.
+    const auto header = table_cells(lines[i]);
+    std::map<std::string, std::size_t> column;
+    for (std::size_t k = 0; k < header.size(); ++k) column[header[k]] = k;
+    for (const char* name : {"date", "machine", "command", "commit"})
+      ASSERT_TRUE(column.count(name)) << "docs/RESULTS.md line " << i + 1 << ": a table without a \"" << name
+                                      << "\" column";
+    for (std::size_t j = i + 2; j < lines.size() && lines[j].rfind("|", 0) == 0; ++j) {
+      ++rows;
+      const auto cells = table_cells(lines[j]);
+      SCOPED_TRACE("docs/RESULTS.md line " + std::to_string(j + 1) + ": " + lines[j].substr(0, 120));
+      ASSERT_EQ(cells.size(), header.size()) << "a row of another number of cells than its header";
+      EXPECT_TRUE(std::regex_match(cells[column["date"]], date))
+          << "the date \"" << cells[column["date"]] << "\" is not YYYY-MM-DD";
+      EXPECT_FALSE(cells[column["machine"]].empty()) << "no machine";
+      EXPECT_TRUE(std::regex_search(cells[column["command"]], command_link))
+          << "the command \"" << cells[column["command"]] << "\" is neither a link nor a command";
+      EXPECT_TRUE(std::regex_match(cells[column["commit"]], commit))
+          << "the commit \"" << cells[column["commit"]] << "\" is not 7 to 40 hex digits";
+    }
+  }
+  EXPECT_GT(rows, 0u) << "docs/RESULTS.md has no table of results";
+}
+
+TEST(Docs, RelativeLinksReachAFileAndAHeading) {
+  // [text](path#anchor) outside code: the path exists, and the anchor is a
+  // heading (or an <a id>) of the Markdown file it names.
+  const std::regex link(R"(\]\(([^)\s]+)\))");
+  const std::regex inline_code("`[^`]*`");
+  const std::regex scheme("^[a-z]+:");
+  std::map<fs::path, std::set<std::string>> anchors;
+  const auto files = markdown_files();
+  ASSERT_GT(files.size(), 10u);
+  for (const auto& file : files) {
+    const auto lines = lines_of(ced_test::read_bytes(file.string()));
+    const std::string name = file.lexically_relative(root).generic_string();
+    bool fence = false;
+    for (std::size_t no = 0; no < lines.size(); ++no) {
+      if (is_fence(lines[no])) fence = !fence;
+      if (fence || is_fence(lines[no])) continue;
+      const std::string line = std::regex_replace(lines[no], inline_code, "");
+      for (std::sregex_iterator i(line.begin(), line.end(), link), e; i != e; ++i) {
+        const std::string target = (*i)[1];
+        if (std::regex_search(target, scheme)) continue;
+        const auto hash = target.find('#');
+        const std::string path = target.substr(0, hash);
+        const fs::path dest = path.empty() ? file : (file.parent_path() / path).lexically_normal();
+        if (!fs::exists(dest)) {
+          ADD_FAILURE() << name << ":" << no + 1 << " links " << target << ": no such file";
+          continue;
+        }
+        if (hash == std::string::npos || dest.extension() != ".md") continue;
+        if (!anchors.count(dest)) anchors[dest] = anchors_of(dest);
+        EXPECT_TRUE(anchors[dest].count(target.substr(hash + 1)))
+            << name << ":" << no + 1 << " links " << target << ": "
+            << dest.lexically_relative(root).generic_string() << " has no such heading";
+      }
+    }
+  }
+  EXPECT_EQ(heading_slug("robust6d keeps 1 % of its candidates (2026-12-06)"),
+            "robust6d-keeps-1--of-its-candidates-2026-12-06");
+  EXPECT_EQ(heading_slug("ced — N-modal keypoint detection"), "ced--n-modal-keypoint-detection");
+  EXPECT_EQ(heading_slug("Campaign of 2026-12-02: `fuzz_rgbd`"), "campaign-of-2026-12-02-fuzz_rgbd");
 }
 
 #ifdef CED_CLI_EXE
