@@ -10,7 +10,7 @@
 // default, "madvise"), every fresh 4 KiB page costs a page fault, about
 // 13 us on our 2-vCPU VM: a detection's saliency columns, neighbour counts
 // and kept sweeps on a 105k-point scan fault in about 1,800 pages, which
-// was about a third of a whole `ced detect` process (docs/BENCHMARKS.md).
+// was about a third of a whole `ced detect` process (docs/journal/benchmarks.md).
 // One 2 MiB page takes one fault.
 #include <malloc.h>
 

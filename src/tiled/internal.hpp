@@ -314,7 +314,7 @@ field_bytes conform_fields(const point_cloud& c, const std::vector<plan_field>& 
 ///           as an integer ordered like the floats, from the previous record's
 ///   the tile fields, each a value of its type, little-endian
 /// So positions are the exact floats, and a point costs about 13 bytes with
-/// 16-bit RGB (the figures in docs/SCALE.md).
+/// 16-bit RGB (the figures in docs/RESULTS.md#scale).
 struct cache_coder {
   std::uint64_t next_index = 0, gap = 0;
   std::int64_t at[3] = {0, 0, 0};

@@ -19,7 +19,7 @@ namespace {
 
 /// Estimated bytes a tile of n points takes while it is detected: its cache
 /// records, its cloud, the detection (about 100 bytes a point for ced6d on
-/// dense clouds, with the block partition's sorted positions: docs/BENCHMARKS.md),
+/// dense clouds, with the block partition's sorted positions: docs/RESULTS.md#memory),
 /// and its keypoints.
 double tile_bytes_per_point(const tile_plan& p) {
   return 2.0 * double(record_size(p)) + 112.0 + 8.0 * double(p.fields.size());
@@ -166,7 +166,7 @@ double tiled_detail::size_for_memory(io::point_stream& s, const tile_plan& p, co
                                 " bytes is too small: a run needs about " +
                                 std::to_string(std::uint64_t(fixed_overhead / (1 << 20))) + " MiB besides its tiles");
   // Larger tiles would fit but run slower: a whole 100 M-point run takes 1.4
-  // M points a second, tiles of 8 M 1.6 M, tiles of 0.3 M 2.5 M (SCALE.md).
+  // M points a second, tiles of 8 M 1.6 M, tiles of 0.3 M 2.5 M (docs/journal/scale.md).
   const double max_fitting = (limit - fixed_overhead) / per_point;
   const double max_points = std::min(max_fitting, 2e6);
   const double halo = exact_halo(halo_params(p.request), 0);

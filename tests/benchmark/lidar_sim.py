@@ -9,7 +9,7 @@ pose maps scan B's frame into scan A's. Point spacing grows with range, as on a 
 scan: about 3 cm x 10 cm at 5 m, and 20 cm x 80 cm at 35 m.
 
     /usr/bin/python3 tests/benchmark/lidar_sim.py --write /tmp/sim      # scan_a.ply, scan_b.ply, pose_b_to_a.txt
-    /usr/bin/python3 tests/benchmark/lidar_sim.py --evaluate            # the table of docs/EVALUATION.md#lidar-neighbourhoods-by-range
+    /usr/bin/python3 tests/benchmark/lidar_sim.py --evaluate            # the table of docs/journal/real-pairs.md#lidar-neighbourhoods-by-range
 
 The evaluation runs ced.detect (the Python module of this build) with several neighbourhoods. For each it
 reports keypoints per 1,000 points and starved points by range bin, where a starved point has fewer than

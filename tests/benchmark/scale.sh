@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The figures of docs/SCALE.md: generated city LAS files of 10 M, 100 M and
+# The scale figures of docs/RESULTS.md (how: docs/SCALE.md): generated city LAS files of 10 M, 100 M and
 # 300 M points (tests/benchmark/make_las.py), each detected whole (when it
 # fits in memory), with --tile-size, with --memory-limit 4G, and on 1-3 MPI
 # ranks; wall time and peak memory (/usr/bin/time), and whether the keypoints
