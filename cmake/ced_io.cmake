@@ -13,10 +13,18 @@ ced_library(ced_io io
   src/io/las/entries.cpp
   src/io/laz/chunks.cpp
   src/io/laz/copc.cpp
-  src/io/ply.cpp
-  src/io/pcd.cpp
-  src/io/lzf.cpp
-  src/io/csv.cpp
+  src/io/ply/header.cpp
+  src/io/ply/read.cpp
+  src/io/ply/write.cpp
+  src/io/ply/stream.cpp
+  src/io/pcd/header.cpp
+  src/io/pcd/read.cpp
+  src/io/pcd/write.cpp
+  src/io/pcd/stream.cpp
+  src/io/pcd/lzf.cpp
+  src/io/csv/read.cpp
+  src/io/csv/write.cpp
+  src/io/csv/stream.cpp
   src/io/stream.cpp
   src/io/io.cpp
   src/io/formats.cpp

@@ -7,12 +7,12 @@
 
 namespace ced::io::detail {
 
-format_entry ply_entry();   // ply.cpp
-format_entry pcd_entry();   // pcd.cpp
+format_entry ply_entry();   // ply/stream.cpp
+format_entry pcd_entry();   // pcd/stream.cpp
 format_entry las_entry();   // las/entries.cpp
 format_entry laz_entry();   // las/entries.cpp
 format_entry copc_entry();  // las/entries.cpp
-format_entry csv_entry();   // csv.cpp
+format_entry csv_entry();   // csv/stream.cpp
 
 namespace {
 std::vector<format_entry>& table() {

@@ -2,7 +2,7 @@
 // The table of file formats that read_cloud(), write_cloud(), cloud_writer
 // and open_point_stream() go through (io.cpp, stream.cpp): one entry a
 // format, with its names, extensions, reader, writers and streaming reader.
-// A built-in format is a file that makes its entry (ply.cpp: ply_format())
+// A built-in format is a file that makes its entry (ply/stream.cpp: ply_entry())
 // and a row in formats.cpp. Private, not installed.
 #pragma once
 

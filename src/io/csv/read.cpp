@@ -1,6 +1,5 @@
 // SPDX-License-Identifier: MIT
-#include "ced/io/csv.hpp"
-
+// CSV/XYZ/TXT/PTS read whole: the preamble, the names, the rows in parallel blocks.
 #include <algorithm>
 #include <charconv>
 #include <cmath>
@@ -16,16 +15,19 @@
 #include <system_error>
 #include <type_traits>
 
+#include "ced/io/csv.hpp"
 #include "io/base/formats.hpp"
 #include "io/base/records.hpp"
 #include "io/base/scalar_io.hpp"
 #include "io/base/stream_support.hpp"
+#include "io/csv/layout.hpp"
 
 namespace ced::io {
 
-using namespace detail;  // scalar_io.hpp
+using namespace detail;
+using namespace csv_detail;
 
-namespace {
+namespace csv_detail {
 
 // The text is read line by line: no value or name holds a '\n', and blanks
 // (is_space) separate values.
@@ -106,23 +108,6 @@ bool is_numeric_line(std::string_view line) {
   return tokens > 0;
 }
 
-/// Iterates over the lines of a text: the line without its '\n' and trailing
-/// blanks, and its 1-based number.
-struct line_reader {
-  std::string_view text;
-  std::size_t pos = 0;
-  std::size_t line_no = 0;
-  bool next(std::string_view& line) noexcept {
-    if (pos >= text.size()) return false;
-    const std::size_t nl = text.find('\n', pos);
-    const std::size_t end = nl == std::string_view::npos ? text.size() : nl;
-    line = trim(text.substr(pos, end - pos));
-    pos = nl == std::string_view::npos ? text.size() : nl + 1;
-    ++line_no;
-    return true;
-  }
-};
-
 /// A column name as the cloud calls it: x, y, z in lower case, r, g, b (any
 /// case) as red, green, blue; any other as given.
 std::string normal_name(std::string_view name) {
@@ -164,48 +149,6 @@ std::string join(const std::vector<std::string>& v) {
   for (const auto& s : v) r += (r.empty() ? "" : ", ") + s;
   return r;
 }
-
-/// What decides a column's type: whether its values are all integers, and their range.
-struct column_stats {
-  bool all_int = true;
-  double lo = std::numeric_limits<double>::infinity();
-  double hi = -std::numeric_limits<double>::infinity();
-  void add(double v, bool is_int) noexcept {
-    all_int = all_int && is_int;
-    lo = std::min(lo, v);
-    hi = std::max(hi, v);
-  }
-  /// The statistics of both sets of values (in any order: the same).
-  void merge(const column_stats& o) noexcept {
-    all_int = all_int && o.all_int;
-    lo = std::min(lo, o.lo);
-    hi = std::max(hi, o.hi);
-  }
-  /// The narrowest type of the n values of column `name`: uint8 colours,
-  /// int32, else float64.
-  scalar_type type(const std::string& name, std::size_t n) const noexcept {
-    const bool colour = name == "red" || name == "green" || name == "blue";
-    if (all_int && colour && (n == 0 || (lo >= 0 && hi <= 255))) return scalar_type::uint8;
-    if (all_int &&
-        (n == 0 || (lo >= std::numeric_limits<std::int32_t>::min() && hi <= std::numeric_limits<std::int32_t>::max())))
-      return scalar_type::int32;
-    return scalar_type::float64;
-  }
-};
-
-struct column_state {
-  std::vector<double> values;
-  column_stats stats;
-};
-
-/// What comes before the data: comments, the header line, and where the data starts.
-struct preamble {
-  std::string_view header;  ///< the header line, or empty
-  std::size_t header_line = 0;
-  std::vector<std::pair<std::size_t, std::string_view>> comments;  ///< (line number, line)
-  bool have_data = false;                                          ///< a data line follows
-  line_reader data_start;                                          ///< just before the first data line
-};
 
 /// Reads the comments, the header (when the options allow one) and stops
 /// before the first data line. Fails when the file has neither data nor a
@@ -333,31 +276,6 @@ std::array<std::size_t, 3> check_names(const std::vector<std::string>& names, co
   return axis;
 }
 
-/// Splits the data line `line` (number `line_no`; `first` for the first data
-/// line) into its values: value(j, v, is_int) for each column j. `tok` is
-/// scratch space.
-template <class Value>
-void parse_row(std::string_view line, std::size_t line_no, bool first, char delim,
-               const std::vector<std::string>& names, const csv_options& opt, const std::string& file,
-               std::vector<std::string_view>& tok, Value&& value) {
-  const std::size_t ncols = names.size();
-  split(line, delim, tok);
-  if (tok.size() != ncols)
-    throw io_error(file, "line " + std::to_string(line_no) + ": expected " + std::to_string(ncols) + " values (" +
-                             join(names) + "), found " + std::to_string(tok.size()));
-  for (std::size_t j = 0; j < ncols; ++j) {
-    double v = 0;
-    bool is_int = false;
-    if (!parse_csv_number(tok[j], v, is_int)) {
-      std::string msg = "line " + std::to_string(line_no) + ", column " + std::to_string(j + 1) + " ('" + names[j] +
-                        "'): '" + printable(tok[j]) + "' is not a number";
-      if (first && !opt.columns.empty() && !opt.skip_header) msg += " (a header line? set skip_header)";
-      throw io_error(file, msg);
-    }
-    value(j, v, is_int);
-  }
-}
-
 /// The data lines of `lines` (from its position to the end of its text):
 /// neither blank nor comments.
 std::size_t count_data_lines(line_reader lines) noexcept {
@@ -445,19 +363,6 @@ point_cloud make_cloud(std::vector<column_state>& cols, const std::vector<std::s
   return cloud;
 }
 
-/// What the lines before the data decide: the column names (none: the cloud
-/// is empty), the columns of x, y and z, the data's delimiter and where the
-/// data starts. Reads at most three lines that are neither blank nor
-/// comments (a header or a skipped line, a .pts point count, the first data
-/// line), and the lines before them.
-struct csv_layout {
-  std::vector<std::string> names;
-  std::array<std::size_t, 3> axis{};
-  char delim = 0;
-  bool have_data = false;
-  line_reader data_start;  ///< just before the first data line
-};
-
 /// Checks the delimiter option; returns it as split() takes it.
 char delimiter_option(const csv_options& opt) {
   if (opt.delimiter != 0 && opt.delimiter != ',' && opt.delimiter != ';' && opt.delimiter != '\t' &&
@@ -517,62 +422,7 @@ point_cloud parse_csv(std::string_view text, const std::string& file, const csv_
   return make_cloud(cols, layout.names, layout.axis);
 }
 
-// ------------------------------------------------------------------ writer
-
-/// Throws std::invalid_argument when a field cannot be a CSV column,
-/// io_error when there are more columns than the reader accepts.
-void check_writable(const point_cloud& cloud) {
-  check_values_per_point(3 + cloud.fields().size(), "CSV");
-  const std::size_t n = cloud.size();
-  for (const auto& f : cloud.fields()) {
-    if (f.name.empty() || std::any_of(f.name.begin(), f.name.end(), [](char c) {
-          return is_space(c) || c == ',' || c == ';' || c == '"' || c == '#' || c < 32 || c == 127;
-        }))
-      throw std::invalid_argument("field name '" + f.name +
-                                  "' cannot be written to CSV (empty, or has whitespace, a delimiter, '\"' or '#')");
-    const std::string l = to_lower(f.name);
-    if (l == "x" || l == "y" || l == "z" || f.name.substr(0, 2) == "//")
-      throw std::invalid_argument("field '" + f.name + "' clashes with the CSV coordinate columns");
-    check_field_size(f, n);
-  }
-}
-
-void write_header(std::ostream& out, const point_cloud& cloud) {
-  std::string header = "x,y,z";
-  for (const auto& f : cloud.fields()) header += "," + f.name;
-  header += "\n";
-  out.write(header.data(), static_cast<std::streamsize>(header.size()));
-}
-
-/// The rows of `cloud`, after the header.
-void write_body(std::ostream& out, const point_cloud& cloud) {
-  const std::size_t n = cloud.size();
-  // Positions as float (their own shortest text), or as double offset by a
-  // non-zero origin; fields as their type.
-  const auto& origin = cloud.origin();
-  const bool georef = origin[0] != 0 || origin[1] != 0 || origin[2] != 0;
-  std::vector<scalar_type> types(3, georef ? scalar_type::float64 : scalar_type::float32);
-  for (const auto& f : cloud.fields()) types.push_back(f.type());
-  const float* xyz = cloud.positions().data();
-  point_format pf;
-  pf.text = true;
-  pf.separator = ',';
-  write_points(out, n, types, pf, [&](std::size_t c, std::size_t i0, std::size_t m, double* v) {
-    if (c >= 3) return copy_values(cloud.fields()[c - 3].values, i0, m, v);
-    for (std::size_t i = 0; i < m; ++i) {
-      const double p = xyz[3 * (i0 + i) + c];
-      v[i] = georef ? origin[c] + p : p;  // without an origin, -0 stays -0
-    }
-  });
-}
-
-void write_csv_unchecked(std::ostream& out, const point_cloud& cloud) {
-  check_writable(cloud);
-  write_header(out, cloud);
-  write_body(out, cloud);
-}
-
-}  // namespace
+}  // namespace csv_detail
 
 point_cloud read_csv_buffer(std::string_view text, const std::string& name, const csv_options& options) {
   return parse_csv(text, name, options);
@@ -585,144 +435,5 @@ point_cloud read_csv(const std::string& path, const csv_options& options) {
   const big_bytes data = read_all(file);
   return parse_csv(std::string_view(data.data(), data.size()), path, options);
 }
-
-void write_csv(std::ostream& out, const point_cloud& cloud) {
-  detail::write_to_stream(out, "CSV", [&](std::ostream& o) { write_csv_unchecked(o, cloud); });
-}
-
-void write_csv(const std::string& path, const point_cloud& cloud) {
-  detail::write_to_file(path, [&](std::ostream& o) { write_csv_unchecked(o, cloud); });
-}
-
-namespace {
-/// A CSV file's points, line by line (read_csv()'s semantics). The column
-/// types depend on every value: until a first pass has seen them all, the
-/// fields are float64.
-class csv_stream final : public box_stream {
- public:
-  csv_stream(std::unique_ptr<input_file> file, const csv_options& options, const field_selection& fields)
-      : m_file(std::move(file)), m_opt(options), m_fields(fields), m_in(*m_file, 0) {
-    std::string text;
-    m_file->read_some(0, 3, text);
-    const std::uint64_t start = has_bom(text) ? 3 : 0;
-    // The lines up to the third that is neither blank nor a comment: all
-    // that read_layout() reads.
-    m_in.seek(start);
-    std::string_view line;
-    for (int content = 0; content < 3 && m_in.next_line(line);) {
-      line = trim(line);
-      if (!line.empty() && !is_comment(line)) ++content;
-    }
-    m_file->read_some(start, static_cast<std::size_t>(m_in.offset() - start), text);
-    m_layout = read_layout(text, m_opt, m_file->path());
-    m_start = start + m_layout.data_start.pos;
-    m_layout.data_start.text = {};  // that was `text`'s
-    m_stats.resize(m_layout.names.size());
-    m_cols.resize(m_layout.names.size());
-    rewind();
-  }
-
-  std::size_t read(std::size_t max, const std::array<double, 3>& origin, point_cloud& out) override {
-    out = point_cloud();
-    if (max == 0) return 0;
-    const std::vector<std::string>& names = m_layout.names;
-    if (names.empty() || !m_layout.have_data) {
-      m_first_pass_done = true;
-      return 0;
-    }
-    for (auto& c : m_cols) c.clear();
-    std::size_t n = 0;
-    std::string_view line;
-    while (n < max && m_in.next_line(line)) {
-      ++m_line_no;
-      line = trim(line);
-      if (line.empty() || is_comment(line)) continue;
-      parse_row(line, m_line_no, m_next + n == 0, m_layout.delim, names, m_opt, m_file->path(), m_tok,
-                [&](std::size_t j, double v, bool is_int) {
-                  m_cols[j].push_back(v);
-                  if (!m_first_pass_done) m_stats[j].add(v, is_int);
-                });
-      ++n;
-    }
-    if (n == 0) {
-      if (!m_first_pass_done) m_points = m_next;
-      m_first_pass_done = true;
-      return 0;
-    }
-    const auto& axis = m_layout.axis;
-    set_positions(out, m_cols[axis[0]].data(), m_cols[axis[1]].data(), m_cols[axis[2]].data(), n, origin);
-    for (std::size_t j = 0; j < names.size(); ++j) {
-      if (j == axis[0] || j == axis[1] || j == axis[2] || !m_fields.wants(names[j])) continue;
-      const scalar_type t = m_first_pass_done ? m_stats[j].type(names[j], m_points) : scalar_type::float64;
-      out.add_field(names[j], t, m_cols[j]);
-    }
-    m_next += n;
-    return n;
-  }
-  void rewind() override {
-    m_in.seek(m_start);
-    m_line_no = m_layout.data_start.line_no;
-    m_next = 0;
-  }
-  std::string details() const override { return "CSV"; }
-
- private:
-  std::unique_ptr<input_file> m_file;
-  csv_options m_opt;
-  field_selection m_fields;
-  sequential_reader m_in;
-  csv_layout m_layout;
-  std::uint64_t m_start = 0;  // the first data line's offset
-  std::size_t m_line_no = 0;  // of the last line read
-  std::uint64_t m_next = 0, m_points = 0;
-  std::vector<column_stats> m_stats;
-  std::vector<std::vector<double>> m_cols;  // the chunk's values
-  std::vector<std::string_view> m_tok;
-};
-}  // namespace
-
-namespace detail {
-namespace {
-class csv_piece_writer final : public piece_writer {
- public:
-  csv_piece_writer(std::ostream& out, const point_cloud& layout) {
-    check_writable(layout);
-    write_header(out, layout);
-  }
-  void write(std::ostream& out, const point_cloud& chunk) override {
-    check_writable(chunk);
-    write_body(out, chunk);
-  }
-};
-}  // namespace
-
-std::unique_ptr<piece_writer> csv_pieces(std::ostream& out, const point_cloud& layout, std::uint64_t /*n*/) {
-  return std::make_unique<csv_piece_writer>(out, layout);
-}
-
-std::unique_ptr<point_stream> open_csv_stream(const std::string& path, const csv_options& options,
-                                              const field_selection& fields) {
-  return std::make_unique<csv_stream>(std::make_unique<input_file>(path), options, fields);
-}
-
-format_entry csv_entry() {
-  format_entry e;
-  e.id = file_format::csv;
-  e.name = "csv";
-  e.aliases = {"xyz", "txt", "pts"};
-  e.extensions = {"csv", "xyz", "txt", "pts"};
-  e.read = [](const std::string& path, const read_options& o, read_report& r) {
-    point_cloud c = read_csv(path, o.csv);
-    r.details = "CSV";
-    return c;
-  };
-  e.write = [](std::ostream& out, const point_cloud& c, const las_write_options*) { write_csv(out, c); };
-  e.pieces = [](std::ostream& out, const point_cloud& layout, std::uint64_t n, bool) {
-    return csv_pieces(out, layout, n);
-  };
-  e.stream = [](const std::string& path, const read_options& o) { return open_csv_stream(path, o.csv, o.fields); };
-  return e;
-}
-}  // namespace detail
 
 }  // namespace ced::io
