@@ -5,6 +5,8 @@ if(CED_BUILD_CLI)
   add_executable(ced_cli
     src/cli/main.cpp
     src/cli/common.cpp
+    src/cli/config.cpp
+    src/cli/inputs.cpp
     src/cli/detectors.cpp
     src/cli/detect.cpp
     src/cli/detect_write.cpp
@@ -32,6 +34,8 @@ if(CED_MPI)
   add_executable(ced_mpi
     src/mpi/main.cpp
     src/cli/common.cpp
+    src/cli/config.cpp
+    src/cli/inputs.cpp
     src/cli/detect.cpp
     src/cli/detect_write.cpp
     src/cli/tiled_commands.cpp)

@@ -130,6 +130,21 @@ class progress_bar {
   std::mutex m_mutex;
 };
 
+/// What `eval repeatability` and `eval registration` both read besides
+/// INPUT: a given pair (--source, --target, --transform), or RGB-D frames
+/// (--rgbd, --intrinsics, --depth-max), and the neighbourhood of ced's
+/// detectors (--neighborhood, --search). Their option structs derive from it.
+struct pair_options {
+  std::string source, target, transform;  // a user-supplied pair instead of INPUT
+  std::string rgbd, intrinsics;           // or an Open3D RGB-D folder
+  double depth_max = 3.0;
+  std::string neighborhood = "radius", search = "grid";  // for ced's detectors
+};
+
+/// Adds the options of pair_options to `cmd`; `rgbd_pairs` says which frames
+/// --rgbd pairs. Returns --depth-max (to tell whether it was given).
+CLI::Option* add_pair_options(CLI::App* cmd, pair_options& o, const std::string& rgbd_pairs);
+
 /// The input options of a subcommand: the positional INPUT (`what` is its
 /// help), --format and --columns. Returns INPUT's option (to require it).
 CLI::Option* add_input_options(CLI::App* cmd, std::string& input, const std::string& what, std::string& format,

@@ -25,13 +25,9 @@
 namespace ced_cli {
 namespace {
 
-struct eval_options {
+struct eval_options : pair_options {  // --rgbd: frame 0 against each later one
   std::string input, format = "auto", columns;
-  std::string source, target, transform;  // a user-supplied pair instead of INPUT
-  std::string rgbd, intrinsics;           // or an Open3D RGB-D folder: frame 0 against each later one
-  double depth_max = 3.0;
   std::vector<std::string> detectors{"ced6d", "ced3d", "random"};
-  std::string neighborhood = "radius", search = "grid";  // for ced's detectors
   int trials = 5;
   std::uint64_t seed = 1;
   std::string noise = "0,0.5";
@@ -406,24 +402,12 @@ command add_repeatability_command(CLI::App& eval) {
   auto o = std::make_shared<eval_options>();
   auto* rep = eval.add_subcommand("repeatability", "Relative repeatability under a random rigid transform and noise");
   add_input_options(rep, o->input, "Input point cloud (or --source and --target)", o->format, o->columns);
-  rep->add_option("--source", o->source, "A given pair instead of INPUT: the source cloud P");
-  rep->add_option("--target", o->target, "A given pair instead of INPUT: the target cloud Q");
-  rep->add_option("--transform", o->transform,
-                  "4x4 row-major matrix file mapping P's coordinates into Q's (default: the identity)");
-  rep->add_option("--rgbd", o->rgbd,
-                  "Given pairs instead of INPUT: an Open3D RGB-D folder (color/NNNNN.jpg, depth/NNNNN.png, "
-                  "odometry.log), frame 0 against each later frame");
-  rep->add_option("--intrinsics", o->intrinsics, "Camera JSON for --rgbd (default DIR/camera_primesense.json)");
-  auto* depth_opt =
-      rep->add_option("--depth-max", o->depth_max, "For --rgbd: drop depths beyond this, metres (default 3; 0 = none)");
+  auto* depth_opt = add_pair_options(rep, *o, "frame 0 against each later frame");
   one_value_each(rep->add_option(
       "-d,--detector", o->detectors,
       "Repeatable: ced6d, ced3d, random, iss3d, harris3d, harris6d, sift (PCL builds), or modality specs "
       "joined by commas (default: ced6d ced3d random); a sweep: 'xyz:{0.1,0.2,0.3},rgb:0.1' is three detectors; "
       "'ced3d|adaptive:16,max=0.2' gives a ced detector its own neighbourhood"));
-  rep->add_option("--neighborhood", o->neighborhood,
-                  "Neighbourhood of ced's detectors, as in ced detect (default radius; 'DETECTOR|SPEC' overrides it)");
-  rep->add_option("--search", o->search, "grid (default) or cgal, as in ced detect");
   rep->add_option("--trials", o->trials, "Random transforms per noise level (default 5)");
   rep->add_option("--seed", o->seed, "Seed (default 1): the same seed gives the same numbers");
   auto* noise_opt =

@@ -28,17 +28,14 @@
 namespace ced_cli {
 namespace {
 
-struct registration_options {
+struct registration_options : pair_options {  // --rgbd: consecutive frames
   std::string input, format = "auto", columns;
-  std::string source, target, transform;  // a user pair
-  std::string rgbd, intrinsics;           // consecutive RGB-D frames
   std::vector<std::string> detectors{"ced6d", "random", "ced3d", "iss3d", "harris3d", "harris6d", "sift"};
   std::string descriptor = "auto";
-  std::string neighborhood = "radius", search = "grid";  // for ced's detectors
   int trials = 5, iterations = 20000, min_neighbors = 5, threads = 0;
   std::uint64_t seed = 1;
   double overlap = 0.4, noise = 0, max_translation = 1.0;
-  double resolution = 0, radius = 0, voxel = 0, depth_max = 3.0;
+  double resolution = 0, radius = 0, voxel = 0;
   double normal_radius = 3, feature_radius = 5, inlier_distance = 2.5;  // in multiples of the resolution
   double inlier_fraction = 0.1;
   double max_rotation_error = 5, max_translation_error = 0.2;
@@ -298,20 +295,11 @@ command add_registration_command(CLI::App& eval) {
       "registration", "Registration success: keypoints, FPFH/PFHRGB, mutual matching, RANSAC (needs a PCL build)");
   add_input_options(reg, o->input, "Cloud to cut into two overlapping crops (or --source/--target, or --rgbd)",
                     o->format, o->columns);
-  reg->add_option("--source", o->source, "A given pair: the source cloud P");
-  reg->add_option("--target", o->target, "A given pair: the target cloud Q");
-  reg->add_option("--transform", o->transform, "4x4 row-major matrix file mapping P into Q (default: the identity)");
-  reg->add_option("--rgbd", o->rgbd,
-                  "Open3D RGB-D folder (color/NNNNN.jpg, depth/NNNNN.png, odometry.log): consecutive frame pairs");
-  reg->add_option("--intrinsics", o->intrinsics, "Camera JSON for --rgbd (default DIR/camera_primesense.json)");
-  reg->add_option("--depth-max", o->depth_max, "For --rgbd: drop depths beyond this, metres (default 3; 0 = none)");
+  add_pair_options(reg, *o, "consecutive frame pairs");
   one_value_each(
       reg->add_option("-d,--detector", o->detectors,
                       "Repeatable, as for repeatability (default: ced6d random ced3d iss3d harris3d harris6d sift; "
                       "'ced3d|knn:16' gives a ced detector its own neighbourhood)"));
-  reg->add_option("--neighborhood", o->neighborhood,
-                  "Neighbourhood of ced's detectors, as in ced detect (default radius; 'DETECTOR|SPEC' overrides it)");
-  reg->add_option("--search", o->search, "grid (default) or cgal, as in ced detect");
   reg->add_option("--descriptor", o->descriptor, "fpfh, pfhrgb, or auto = pfhrgb when both clouds have colour");
   reg->add_option("--trials", o->trials, "Synthetic pairs for INPUT; runs per pair (new seeds) otherwise (default 5)");
   reg->add_option("--seed", o->seed, "Seed (default 1)");
