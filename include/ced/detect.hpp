@@ -87,46 +87,32 @@ std::size_t keypoint_limit(const detect_params& params, std::uint64_t candidates
 void release_cached_memory() noexcept;
 
 namespace detail {
-/// The non-template part of detection, shared by both composition paths.
-class detection_context {
- public:
-  detection_context(const point_cloud& cloud, const detect_params& params, std::vector<std::string> names,
-                    std::vector<double> thresholds);
-  ~detection_context();
-  /// Runs the neighbour pass over every spatial block, in parallel, summing
-  /// `sources` (one per modality), and calls `f(block, columns)`; columns[m]
-  /// is modality m's saliency column, to be written at the block's points.
-  void compute_saliency(const std::vector<channel_source>& sources,
-                        const std::function<void(const block_view&, float* const*)>& f);
-  /// The next compute_saliency() makes only neighbour counts and sums, not
-  /// lists: for modalities that all sum channels (block_view::operator[]
-  /// then throws std::logic_error). The NMS queries its neighbourhoods
-  /// anew. Used by saliency_of, whose pass has no candidates.
-  void without_neighbor_lists();
-  /// Candidates, products and NMS; moves the result out.
-  detection_result finish();
-  /// Under knn and adaptive neighbourhoods, the saliency of modality m is
-  /// multiplied by radius / r_i at each point i when its threshold is
-  /// proportional to the radius: `thresholds_at_twice` are the modalities'
-  /// thresholds with the radius doubled, and m qualifies when its threshold
-  /// doubles with it (xyz: ratio × radius). Its test s ≥ t·radius is then
-  /// s ≥ t·r_i. Without this call, saliencies are left as measured.
-  void scale_with_radius(const std::vector<double>& thresholds_at_twice);
-  /// `params` with the radius (and the NMS radius) doubled: where
-  /// scale_with_radius()'s thresholds are read.
-  static detect_params twice_the_radius(detect_params params) noexcept {
-    params.radius *= 2;
-    params.nms_radius *= 2;
-    return params;
-  }
-  /// Adds the time the modalities took to bind (their channels; a scaled
-  /// modality's own neighbour pass) to the saliency stage.
-  void add_bind_ms(double ms);
+/// `params` with the radius (and the NMS radius) doubled: where the
+/// thresholds are read that say which modalities scale with the radius under
+/// knn and adaptive neighbourhoods.
+inline detect_params twice_the_radius(detect_params params) noexcept {
+  params.radius *= 2;
+  params.nms_radius *= 2;
+  return params;
+}
 
- private:
-  struct impl;
-  std::unique_ptr<impl> m_impl;
-};
+/// The saliency pass of a detection: the modalities' channels (a source
+/// each) summed over every neighbourhood in one pass, then f(block,
+/// columns), which writes modality m's saliency at the block's points to
+/// columns[m].
+using saliency_pass = std::function<void(const std::vector<channel_source>& sources,
+                                         const std::function<void(const block_view&, float* const*)>& f)>;
+
+/// A detection whose modalities the caller binds (detect()'s template; the
+/// rest is private, src/core/detection.hpp): checks the inputs, builds the
+/// grid, calls bind(pass), which binds the modalities and calls pass once
+/// (binding is timed with the saliency stage), then finds the candidates
+/// and runs the NMS. `thresholds_at_twice`: the thresholds at
+/// twice_the_radius(), under knn and adaptive neighbourhoods (empty under a
+/// fixed radius).
+detection_result detect_bound(const point_cloud& cloud, const detect_params& params, std::vector<std::string> names,
+                              std::vector<double> thresholds, std::vector<double> thresholds_at_twice,
+                              const std::function<void(const saliency_pass&)>& bind);
 }  // namespace detail
 
 /// Detects keypoints with modalities fixed at compile time, e.g.
@@ -135,28 +121,27 @@ class detection_context {
 /// no virtual calls. Same semantics and result as the runtime overload.
 template <class... M, class = std::enable_if_t<(sizeof...(M) > 0) && (is_modality_v<M> && ...)>>
 detection_result detect(const point_cloud& cloud, const detect_params& params, const M&... modalities) {
-  detail::detection_context ctx(cloud, params, {std::string(modalities.name())...},
-                                {double(modalities.threshold(params))...});
+  std::vector<double> at_twice;
   if (!params.neighborhood.fixed()) {
-    const detect_params twice = detail::detection_context::twice_the_radius(params);
-    ctx.scale_with_radius({double(modalities.threshold(twice))...});
+    const detect_params twice = detail::twice_the_radius(params);
+    at_twice = {double(modalities.threshold(twice))...};
   }
-  {  // the evaluators (and their channels) end before the NMS: less peak memory
-    const auto t_bind = std::chrono::steady_clock::now();
-    const auto evaluators = std::make_tuple(modalities.bind(cloud, params)...);
-    ctx.add_bind_ms(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_bind).count());
-    const auto sources =
-        std::apply([](const auto&... e) { return std::vector<channel_source>{channels_of(e)...}; }, evaluators);
-    ctx.compute_saliency(sources, [&](const block_view& block, float* const* columns) {
-      std::apply(
-          [&](const auto&... e) {
-            std::size_t m = 0;
-            ((ced::evaluate_block(e, block, m, params.min_neighbors, columns[m]), ++m), ...);
-          },
-          evaluators);
-    });
-  }
-  return ctx.finish();
+  return detail::detect_bound(
+      cloud, params, {std::string(modalities.name())...}, {double(modalities.threshold(params))...},
+      std::move(at_twice), [&](const detail::saliency_pass& pass) {
+        // the evaluators (and their channels) end before the NMS: less peak memory
+        const auto evaluators = std::make_tuple(modalities.bind(cloud, params)...);
+        const auto sources =
+            std::apply([](const auto&... e) { return std::vector<channel_source>{channels_of(e)...}; }, evaluators);
+        pass(sources, [&](const block_view& block, float* const* columns) {
+          std::apply(
+              [&](const auto&... e) {
+                std::size_t m = 0;
+                ((ced::evaluate_block(e, block, m, params.min_neighbors, columns[m]), ++m), ...);
+              },
+              evaluators);
+        });
+      });
 }
 
 }  // namespace ced

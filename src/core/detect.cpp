@@ -91,6 +91,19 @@ detection_result detection_context::finish() {
   return std::move(r);
 }
 
+detection_result detect_bound(const point_cloud& cloud, const detect_params& params, std::vector<std::string> names,
+                              std::vector<double> thresholds, std::vector<double> thresholds_at_twice,
+                              const std::function<void(const saliency_pass&)>& bind) {
+  detection_context ctx(cloud, params, std::move(names), std::move(thresholds));
+  if (!params.neighborhood.fixed()) ctx.scale_with_radius(thresholds_at_twice);
+  const auto t_bind = clock_type::now();
+  bind([&](const std::vector<channel_source>& sources, const std::function<void(const block_view&, float* const*)>& f) {
+    ctx.add_bind_ms(ms_since(t_bind));
+    ctx.compute_saliency(sources, f);
+  });
+  return ctx.finish();
+}
+
 }  // namespace detail
 
 std::size_t candidate_count(const detection_result& result) noexcept {
@@ -154,7 +167,7 @@ detection_result detect(const point_cloud& cloud, const detect_params& params,
   }
   detail::detection_context ctx(cloud, params, std::move(names), std::move(thresholds));
   if (!params.neighborhood.fixed()) {
-    const detect_params twice = detail::detection_context::twice_the_radius(params);
+    const detect_params twice = detail::twice_the_radius(params);
     std::vector<double> at_twice;
     for (const auto& m : modalities) at_twice.push_back(m.threshold(twice));
     ctx.scale_with_radius(at_twice);

@@ -11,6 +11,7 @@
 #include "ced/channels.hpp"
 #include "ced/detect.hpp"
 #include "ced/scaled.hpp"
+#include "core/detection.hpp"
 
 namespace ced {
 

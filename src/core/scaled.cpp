@@ -14,6 +14,7 @@
 #include <utility>
 
 #include "ced/detect.hpp"
+#include "core/detection.hpp"
 
 namespace ced {
 
