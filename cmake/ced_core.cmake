@@ -19,6 +19,7 @@ ced_library(ced_core core
   src/core/neighbor_index.cpp
   src/core/neighbor_block.cpp
   src/core/list_block.cpp
+  src/core/kernel/dispatch.cpp
   src/core/kernel/block_kernel_generic.cpp
   src/core/saliency.cpp
   src/core/scaled.cpp

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/block_partition.hpp"
+#include "core/kernel/dispatch.hpp"
 #include "core/neighbor_block.hpp"
 #include "test_support.hpp"
 

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "ced/core.hpp"
+#include "core/kernel/dispatch.hpp"
 #include "core/neighbor_block.hpp"
 #include "test_support.hpp"
 

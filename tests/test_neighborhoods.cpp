@@ -18,6 +18,7 @@
 #include "ced/ced.hpp"
 #include "ced/io/io.hpp"
 #include "ced/tiled.hpp"
+#include "core/kernel/dispatch.hpp"
 #include "core/neighbor_block.hpp"
 #include "core/neighbor_index.hpp"
 #include "test_support.hpp"

@@ -11,7 +11,7 @@
 #include <stdexcept>
 #include <utility>
 
-#include "core/neighbor_block.hpp"
+#include "core/kernel/dispatch.hpp"
 #include "core/parallel.hpp"
 #include "core/raw_vector.hpp"
 

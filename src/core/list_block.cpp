@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstring>
 
+#include "core/kernel/dispatch.hpp"
+
 namespace ced {
 
 void list_block::set_channels(const std::vector<channel_source>& sources) {

@@ -16,6 +16,7 @@
 
 #include "core/block_partition.hpp"
 #include "core/kernel/block_kernel.hpp"
+#include "core/kernel/dispatch.hpp"
 #include "core/parallel.hpp"
 #include "core/raw_vector.hpp"
 
@@ -28,62 +29,6 @@ namespace ced {
 static_assert(neighbor_block::sweep_ranges == detail::kernel_ranges);
 
 namespace {
-struct kernel_set {
-  void (*pass)(const detail::block_kernel_input&, const detail::block_kernel_output&) noexcept;
-  void (*compact)(const std::uint32_t*, const std::uint32_t*, const std::uint8_t*, std::uint32_t,
-                  std::uint32_t*) noexcept;
-  std::uint32_t (*balls)(const detail::block_kernel_input&, const std::uint32_t*, const std::uint32_t*, std::size_t,
-                         std::int32_t*, std::uint32_t*) noexcept;
-  std::uint32_t (*split)(const std::int32_t*, const std::uint32_t*, std::uint32_t, std::int32_t, std::int32_t,
-                         std::int32_t*, std::uint32_t*, std::int32_t*, std::uint32_t*, std::uint32_t*) noexcept;
-  std::size_t (*select)(const float*, const float*, const float*, const std::uint32_t*, std::size_t, std::size_t,
-                        const float*, const float*, float*) noexcept;
-  std::size_t (*select_ids)(const float*, const float*, const float*, const std::uint32_t*, std::size_t, std::size_t,
-                            const float*, const float*, std::uint32_t*) noexcept;
-  /// The runs' set-up of counted grids (nullptr: the scalar one).
-  void (*rows)(const detail::row_grid&, std::uint32_t*, std::uint32_t*) noexcept;
-  /// The sub-cell keys of counted grids (nullptr: cell_of, point by point).
-  void (*cell_keys)(const float*, std::size_t, const double*, const double*, const std::int64_t*,
-                    std::uint32_t*) noexcept;
-  const char* name;
-};
-constexpr kernel_set generic_kernels{detail::block_kernel_generic,
-                                     detail::compact_generic,
-                                     detail::balls_generic,
-                                     detail::split_generic,
-                                     detail::select_in_box_generic,
-                                     detail::select_ids_in_box_generic,
-                                     nullptr,
-                                     nullptr,
-                                     "generic"};
-
-/// The builds this CPU can run, best first; the generic one always last.
-std::vector<kernel_set> available_kernels() {
-  std::vector<kernel_set> sets;
-#if defined(CED_HAS_AVX512_KERNEL)
-  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw") &&
-      __builtin_cpu_supports("avx512dq"))
-    sets.push_back({detail::block_kernel_avx512, detail::compact_avx512, detail::balls_avx512, detail::split_avx512,
-                    detail::select_in_box_avx512, detail::select_ids_in_box_avx512, detail::rows_avx512,
-                    detail::cell_keys_avx512, "avx512"});
-#endif
-#if defined(CED_HAS_AVX2_KERNEL)
-  if (__builtin_cpu_supports("avx2"))
-    sets.push_back({detail::block_kernel_avx2, detail::compact_avx2, detail::balls_avx2, detail::split_avx2,
-                    detail::select_in_box_avx2, detail::select_ids_in_box_avx2, detail::rows_avx2,
-                    detail::cell_keys_avx2, "avx2"});
-#endif
-  sets.push_back(generic_kernels);
-  return sets;
-}
-const std::vector<kernel_set>& kernels() {
-  static const std::vector<kernel_set> sets = available_kernels();
-  return sets;
-}
-/// The build tests force (an index into kernels()); 0 is the best.
-std::atomic<std::size_t> g_forced{0};
-
-const kernel_set& active_kernels() noexcept { return kernels()[g_forced.load(std::memory_order_relaxed)]; }
 
 /// Resizes `v` to at least n elements; never shrinks, so that a reused
 /// buffer is not cleared again and again.
@@ -120,34 +65,6 @@ double cut_radius2(double r) noexcept { return r * r * (1.0 + 1e-4); }
 /// (blocks far wider than the radius) by comparison.
 constexpr std::uint64_t max_counted_cells = 1u << 14;
 }  // namespace
-
-namespace detail {
-const char* kernel_isa() noexcept { return active_kernels().name; }
-std::uint32_t split_distances(const std::int32_t* d2_bits, const std::uint32_t* ids, std::uint32_t n, std::int32_t lo,
-                              std::int32_t hi, std::int32_t* below_bits, std::uint32_t* below_ids,
-                              std::int32_t* range_bits, std::uint32_t* range_ids, std::uint32_t* in_range) noexcept {
-  return active_kernels().split(d2_bits, ids, n, lo, hi, below_bits, below_ids, range_bits, range_ids, in_range);
-}
-std::size_t select_in_box(const float* x, const float* y, const float* z, const std::uint32_t* ids, std::size_t b,
-                          std::size_t e, const float lo[3], const float hi[3], float* out) noexcept {
-  return active_kernels().select(x, y, z, ids, b, e, lo, hi, out);
-}
-std::size_t select_ids_in_box(const float* x, const float* y, const float* z, const std::uint32_t* ids, std::size_t b,
-                              std::size_t e, const float lo[3], const float hi[3], std::uint32_t* out) noexcept {
-  return active_kernels().select_ids(x, y, z, ids, b, e, lo, hi, out);
-}
-void force_generic_kernel(bool on) noexcept { g_forced.store(on ? kernels().size() - 1 : 0); }
-std::vector<std::string> kernel_isas() {
-  std::vector<std::string> names;
-  for (const kernel_set& k : kernels()) names.emplace_back(k.name);
-  return names;
-}
-void force_kernel_isa(const std::string& isa) {
-  for (std::size_t i = 0; i < kernels().size(); ++i)
-    if (isa == kernels()[i].name) return g_forced.store(i);
-  throw std::invalid_argument("this CPU or build has no '" + isa + "' neighbour pass");
-}
-}  // namespace detail
 
 void neighbor_block::set_channels(const std::vector<channel_source>& sources) {
   m_sources = sources;
@@ -220,7 +137,7 @@ void neighbor_block::sort_into_cells(const float lo[3], const float hi[3], doubl
     grow(m_cell_start, cells + 1);
     std::fill_n(m_cell_start.begin(), cells + 1, 0u);
     grow(m_cell_key, g);
-    if (const auto keys = active_kernels().cell_keys) {
+    if (const auto keys = detail::active_kernels().cell_keys) {
       const std::int64_t dims[3] = {std::int64_t(m_dims[0]), std::int64_t(m_dims[1]), std::int64_t(m_dims[2])};
       keys(reinterpret_cast<const float*>(raw), g, m_lo, m_inv_side, dims, m_cell_key.data());
     } else {
@@ -301,7 +218,7 @@ void neighbor_block::set_up_rows(std::size_t count, double r) {
       rg[1] = static_cast<std::uint32_t>(g);
       m_bit_offsets[k + 1] = static_cast<std::uint32_t>(m_bit_offsets[k] + (g + 7) / 8);
     }
-  } else if (m_counted && active_kernels().rows) {
+  } else if (m_counted && detail::active_kernels().rows) {
     const detail::row_grid grid{m_centre.data(),
                                 count,
                                 {m_lo[0], m_lo[1], m_lo[2]},
@@ -311,7 +228,7 @@ void neighbor_block::set_up_rows(std::size_t count, double r) {
                                 {std::int64_t(m_dims[0]), std::int64_t(m_dims[1]), std::int64_t(m_dims[2])},
                                 cut_radius2(r),
                                 m_cell_start.data()};
-    active_kernels().rows(grid, m_ranges.data(), m_bit_offsets.data());
+    detail::active_kernels().rows(grid, m_ranges.data(), m_bit_offsets.data());
   } else if (m_counted) {
     const std::uint32_t* const start = m_cell_start.data();
     rows_of_points(count, r, [start](std::int64_t key) { return std::size_t(start[key]); });
@@ -430,12 +347,12 @@ void neighbor_block::run(const std::uint32_t* points, std::size_t count, double 
   m_r2 = squared_radius(r);
   if (m_keep_distances) return;  // ball() sweeps a point at a time
   const detail::block_kernel_output out{m_counts.data(), m_sums.data(), bits ? m_bits.data() : nullptr};
-  active_kernels().pass(in, out);
+  detail::active_kernels().pass(in, out);
 }
 
 void neighbor_block::neighbors(std::size_t k, std::uint32_t* out) const noexcept {
-  active_kernels().compact(m_gathered.data(), m_ranges.data() + 2 * detail::kernel_ranges * k,
-                           m_bits.data() + m_bit_offsets[k], m_counts[k], out);
+  detail::active_kernels().compact(m_gathered.data(), m_ranges.data() + 2 * detail::kernel_ranges * k,
+                                   m_bits.data() + m_bit_offsets[k], m_counts[k], out);
 }
 
 neighbor_block::ball_view neighbor_block::ball(std::size_t k) {
@@ -446,7 +363,7 @@ neighbor_block::ball_view neighbor_block::ball(std::size_t k) {
   const detail::block_kernel_input in{m_gx.data(), m_gy.data(),     m_gz.data(), nullptr,         0,   0,
                                       m_count,     m_centre.data(), nullptr,     m_ranges.data(), m_r2};
   const std::size_t n =
-      active_kernels().balls(in, m_gathered.data(), m_points, k, m_ball_bits.data(), m_ball_ids.data());
+      detail::active_kernels().balls(in, m_gathered.data(), m_points, k, m_ball_bits.data(), m_ball_ids.data());
   return {m_ball_bits.data(), m_ball_ids.data(), n};
 }
 

@@ -150,30 +150,4 @@ class neighbor_block {
   mutable std::vector<std::uint32_t> m_offsets, m_indices;
 };
 
-namespace detail {
-/// Which build of the neighbour pass runs: "avx512" (F, VL, BW, DQ) or
-/// "avx2" when the CPU has it, otherwise "generic". All give bitwise
-/// identical results; tests force one.
-const char* kernel_isa() noexcept;
-/// The builds this CPU can run, best first, "generic" last.
-std::vector<std::string> kernel_isas();
-/// Forces one of kernel_isas() (std::invalid_argument for another name).
-void force_kernel_isa(const std::string& isa);
-/// Splits n distances (as bits, with their ids) by [lo, hi] on the chosen
-/// build: those below lo to below_*[0..returned), those within to
-/// range_*[0..*in_range), each in order. Reads up to 8 entries past n and
-/// writes up to 8 past each count.
-std::uint32_t split_distances(const std::int32_t* d2_bits, const std::uint32_t* ids, std::uint32_t n, std::int32_t lo,
-                              std::int32_t hi, std::int32_t* below_bits, std::uint32_t* below_ids,
-                              std::int32_t* range_bits, std::uint32_t* range_ids, std::uint32_t* in_range) noexcept;
-/// select_in_box_* (core/kernel/block_kernel.hpp) on the chosen build.
-std::size_t select_in_box(const float* x, const float* y, const float* z, const std::uint32_t* ids, std::size_t b,
-                          std::size_t e, const float lo[3], const float hi[3], float* out) noexcept;
-/// select_ids_in_box_* (core/kernel/block_kernel.hpp) on the chosen build.
-std::size_t select_ids_in_box(const float* x, const float* y, const float* z, const std::uint32_t* ids, std::size_t b,
-                              std::size_t e, const float lo[3], const float hi[3], std::uint32_t* out) noexcept;
-/// Forces the generic build (true) or restores the automatic choice (false).
-void force_generic_kernel(bool on) noexcept;
-}  // namespace detail
-
 }  // namespace ced

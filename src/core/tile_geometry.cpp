@@ -18,6 +18,7 @@
 #endif
 
 #include "ced/scaled.hpp"
+#include "core/kernel/dispatch.hpp"
 #include "core/neighbor_block.hpp"
 #include "core/ranking.hpp"
 #include "core/text.hpp"

@@ -20,6 +20,7 @@
 
 #include "ced/ced.hpp"
 #include "ced/preprocess.hpp"
+#include "core/kernel/dispatch.hpp"
 #include "core/neighbor_block.hpp"
 #include "core/neighbor_index.hpp"
 #ifdef CED_HAS_PCL
