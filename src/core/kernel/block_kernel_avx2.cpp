@@ -9,3 +9,4 @@
 #define CED_KERNEL_NAME_CELL_KEYS cell_keys_avx2
 #define CED_KERNEL_NAME_SELECT_IDS select_ids_in_box_avx2
 #include "core/kernel/block_kernel.inc"
+#include "core/kernel/grid_kernel.inc"

@@ -7,3 +7,4 @@
 #define CED_KERNEL_NAME_SELECT select_in_box_generic
 #define CED_KERNEL_NAME_SELECT_IDS select_ids_in_box_generic
 #include "core/kernel/block_kernel.inc"
+#include "core/kernel/grid_kernel.inc"
