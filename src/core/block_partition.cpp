@@ -96,6 +96,54 @@ void sort_into_blocks(const float* xyz, std::size_t n, const double base[3], con
   starts.push_back(n);
   cell_starts.push_back(n);
 }
+
+/// The box of the n points at xyz, chunk by chunk (for_chunks(body) calls
+/// body(chunk, begin, end) for each chunk), merged in chunk order.
+template <class ForChunks>
+void bounds_of(const float* xyz, std::size_t chunks, ForChunks& for_chunks, float lo[3], float hi[3]) {
+  std::vector<std::array<float, 6>> bounds(chunks);
+  for_chunks([&](std::size_t c, std::size_t b, std::size_t e) {
+    float l[3] = {xyz[3 * b], xyz[3 * b + 1], xyz[3 * b + 2]}, h[3] = {l[0], l[1], l[2]};
+    for (std::size_t i = b; i < e; ++i)
+      for (int k = 0; k < 3; ++k) {
+        l[k] = std::min(l[k], xyz[3 * i + std::size_t(k)]);
+        h[k] = std::max(h[k], xyz[3 * i + std::size_t(k)]);
+      }
+    bounds[c] = {l[0], l[1], l[2], h[0], h[1], h[2]};
+  });
+  for (int k = 0; k < 3; ++k) {
+    lo[k] = bounds[0][std::size_t(k)];
+    hi[k] = bounds[0][std::size_t(k) + 3];
+    for (const auto& bd : bounds) {
+      lo[k] = std::min(lo[k], bd[std::size_t(k)]);
+      hi[k] = std::max(hi[k], bd[std::size_t(k) + 3]);
+    }
+  }
+}
+
+/// Cells per axis, at whole multiples of the cell size (so that a part of
+/// the cloud gets the same cells as the whole); the cell grows when the grid
+/// would not fit a 64-bit key. (A span is checked before it becomes an
+/// integer: a cell far smaller than the cloud, from a tiny radius, gives
+/// spans past 2^64.) Sets base (first cell), dims and inv (1 / cell).
+void grid_of(const float lo[3], const float hi[3], double cell, double base[3], std::uint64_t dims[3], double& inv) {
+  for (;;) {
+    inv = 1.0 / cell;
+    long double total = 1;
+    for (int k = 0; k < 3 && total < 1e18L; ++k) {
+      base[k] = std::floor(double(lo[k]) * inv);
+      const double span = std::floor(double(hi[k]) * inv) - base[k];
+      if (!(span < 1e18)) {
+        total = 1e18L;
+        break;
+      }
+      dims[k] = static_cast<std::uint64_t>(span) + 1;
+      total *= static_cast<long double>(dims[k]);
+    }
+    if (total < 1e18L) break;
+    cell *= 2;
+  }
+}
 }  // namespace
 
 block_partition::block_partition(const float* xyz, std::size_t n, double cell_size, unsigned threads) {
@@ -114,47 +162,9 @@ block_partition::block_partition(const float* xyz, std::size_t n, double cell_si
       for (std::size_t c = c0; c < c1; ++c) body(c, chunk_begin(c), chunk_begin(c + 1));
     });
   };
-  std::vector<std::array<float, 6>> bounds(chunks);
-  for_chunks([&](std::size_t c, std::size_t b, std::size_t e) {
-    float lo[3] = {xyz[3 * b], xyz[3 * b + 1], xyz[3 * b + 2]}, hi[3] = {lo[0], lo[1], lo[2]};
-    for (std::size_t i = b; i < e; ++i)
-      for (int k = 0; k < 3; ++k) {
-        lo[k] = std::min(lo[k], xyz[3 * i + std::size_t(k)]);
-        hi[k] = std::max(hi[k], xyz[3 * i + std::size_t(k)]);
-      }
-    bounds[c] = {lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]};
-  });
   float lo[3], hi[3];
-  for (int k = 0; k < 3; ++k) {
-    lo[k] = bounds[0][std::size_t(k)];
-    hi[k] = bounds[0][std::size_t(k) + 3];
-    for (const auto& bd : bounds) {
-      lo[k] = std::min(lo[k], bd[std::size_t(k)]);
-      hi[k] = std::max(hi[k], bd[std::size_t(k) + 3]);
-    }
-  }
-  // Cells per axis, at whole multiples of the cell size (so that a part of
-  // the cloud gets the same cells as the whole); grow the cell if the grid
-  // would not fit a 64-bit key.
-  // (A span is checked before it becomes an integer: a cell far smaller
-  // than the cloud, from a tiny radius, gives spans past 2^64.)
-  double cell = cell_size;
-  for (;;) {
-    m_inv = 1.0 / cell;
-    long double total = 1;
-    for (int k = 0; k < 3 && total < 1e18L; ++k) {
-      m_base[k] = std::floor(double(lo[k]) * m_inv);
-      const double span = std::floor(double(hi[k]) * m_inv) - m_base[k];
-      if (!(span < 1e18)) {
-        total = 1e18L;
-        break;
-      }
-      m_dims[k] = static_cast<std::uint64_t>(span) + 1;
-      total *= static_cast<long double>(m_dims[k]);
-    }
-    if (total < 1e18L) break;
-    cell *= 2;
-  }
+  bounds_of(xyz, chunks, for_chunks, lo, hi);
+  grid_of(lo, hi, cell_size, m_base, m_dims, m_inv);
   // Keys of 32 bits when the grid allows (half the memory to sort).
   if (static_cast<long double>(m_dims[0]) * static_cast<long double>(m_dims[1]) * static_cast<long double>(m_dims[2]) <
       4294967296.0L)
