@@ -363,28 +363,9 @@ int write_las_mode(std::size_t n, const std::string& path) {
   return 0;
 }
 
-int main(int argc, char** argv) {
-  if (argc == 3 && std::strcmp(argv[1], "--memory") == 0) return memory_mode(std::stoul(argv[2]));
-  if (argc == 4 && std::strcmp(argv[1], "--write-las") == 0) return write_las_mode(std::stoul(argv[2]), argv[3]);
-  std::string data = "../shared/data/redwood_scan";
-  bool check = true;
-  std::vector<char*> args;
-  for (int i = 0; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--no-check") == 0) {
-      check = false;
-      continue;
-    }
-    if (std::strcmp(argv[i], "--data") == 0 && i + 1 < argc) {
-      data = argv[++i];
-      continue;
-    }
-    if (std::strcmp(argv[i], "--isa") == 0 && i + 1 < argc) {  // e.g. avx2 on an AVX-512 machine
-      ced::detail::force_kernel_isa(argv[++i]);
-      continue;
-    }
-    args.push_back(argv[i]);
-  }
-  int nargs = static_cast<int>(args.size());
+/// The Redwood scans in `data` (a generated room when none is there), with
+/// their synthetic channels; their names.
+std::vector<std::string> load_clouds(const std::string& data) {
   std::vector<std::string> names;
   for (const char* f : {"apartment_mesh_213", "apartment_mesh_214", "loft_mesh_240"}) {
     const std::string path = data + "/" + f + ".ply";
@@ -399,9 +380,13 @@ int main(int argc, char** argv) {
     clouds()["room_100k"] = generated_room(100000);
     names.push_back("room_100k");
   }
+  return names;
+}
+
+/// Prints how the baseline's keypoints and ced's compare on each cloud.
+void check_against_baseline(const std::vector<std::string>& names) {
   // Check: the baseline and ced agree on keypoints.
   for (const auto& name : names) {
-    if (!check) break;
     const auto& c = clouds().at(name);
     ced::detect_params p;
     for (const char* preset : {"ced6d", "ced3d"}) {
@@ -420,6 +405,9 @@ int main(int argc, char** argv) {
                    mine.size(), base.size(), common);
     }
   }
+}
+
+void register_benchmarks(const std::vector<std::string>& names) {
   for (const char* what : {"resolution", "knn:8", "adaptive:8", "knn:8_cgal", "radius"})
     benchmark::RegisterBenchmark((std::string("crowded/") + what).c_str(), bm_crowded, std::string(what))
         ->Arg(0)
@@ -485,6 +473,33 @@ int main(int argc, char** argv) {
       ->ArgsProduct({{10000, 100000, 1000000}, {1, 2}})
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
+}
+
+int main(int argc, char** argv) {
+  if (argc == 3 && std::strcmp(argv[1], "--memory") == 0) return memory_mode(std::stoul(argv[2]));
+  if (argc == 4 && std::strcmp(argv[1], "--write-las") == 0) return write_las_mode(std::stoul(argv[2]), argv[3]);
+  std::string data = "../shared/data/redwood_scan";
+  bool check = true;
+  std::vector<char*> args;
+  for (int i = 0; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--no-check") == 0) {
+      check = false;
+      continue;
+    }
+    if (std::strcmp(argv[i], "--data") == 0 && i + 1 < argc) {
+      data = argv[++i];
+      continue;
+    }
+    if (std::strcmp(argv[i], "--isa") == 0 && i + 1 < argc) {  // e.g. avx2 on an AVX-512 machine
+      ced::detail::force_kernel_isa(argv[++i]);
+      continue;
+    }
+    args.push_back(argv[i]);
+  }
+  int nargs = static_cast<int>(args.size());
+  const std::vector<std::string> names = load_clouds(data);
+  if (check) check_against_baseline(names);
+  register_benchmarks(names);
   benchmark::AddCustomContext("ced_kernel", ced::detail::kernel_isa());
   benchmark::Initialize(&nargs, args.data());
   benchmark::RunSpecifiedBenchmarks();

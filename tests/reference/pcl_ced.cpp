@@ -26,64 +26,56 @@
 #include <string>
 #include <vector>
 
-int main(int argc, char** argv) {
-  if (argc < 3) {
-    std::fprintf(stderr, "usage: pcl_ced CLOUD.ply ced3d|ced6d [radius nms_radius min_neighbors t_g t_c]\n");
-    return 2;
-  }
-  const bool colour = std::string(argv[2]) == "ced6d";
-  const double radius = argc > 3 ? std::atof(argv[3]) : 0.05;
-  const double nms_radius = argc > 4 ? std::atof(argv[4]) : 0.05;
-  const int min_neighbors = argc > 5 ? std::atoi(argv[5]) : 5;
-  const double t_g = argc > 6 ? std::atof(argv[6]) : 0.2;
-  const double t_c = argc > 7 ? std::atof(argv[7]) : 0.1;
+using cloud_ptr = pcl::PointCloud<pcl::PointXYZRGB>::Ptr;
 
-  pcl::PointCloud<pcl::PointXYZRGB>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZRGB>);
-  if (pcl::io::loadPLYFile(argv[1], *cloud) != 0) return 1;
-  const std::string method = argv[2];
-  if (method == "iss3d" || method == "harris3d" || method == "harris6d") {
-    // The paper's settings (its config.yaml): radius 0.05, gamma 0.975, Harris threshold 1e-6.
-    const auto t0 = std::chrono::steady_clock::now();
-    std::size_t count = 0;
-    pcl::search::KdTree<pcl::PointXYZRGB>::Ptr tree(new pcl::search::KdTree<pcl::PointXYZRGB>);
-    if (method == "iss3d") {
-      pcl::ISSKeypoint3D<pcl::PointXYZRGB, pcl::PointXYZRGB> iss;
-      pcl::PointCloud<pcl::PointXYZRGB> out;
-      iss.setSearchMethod(tree);
-      iss.setSalientRadius(radius);
-      iss.setNonMaxRadius(nms_radius);
-      iss.setThreshold21(0.975);
-      iss.setThreshold32(0.975);
-      iss.setMinNeighbors(min_neighbors);
-      iss.setNumberOfThreads(1);
-      iss.setInputCloud(cloud);
-      iss.compute(out);
+/// PCL's ISS3D, Harris3D or Harris6D with the paper's settings (its
+/// config.yaml): radius 0.05, gamma 0.975, Harris threshold 1e-6.
+void run_pcl_detector(const cloud_ptr& cloud, const std::string& method, double radius, double nms_radius,
+                      int min_neighbors) {
+  const auto t0 = std::chrono::steady_clock::now();
+  std::size_t count = 0;
+  pcl::search::KdTree<pcl::PointXYZRGB>::Ptr tree(new pcl::search::KdTree<pcl::PointXYZRGB>);
+  if (method == "iss3d") {
+    pcl::ISSKeypoint3D<pcl::PointXYZRGB, pcl::PointXYZRGB> iss;
+    pcl::PointCloud<pcl::PointXYZRGB> out;
+    iss.setSearchMethod(tree);
+    iss.setSalientRadius(radius);
+    iss.setNonMaxRadius(nms_radius);
+    iss.setThreshold21(0.975);
+    iss.setThreshold32(0.975);
+    iss.setMinNeighbors(min_neighbors);
+    iss.setNumberOfThreads(1);
+    iss.setInputCloud(cloud);
+    iss.compute(out);
+    count = out.size();
+  } else {
+    auto harris = [&](auto& h) {
+      pcl::PointCloud<pcl::PointXYZI> out;
+      h.setSearchMethod(tree);
+      h.setRadius(radius);
+      h.setRadiusSearch(radius);
+      h.setNonMaxSupression(true);
+      h.setThreshold(1e-6f);
+      h.setNumberOfThreads(1);
+      h.setInputCloud(cloud);
+      h.compute(out);
       count = out.size();
+    };
+    if (method == "harris3d") {
+      pcl::HarrisKeypoint3D<pcl::PointXYZRGB, pcl::PointXYZI> h;
+      harris(h);
     } else {
-      auto harris = [&](auto& h) {
-        pcl::PointCloud<pcl::PointXYZI> out;
-        h.setSearchMethod(tree);
-        h.setRadius(radius);
-        h.setRadiusSearch(radius);
-        h.setNonMaxSupression(true);
-        h.setThreshold(1e-6f);
-        h.setNumberOfThreads(1);
-        h.setInputCloud(cloud);
-        h.compute(out);
-        count = out.size();
-      };
-      if (method == "harris3d") {
-        pcl::HarrisKeypoint3D<pcl::PointXYZRGB, pcl::PointXYZI> h;
-        harris(h);
-      } else {
-        pcl::HarrisKeypoint6D<pcl::PointXYZRGB, pcl::PointXYZI> h;
-        harris(h);
-      }
+      pcl::HarrisKeypoint6D<pcl::PointXYZRGB, pcl::PointXYZI> h;
+      harris(h);
     }
-    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    std::fprintf(stderr, "pcl_ced: %s %zu keypoints, %.1f ms\n", method.c_str(), count, ms);
-    return 0;
   }
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  std::fprintf(stderr, "pcl_ced: %s %zu keypoints, %.1f ms\n", method.c_str(), count, ms);
+}
+
+/// CED-3D (colour false) or CED-6D as the paper's implementation computes it.
+void run_ced(const cloud_ptr& cloud, bool colour, double radius, double nms_radius, int min_neighbors, double t_g,
+             double t_c) {
   const auto t0 = std::chrono::steady_clock::now();
   pcl::KdTreeFLANN<pcl::PointXYZRGB> tree;
   tree.setInputCloud(cloud);
@@ -123,5 +115,26 @@ int main(int argc, char** argv) {
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   for (int k : keypoints) std::printf("%d\n", k);
   std::fprintf(stderr, "pcl_ced: %zu keypoints, %.1f ms\n", keypoints.size(), ms);
+}
+
+int main(int argc, char** argv) {
+  if (argc < 3) {
+    std::fprintf(stderr, "usage: pcl_ced CLOUD.ply ced3d|ced6d [radius nms_radius min_neighbors t_g t_c]\n");
+    return 2;
+  }
+  const bool colour = std::string(argv[2]) == "ced6d";
+  const double radius = argc > 3 ? std::atof(argv[3]) : 0.05;
+  const double nms_radius = argc > 4 ? std::atof(argv[4]) : 0.05;
+  const int min_neighbors = argc > 5 ? std::atoi(argv[5]) : 5;
+  const double t_g = argc > 6 ? std::atof(argv[6]) : 0.2;
+  const double t_c = argc > 7 ? std::atof(argv[7]) : 0.1;
+
+  pcl::PointCloud<pcl::PointXYZRGB>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZRGB>);
+  if (pcl::io::loadPLYFile(argv[1], *cloud) != 0) return 1;
+  const std::string method = argv[2];
+  if (method == "iss3d" || method == "harris3d" || method == "harris6d")
+    run_pcl_detector(cloud, method, radius, nms_radius, min_neighbors);
+  else
+    run_ced(cloud, colour, radius, nms_radius, min_neighbors, t_g, t_c);
   return 0;
 }
