@@ -18,6 +18,26 @@ using ced_test::detect_planned_tile;
 using ced_test::expect_same_part;
 using ced_test::room_request;
 using ced_test::specs;
+
+/// Appends a merged chunk's keypoints, indices, saliencies and fields to `got`.
+void append_chunk(ced::tile_part& got, const ced::tile_part& chunk) {
+  const std::size_t n = chunk.index.size();
+  got.index.insert(got.index.end(), chunk.index.begin(), chunk.index.end());
+  got.file_index.insert(got.file_index.end(), chunk.file_index.begin(), chunk.file_index.end());
+  for (std::size_t k = 0; k < chunk.saliency.size(); ++k)
+    got.saliency[k].insert(got.saliency[k].end(), chunk.saliency[k].begin(), chunk.saliency[k].end());
+  const std::size_t at = got.keypoints.size();
+  got.keypoints.resize(at + n);
+  std::copy_n(chunk.keypoints.positions().begin(), 3 * n, got.keypoints.positions().begin() + 3 * at);
+  for (std::size_t f = 0; f < chunk.keypoints.fields().size(); ++f) {
+    auto& col = got.keypoints.fields()[f].values;
+    const std::size_t w = ced::size_of(col.type());
+    ced::column grown(col.type(), at + n);
+    if (at > 0) std::memcpy(grown.bytes(), col.bytes(), w * at);  // an empty column has no buffer
+    std::memcpy(grown.bytes() + w * at, chunk.keypoints.fields()[f].values.bytes(), w * n);
+    col = std::move(grown);
+  }
+}
 }  // namespace
 
 TEST(TiledMerge, StreamedMergeOfPartFilesIsTheMergeInMemory) {
@@ -51,22 +71,7 @@ TEST(TiledMerge, StreamedMergeOfPartFilesIsTheMergeInMemory) {
     };
     sink.chunk = [&](const ced::tile_part& chunk) {
       ++chunks;
-      const std::size_t n = chunk.index.size();
-      got.index.insert(got.index.end(), chunk.index.begin(), chunk.index.end());
-      got.file_index.insert(got.file_index.end(), chunk.file_index.begin(), chunk.file_index.end());
-      for (std::size_t k = 0; k < chunk.saliency.size(); ++k)
-        got.saliency[k].insert(got.saliency[k].end(), chunk.saliency[k].begin(), chunk.saliency[k].end());
-      const std::size_t at = got.keypoints.size();
-      got.keypoints.resize(at + n);
-      std::copy_n(chunk.keypoints.positions().begin(), 3 * n, got.keypoints.positions().begin() + 3 * at);
-      for (std::size_t f = 0; f < chunk.keypoints.fields().size(); ++f) {
-        auto& col = got.keypoints.fields()[f].values;
-        const std::size_t w = ced::size_of(col.type());
-        ced::column grown(col.type(), at + n);
-        if (at > 0) std::memcpy(grown.bytes(), col.bytes(), w * at);  // an empty column has no buffer
-        std::memcpy(grown.bytes() + w * at, chunk.keypoints.fields()[f].values.bytes(), w * n);
-        col = std::move(grown);
-      }
+      append_chunk(got, chunk);
     };
     ced::merge_part_files(plan, paths, sink, memory);
     EXPECT_EQ(announced, merged.index.size());
