@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// Helpers of the tests split from test_las.orig.
+// Helpers of the tests split from test_las.cpp.
 #pragma once
 
 #include <gtest/gtest.h>

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 // LAZ: the LASzip VLR, the chunk table, and chunks decoded back into LAS
-// point records (laz.hpp). The items' decoders are in laz_items.hpp.
+// point records (types.hpp). The items' decoders are in items.hpp.
 
 #include "io/laz/types.hpp"
 

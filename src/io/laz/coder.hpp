@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// Private to src/io: the entropy coder LAZ is coded with (laz.cpp): an
+// Private to src/io: the entropy coder LAZ is coded with (chunks.cpp): an
 // adaptive arithmetic decoder and encoder with 32-bit interval arithmetic,
 // their adaptive bit and symbol models, and the integer coder built on them (a corrector
 // coded as its bit length k, then its k bits). Written from the format's

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 // Private to src/io: the decoders of LAZ's pointwise items, version 2
 // (point10, gpstime11, rgb12, byte): each predicts a record's item from the
-// record before it in the chunk and decodes the correction (laz.cpp).
+// record before it in the chunk and decodes the correction (chunks.cpp).
 #pragma once
 
 #include <algorithm>

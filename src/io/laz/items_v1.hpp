@@ -2,7 +2,7 @@
 // Private to src/io: the decoders of LAZ's pointwise items, version 1
 // (LASzip 1.x: point10, gpstime11, rgb12, byte), which older archives still
 // hold. Each predicts a record's item from the record before it, as version
-// 2 does (laz_items.hpp), with simpler contexts: a median of three for x
+// 2 does (items.hpp), with simpler contexts: a median of three for x
 // and y, one sequence of GPS times, colour bytes coded as integers.
 // Written from the format's public description; read only (ced writes
 // version 2).

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 // Private to src/io: LAZ's layered compression of LAS 1.4 point formats 6-8
-// (items point14, rgb14, rgbnir14 and byte14, version 3; laz.cpp). A chunk
+// (items point14, rgb14, rgbnir14 and byte14, version 3; chunks.cpp). A chunk
 // holds its first record as it is, its point count, the byte size of every
 // layer, then the layers: each field group (x/y with returns and channel,
 // z, classification, flags, intensity, scan angle, user data, point source,

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 // Private to src/io: the encoder of LAZ's layered compression (LAS 1.4
 // point formats 6-8; items point14, rgb14, rgbnir14 and byte14, version 3),
-// the inverse of laz_layered.hpp, step for step: the same contexts and
+// the inverse of layered.hpp, step for step: the same contexts and
 // models, each field coded into its own layer. A layer whose field is the
 // same in every point of the chunk is written as 0 bytes (the decoder then
 // keeps the first point's value), as LASzip does.

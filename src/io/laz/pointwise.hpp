@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: MIT
 // Private to src/io: LAZ's pointwise chunks (point formats 0-5): each record
-// decoded or encoded item by item from the record before it (laz.cpp),
-// with the items of version 1 (read only: laz_items_v1.hpp) or 2
-// (laz_items.hpp).
+// decoded or encoded item by item from the record before it (chunks.cpp),
+// with the items of version 1 (read only: items_v1.hpp) or 2
+// (items.hpp).
 #pragma once
 
 #include <cstdint>

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: MIT
 // Private to src/io: LAZ, the LASzip compression of LAS point records
-// (laz.cpp, the driver; the items in laz_items.hpp, laz_items_v1.hpp,
-// laz_pointwise.hpp, laz_layered.hpp and laz_layered_encode.hpp, the coder
-// in laz_coder.hpp). The LAS reader (las.cpp) finds a LAZ file by its
+// (chunks.cpp, the driver; the items in items.hpp, items_v1.hpp,
+// pointwise.hpp, layered.hpp and layered_encode.hpp, the coder
+// in coder.hpp). The LAS reader (src/io/las/) finds a LAZ file by its
 // point format byte, and asks this for its chunks, decoded back into the LAS
 // point records they were made from; everything after that is the LAS reader's.
 //
