@@ -3,6 +3,7 @@
 ced_library(ced ced
   src/eval.cpp
   src/tiled/records.cpp
+  src/tiled/modalities.cpp
   src/tiled/fingerprint.cpp
   src/tiled/plan_file.cpp
   src/tiled/planning.cpp

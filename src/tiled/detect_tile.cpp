@@ -10,7 +10,10 @@
 #include "ced/detect.hpp"
 #include "ced/scaled.hpp"
 #include "core/ranking.hpp"
-#include "tiled/internal.hpp"
+#include "tiled/chunks.hpp"
+#include "tiled/fingerprint.hpp"
+#include "tiled/modalities.hpp"
+#include "tiled/records.hpp"
 
 namespace ced {
 

@@ -5,40 +5,18 @@
 // in ascending index and so in ascending file index, to a record_fetcher,
 // which reads the input once, in order (a merge join), and copies each
 // keypoint's record: the same positions and fields a whole run reads.
+#include "tiled/fetch.hpp"
+
 #include <algorithm>
 #include <cstring>
 #include <string>
 #include <vector>
 
 #include "core/text.hpp"
-#include "tiled/internal.hpp"
+#include "tiled/chunks.hpp"
+#include "tiled/records.hpp"
 
 namespace ced::tiled_detail {
-
-std::optional<std::vector<std::string>> detection_fields(const tile_plan& p) {
-  std::vector<std::string> read;
-  const auto modalities = modalities_of(p.request.modalities);
-  for (const auto& m : modalities) {
-    const auto f = m.fields();
-    if (!f) return std::nullopt;  // a modality that does not say: every field
-    read.insert(read.end(), f->begin(), f->end());
-  }
-  tile_plan slim = p;
-  slim.tile_fields.emplace();
-  for (const auto& f : p.fields)
-    if (std::any_of(read.begin(), read.end(), [&](const std::string& n) { return detail::iequal(n, f.name); }))
-      slim.tile_fields->push_back(f.name);
-  if (slim.tile_fields->size() == p.fields.size()) return std::nullopt;
-  // The modalities must find their fields among these (they look them up
-  // by their own rules): else every field goes through the cache.
-  try {
-    const point_cloud one = empty_cloud(slim, 1);
-    for (const auto& m : modalities) m.bind(one, probe_params(p.request.params));
-  } catch (const std::exception&) {
-    return std::nullopt;
-  }
-  return slim.tile_fields;
-}
 
 namespace {
 /// n records of every field of the plan, with no whole_range: the merge's

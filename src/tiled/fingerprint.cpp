@@ -3,6 +3,8 @@
 // fingerprint of the file's bytes, and a hash of every decoded point.
 // Both hash little-endian values whatever the host, so that a plan made on
 // one machine checks its input on another.
+#include "tiled/fingerprint.hpp"
+
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
@@ -11,7 +13,7 @@
 #include <vector>
 
 #include "core/hash.hpp"
-#include "tiled/internal.hpp"
+#include "tiled/records.hpp"
 
 namespace ced {
 

@@ -13,7 +13,11 @@
 #include <vector>
 
 #include "core/ranking.hpp"
-#include "tiled/internal.hpp"
+#include "tiled/chunks.hpp"
+#include "tiled/fetch.hpp"
+#include "tiled/modalities.hpp"
+#include "tiled/part_file.hpp"
+#include "tiled/records.hpp"
 
 namespace ced {
 

@@ -12,6 +12,8 @@
 //   offset 68+8m   per keypoint, ascending index: its point record, then
 //                  its f32 saliency per modality, then its f32 rank
 //                  (detection_result::rank_score)
+#include "tiled/part_file.hpp"
+
 #include <cerrno>
 #include <cstring>
 #include <fstream>
@@ -21,7 +23,9 @@
 #include <type_traits>
 
 #include "ced/io/output_file.hpp"
-#include "tiled/internal.hpp"
+#include "tiled/fingerprint.hpp"
+#include "tiled/modalities.hpp"
+#include "tiled/records.hpp"
 
 namespace ced {
 

@@ -1,5 +1,7 @@
 // SPDX-License-Identifier: MIT
 // Tiled runs: the plan as JSON (written, read and checked), its digest.
+#include "tiled/plan_file.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -9,7 +11,8 @@
 #include <string>
 
 #include "core/hash.hpp"
-#include "tiled/internal.hpp"
+#include "tiled/fingerprint.hpp"
+#include "tiled/modalities.hpp"
 
 namespace ced {
 

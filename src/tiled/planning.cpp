@@ -2,6 +2,8 @@
 // Tiled runs: the plan. Pass 1 over the input learns its counts, bounds and
 // field ranges; the grid follows (its tile size asked, or sized for a memory
 // limit: sizing.cpp); pass 2 counts the points of each tile.
+#include "tiled/planning.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -14,7 +16,11 @@
 #include "ced/io/las.hpp"
 #include "ced/scaled.hpp"
 #include "core/text.hpp"
-#include "tiled/internal.hpp"
+#include "tiled/chunks.hpp"
+#include "tiled/fingerprint.hpp"
+#include "tiled/modalities.hpp"
+#include "tiled/records.hpp"
+#include "tiled/sizing.hpp"
 
 namespace ced {
 
@@ -339,21 +345,6 @@ std::optional<tile_plan> plan_from_header(const tiled_request& request, io::poin
   settle_reach(p, plo, phi);
   p.grid = make_tile_grid(plo, phi, request.tile_size, halo_params(p.request));
   return p;
-}
-
-std::vector<any_modality> modalities_of(const std::vector<std::string>& specs) {
-  std::vector<any_modality> out;
-  for (const auto& s : specs) out.push_back(make_modality(s));
-  return out;
-}
-
-detect_params halo_params(const tiled_request& r) { return tile_halo_params(r.params, modalities_of(r.modalities)); }
-
-void name_modalities(const tile_plan& plan, const std::vector<any_modality>& modalities, tile_part& part) {
-  for (const auto& mod : modalities) {
-    part.names.push_back(mod.name());
-    part.thresholds.push_back(mod.threshold(plan.request.params));
-  }
 }
 
 tile_plan plan_grid(const tiled_request& request, io::point_stream& s, const tiled_progress& progress) {

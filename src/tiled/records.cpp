@@ -11,16 +11,16 @@
 //   offset 16  f32 x, y, z      relative to the plan's origin
 //   offset 28  the plan's tile fields (tile_fields_of()), each a value of
 //              its type (1, 2, 4 or 8 bytes), in the plan's order
-// The tile cache's records are delta-coded: cache_coder (internal.hpp).
+// The tile cache's records are delta-coded: cache_coder (records.hpp).
 // A file's header (tiled_header_bytes):
 //   offset 0   8-byte magic: "CEDTILE\0" (a tile cache), "CEDPART\0" (a part)
 //   offset 8   u32 format version (tiled_file_version)
 // A tile cache (work_dir/cache/t<id>.bin): the header, then the records of
 // the points the tile reads, in the input's order. A part: part_file.cpp.
+#include "tiled/records.hpp"
+
 #include <algorithm>
 #include <string>
-
-#include "tiled/internal.hpp"
 
 namespace ced::tiled_detail {
 

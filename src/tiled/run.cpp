@@ -16,7 +16,12 @@
 #include <system_error>
 #include <vector>
 
-#include "tiled/internal.hpp"
+#include "tiled/fingerprint.hpp"
+#include "tiled/part_file.hpp"
+#include "tiled/plan_file.hpp"
+#include "tiled/records.hpp"
+#include "tiled/tile_cache.hpp"
+#include "tiled/work_dir.hpp"
 
 namespace ced {
 

@@ -3,13 +3,17 @@
 // the points of small cells (a histogram, summed so that any box of cells
 // counts at once); a search then finds the largest tiles whose densest one,
 // halo included, fits the limit.
+#include "tiled/sizing.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
-#include "tiled/internal.hpp"
+#include "tiled/chunks.hpp"
+#include "tiled/modalities.hpp"
+#include "tiled/records.hpp"
 
 namespace ced {
 

@@ -3,6 +3,8 @@
 // ranks). Pass 2 over the input writes every point into the cache file of
 // each tile that reads it (work_dir/cache/t<id>.bin: records.cpp), so that
 // each tile is then read from its own file, not from the whole input.
+#include "tiled/tile_cache.hpp"
+
 #include <algorithm>
 #include <cerrno>
 #include <cstdio>
@@ -18,7 +20,11 @@
 
 #include "ced/io/output_file.hpp"
 #include "core/raw_vector.hpp"
-#include "tiled/internal.hpp"
+#include "tiled/chunks.hpp"
+#include "tiled/modalities.hpp"
+#include "tiled/planning.hpp"
+#include "tiled/records.hpp"
+#include "tiled/work_dir.hpp"
 
 namespace ced {
 

@@ -2,13 +2,14 @@
 // Tiled runs: the work directory. ced claims it (a marker file), fills it
 // (plan.json, cache/, parts/, and kept/ while a longer reach is tried) and
 // removes only what it made.
+#include "tiled/work_dir.hpp"
+
 #include <exception>
 #include <string>
 #include <system_error>
 #include <vector>
 
 #include "ced/io/output_file.hpp"
-#include "tiled/internal.hpp"
 
 namespace ced {
 

@@ -1,0 +1,44 @@
+// SPDX-License-Identifier: MIT
+// Private to src/tiled: what identifies a plan's input and its runs: hashes,
+// run boxes, the file's fingerprint (fingerprint.cpp).
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <future>
+#include <map>
+#include <memory>
+#include <nlohmann/json_fwd.hpp>
+#include <optional>
+#include <string>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "ced/io/error.hpp"
+#include "ced/io/stream.hpp"
+#include "ced/modality.hpp"
+#include "ced/tiled.hpp"
+#include "io/base/scalar_io.hpp"
+
+namespace ced::tiled_detail {
+
+namespace fs = std::filesystem;
+
+std::string hex(std::uint64_t v);
+/// A chunk's positions and every field's values, into the content hash.
+std::uint64_t hash_chunk(const point_cloud& c, std::uint64_t h);
+/// hash_chunk() of the points [first, first + n) of `c`, as of a cloud of
+/// those alone (a run of tile_plan::runs).
+std::uint64_t hash_points(const point_cloud& c, std::size_t first, std::size_t n, std::uint64_t h);
+/// The box of the points [first, first + n) of `c` (n > 0): a run's
+/// plan_run::box, which a tile that reads the run checks.
+std::array<float, 6> run_box(const point_cloud& c, std::size_t first, std::size_t n);
+/// The file's size (into `bytes`), and a hash of it (check_plan_input()).
+std::string fingerprint_of(const std::string& path, std::uint64_t& bytes);
+
+}  // namespace ced::tiled_detail

@@ -1,0 +1,38 @@
+// SPDX-License-Identifier: MIT
+// Private to src/tiled: passes 1 and 2: the plan and the tile cache (tile_cache.cpp).
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <future>
+#include <map>
+#include <memory>
+#include <nlohmann/json_fwd.hpp>
+#include <optional>
+#include <string>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "ced/io/error.hpp"
+#include "ced/io/stream.hpp"
+#include "ced/modality.hpp"
+#include "ced/tiled.hpp"
+#include "io/base/scalar_io.hpp"
+
+namespace ced::tiled_detail {
+
+namespace fs = std::filesystem;
+
+/// Passes 1 and 2 of a run without a plan yet: the plan and the tile cache
+/// in `dir`, then plan.json. `announced`: the plan was reported already.
+tile_plan build_cache(const tiled_request& request, const tiled_run_options& o, const fs::path& dir, bool& announced);
+std::string cache_file(const std::string& work_dir, std::uint64_t id);
+/// Tile id's points from the cache.
+tile_points load_cached(const tile_plan& plan, const std::string& work_dir, std::uint64_t id);
+
+}  // namespace ced::tiled_detail

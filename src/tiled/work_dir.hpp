@@ -1,0 +1,45 @@
+// SPDX-License-Identifier: MIT
+// Private to src/tiled: the work directory: claimed, emptied, parts kept between tries (work_dir.cpp).
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <future>
+#include <map>
+#include <memory>
+#include <nlohmann/json_fwd.hpp>
+#include <optional>
+#include <string>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "ced/io/error.hpp"
+#include "ced/io/stream.hpp"
+#include "ced/modality.hpp"
+#include "ced/tiled.hpp"
+#include "io/base/scalar_io.hpp"
+
+namespace ced::tiled_detail {
+
+namespace fs = std::filesystem;
+
+/// Makes `dir` ced's: creates it (marker "created yes"), or marks an empty
+/// directory (marker "created no"), or accepts one that has ced's marker.
+/// Anything else is refused, with or without `resume`.
+void claim_work_dir(const std::string& work_dir);
+/// Empties ced's cache and parts of a work directory (a run stopped before
+/// its plan was written: its cache is incomplete).
+void clear_tiles(const fs::path& dir);
+/// Before a second try with a longer reach: empties the cache and keeps
+/// the parts of the tiles that passed (parts/ becomes kept/; when it
+/// cannot, they are removed).
+void keep_parts(const fs::path& dir);
+/// Removes the kept parts (keep_parts()) and their directory.
+void clear_kept(const fs::path& dir);
+
+}  // namespace ced::tiled_detail
