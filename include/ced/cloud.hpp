@@ -472,6 +472,11 @@ column copy_strided(scalar_type type, const void* data, std::ptrdiff_t stride, s
 /// list names another number of columns or a name is empty.
 std::vector<std::string> channel_field_names(const std::string& name, std::size_t k,
                                              std::string_view what = "channels");
+/// The same names for a channel added to `into`: also std::invalid_argument
+/// when `into` has a field of one of them already ("the field 'red' is given
+/// twice (by another channel or the cloud)"), so that no value is dropped.
+std::vector<std::string> channel_field_names(const point_cloud& into, const std::string& name, std::size_t k,
+                                             std::string_view what = "channels");
 
 /// The red, green and blue fields of a cloud: exact names red/green/blue, then
 /// r/g/b, any case. Returns nullptrs when absent.

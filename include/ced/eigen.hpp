@@ -106,10 +106,7 @@ class eigen_channel {
     if (m_block.rows != cloud.size())
       throw std::invalid_argument(what + ": " + std::to_string(m_block.rows) + " values, but there are " +
                                   std::to_string(cloud.size()) + " points");
-    const auto names = channel_field_names(m_name, m_block.cols, what);
-    for (const auto& n : names)
-      if (cloud.find_field(n))
-        throw std::invalid_argument(what + ": the field '" + n + "' is given twice (by another channel)");
+    const auto names = channel_field_names(cloud, m_name, m_block.cols, what);
     const std::size_t size = size_of(m_type);
     for (std::size_t j = 0; j < m_block.cols; ++j) {
       const unsigned char* base = m_block.data + std::ptrdiff_t(j) * m_block.col_stride;

@@ -105,4 +105,14 @@ std::vector<std::string> channel_field_names(const std::string& name, std::size_
   return names;
 }
 
+std::vector<std::string> channel_field_names(const point_cloud& into, const std::string& name, std::size_t k,
+                                             std::string_view what) {
+  auto names = channel_field_names(name, k, what);
+  for (const auto& n : names)
+    if (into.find_field(n))
+      throw std::invalid_argument(std::string(what) + ": the field '" + n +
+                                  "' is given twice (by another channel or the cloud)");
+  return names;
+}
+
 }  // namespace ced

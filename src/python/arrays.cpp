@@ -105,10 +105,7 @@ void add_channel(ced::point_cloud& cloud, const std::string& name, py::handle va
                           std::to_string(cloud.size()) + " points");
   const ced::scalar_type type = storage_type(a, argument);
   const py::ssize_t k = a.ndim() == 2 ? a.shape(1) : 1;
-  const auto names = ced::channel_field_names(name, std::size_t(k), argument);
-  for (const auto& n : names)
-    if (cloud.find_field(n))
-      throw py::value_error(argument + ": the field '" + n + "' is given twice (by another channel or the cloud)");
+  const auto names = ced::channel_field_names(cloud, name, std::size_t(k), argument);
   for (py::ssize_t j = 0; j < k; ++j) cloud.add_field(names[std::size_t(j)], to_column(a, type, j));
 }
 
