@@ -274,6 +274,18 @@ if "$CED" eval repeatability "$sample" -d iss3d --trials 1 --noise 0 -q > /dev/n
     eval registration "$sample" --rgbd "$T"
   expect_exit 1 "cannot open the intrinsics file" "registration: rgbd without intrinsics" -- \
     eval registration --rgbd "$T"
+  # --counts and 3DMatch's recall (RMSE over the overlap) with the inlier ratio (#59).
+  expect_exit 2 "--max-rmse must be > 0" "registration: --max-rmse 0" -- eval registration "$sample" --max-rmse 0
+  "$CED" eval registration "$sample" -d ced3d -d random --counts 40,80 --trials 2 --iterations 2000 \
+    --csv "$T/reg.csv" -q > "$T/reg.txt"
+  check "registration: one row per detector at each count" \
+    test "$(grep -c '^"ced3d@40"' "$T/reg.csv") $(grep -c '^"random@80"' "$T/reg.csv")" = "2 2"
+  check "registration: the csv has rmse, recall and inlier ratio" \
+    sh -c "head -1 '$T/reg.csv' | grep -q ',rmse_m,recall,inlier_ratio\$'"
+  check "registration: recall is the RMSE below 0.2 m, the ratio inliers over matches" awk -F, \
+    'NR > 1 { rec = ($14 != "inf" && $14 + 0 < 0.2); r = ($7 > 0 ? $8 / $7 : 0);
+              if ($15 != rec || (r - $16 > 1e-4 || $16 - r > 1e-4)) bad = 1 } END { exit bad }' "$T/reg.csv"
+  check "registration: the summary shows recall and ratio" grep -q "success   recall.*ratio" "$T/reg.txt"
 else
   check "no PCL: says which component is missing" grep -q "needs ced's PCL component" "$T/pcl.err"
   expect_exit 2 "needs ced's PCL component" "no PCL: registration" -- eval registration "$sample"

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <memory>
 #include <ostream>
 #include <random>
@@ -39,6 +40,8 @@ struct registration_options : pair_options {  // --rgbd: consecutive frames
   double normal_radius = 3, feature_radius = 5, inlier_distance = 2.5;  // in multiples of the resolution
   double inlier_fraction = 0.1;
   double max_rotation_error = 5, max_translation_error = 0.2;
+  double max_rmse = 0.2;  // 3DMatch's registration recall: RMSE over the overlap below this, metres
+  std::string counts;     // --counts: every detector at these keypoint counts
   std::string csv;
   bool quiet = false;
 };
@@ -63,6 +66,8 @@ void check_registration_numbers(const registration_options& o) {
   check_length(o.max_translation, "--max-translation");
   check_length(o.depth_max, "--depth-max", "0 = none");
   check_counts(o.min_neighbors, o.threads);
+  check_length(o.max_rmse, "--max-rmse");
+  if (!(o.max_rmse > 0)) throw usage_error("--max-rmse must be > 0");
   if (!(o.inlier_fraction >= 0 && o.inlier_fraction <= 1)) throw usage_error("--inlier-fraction must be in [0, 1]");
   if (o.descriptor != "auto" && o.descriptor != "fpfh" && o.descriptor != "pfhrgb")
     throw usage_error("--descriptor must be fpfh, pfhrgb or auto");
@@ -181,8 +186,8 @@ ced::pcl_bridge::registration_params make_registration_params(const registration
 }
 
 struct registration_stats {
-  int runs = 0, successes = 0;
-  double kp = 0, matches = 0, inliers = 0, ms = 0;
+  int runs = 0, successes = 0, recalled = 0;
+  double kp = 0, matches = 0, inliers = 0, inlier_ratio = 0, ms = 0;
 };
 
 /// What every run on one pair shares.
@@ -191,8 +196,35 @@ struct pair_setup {
   const eval_setting& setting;
   const ced::pcl_bridge::registration_params& params;
   const char* descriptor;
-  ced::eval::rigid_transform truth;  // absolute
+  ced::eval::rigid_transform truth;           // absolute
+  const std::vector<std::uint32_t>& overlap;  // the source's points in the overlap (rmse_over)
 };
+
+/// The source points (local frame) whose ground-truth image lies within
+/// `distance` of a target point: where an estimate's RMSE is measured.
+std::vector<std::uint32_t> overlap_points(const registration_pair& pair, double distance) {
+  const ced::eval::real_pair rp(pair.source, pair.target, pair.truth, distance);
+  std::vector<std::uint32_t> out;
+  for (std::uint32_t i = 0; i < pair.source.size(); ++i)
+    if (rp.in_overlap(i)) out.push_back(i);
+  return out;
+}
+
+/// 3DMatch's registration error: the RMSE, over the source's points in the
+/// overlap, between their images under the estimate and under the truth
+/// (both local maps); infinity when there is no overlap.
+double rmse_over(const registration_pair& pair, const std::vector<std::uint32_t>& overlap,
+                 const ced::eval::rigid_transform& estimate) {
+  if (overlap.empty()) return std::numeric_limits<double>::infinity();
+  double sum = 0;
+  for (const std::uint32_t i : overlap) {
+    const float* p = pair.source.position(i);
+    const std::array<double, 3> x{p[0], p[1], p[2]};
+    const auto a = estimate.apply(x), b = pair.truth.apply(x);
+    for (int k = 0; k < 3; ++k) sum += (a[k] - b[k]) * (a[k] - b[k]);
+  }
+  return std::sqrt(sum / double(overlap.size()));
+}
 
 /// Detects with `detector` on both clouds of the pair, registers them, and
 /// reports the run: a table row, a CSV row, the detector's statistics.
@@ -208,19 +240,26 @@ void register_once(const registration_options& o, const eval_detector& detector,
   const double rot = ced::eval::rotation_error_deg(estimate, ps.truth);
   const double trans = ced::eval::translation_error(estimate, ps.truth);
   const bool success = r.converged && rot < o.max_rotation_error && trans < o.max_translation_error;
+  const double rmse = r.converged ? rmse_over(pair, ps.overlap, r.transform) : std::numeric_limits<double>::infinity();
+  const bool recalled = r.converged && rmse < o.max_rmse;
+  const double inlier_ratio = r.matches ? double(r.inliers) / double(r.matches) : 0.0;
   const double detect_ms = (a.ms + b.ms) / 2, register_ms = r.features_ms + r.ransac_ms;
   ++st.runs;
   st.successes += success;
+  st.recalled += recalled;
+  st.inlier_ratio += inlier_ratio;
   st.kp += double(a.keypoints.size());
   st.matches += double(r.matches);
   st.inliers += double(r.inliers);
   st.ms += detect_ms + register_ms;
-  std::printf("%-28s %-14s %5d %8zu %8zu %8zu %9.2f %9.3f %7s %9.1f\n", detector.name.c_str(), pair.name.c_str(), trial,
-              a.keypoints.size(), r.matches, r.inliers, rot, trans, success ? "yes" : "no", detect_ms + register_ms);
+  std::printf("%-28s %-14s %5d %8zu %8zu %8zu %9.2f %9.3f %9.3f %7s %9.1f\n", detector.name.c_str(), pair.name.c_str(),
+              trial, a.keypoints.size(), r.matches, r.inliers, rot, trans, rmse, success ? "yes" : "no",
+              detect_ms + register_ms);
   if (csv)
     *csv << '"' << detector.name << "\",\"" << pair.name << "\"," << trial << ',' << ps.descriptor << ','
          << a.keypoints.size() << ',' << b.keypoints.size() << ',' << r.matches << ',' << r.inliers << ',' << rot << ','
-         << trans << ',' << (success ? 1 : 0) << ',' << detect_ms << ',' << register_ms << '\n';
+         << trans << ',' << (success ? 1 : 0) << ',' << detect_ms << ',' << register_ms << ',' << rmse << ','
+         << (recalled ? 1 : 0) << ',' << inlier_ratio << '\n';
 }
 
 /// Every detector on `pair`, `repeats` times (new seeds each time).
@@ -235,10 +274,11 @@ void register_pair(const registration_options& o, const std::vector<eval_detecto
                  pair.name.c_str(), pair.source.size(), pair.target.size(), s.resolution, descriptor,
                  params.normal_radius, params.feature_radius);
   const auto truth = ced::eval::to_absolute(pair.truth, pair.source.origin(), pair.target.origin());
+  const std::vector<std::uint32_t> overlap = overlap_points(pair, params.inlier_distance);
   for (int trial = 0; trial < repeats; ++trial) {
     std::mt19937_64 rng(master());
     params.seed = static_cast<unsigned>(rng());
-    const pair_setup ps{pair, s, params, descriptor, truth};
+    const pair_setup ps{pair, s, params, descriptor, truth, overlap};
     std::size_t last_count = std::max<std::size_t>(1, pair.source.size() / 100);
     for (std::size_t d = 0; d < detectors.size(); ++d)
       register_once(o, detectors[d], ps, trial, last_count, rng, stats[d], csv);
@@ -246,34 +286,52 @@ void register_pair(const registration_options& o, const std::vector<eval_detecto
 }
 
 void print_registration_summary(const std::vector<eval_detector>& detectors,
-                                const std::vector<registration_stats>& stats) {
-  std::printf("\n%-28s %8s %8s %8s %8s %10s %9s\n", "detector", "runs", "success", "kp(P)", "matches", "inliers", "ms");
+                                const std::vector<registration_stats>& stats, double max_rmse) {
+  std::printf("\n%-28s %8s %8s %8s %8s %8s %10s %8s %9s\n", "detector", "runs", "success", "recall", "kp(P)", "matches",
+              "inliers", "ratio", "ms");
   for (std::size_t d = 0; d < detectors.size(); ++d) {
     const auto& st = stats[d];
     const double n = std::max(1, st.runs);
-    std::printf("%-28s %8d %7.0f%% %8.1f %8.1f %10.1f %9.1f\n", detectors[d].name.c_str(), st.runs,
-                100.0 * st.successes / n, st.kp / n, st.matches / n, st.inliers / n, st.ms / n);
+    std::printf("%-28s %8d %7.0f%% %7.0f%% %8.1f %8.1f %10.1f %8.3f %9.1f\n", detectors[d].name.c_str(), st.runs,
+                100.0 * st.successes / n, 100.0 * st.recalled / n, st.kp / n, st.matches / n, st.inliers / n,
+                st.inlier_ratio / n, st.ms / n);
   }
+  std::printf(
+      "(success: rotation and translation errors below their bounds; recall: RMSE over the overlap below %g m, "
+      "3DMatch's; ratio: inliers / matches)\n",
+      max_rmse);
 }
 
 int run_registration(const registration_options& o) {
-  const std::vector<eval_detector> detectors = parse_detectors(o.detectors, o.neighborhood, o.search);
+  std::vector<eval_detector> detectors = parse_detectors(o.detectors, o.neighborhood, o.search);
   check_registration_numbers(o);
+  if (!o.counts.empty()) {
+    std::vector<std::string> natural;
+    detectors = at_counts(detectors, parse_counts(o.counts), natural);
+    if (!natural.empty() && !o.quiet) {
+      std::string names;
+      for (const auto& n : natural) names += (names.empty() ? "" : ", ") + n;
+      std::fprintf(stderr,
+                   "ced eval: %s: PCL gives no response to rank by, so at the natural count (rows '(natural)')\n",
+                   names.c_str());
+    }
+  }
   ced::pcl_bridge::require_pcl();  // registration is PCL's: a missing module stops here, before any work
   std::unique_ptr<ced::io::atomic_output_file> csv;
   if (!o.csv.empty()) csv = std::make_unique<ced::io::atomic_output_file>(o.csv);
   int repeats = 1;
   const std::vector<registration_pair> pairs = registration_pairs(o, repeats);
   if (csv)
-    csv->stream() << "detector,pair,trial,descriptor,source_keypoints,target_keypoints,matches,inliers,"
-                     "rotation_error_deg,translation_error_m,success,detect_ms,register_ms\n";
-  std::printf("%-28s %-14s %5s %8s %8s %8s %9s %9s %7s %9s\n", "detector", "pair", "trial", "kp(P)", "matches",
-              "inliers", "rot.err", "trans.err", "success", "ms");
+    csv->stream()
+        << "detector,pair,trial,descriptor,source_keypoints,target_keypoints,matches,inliers,"
+           "rotation_error_deg,translation_error_m,success,detect_ms,register_ms,rmse_m,recall,inlier_ratio\n";
+  std::printf("%-28s %-14s %5s %8s %8s %8s %9s %9s %9s %7s %9s\n", "detector", "pair", "trial", "kp(P)", "matches",
+              "inliers", "rot.err", "trans.err", "rmse", "success", "ms");
   std::vector<registration_stats> stats(detectors.size());
   std::mt19937_64 master(o.seed ^ 0x5eedULL);
   for (const auto& pair : pairs)
     register_pair(o, detectors, pair, repeats, master, stats, csv ? &csv->stream() : nullptr);
-  print_registration_summary(detectors, stats);
+  print_registration_summary(detectors, stats, o.max_rmse);
   if (csv) csv->commit();
   return exit_ok;
 }
@@ -318,6 +376,12 @@ command add_registration_command(CLI::App& eval) {
   reg->add_option("--max-rotation-error", o->max_rotation_error, "Success: rotation error below, degrees (default 5)");
   reg->add_option("--max-translation-error", o->max_translation_error,
                   "Success: translation error below, metres (default 0.2)");
+  reg->add_option("--max-rmse", o->max_rmse,
+                  "Recall: the RMSE of the estimate over the source's points in the overlap below this, metres "
+                  "(default 0.2, 3DMatch's)");
+  reg->add_option("--counts", o->counts,
+                  "Every detector at these keypoint counts, e.g. 250,500,1000: the N strongest (random: N points; "
+                  "ISS3D and SIFT, which have no response, at their natural count)");
   reg->add_option("-j,--threads", o->threads, "Threads");
   reg->add_option("--csv", o->csv, "Write one row per detector x pair x trial");
   reg->add_flag("-q,--quiet", o->quiet, "Print only the tables");
