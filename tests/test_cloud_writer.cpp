@@ -1,32 +1,9 @@
 // SPDX-License-Identifier: MIT
-// Clouds read in chunks (ced/io/stream.hpp): after a first pass and
-// rewind(), the chunks of every format put together are bit for bit the
-// cloud read_cloud() reads; truncated files are io_errors.
-#include <gtest/gtest.h>
+// io::cloud_writer: a cloud written in pieces is the bytes of the whole cloud
+// written at once; wrong counts, layouts and streams are errors.
 
-#include <algorithm>
-#include <array>
-#include <cmath>
-#include <cstring>
-#include <limits>
-#include <random>
-#include <sstream>
-#include <stdexcept>
-#include <string>
-#include <vector>
-
-#include "ced/io/io.hpp"
-#include "ced/io/stream.hpp"
-#include "file_support.hpp"
 #include "stream_test_support.hpp"
 
-using ced::point_cloud;
-using ced::scalar_type;
-using ced::io::io_error;
-using ced::io::read_options;
-using ced_test::read_bytes;
-using ced_test::temp_file;
-using ced_test::write_bytes;
 using namespace stream_test;
 
 // ------------------------------------------------------------ cloud_writer

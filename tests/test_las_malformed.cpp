@@ -1,37 +1,8 @@
 // SPDX-License-Identifier: MIT
-#include <gtest/gtest.h>
-#include <unistd.h>
+// Malformed LAS files: each is an io_error naming the file and the problem.
 
-#include <algorithm>
-#include <array>
-#include <cctype>
-#include <cmath>
-#include <cstdlib>
-#include <cstring>
-#include <filesystem>
-#include <fstream>
-#include <limits>
-#include <sstream>
-#include <string>
-#include <vector>
-
-#include "ced/io/io.hpp"
-#include "ced/io/las.hpp"
-#include "ced/io/stream.hpp"
-#include "file_support.hpp"
-#include "io/laz/types.hpp"
 #include "las_test_support.hpp"
 
-namespace fs = std::filesystem;
-using ced::point_cloud;
-using ced::scalar_type;
-using ced::io::io_error;
-using ced::io::las_read_info;
-using ced::io::las_write_options;
-using ced_test::read_bytes;
-using ced_test::temp_dir;
-using ced_test::temp_file;
-using ced_test::write_bytes;
 using namespace las_test;
 
 TEST(LasMalformed, BadSignature) {

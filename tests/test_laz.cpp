@@ -3,34 +3,9 @@
 // the bytes of its plain-LAS twin, the clouds and keypoints are the twin's,
 // and damaged files are refused with an io_error naming the file, never read
 // out of bounds.
-#include <gtest/gtest.h>
 
-#include <algorithm>
-#include <cmath>
-#include <cstring>
-#include <filesystem>
-#include <fstream>
-#include <random>
-#include <string>
-#include <vector>
-
-#include "ced/ced.hpp"
-#include "ced/io/io.hpp"
-#include "ced/io/las.hpp"
-#include "ced/io/stream.hpp"
-#include "ced/tiled.hpp"
-#include "core/parallel.hpp"
-#include "file_support.hpp"
-#include "io/base/scalar_io.hpp"
-#include "io/laz/types.hpp"
 #include "laz_test_support.hpp"
 
-using ced::io::io_error;
-using ced::io::detail::las_point_records;
-using ced::io::detail::load_le;
-using ced_test::read_bytes;
-using ced_test::temp_file;
-using ced_test::write_bytes;
 using namespace laz_test;
 
 TEST(Laz, EveryRecordIsItsLasTwinsRecord) {

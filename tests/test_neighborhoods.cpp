@@ -2,28 +2,8 @@
 // Neighbourhoods beyond the fixed ball: knn:K and adaptive:K (CGAL's
 // k-nearest search), and the CGAL reference path for the fixed radius,
 // each against an O(N²) brute-force oracle.
-#include <gtest/gtest.h>
 
-#include <algorithm>
-#include <atomic>
-#include <cmath>
-#include <cstring>
-#include <filesystem>
-#include <limits>
-#include <random>
-#include <stdexcept>
-#include <string>
-#include <vector>
-
-#include "ced/ced.hpp"
-#include "ced/io/io.hpp"
-#include "ced/tiled.hpp"
-#include "core/kernel/dispatch.hpp"
-#include "core/neighbor_block.hpp"
-#include "core/neighbor_index.hpp"
 #include "neighborhoods_test_support.hpp"
-#include "test_support.hpp"
-#include "tiled_support.hpp"
 
 using namespace neighborhoods_test;
 

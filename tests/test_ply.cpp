@@ -1,33 +1,9 @@
 // SPDX-License-Identifier: MIT
-#include <gtest/gtest.h>
-#include <unistd.h>
+// PLY (src/io/ply/): round trips of every scalar type and encoding, hand-written
+// files, meshes with lists, large and non-finite coordinates, parallel chunks.
 
-#include <algorithm>
-#include <cmath>
-#include <cstring>
-#include <filesystem>
-#include <fstream>
-#include <limits>
-#include <random>
-#include <sstream>
-
-#include "ced/io/io.hpp"
-#include "ced/io/ply.hpp"
-#include "ced/io/stream.hpp"
-#include "core/parallel.hpp"
-#include "file_support.hpp"
 #include "ply_test_support.hpp"
 
-namespace fs = std::filesystem;
-using ced::point_cloud;
-using ced::scalar_type;
-using ced::io::io_error;
-using ced::io::ply_format;
-using ced_test::expect_same_cloud;
-using ced_test::read_bytes;
-using ced_test::temp_dir;
-using ced_test::temp_file;
-using ced_test::write_bytes;
 using namespace ply_test;
 
 TEST_P(PlyRoundTrip, EveryScalarTypeThroughAFile) {

@@ -2,31 +2,9 @@
 // Clouds read in chunks (ced/io/stream.hpp): after a first pass and
 // rewind(), the chunks of every format put together are bit for bit the
 // cloud read_cloud() reads; truncated files are io_errors.
-#include <gtest/gtest.h>
 
-#include <algorithm>
-#include <array>
-#include <cmath>
-#include <cstring>
-#include <limits>
-#include <random>
-#include <sstream>
-#include <stdexcept>
-#include <string>
-#include <vector>
-
-#include "ced/io/io.hpp"
-#include "ced/io/stream.hpp"
-#include "file_support.hpp"
 #include "stream_test_support.hpp"
 
-using ced::point_cloud;
-using ced::scalar_type;
-using ced::io::io_error;
-using ced::io::read_options;
-using ced_test::read_bytes;
-using ced_test::temp_file;
-using ced_test::write_bytes;
 using namespace stream_test;
 
 TEST(Stream, Las) {
