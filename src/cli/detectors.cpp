@@ -149,6 +149,20 @@ std::vector<eval_detector> at_counts(const std::vector<eval_detector>& detectors
   return out;
 }
 
+std::vector<eval_detector> detectors_at_counts(std::vector<eval_detector> detectors, const std::string& counts,
+                                               bool quiet) {
+  if (counts.empty()) return detectors;
+  std::vector<std::string> natural;
+  detectors = at_counts(detectors, parse_counts(counts), natural);
+  if (!natural.empty() && !quiet) {
+    std::string names;
+    for (const auto& n : natural) names += (names.empty() ? "" : ", ") + n;
+    std::fprintf(stderr, "ced eval: %s: PCL gives no response to rank by, so at the natural count (rows '(natural)')\n",
+                 names.c_str());
+  }
+  return detectors;
+}
+
 eval_setting make_setting(const ced::point_cloud& p, const std::string& name, double resolution, double radius,
                           int min_neighbors, int threads) {
   eval_setting s;

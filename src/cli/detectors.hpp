@@ -63,6 +63,11 @@ std::vector<std::size_t> parse_counts(const std::string& text);
 /// count, named "NAME (natural)", and its name is added to `natural`.
 std::vector<eval_detector> at_counts(const std::vector<eval_detector>& detectors,
                                      const std::vector<std::size_t>& counts, std::vector<std::string>& natural);
+/// --counts of an eval command: `detectors` as they are when `counts` is
+/// empty, else at_counts() of them; unless `quiet`, says on stderr which
+/// detectors stay at their natural count.
+std::vector<eval_detector> detectors_at_counts(std::vector<eval_detector> detectors, const std::string& counts,
+                                               bool quiet);
 
 /// What the evaluated detectors share: the detector parameters and the resolution.
 struct eval_setting {

@@ -373,17 +373,7 @@ int run_eval_synthetic(const eval_options& o, const std::vector<eval_detector>& 
 int run_eval(const eval_options& o) {
   std::vector<eval_detector> detectors = parse_detectors(o.detectors, o.neighborhood, o.search);
   check_eval_numbers(o);
-  if (!o.counts.empty()) {
-    std::vector<std::string> natural;
-    detectors = at_counts(detectors, parse_counts(o.counts), natural);
-    if (!natural.empty() && !o.quiet) {
-      std::string names;
-      for (const auto& n : natural) names += (names.empty() ? "" : ", ") + n;
-      std::fprintf(stderr,
-                   "ced eval: %s: PCL gives no response to rank by, so at the natural count (rows '(natural)')\n",
-                   names.c_str());
-    }
-  }
+  detectors = detectors_at_counts(std::move(detectors), o.counts, o.quiet);
   if (user_pair_mode(o)) return run_eval_pairs(o, detectors);
   if (o.pair_options_given)
     throw usage_error("--voxel, --gt-error and --random-draws apply to given pairs (--source and --target, or --rgbd)");

@@ -305,17 +305,7 @@ void print_registration_summary(const std::vector<eval_detector>& detectors,
 int run_registration(const registration_options& o) {
   std::vector<eval_detector> detectors = parse_detectors(o.detectors, o.neighborhood, o.search);
   check_registration_numbers(o);
-  if (!o.counts.empty()) {
-    std::vector<std::string> natural;
-    detectors = at_counts(detectors, parse_counts(o.counts), natural);
-    if (!natural.empty() && !o.quiet) {
-      std::string names;
-      for (const auto& n : natural) names += (names.empty() ? "" : ", ") + n;
-      std::fprintf(stderr,
-                   "ced eval: %s: PCL gives no response to rank by, so at the natural count (rows '(natural)')\n",
-                   names.c_str());
-    }
-  }
+  detectors = detectors_at_counts(std::move(detectors), o.counts, o.quiet);
   ced::pcl_bridge::require_pcl();  // registration is PCL's: a missing module stops here, before any work
   std::unique_ptr<ced::io::atomic_output_file> csv;
   if (!o.csv.empty()) csv = std::make_unique<ced::io::atomic_output_file>(o.csv);
