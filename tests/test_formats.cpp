@@ -226,7 +226,7 @@ ced::io::detail::format_entry dummy_entry() {
     out << "dummy " << c.size() << '\n';
     dummy_pieces().write(out, c);
   };
-  e.pieces = [](std::ostream& out, const ced::point_cloud&, std::uint64_t n, bool) {
+  e.pieces = [](std::ostream& out, const ced::point_cloud&, std::uint64_t n) {
     out << "dummy " << n << '\n';
     return std::unique_ptr<detail::piece_writer>(new dummy_pieces);
   };

@@ -25,6 +25,13 @@ inline std::string to_lower(std::string_view s) {
   return r;
 }
 
+/// `s` with ASCII small letters in capitals.
+inline std::string to_upper(std::string_view s) {
+  std::string r(s);
+  for (char& c : r) c = c >= 'a' && c <= 'z' ? static_cast<char>(c - 'a' + 'A') : c;
+  return r;
+}
+
 /// True when `a` and `b` are equal ignoring ASCII case.
 inline bool iequal(std::string_view a, std::string_view b) noexcept {
   if (a.size() != b.size()) return false;

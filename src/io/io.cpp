@@ -23,14 +23,32 @@ const format_entry* named(const std::string& name) {
   }
   return nullptr;
 }
+
+/// The formats' names joined by `sep` (for messages).
+std::string joined_names(const char* sep) {
+  std::string out;
+  for (const format_entry& e : formats()) out += (out.empty() ? "" : sep) + e.name;
+  return out;
+}
+
+/// The single extensions a format takes, as format_of()'s refusal lists
+/// them: ".ply, .pcd, .las, .laz, .csv/.xyz/.txt/.pts".
+std::string listed_extensions() {
+  std::string listed;
+  for (const format_entry& e : formats()) {
+    std::string mine;
+    for (const std::string& x : e.extensions)
+      if (x.find('.') == std::string::npos) mine += (mine.empty() ? "." : "/.") + x;
+    if (!mine.empty()) listed += (listed.empty() ? "" : ", ") + mine;
+  }
+  return listed;
+}
 }  // namespace
 
 file_format parse_format(const std::string& name) {
   if (name == "auto") return file_format::automatic;
   if (const format_entry* e = named(name)) return e->id;
-  std::string known;
-  for (const format_entry& e : formats()) known += e.name + ", ";
-  throw std::invalid_argument("unknown format '" + name + "' (known: " + known + "auto)");
+  throw std::invalid_argument("unknown format '" + name + "' (known: " + joined_names(", ") + ", auto)");
 }
 
 std::string format_name(file_format f) {
@@ -48,29 +66,21 @@ file_format format_of(const std::string& path) {
   if (ext == "e57")
     throw io_error(path + ": E57 is not supported; convert it first, e.g. `pdal translate " + path +
                    " out.las` or with CloudCompare to PLY");
-  std::string names, listed;
-  for (const format_entry& e : formats()) {
-    names += (names.empty() ? "" : "|") + e.name;
-    std::string mine;
-    for (const std::string& x : e.extensions)
-      if (x.find('.') == std::string::npos) mine += (mine.empty() ? "." : "/.") + x;
-    if (!mine.empty()) listed += (listed.empty() ? "" : ", ") + mine;
-  }
-  if (ext.empty()) throw io_error(path + ": no file extension; say the format with --format " + names);
+  if (ext.empty()) throw io_error(path + ": no file extension; say the format with --format " + joined_names("|"));
   // The longest extension that ends the path (.copc.laz before .laz).
   const std::string lower = ced::detail::to_lower(path);
   const format_entry* best = nullptr;
   std::size_t best_size = 0;
   for (const format_entry& e : formats())
     for (const std::string& x : e.extensions)
-      if (x.size() + 1 > best_size && lower.size() > x.size() &&
-          lower.compare(lower.size() - x.size() - 1, x.size() + 1, "." + x) == 0) {
+      if (x.size() + 1 > best_size && lower.size() > x.size() && lower[lower.size() - x.size() - 1] == '.' &&
+          lower.compare(lower.size() - x.size(), x.size(), x) == 0) {
         best = &e;
         best_size = x.size() + 1;
       }
   if (best) return best->id;
   if (const format_entry* e = named(ext)) return e->id;
-  throw io_error(path + ": unsupported file type '." + ext + "' (ced reads " + listed + ")");
+  throw io_error(path + ": unsupported file type '." + ext + "' (ced reads " + listed_extensions() + ")");
 }
 
 namespace {
@@ -117,7 +127,11 @@ cloud_writer::cloud_writer(std::ostream& out, const point_cloud& layout, std::ui
   if (m_layout.size() > 0) m_layout.filter(std::vector<std::uint8_t>(m_layout.size(), 0));
   m_start = out.tellp();
   if (format == file_format::automatic) throw std::invalid_argument("cloud_writer: no format given");
-  m_pieces = detail::format_entry_of(format).pieces(out, m_layout, points, m_start != std::streampos(-1));
+  const detail::format_entry& entry = detail::format_entry_of(format);
+  if (entry.pieces_seek_back && m_start == std::streampos(-1))
+    throw std::invalid_argument("cloud_writer: " + ced::detail::to_upper(entry.name) +
+                                " in pieces needs a seekable output (a file)");
+  m_pieces = entry.pieces(out, m_layout, points);
 }
 
 cloud_writer::~cloud_writer() = default;

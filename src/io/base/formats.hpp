@@ -36,10 +36,11 @@ struct format_entry {
   /// (formats other than LAS, LAZ and COPC ignore it).
   std::function<void(std::ostream& out, const point_cloud& cloud, const las_write_options* las)> write;
   /// The header of `n` points with `layout`'s fields, then the points in
-  /// pieces (cloud_writer). `seekable`: whether `out` can go back to its start.
-  std::function<std::unique_ptr<piece_writer>(std::ostream& out, const point_cloud& layout, std::uint64_t n,
-                                              bool seekable)>
-      pieces;
+  /// pieces (cloud_writer).
+  std::function<std::unique_ptr<piece_writer>(std::ostream& out, const point_cloud& layout, std::uint64_t n)> pieces;
+  /// Whether the pieces go back to the start of the output to rewrite the
+  /// header (LAS and LAZ): cloud_writer then refuses an output it cannot seek.
+  bool pieces_seek_back = false;
   /// A streaming reader, or nullptr when this file is read whole (then
   /// open_point_stream() reads it with `read`). Called for regular files
   /// only, unless `streams_any_file`.

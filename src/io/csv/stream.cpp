@@ -133,9 +133,7 @@ format_entry csv_entry() {
     return c;
   };
   e.write = [](std::ostream& out, const point_cloud& c, const las_write_options*) { write_csv(out, c); };
-  e.pieces = [](std::ostream& out, const point_cloud& layout, std::uint64_t n, bool) {
-    return csv_pieces(out, layout, n);
-  };
+  e.pieces = [](std::ostream& out, const point_cloud& layout, std::uint64_t n) { return csv_pieces(out, layout, n); };
   e.stream = [](const std::string& path, const read_options& o) { return open_csv_stream(path, o.csv, o.fields); };
   return e;
 }

@@ -2,7 +2,6 @@
 // The entries of LAS, LAZ and COPC in the table of formats (formats.cpp):
 // one reader (LAZ and COPC decoded by it) and one streaming reader for the
 // three, a writer each.
-#include <stdexcept>
 
 #include "ced/io/io.hpp"
 #include "ced/io/stream.hpp"
@@ -38,27 +37,23 @@ format_entry las_entry() {
     else
       write_las(out, c);
   };
-  e.pieces = [](std::ostream& out, const point_cloud& layout, std::uint64_t n, bool seekable) {
-    if (!seekable) throw std::invalid_argument("cloud_writer: LAS in pieces needs a seekable output (a file)");
-    return las_pieces(out, layout, n);
-  };
+  e.pieces = las_pieces;
+  e.pieces_seek_back = true;
   return e;
 }
 
 format_entry laz_entry() {
   format_entry e = las_family(file_format::laz, "laz", {"laz"});
   e.write = [](std::ostream& out, const point_cloud& c, const las_write_options* las) { write_laz(out, c, las); };
-  e.pieces = [](std::ostream& out, const point_cloud& layout, std::uint64_t n, bool seekable) {
-    if (!seekable) throw std::invalid_argument("cloud_writer: LAZ in pieces needs a seekable output (a file)");
-    return laz_pieces(out, layout, n);
-  };
+  e.pieces = laz_pieces;
+  e.pieces_seek_back = true;
   return e;
 }
 
 format_entry copc_entry() {
   format_entry e = las_family(file_format::copc, "copc", {"copc.laz"});
   e.write = [](std::ostream& out, const point_cloud& c, const las_write_options* las) { write_copc(out, c, las); };
-  e.pieces = [](std::ostream&, const point_cloud& layout, std::uint64_t n, bool) { return copc_pieces(layout, n); };
+  e.pieces = [](std::ostream&, const point_cloud& layout, std::uint64_t n) { return copc_pieces(layout, n); };
   return e;
 }
 

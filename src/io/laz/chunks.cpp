@@ -2,8 +2,6 @@
 // LAZ: the LASzip VLR, the chunk table, and chunks decoded back into LAS
 // point records (types.hpp). The items' decoders are in items.hpp.
 
-#include "io/laz/types.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -12,12 +10,13 @@
 
 #include "ced/io/error.hpp"
 #include "core/parallel.hpp"
+#include "io/base/scalar_io.hpp"
 #include "io/laz/coder.hpp"
 #include "io/laz/items.hpp"
 #include "io/laz/layered.hpp"
 #include "io/laz/layered_encode.hpp"
 #include "io/laz/pointwise.hpp"
-#include "io/base/scalar_io.hpp"
+#include "io/laz/types.hpp"
 
 namespace ced::io::detail {
 

@@ -14,8 +14,8 @@
 
 #include "ced/io/las.hpp"
 #include "core/parallel.hpp"
-#include "io/laz/types.hpp"
 #include "io/base/scalar_io.hpp"
+#include "io/laz/types.hpp"
 
 namespace ced::io::detail {
 namespace {

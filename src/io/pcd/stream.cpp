@@ -126,9 +126,7 @@ format_entry pcd_entry() {
   e.write = [](std::ostream& out, const point_cloud& c, const las_write_options*) {
     write_pcd(out, c, pcd_format::binary);
   };
-  e.pieces = [](std::ostream& out, const point_cloud& layout, std::uint64_t n, bool) {
-    return pcd_pieces(out, layout, n);
-  };
+  e.pieces = [](std::ostream& out, const point_cloud& layout, std::uint64_t n) { return pcd_pieces(out, layout, n); };
   e.stream = [](const std::string& path, const read_options& o) { return open_pcd_stream(path, o.fields); };
   return e;
 }

@@ -168,9 +168,7 @@ format_entry ply_entry() {
   e.write = [](std::ostream& out, const point_cloud& c, const las_write_options*) {
     write_ply(out, c, ply_format::binary_little_endian);
   };
-  e.pieces = [](std::ostream& out, const point_cloud& layout, std::uint64_t n, bool) {
-    return ply_pieces(out, layout, n);
-  };
+  e.pieces = [](std::ostream& out, const point_cloud& layout, std::uint64_t n) { return ply_pieces(out, layout, n); };
   e.stream = [](const std::string& path, const read_options& o) { return open_ply_stream(path, o.fields); };
   return e;
 }
