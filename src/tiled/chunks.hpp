@@ -3,27 +3,14 @@
 // sizing, detect_tile, tile_cache, fetch).
 #pragma once
 
-#include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdint>
-#include <cstring>
-#include <filesystem>
+#include <cstddef>
 #include <future>
-#include <map>
-#include <memory>
-#include <nlohmann/json_fwd.hpp>
-#include <optional>
 #include <string>
-#include <unordered_map>
-#include <utility>
 #include <vector>
 
-#include "ced/io/error.hpp"
 #include "ced/io/stream.hpp"
-#include "ced/modality.hpp"
-#include "ced/tiled.hpp"
-#include "io/base/scalar_io.hpp"
 
 namespace ced::tiled_detail {
 

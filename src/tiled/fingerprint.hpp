@@ -3,27 +3,14 @@
 // run boxes, the file's fingerprint (fingerprint.cpp).
 #pragma once
 
-#include <algorithm>
 #include <array>
-#include <cmath>
+#include <cstddef>
 #include <cstdint>
-#include <cstring>
 #include <filesystem>
-#include <future>
-#include <map>
-#include <memory>
-#include <nlohmann/json_fwd.hpp>
-#include <optional>
 #include <string>
-#include <unordered_map>
-#include <utility>
-#include <vector>
 
-#include "ced/io/error.hpp"
-#include "ced/io/stream.hpp"
-#include "ced/modality.hpp"
+#include "ced/cloud.hpp"
 #include "ced/tiled.hpp"
-#include "io/base/scalar_io.hpp"
 
 namespace ced::tiled_detail {
 

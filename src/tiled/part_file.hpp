@@ -2,27 +2,11 @@
 // Private to src/tiled: part files: written, and read a piece at a time (part_file.cpp).
 #pragma once
 
-#include <algorithm>
-#include <array>
-#include <cmath>
+#include <cstddef>
 #include <cstdint>
-#include <cstring>
-#include <filesystem>
-#include <future>
-#include <map>
-#include <memory>
-#include <nlohmann/json_fwd.hpp>
-#include <optional>
 #include <string>
-#include <unordered_map>
-#include <utility>
-#include <vector>
 
-#include "ced/io/error.hpp"
-#include "ced/io/stream.hpp"
-#include "ced/modality.hpp"
 #include "ced/tiled.hpp"
-#include "io/base/scalar_io.hpp"
 #include "tiled/records.hpp"
 
 namespace ced::tiled_detail {

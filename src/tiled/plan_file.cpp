@@ -11,6 +11,7 @@
 #include <string>
 
 #include "core/hash.hpp"
+#include "io/base/scalar_io.hpp"
 #include "tiled/fingerprint.hpp"
 #include "tiled/modalities.hpp"
 

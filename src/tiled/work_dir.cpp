@@ -10,6 +10,8 @@
 #include <vector>
 
 #include "ced/io/output_file.hpp"
+#include "ced/tiled.hpp"
+#include "io/base/scalar_io.hpp"
 
 namespace ced {
 

@@ -2,27 +2,8 @@
 // Private to src/tiled: the work directory: claimed, emptied, parts kept between tries (work_dir.cpp).
 #pragma once
 
-#include <algorithm>
-#include <array>
-#include <cmath>
-#include <cstdint>
-#include <cstring>
 #include <filesystem>
-#include <future>
-#include <map>
-#include <memory>
-#include <nlohmann/json_fwd.hpp>
-#include <optional>
 #include <string>
-#include <unordered_map>
-#include <utility>
-#include <vector>
-
-#include "ced/io/error.hpp"
-#include "ced/io/stream.hpp"
-#include "ced/modality.hpp"
-#include "ced/tiled.hpp"
-#include "io/base/scalar_io.hpp"
 
 namespace ced::tiled_detail {
 
