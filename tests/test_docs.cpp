@@ -223,9 +223,9 @@ bool is_fence(const std::string& line) { return trimmed(line).rfind("```", 0) ==
 /// reference pages. docs/RESULTS.md holds the figures, docs/journal/ the
 /// dated experiments; neither is checked here.
 const std::vector<std::string> pages_without_figures = {
-    "README.md",       "docs/ALGORITHM.md", "docs/ARCHITECTURE.md", "docs/BENCHMARKS.md",
-    "docs/CLI.md",     "docs/CPP.md",       "docs/EVALUATION.md",   "docs/MODALITIES.md",
-    "docs/PYTHON.md",  "docs/ROBUSTNESS.md", "docs/SCALE.md",       "docs/VIEWER.md"};
+    "README.md",      "docs/ALGORITHM.md",  "docs/ARCHITECTURE.md", "docs/BENCHMARKS.md",
+    "docs/CLI.md",    "docs/CPP.md",        "docs/EVALUATION.md",   "docs/MODALITIES.md",
+    "docs/PYTHON.md", "docs/ROBUSTNESS.md", "docs/SCALE.md",        "docs/VIEWER.md"};
 
 /// A page's prose outside code: one string a paragraph, list item or table
 /// row, its lines joined by a space (Markdown wraps a figure and its unit
@@ -277,11 +277,15 @@ const std::vector<std::pair<std::string, std::regex>>& figure_patterns() {
       {"a time", std::regex(r + R"(\s?(?:ms|µs|ns|s|min)(?![\w/]))")},
       {"a throughput", std::regex(r + R"(\s?(?:[kMG]i?B/s|M? ?points(?:/s| a second| per second))(?!\w))")},
       {"a speed-up",
-       std::regex(r + R"(\s?(?:×|x)(?=\s*(?:$|[),;:.]|faster|slower|ced6d|the time|its time|as fast|the paper|over |before|against|in |on )))")},
-      {"a speed-up", std::regex(r + R"((?:×|x) (?!the resolution|res\b|the radius|r\b|voxel|spacing|the NMS|as many))")},
+       std::regex(
+           r +
+           R"(\s?(?:×|x)(?=\s*(?:$|[),;:.]|faster|slower|ced6d|the time|its time|as fast|the paper|over |before|against|in |on )))")},
+      {"a speed-up",
+       std::regex(r + R"((?:×|x) (?!the resolution|res\b|the radius|r\b|voxel|spacing|the NMS|as many))")},
       {"a lift", std::regex(R"(\blifts?\b(?:(?!\. )[^|]){0,60}?\b)" + n)},
       {"a repeatability", std::regex(R"(\brepeat(?:s|ed|ability)?\b(?:(?!\. )[^|]){0,60}?\b(?:0\.\d{2,3}|\d+\s?%))")},
-      {"a peak of memory", std::regex(R"(\b(?:peak|peaks|RSS)\b(?:(?!\. )[^|]){0,40}?)" + r + R"(\s?(?:[kMG]i?B|bytes)\b)")},
+      {"a peak of memory",
+       std::regex(R"(\b(?:peak|peaks|RSS)\b(?:(?!\. )[^|]){0,40}?)" + r + R"(\s?(?:[kMG]i?B|bytes)\b)")},
       {"memory a point", std::regex(r + R"(\s?(?:B/point|B a point)\b)")},
       {"an instruction count", std::regex(r + R"(\s?M instructions)")},
       {"a count of tests", std::regex(R"(\b\d+(?:,\d{3})* (?:tests|test cases)\b(?!/))")}};
@@ -307,16 +311,18 @@ std::string heading_slug(const std::string& heading) {
   for (std::size_t i = 0; i < heading.size();) {
     const auto c = static_cast<unsigned char>(heading[i]);
     if (c < 0x80) {
-      if (std::isalnum(c) || c == '-' || c == '_') slug += static_cast<char>(std::tolower(c));
-      else if (c == ' ') slug += '-';
+      if (std::isalnum(c) || c == '-' || c == '_')
+        slug += static_cast<char>(std::tolower(c));
+      else if (c == ' ')
+        slug += '-';
       ++i;
       continue;
     }
     const std::size_t len = c >= 0xF0 ? 4 : c >= 0xE0 ? 3 : 2;
     char32_t cp = c & (len == 2 ? 0x1F : len == 3 ? 0x0F : 0x07);
     for (std::size_t k = 1; k < len && i + k < heading.size(); ++k) cp = (cp << 6) | (heading[i + k] & 0x3F);
-    const bool punctuation = (cp >= 0xA0 && cp <= 0xBF) || cp == 0xD7 || cp == 0xF7 ||
-                             (cp >= 0x2000 && cp <= 0x206F) || (cp >= 0x2190 && cp <= 0x23FF);
+    const bool punctuation = (cp >= 0xA0 && cp <= 0xBF) || cp == 0xD7 || cp == 0xF7 || (cp >= 0x2000 && cp <= 0x206F) ||
+                             (cp >= 0x2190 && cp <= 0x23FF);
     if (!punctuation) slug += heading.substr(i, len);
     i += len;
   }
@@ -383,8 +389,8 @@ TEST(Docs, ReadmeIsShortAndShowsCodeEarly) {
                                 << " lines; the front door holds at most 150 (figures go to docs/RESULTS.md)";
   const auto fence = std::find_if(lines.begin(), lines.end(), is_fence);
   ASSERT_NE(fence, lines.end()) << "README.md has no code block";
-  EXPECT_LE(fence - lines.begin() + 1, 40) << "README.md's first code block opens at line "
-                                           << fence - lines.begin() + 1 << "; it must by line 40";
+  EXPECT_LE(fence - lines.begin() + 1, 40)
+      << "README.md's first code block opens at line " << fence - lines.begin() + 1 << "; it must by line 40";
 }
 
 TEST(Docs, NoMeasuredFigureOutsideTheResultsPage) {
@@ -476,8 +482,8 @@ TEST(Docs, RelativeLinksReachAFileAndAHeading) {
         if (hash == std::string::npos || dest.extension() != ".md") continue;
         if (!anchors.count(dest)) anchors[dest] = anchors_of(dest);
         EXPECT_TRUE(anchors[dest].count(target.substr(hash + 1)))
-            << name << ":" << no + 1 << " links " << target << ": "
-            << dest.lexically_relative(root).generic_string() << " has no such heading";
+            << name << ":" << no + 1 << " links " << target << ": " << dest.lexically_relative(root).generic_string()
+            << " has no such heading";
       }
     }
   }
