@@ -1,12 +1,15 @@
 // SPDX-License-Identifier: MIT
 // Temporary files for the I/O tests (one directory per test process, removed
-// when the tests end), and a bit-exact comparison of two clouds.
+// when the tests end), files built byte by byte, and a bit-exact comparison
+// of two clouds.
 #pragma once
 
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -33,6 +36,21 @@ struct remove_temp_dir : ::testing::Environment {
 inline ::testing::Environment* const g_remove_temp_dir = ::testing::AddGlobalTestEnvironment(new remove_temp_dir);
 
 inline std::string temp_file(const std::string& name) { return (temp_dir() / name).string(); }
+
+/// Appends binary values, little-endian or (big_endian) big-endian: the tests
+/// run on little-endian hosts.
+struct bytes_builder {
+  std::string data;
+  bool big_endian = false;
+  template <class T>
+  bytes_builder& put(T v) {
+    char b[sizeof(T)];
+    std::memcpy(b, &v, sizeof(T));
+    if (big_endian) std::reverse(b, b + sizeof(T));
+    data.append(b, sizeof(T));
+    return *this;
+  }
+};
 
 inline void write_bytes(const std::string& path, const std::string& bytes) {
   std::ofstream out(path, std::ios::binary);

@@ -44,17 +44,7 @@ inline std::string read_error(const std::string& bytes, const std::string& name 
   return ced_test::read_error_of([](const std::string& path) { ced::io::read_pcd(path); }, bytes, name);
 }
 
-/// Appends little-endian binary values.
-struct bytes_builder {
-  std::string data;
-  template <class T>
-  bytes_builder& put(T v) {
-    char b[sizeof(T)];
-    std::memcpy(b, &v, sizeof(T));  // the tests run on little-endian hosts
-    data.append(b, sizeof(T));
-    return *this;
-  }
-};
+using ced_test::bytes_builder;
 
 inline std::string u32_bytes(std::uint32_t v) { return bytes_builder{}.put(v).data; }
 

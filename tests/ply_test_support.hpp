@@ -43,19 +43,7 @@ inline std::string read_error(const std::string& bytes, const std::string& name 
   return ced_test::read_error_of([](const std::string& path) { ced::io::read_ply(path); }, bytes, name);
 }
 
-/// Appends binary values in a chosen byte order.
-struct bytes_builder {
-  std::string data;
-  bool big_endian = false;
-  template <class T>
-  bytes_builder& put(T v) {
-    char b[sizeof(T)];
-    std::memcpy(b, &v, sizeof(T));
-    if (big_endian) std::reverse(b, b + sizeof(T));  // the tests run on little-endian hosts
-    data.append(b, sizeof(T));
-    return *this;
-  }
-};
+using ced_test::bytes_builder;
 
 inline const char* format_name(ply_format f) {
   return f == ply_format::ascii                  ? "ascii"

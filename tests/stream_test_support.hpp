@@ -227,18 +227,6 @@ inline void expect_truncated_fails(const std::string& bytes, std::size_t cut, co
   }
 }
 
-/// Appends values in little- or big-endian order.
-struct bytes_builder {
-  std::string data;
-  bool big = false;
-  template <class T>
-  bytes_builder& put(T v) {
-    char b[sizeof(T)];
-    std::memcpy(b, &v, sizeof(T));  // the tests run on little-endian hosts
-    if (big) std::reverse(b, b + sizeof(T));
-    data.append(b, sizeof(T));
-    return *this;
-  }
-};
+using ced_test::bytes_builder;
 
 }  // namespace stream_test
