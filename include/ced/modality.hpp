@@ -35,7 +35,9 @@ namespace ced {
 //     The detector sums Σ_{j ∈ N(i)} (v_j − v_i) of the channels in its own
 //     vectorised neighbour pass, for all such modalities at once, and calls
 //     from_sums(sums, |N(i)|) per point. centroid_distance<D> is the model
-//     the built-ins return.
+//     the built-ins return. A saliency that needs the point's own values
+//     (the neighbours' mean is v_i + sums/n) takes the point's index:
+//       float from_sums(const double* sums, std::uint32_t n, std::uint32_t i) const;
 // (b) Neighbour lists (ListEvaluator), for any other measure (a circular
 //     mean, a median, a covariance...):
 //       float operator()(const neighborhood&) const;   // one point's saliency
@@ -80,6 +82,15 @@ struct sums_neighbors<
     E, std::void_t<decltype(channel_source(std::declval<const E&>().channels())),
                    decltype(float(std::declval<const E&>().from_sums(std::declval<const double*>(), std::uint32_t{})))>>
     : std::true_type {};
+// (a) with the point: from_sums(sums, n, point), for a saliency that needs the
+// point's own channel values (the mean is v_point + sums / n).
+template <class E, class = void>
+struct sums_at_point : std::false_type {};
+template <class E>
+struct sums_at_point<E, std::void_t<decltype(channel_source(std::declval<const E&>().channels())),
+                                    decltype(float(std::declval<const E&>().from_sums(
+                                        std::declval<const double*>(), std::uint32_t{}, std::uint32_t{})))>>
+    : std::true_type {};
 
 template <class E, class = void>
 struct reads_neighbors : std::false_type {};
@@ -112,14 +123,14 @@ struct is_modality<
     M, std::void_t<decltype(std::string(std::declval<const M&>().name())),
                    decltype(double(std::declval<const M&>().threshold(std::declval<const detect_params&>()))),
                    evaluator_t<M>>>
-    : std::bool_constant<sums_neighbors<evaluator_t<M>>::value || reads_neighbors<evaluator_t<M>>::value ||
-                         evaluates_blocks<evaluator_t<M>>::value> {};
+    : std::bool_constant<sums_neighbors<evaluator_t<M>>::value || sums_at_point<evaluator_t<M>>::value ||
+                         reads_neighbors<evaluator_t<M>>::value || evaluates_blocks<evaluator_t<M>>::value> {};
 }  // namespace detail
 
 /// True for evaluators (like centroid_distance) whose saliency the detector
 /// computes from neighbourhood sums of their channels in its own pass: (a).
 template <class E>
-inline constexpr bool sums_neighbors_v = detail::sums_neighbors<E>::value;
+inline constexpr bool sums_neighbors_v = detail::sums_neighbors<E>::value || detail::sums_at_point<E>::value;
 
 /// True for evaluators that compute a point's saliency from its neighbour
 /// list: (b).
@@ -193,7 +204,9 @@ void evaluate_block(const Evaluator& e, const block_view& block, std::size_t slo
       const std::uint32_t n = block.count(k);
       float s = 0.0f;
       if (n >= min_neighbors) {
-        if constexpr (sums_neighbors_v<Evaluator>)
+        if constexpr (detail::sums_at_point<Evaluator>::value)
+          s = e.from_sums(block.sums(k, slot), n, block.point(k));
+        else if constexpr (sums_neighbors_v<Evaluator>)
           s = e.from_sums(block.sums(k, slot), n);
         else
           s = static_cast<float>(e(block[k]));
@@ -235,6 +248,15 @@ class any_modality {
   std::unique_ptr<bound_modality> bind(const point_cloud& c, const detect_params& p) const {
     return m_self->bind(c, p);
   }
+  /// The same modality with its threshold replaced by `t` (in the units
+  /// threshold() returns, after the ratio: metres for xyz). With 0 every
+  /// point is a candidate, so the NMS ranks all maxima: the top-N protocol
+  /// of `ced eval --counts`.
+  any_modality with_threshold(double t) const {
+    any_modality out;
+    if (m_self) out.m_self = std::make_shared<const fixed_threshold>(m_self, t);
+    return out;
+  }
 
  private:
   struct concept_t {
@@ -264,6 +286,18 @@ class any_modality {
       return std::make_unique<bound>(modality.bind(c, p));
     }
     M modality;
+  };
+  struct fixed_threshold final : concept_t {
+    fixed_threshold(std::shared_ptr<const concept_t> m, double t) : inner(std::move(m)), value(t) {}
+    std::string name() const override { return inner->name(); }
+    double threshold(const detect_params&) const override { return value; }
+    std::optional<std::vector<std::string>> fields() const override { return inner->fields(); }
+    bool channels_from_neighborhoods() const override { return inner->channels_from_neighborhoods(); }
+    std::unique_ptr<bound_modality> bind(const point_cloud& c, const detect_params& p) const override {
+      return inner->bind(c, p);
+    }
+    std::shared_ptr<const concept_t> inner;
+    double value;
   };
   std::shared_ptr<const concept_t> m_self;  // immutable, so sharing is safe
 };
@@ -337,14 +371,16 @@ std::vector<std::string> split_modality_specs(std::string_view text);
 /// unknown name (listing the known ones), a bad threshold or unknown options.
 any_modality make_modality(std::string_view spec);
 
-/// The modalities of a preset: "ced3d" = xyz:0.2; "ced6d" = xyz:0.2 + rgb:0.1.
+/// The modalities of a preset: "ced3d" = xyz:0.2; "ced6d" = xyz:0.2 + rgb:0.1;
+/// the others as preset_specs() gives them. Throws std::invalid_argument
+/// for an unknown name, listing the known ones.
 std::vector<any_modality> preset(std::string_view name);
 /// The modality specs of a preset (make_modality() of each gives preset(name)).
 std::vector<std::string> preset_specs(std::string_view name);
 /// The presets' names.
 std::vector<std::string> preset_names();
 /// Whether a preset refines its keypoints (detect_params::refine): the
-/// robust presets do, the paper's (ced3d, ced6d) do not.
+/// robust presets and corner3d do, the paper's (ced3d, ced6d) do not.
 bool preset_refines(std::string_view name);
 /// The share of the candidates a preset keeps as keypoints at most
 /// (detect_params::keypoint_share): 0.01 for robust3d and robust6d, whose

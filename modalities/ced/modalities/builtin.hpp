@@ -8,6 +8,7 @@
 #pragma once
 
 #include "ced/modalities/bands.hpp"
+#include "ced/modalities/corner.hpp"
 #include "ced/modalities/intensity.hpp"
 #include "ced/modalities/lab.hpp"
 #include "ced/modalities/normals.hpp"
@@ -26,6 +27,6 @@ struct modality_types {
   }
 };
 
-using builtin_modalities = modality_types<xyz, rgb, lab, normals, intensity, bands>;
+using builtin_modalities = modality_types<xyz, rgb, lab, normals, intensity, bands, corner>;
 
 }  // namespace ced
