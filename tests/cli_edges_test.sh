@@ -361,6 +361,46 @@ numbers -d ced3d > "$T/ev_ball.txt"
 check "eval: DETECTOR|SPEC = --neighborhood SPEC" cmp -s "$T/ev_bar.txt" "$T/ev_global.txt"
 check "eval: the neighbourhood changes the figures" bash -c "! cmp -s '$T/ev_bar.txt' '$T/ev_ball.txt'"
 
+# --- The top-N protocol (--counts) on a hand-built pair ---
+# A 48 x 48 lattice with five pyramids of different heights, and its copy
+# moved by (1, 2, 3) m. Every coordinate is a multiple of 1/128 m, exact in
+# float before and after the move, so the two clouds' saliencies are the same
+# bits. At N, every detector gives N keypoints a cloud even when its threshold
+# admits none (xyz:5), and all of them repeat; with a ground truth 3/128 m off
+# (epsilon 1 cm, keypoints at least 5 cm apart) none can.
+awk 'BEGIN {
+  print "x,y,z"
+  split("10 10 4 38 13 3 15 38 5 36 36 2 26 26 1", b, " ")
+  for (i = 0; i < 48; i++) for (j = 0; j < 48; j++) {
+    z = 0
+    for (k = 1; k <= 15; k += 3) { d = (i < b[k] ? b[k] - i : i - b[k]) + (j < b[k+1] ? b[k+1] - j : j - b[k+1])
+      h = b[k+2] - d; if (h > z) z = h }
+    printf "%.7f,%.7f,%.7f\n", i / 128, j / 128, z / 128
+  } }' > "$T/pyr.csv"
+awk -F, 'NR == 1 {print; next} {printf "%.7f,%.7f,%.7f\n", $1 + 1, $2 + 2, $3 + 3}' "$T/pyr.csv" > "$T/pyr_moved.csv"
+printf '1 0 0 1\n0 1 0 2\n0 0 1 3\n0 0 0 1\n' > "$T/pyr_T.txt"
+printf '1 0 0 1.0234375\n0 1 0 2\n0 0 1 3\n0 0 0 1\n' > "$T/pyr_T_off.txt"
+topn() {  # topn TRANSFORM CSV: the pair at N = 3 and 7, epsilon 1 cm
+  "$CED" eval repeatability --source "$T/pyr.csv" --target "$T/pyr_moved.csv" --transform "$1" --voxel 0 \
+    --resolution 0.01 --epsilon 1 --gt-error 0.001 -r 0.05 -d 'xyz:5' -d corner -d random --counts 3,7 -q --csv "$2"
+}
+topn "$T/pyr_T.txt" "$T/topn.csv" > /dev/null 2>&1
+"$CED" eval repeatability --source "$T/pyr.csv" --target "$T/pyr_moved.csv" --transform "$T/pyr_T.txt" --voxel 0 \
+  --resolution 0.01 --epsilon 1 --gt-error 0.001 -r 0.05 -d 'xyz:5' -q --csv "$T/natural.csv" > /dev/null 2>&1
+check "top-N: xyz:5 has no natural keypoint" awk -F, 'NR == 2 {exit !($3 == 0)}' "$T/natural.csv"
+check "top-N: N keypoints a cloud, all in the overlap, all repeated" awk -F, '
+  NR > 1 && $1 ~ /xyz/ {rows++; split($1, a, "@"); n = a[2] + 0; if ($3 != n || $4 != n || $5 != n || $6 != n) bad++}
+  END {exit !(rows == 2 && bad == 0)}' "$T/topn.csv"
+# corner is 0 on the planes and creases: at most the maxima with a score.
+check "top-N: corner's maxima all repeat" awk -F, '
+  NR > 1 && $1 ~ /corner/ {rows++; split($1, a, "@"); if ($3 > a[2] + 0 || $3 < 3 || $3 != $4 || $3 != $6) bad++}
+  END {exit !(rows == 2 && bad == 0)}' "$T/topn.csv"
+check "top-N: random draws N" awk -F, 'NR > 1 && $1 ~ /random/ {rows++; split($1, a, "@"); if ($3 != a[2] + 0) bad++}
+  END {exit !(rows == 2 && bad == 0)}' "$T/topn.csv"
+topn "$T/pyr_T_off.txt" "$T/topn_off.csv" > /dev/null 2>&1
+check "top-N: a ground truth 3/128 m off repeats none" awk -F, '
+  NR > 1 && $1 !~ /random/ {rows++; if ($6 != 0) bad++} END {exit !(rows == 4 && bad == 0)}' "$T/topn_off.csv"
+
 # --- An adversarial pass of 2026-12-05 ---
 # A repeatable option takes one value an occurrence: not the input after it, nor after a --config key.
 "$CED" detect "$sample" -m xyz:0.2 -m rgb:0.1 -r 0.05 -q > "$T/m_after.txt"

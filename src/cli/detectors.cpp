@@ -143,6 +143,9 @@ std::vector<eval_detector> at_counts(const std::vector<eval_detector>& detectors
       out.push_back(d);
       out.back().count = n;
       out.back().keypoint_share = 0;  // exactly N, as every row (a robust preset's share would cap it)
+      // The N strongest NMS maxima, whatever their saliency: thresholds would
+      // stop a detector at its natural count (the top-N protocol of D3Feat).
+      for (auto& m : out.back().modalities) m = m.with_threshold(0);
       out.back().name += "@" + std::to_string(n);
     }
   }
@@ -164,11 +167,12 @@ std::vector<eval_detector> detectors_at_counts(std::vector<eval_detector> detect
 }
 
 eval_setting make_setting(const ced::point_cloud& p, const std::string& name, double resolution, double radius,
-                          int min_neighbors, int threads) {
+                          int min_neighbors, int threads, double nms_radius) {
   eval_setting s;
   s.resolution = resolution > 0 ? resolution : ced::estimate_resolution(p);
   if (!(s.resolution > 0)) throw ced::io::io_error(name + ": cannot estimate the resolution; give --resolution");
   s.params.radius = s.params.nms_radius = radius > 0 ? radius : 5 * s.resolution;
+  if (nms_radius > 0) s.params.nms_radius = nms_radius;
   s.params.min_neighbors = static_cast<std::uint32_t>(std::max(0, min_neighbors));
   s.params.threads = static_cast<unsigned>(std::max(0, threads));
   return s;

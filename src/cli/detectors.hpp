@@ -76,7 +76,7 @@ struct eval_setting {
 };
 
 eval_setting make_setting(const ced::point_cloud& p, const std::string& name, double resolution, double radius,
-                          int min_neighbors, int threads);
+                          int min_neighbors, int threads, double nms_radius = 0);
 
 struct detection {
   std::vector<std::uint32_t> keypoints;

@@ -32,7 +32,7 @@ struct eval_options : pair_options {  // --rgbd: frame 0 against each later one
   std::uint64_t seed = 1;
   std::string noise = "0,0.5";
   std::string counts;  // --counts: every detector at these keypoint counts
-  double epsilon = 2.0, resolution = 0, radius = 0, max_translation = 1.0;
+  double epsilon = 2.0, resolution = 0, radius = 0, nms_radius = 0, max_translation = 1.0;
   // A given pair (--source/--target): both voxelised to this size first (the
   // paper's 1 cm when not given; 0: as they are); epsilon at least the
   // ground truth's error; the random baseline's number of draws.
@@ -133,6 +133,7 @@ void check_eval_numbers(const eval_options& o) {
   if (!(o.epsilon > 0) || !std::isfinite(o.epsilon)) throw usage_error("--epsilon must be a positive number");
   check_length(o.resolution, "--resolution", "0 = estimated");
   check_length(o.radius, "--radius", "0 = 5 x resolution");
+  check_length(o.nms_radius, "--nms-radius", "0 = the radius");
   check_length(o.max_translation, "--max-translation");
   check_counts(o.min_neighbors, o.threads);
 }
@@ -311,7 +312,7 @@ int run_eval_pairs(const eval_options& o, const std::vector<eval_detector>& dete
   for (std::size_t pi = 0; pi < pairs.size(); ++pi) {
     const pair_input& in = pairs[pi];
     const double resolution = o.resolution > 0 ? o.resolution : voxel;
-    const eval_setting s = make_setting(in.p, in.name, resolution, o.radius, o.min_neighbors, o.threads);
+    const eval_setting s = make_setting(in.p, in.name, resolution, o.radius, o.min_neighbors, o.threads, o.nms_radius);
     const double eps = pair_epsilon(o, s.resolution);
     const ced::eval::real_pair pair(in.p, in.q, in.t, eps);
     if (!o.quiet)
@@ -344,7 +345,7 @@ int run_eval_synthetic(const eval_options& o, const std::vector<eval_detector>& 
   if (!o.csv.empty()) csv = std::make_unique<ced::io::atomic_output_file>(o.csv);
 
   const ced::point_cloud p = read_finite(o.input, o.format, o.columns);
-  const eval_setting s = make_setting(p, o.input, o.resolution, o.radius, o.min_neighbors, o.threads);
+  const eval_setting s = make_setting(p, o.input, o.resolution, o.radius, o.min_neighbors, o.threads, o.nms_radius);
   const double res = s.resolution, eps = o.epsilon * res;
   if (!o.quiet)
     std::fprintf(stderr, "ced eval: %s, %zu points, resolution %g, radius %g, epsilon %g, %d trial(s)\n",
@@ -415,7 +416,9 @@ command add_repeatability_command(CLI::App& eval) {
   auto* draws_opt = rep->add_option("--random-draws", o->random_draws,
                                     "A given pair: random detectors drawn for each detector's lift (default 100)");
   rep->add_option("--resolution", o->resolution, "Cloud resolution in metres (default: estimated)");
-  rep->add_option("-r,--radius", o->radius, "Detector radius = NMS radius (default 5 x resolution)");
+  rep->add_option("-r,--radius", o->radius, "Detector radius, metres (default 5 x resolution)");
+  rep->add_option("--nms-radius", o->nms_radius,
+                  "NMS radius of ced's detectors and ISS3D, metres (default: the radius)");
   rep->add_option("-k,--min-neighbors", o->min_neighbors, "Minimum neighbours (default 5)");
   rep->add_option("--max-translation", o->max_translation, "Translations uniform in +-this, metres (default 1)");
   rep->add_option("-j,--threads", o->threads, "Threads");

@@ -36,7 +36,7 @@ struct registration_options : pair_options {  // --rgbd: consecutive frames
   int trials = 5, iterations = 20000, min_neighbors = 5, threads = 0;
   std::uint64_t seed = 1;
   double overlap = 0.4, noise = 0, max_translation = 1.0;
-  double resolution = 0, radius = 0, voxel = 0;
+  double resolution = 0, radius = 0, nms_radius = 0, voxel = 0;
   double normal_radius = 3, feature_radius = 5, inlier_distance = 2.5;  // in multiples of the resolution
   double inlier_fraction = 0.1;
   double max_rotation_error = 5, max_translation_error = 0.2;
@@ -62,6 +62,7 @@ void check_registration_numbers(const registration_options& o) {
   check_length(o.noise, "--noise");
   check_length(o.resolution, "--resolution", "0 = estimated");
   check_length(o.radius, "--radius", "0 = 5 x resolution");
+  check_length(o.nms_radius, "--nms-radius", "0 = the radius");
   check_length(o.voxel, "--voxel", "0 = none");
   check_length(o.max_translation, "--max-translation");
   check_length(o.depth_max, "--depth-max", "0 = none");
@@ -266,7 +267,8 @@ void register_once(const registration_options& o, const eval_detector& detector,
 void register_pair(const registration_options& o, const std::vector<eval_detector>& detectors,
                    const registration_pair& pair, int repeats, std::mt19937_64& master,
                    std::vector<registration_stats>& stats, std::ostream* csv) {
-  const eval_setting s = make_setting(pair.source, pair.name, o.resolution, o.radius, o.min_neighbors, o.threads);
+  const eval_setting s =
+      make_setting(pair.source, pair.name, o.resolution, o.radius, o.min_neighbors, o.threads, o.nms_radius);
   auto params = make_registration_params(o, pair, s.resolution);
   const char* descriptor = params.feature == ced::pcl_bridge::descriptor::pfhrgb ? "pfhrgb" : "fpfh";
   if (!o.quiet)
@@ -356,7 +358,9 @@ command add_registration_command(CLI::App& eval) {
   reg->add_option("--max-translation", o->max_translation, "INPUT: translations uniform in +-this, metres (default 1)");
   reg->add_option("--voxel", o->voxel, "Voxel down-sampling of the input clouds, metres (default none)");
   reg->add_option("--resolution", o->resolution, "Resolution in metres (default: estimated on the source)");
-  reg->add_option("-r,--radius", o->radius, "Detector radius = NMS radius (default 5 x resolution)");
+  reg->add_option("-r,--radius", o->radius, "Detector radius, metres (default 5 x resolution)");
+  reg->add_option("--nms-radius", o->nms_radius,
+                  "NMS radius of ced's detectors and ISS3D, metres (default: the radius)");
   reg->add_option("-k,--min-neighbors", o->min_neighbors, "Minimum neighbours (default 5)");
   reg->add_option("--normal-radius", o->normal_radius, "Normal estimation radius, x resolution (default 3)");
   reg->add_option("--feature-radius", o->feature_radius, "Descriptor radius, x resolution (default 5)");
