@@ -228,40 +228,64 @@ any_modality make_modality(std::string_view text) {
   return m;
 }
 
+namespace {
+
+/// The presets, one row each: a new preset is a row here (its figures go to
+/// docs/RESULTS.md and its line to "Which preset for which data").
+struct preset_row {
+  const char* name;
+  std::vector<const char*> specs;
+  double keypoint_share;  ///< detect_params::keypoint_share
+  bool refine;            ///< detect_params::refine
+};
+
+const std::vector<preset_row>& preset_table() {
+  // ced3d and ced6d are the paper's. docs/journal/presets.md: robust3d's centroid distance at 2 × the
+  // radius (apartment_mesh_214, small_gicp's LiDAR pair), robust6d's centroid shift (inner=1; also the
+  // Open3D RGB-D frames and PCL's PrimeSense pair) with colour at 0.5, both keeping 1 % of their
+  // candidates and refining. corner3d: the corner modality, refined, chosen on the tuning pairs of
+  // docs/threedmatch_pairs.py (docs/journal/real-pairs.md).
+  static const std::vector<preset_row> rows = {
+      {"ced3d", {"xyz:0.2"}, 0, false},
+      {"ced6d", {"xyz:0.2", "rgb:0.1"}, 0, false},
+      {"robust3d", {"xyz:0.2,scale=2"}, 0.01, true},
+      {"robust6d", {"xyz:0.2,scale=2.25,inner=1", "rgb:0.5"}, 0.01, true},
+      {"corner3d", {"corner:0.05"}, 0, true},
+  };
+  return rows;
+}
+
+const preset_row& preset_of(std::string_view name) {
+  for (const auto& row : preset_table())
+    if (name == row.name) return row;
+  std::string known;
+  for (const auto& row : preset_table()) known += (known.empty() ? "" : ", ") + std::string(row.name);
+  throw std::invalid_argument("unknown preset '" + std::string(name) + "' (known: " + known + ")");
+}
+
+}  // namespace
+
 std::vector<any_modality> preset(std::string_view name) {
-  if (name == "ced3d") return {xyz{}};
+  if (name == "ced3d") return {xyz{}};  // the paper's, as types (the same as their specs)
   if (name == "ced6d") return {xyz{}, rgb{}};
-  // docs/EVALUATION.md: scale, colour threshold and refinement chosen on apartment_mesh_214, robust6d's
-  // centroid shift (inner=1) also on the Open3D RGB-D frames and PCL's PrimeSense pair, robust3d's
-  // centroid distance at 2 × the radius also on small_gicp's LiDAR pair; colour at 0.5; both refine
-  // their keypoints (preset_refines).
-  if (name == "robust3d") return {scaled<xyz>{xyz{}, 2}};
-  if (name == "robust6d") return {scaled<xyz>{xyz{}, 2.25, 1}, rgb{0.5}};
-  throw std::invalid_argument("unknown preset '" + std::string(name) + "' (known: ced3d, ced6d, robust3d, robust6d)");
+  std::vector<any_modality> out;
+  for (const char* spec : preset_of(name).specs) out.push_back(make_modality(spec));
+  return out;
 }
 
 std::vector<std::string> preset_specs(std::string_view name) {
-  if (name == "ced3d") return {"xyz:0.2"};
-  if (name == "ced6d") return {"xyz:0.2", "rgb:0.1"};
-  if (name == "robust3d") return {"xyz:0.2,scale=2"};
-  if (name == "robust6d") return {"xyz:0.2,scale=2.25,inner=1", "rgb:0.5"};
-  throw std::invalid_argument("unknown preset '" + std::string(name) + "' (known: ced3d, ced6d, robust3d, robust6d)");
+  const auto& specs = preset_of(name).specs;
+  return {specs.begin(), specs.end()};
 }
 
-std::vector<std::string> preset_names() { return {"ced3d", "ced6d", "robust3d", "robust6d"}; }
-
-double preset_keypoint_share(std::string_view name) {
-  // docs/EVALUATION.md ("Counts under noise"): chosen on apartment_mesh_214's noisy copies for
-  // robust3d; robust6d takes the same share since 2026-12-06 ("robust6d keeps 1 % of its candidates").
-  if (name == "robust3d" || name == "robust6d") return 0.01;
-  if (name == "ced3d" || name == "ced6d") return 0;
-  throw std::invalid_argument("unknown preset '" + std::string(name) + "' (known: ced3d, ced6d, robust3d, robust6d)");
+std::vector<std::string> preset_names() {
+  std::vector<std::string> out;
+  for (const auto& row : preset_table()) out.emplace_back(row.name);
+  return out;
 }
 
-bool preset_refines(std::string_view name) {
-  if (name == "ced3d" || name == "ced6d") return false;
-  if (name == "robust3d" || name == "robust6d") return true;
-  throw std::invalid_argument("unknown preset '" + std::string(name) + "' (known: ced3d, ced6d, robust3d, robust6d)");
-}
+double preset_keypoint_share(std::string_view name) { return preset_of(name).keypoint_share; }
+
+bool preset_refines(std::string_view name) { return preset_of(name).refine; }
 
 }  // namespace ced

@@ -26,7 +26,7 @@ std::string path_arg(py::handle obj, const std::string& name);
 std::uint64_t int_arg(py::handle obj, const std::string& name, std::uint64_t max, const std::string& range = "");
 
 /// `refine=` of detect and plan_tiles: a bool, or None for the preset's
-/// (robust3d/robust6d refine; anything else does not).
+/// (robust3d, robust6d and corner3d refine; the others do not).
 bool refine_of(py::handle modalities, py::handle refine);
 /// detect_params::keypoint_share from a `keypoint_share` argument: a number
 /// from 0 to 1, or None (the preset's when `modalities` names one, else 0).

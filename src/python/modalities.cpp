@@ -157,15 +157,17 @@ void bind_modalities(py::module_& m) {
       "finite and >= 0 (else ValueError naming the point). fn may call ced.detect: that detection then runs on "
       "its thread, single-threaded.");
   m.def(
-      "preset_names", [] { return ced::preset_names(); }, "The presets' names: ced3d, ced6d, robust3d, robust6d.");
+      "preset_names", [] { return ced::preset_names(); },
+      "The presets' names: ced3d, ced6d, robust3d, robust6d, corner3d.");
   m.def(
       "preset", [](const std::string& name) { return ced::preset(name); }, py::arg("name"),
       "The modalities of a preset: 'ced3d' (xyz:0.2), 'ced6d' (xyz:0.2, rgb:0.1), 'robust3d' "
-      "(xyz:0.2,scale=2) or "
-      "'robust6d' (xyz:0.2,scale=2.25,inner=1, rgb:0.5). The robust presets also refine their keypoints "
-      "(preset_refines).");
+      "(xyz:0.2,scale=2), "
+      "'robust6d' (xyz:0.2,scale=2.25,inner=1, rgb:0.5) or 'corner3d' (corner:0.05). The robust presets and "
+      "corner3d also refine their keypoints (preset_refines).");
   m.def("preset_refines", &ced::preset_refines, py::arg("name"),
-        "Whether a preset refines its keypoints (detect(refine=...)): the robust presets do, ced3d and ced6d not.");
+        "Whether a preset refines its keypoints (detect(refine=...)): the robust presets and corner3d do, ced3d and "
+        "ced6d not.");
   m.def("preset_keypoint_share", &ced::preset_keypoint_share, py::arg("name"),
         "The share of the candidates a preset keeps at most as keypoints (detect(keypoint_share=...)): 0.01 for "
         "robust3d and robust6d, whose counts would otherwise grow with noise; 0 (no limit) for the others.");

@@ -282,7 +282,7 @@ void bind_tiled(py::module_& m) {
       "index and header without a pass over the points (plan.indexed), unless scan=True or memory_limit is "
       "given. modalities: spec strings or a preset "
       "name (default: ced6d when the file has colour, else ced3d). refine: keypoint refinement (None: the "
-      "preset's, on for robust3d/robust6d). max_keypoints: the merge keeps the strongest of all tiles' "
+      "preset's, on for robust3d, robust6d, corner3d). max_keypoints: the merge keeps the strongest of all tiles' "
       "keypoints, as detect(max_keypoints=...) (0: no limit); keypoint_share likewise (None: the preset's, 0.01 "
       "for robust3d and robust6d). neighborhood, search: as detect()'s. Under "
       "'knn:K,reach=R' or 'adaptive:K,...,reach=R' each tile checks the reach, detect_tile raising RuntimeError "

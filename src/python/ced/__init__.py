@@ -224,8 +224,9 @@ class _Preset(list):
 
 
 def preset(name):
-    """The modalities of a preset: 'ced3d' (xyz:0.2), 'ced6d' (xyz:0.2, rgb:0.1), 'robust3d' (xyz:0.2,scale=2) or
-    'robust6d' (xyz:0.2,scale=2.25,inner=1, rgb:0.5), as a list. The robust presets also refine their keypoints
+    """The modalities of a preset: 'ced3d' (xyz:0.2), 'ced6d' (xyz:0.2, rgb:0.1), 'robust3d' (xyz:0.2,scale=2),
+    'robust6d' (xyz:0.2,scale=2.25,inner=1, rgb:0.5) or 'corner3d' (corner:0.05), as a list. The robust presets
+    and corner3d also refine their keypoints
     (preset_refines) and keep at most a share of their candidates (preset_keypoint_share): detect() given
     this list unchanged does both, as it does given the name."""
     return _Preset(name)
@@ -251,11 +252,12 @@ def detect(points, channels=None, modalities=None, radius=0.05, nms_radius=None,
         any numeric dtype. An (N, 3) 'rgb' (or 'colors') array gives
         red, green, blue; a key 'a,b,c' names each column; another (N, k) array 'x' gives x_0 .. x_{k-1}.
     modalities: spec strings ('xyz:0.2', 'rgb:0.1', 'bands(nir,red):0.1'), ced.Modality objects, or a preset name
-        ('ced6d', 'ced3d', 'robust6d', 'robust3d'). None: ced6d (xyz:0.2, rgb:0.1) when the cloud has colour, else ced3d, as the CLI.
+        ('ced6d', 'ced3d', 'robust6d', 'robust3d', 'corner3d'). None: ced6d (xyz:0.2, rgb:0.1) when the cloud has colour, else ced3d, as the CLI.
     radius: neighbourhood radius, or 'auto' (radius_factor x the estimated resolution).
     nms_radius: None = radius. threads: 0 = all cores (the result does not depend on it).
     refine: move each keypoint to the point nearest the score-weighted centroid of its NMS neighbourhood (more
-        repeatable under noise). None: the preset's (on for 'robust3d' and 'robust6d'), else off.
+        repeatable under noise). None: the preset's (on for 'robust3d', 'robust6d'
+        and 'corner3d'), else off.
     max_keypoints: keep at most this many keypoints, the ones with the highest score (the product of their
         saliencies), ties to the smaller index; 0 (default): no limit.
     keypoint_share: keep at most this share (0 to 1) of the candidate points as keypoints, the strongest, ranked

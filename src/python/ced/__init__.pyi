@@ -173,18 +173,19 @@ def python_modality(name: str, fn: Union[BlockFunction, PointFunction], threshol
     and >= 0 (else ValueError); the function may itself call ced.detect (run single-threaded)."""
 
 def preset_names() -> List[str]:
-    """The presets' names: ced3d, ced6d, robust3d, robust6d."""
+    """The presets' names: ced3d, ced6d, robust3d, robust6d, corner3d."""
 
 def preset_refines(name: str) -> bool:
-    """Whether a preset refines its keypoints: robust3d and robust6d do, ced3d and ced6d not."""
+    """Whether a preset refines its keypoints: robust3d, robust6d and corner3d do, ced3d and ced6d not."""
 
 def preset_keypoint_share(name: str) -> float:
     """The share of the candidates a preset keeps at most as keypoints (detect(keypoint_share=...)): 0.01 for
     robust3d and robust6d, whose counts would otherwise grow with noise; 0 (no limit) for the others."""
 
 def preset(name: str) -> List[Modality]:
-    """'ced3d' (xyz:0.2), 'ced6d' (xyz:0.2, rgb:0.1), 'robust3d' (xyz:0.2,scale=2) or 'robust6d'
-    (xyz:0.2,scale=2.25,inner=1, rgb:0.5). The robust presets also refine their keypoints (ced.preset_refines).
+    """'ced3d' (xyz:0.2), 'ced6d' (xyz:0.2, rgb:0.1), 'robust3d' (xyz:0.2,scale=2), 'robust6d'
+    (xyz:0.2,scale=2.25,inner=1, rgb:0.5) or 'corner3d' (corner:0.05). The robust presets and corner3d also refine
+    their keypoints (ced.preset_refines).
     The list remembers the preset: detect() and plan_tiles() given it unchanged run the preset, its refinement
     and keypoint share included."""
 
