@@ -429,7 +429,7 @@ void register_benchmarks(const std::vector<std::string>& names) {
         ->Arg(1)
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime();
-    for (const char* robust : {"robust6d", "robust3d"})  // ≤ 3 × ced6d / ced3d (#16)
+    for (const char* robust : {"robust6d", "robust3d", "corner3d"})  // robust: ≤ 3 × ced6d / ced3d (#16)
       benchmark::RegisterBenchmark((std::string(robust) + "/" + name).c_str(), bm_ced, name, std::string(robust))
           ->Arg(1)
           ->Unit(benchmark::kMillisecond)
