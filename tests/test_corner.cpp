@@ -135,6 +135,13 @@ TEST(Corner, SameForAnyThreadCountAndInTiles) {
   }
   EXPECT_EQ(ced::detect(c, p, ced::corner(0.05)).saliency, one.saliency);  // compile time
   for (double tile : {0.3, 0.17}) EXPECT_EQ(ced::detect_tiled(c, p, m, tile), one.keypoints) << "tile " << tile;
+  // corner3d: corner at r and at 1.5 r, refined.
+  p.refine = ced::preset_refines("corner3d");
+  const auto preset = ced::preset("corner3d");
+  ASSERT_EQ(preset.size(), 2u);
+  const auto whole = ced::detect(c, p, preset);
+  ASSERT_GT(whole.keypoints.size(), 5u);
+  for (double tile : {0.3, 0.17}) EXPECT_EQ(ced::detect_tiled(c, p, preset, tile), whole.keypoints) << "tile " << tile;
 }
 
 TEST(Corner, SpecsAndBadInput) {

@@ -270,7 +270,8 @@ std::vector<ced::io::named_path> input_paths(const detect_options& o) {
 void add_detector_options(CLI::App* cmd, detect_options& o, const std::string& radius_help) {
   cmd->add_option("--preset", o.preset,
                   "ced3d (xyz:0.2), ced6d (xyz:0.2 + rgb:0.1), robust3d (xyz:0.2,scale=2, refined), "
-                  "robust6d (xyz:0.2,scale=2.25,inner=1 + rgb:0.5, refined) or corner3d (corner:0.05, refined); "
+                  "robust6d (xyz:0.2,scale=2.25,inner=1 + rgb:0.5, refined) or corner3d (corner:0.05 + "
+                  "corner:0.05,scale=1.5, refined); "
                   "radius 0.05 unless given")
       ->check(CLI::IsMember(ced::preset_names()));
   one_value_each(cmd->add_option(

@@ -243,14 +243,15 @@ const std::vector<preset_row>& preset_table() {
   // ced3d and ced6d are the paper's. docs/journal/presets.md: robust3d's centroid distance at 2 × the
   // radius (apartment_mesh_214, small_gicp's LiDAR pair), robust6d's centroid shift (inner=1; also the
   // Open3D RGB-D frames and PCL's PrimeSense pair) with colour at 0.5, both keeping 1 % of their
-  // candidates and refining. corner3d: the corner modality, refined, chosen on the tuning pairs of
-  // docs/threedmatch_pairs.py (docs/journal/real-pairs.md).
+  // candidates and refining. corner3d: the corner modality at r and at 1.5 r (a corner at both
+  // scales), refined, chosen on the tuning pairs of docs/threedmatch_pairs.py
+  // (docs/journal/real-pairs.md).
   static const std::vector<preset_row> rows = {
       {"ced3d", {"xyz:0.2"}, 0, false},
       {"ced6d", {"xyz:0.2", "rgb:0.1"}, 0, false},
       {"robust3d", {"xyz:0.2,scale=2"}, 0.01, true},
       {"robust6d", {"xyz:0.2,scale=2.25,inner=1", "rgb:0.5"}, 0.01, true},
-      {"corner3d", {"corner:0.05"}, 0, true},
+      {"corner3d", {"corner:0.05", "corner:0.05,scale=1.5"}, 0, true},
   };
   return rows;
 }

@@ -163,7 +163,8 @@ void bind_modalities(py::module_& m) {
       "preset", [](const std::string& name) { return ced::preset(name); }, py::arg("name"),
       "The modalities of a preset: 'ced3d' (xyz:0.2), 'ced6d' (xyz:0.2, rgb:0.1), 'robust3d' "
       "(xyz:0.2,scale=2), "
-      "'robust6d' (xyz:0.2,scale=2.25,inner=1, rgb:0.5) or 'corner3d' (corner:0.05). The robust presets and "
+      "'robust6d' (xyz:0.2,scale=2.25,inner=1, rgb:0.5) or 'corner3d' (corner:0.05, corner:0.05,scale=1.5). The robust "
+      "presets and "
       "corner3d also refine their keypoints (preset_refines).");
   m.def("preset_refines", &ced::preset_refines, py::arg("name"),
         "Whether a preset refines its keypoints (detect(refine=...)): the robust presets and corner3d do, ced3d and "

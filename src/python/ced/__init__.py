@@ -225,7 +225,7 @@ class _Preset(list):
 
 def preset(name):
     """The modalities of a preset: 'ced3d' (xyz:0.2), 'ced6d' (xyz:0.2, rgb:0.1), 'robust3d' (xyz:0.2,scale=2),
-    'robust6d' (xyz:0.2,scale=2.25,inner=1, rgb:0.5) or 'corner3d' (corner:0.05), as a list. The robust presets
+    'robust6d' (xyz:0.2,scale=2.25,inner=1, rgb:0.5) or 'corner3d' (corner:0.05, corner:0.05,scale=1.5), as a list. The robust presets
     and corner3d also refine their keypoints
     (preset_refines) and keep at most a share of their candidates (preset_keypoint_share): detect() given
     this list unchanged does both, as it does given the name."""

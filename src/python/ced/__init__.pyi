@@ -184,7 +184,7 @@ def preset_keypoint_share(name: str) -> float:
 
 def preset(name: str) -> List[Modality]:
     """'ced3d' (xyz:0.2), 'ced6d' (xyz:0.2, rgb:0.1), 'robust3d' (xyz:0.2,scale=2), 'robust6d'
-    (xyz:0.2,scale=2.25,inner=1, rgb:0.5) or 'corner3d' (corner:0.05). The robust presets and corner3d also refine
+    (xyz:0.2,scale=2.25,inner=1, rgb:0.5) or 'corner3d' (corner:0.05, corner:0.05,scale=1.5). The robust presets and corner3d also refine
     their keypoints (ced.preset_refines).
     The list remembers the preset: detect() and plan_tiles() given it unchanged run the preset, its refinement
     and keypoint share included."""
