@@ -267,8 +267,6 @@ const preset_row& preset_of(std::string_view name) {
 }  // namespace
 
 std::vector<any_modality> preset(std::string_view name) {
-  if (name == "ced3d") return {xyz{}};  // the paper's, as types (the same as their specs)
-  if (name == "ced6d") return {xyz{}, rgb{}};
   std::vector<any_modality> out;
   for (const char* spec : preset_of(name).specs) out.push_back(make_modality(spec));
   return out;

@@ -67,10 +67,8 @@ struct corner {
   }
   static corner from_spec(modality_spec& s) {
     corner c;
-    c.threshold_value = s.threshold_or(0.05);
-    const double t = c.threshold_value;
     c.normal_source = normals::from_spec(s);  // radius=, from=
-    c.threshold_value = t;
+    c.threshold_value = s.threshold_or(0.05);
     return c;
   }
 };
