@@ -88,6 +88,60 @@ TEST(Detect, EveryBuildLaysBlocksOutTheSame) {
     }
 }
 
+// The positions' second moments (normals' pass, neighbor_block::set_moments):
+// every build sums the same bits, and they are Σ d dᵀ of the brute-force
+// neighbourhood within float rounding.
+TEST(Detect, EveryBuildSumsTheSameMoments) {
+  const auto c = make_room(8000, 19);
+  const float* xyz = c.positions().data();
+  const double r = 0.05;
+  const auto nb = ced_test::brute_neighbors(c, r);
+  const ced::block_partition grid(xyz, c.size(), 6 * r, 1);
+  std::vector<double> want_bits;  // the generic build's sums, block after block
+  std::size_t checked = 0;
+  for (const std::string& isa : ced::detail::kernel_isas()) {
+    SCOPED_TRACE(isa);
+    ced::detail::force_kernel_isa(isa);
+    ced::neighbor_block block;
+    block.set_channels({ced::channel_source{xyz, 3, true}});
+    block.set_moments(true);
+    block.set_keep_lists(false);
+    std::vector<double> got;
+    for (std::size_t b = 0; b < grid.block_count(); ++b) {
+      block.fill(grid, xyz, grid.block_points(b), grid.block_size(b), r);
+      const ced::block_view v = block.view();
+      for (std::size_t k = 0; k < v.size(); ++k) {
+        const std::uint32_t i = v.point(k);
+        ASSERT_EQ(v.count(k), nb[i].size()) << "point " << i;
+        const double* s = v.position_sums(k);
+        got.insert(got.end(), s, s + 9);
+        if (isa != "generic") continue;
+        double want[9] = {};
+        for (auto j : nb[i]) {
+          double d[3];
+          for (int a = 0; a < 3; ++a) d[a] = double(c.position(j)[a]) - double(c.position(i)[a]);
+          const double m[9] = {d[0],        d[1],        d[2],        d[0] * d[0], d[1] * d[1],
+                               d[2] * d[2], d[0] * d[1], d[0] * d[2], d[1] * d[2]};
+          for (int q = 0; q < 9; ++q) want[q] += m[q];
+        }
+        for (int q = 0; q < 9; ++q)
+          ASSERT_NEAR(s[q], want[q], 1e-6 * double(nb[i].size()) * (q < 3 ? r : r * r)) << "point " << i << ", " << q;
+        ++checked;
+      }
+    }
+    if (want_bits.empty())
+      want_bits = got;
+    else
+      EXPECT_EQ(got, want_bits);  // bitwise
+  }
+  ced::detail::force_generic_kernel(false);
+  EXPECT_EQ(checked, c.size());
+  // Moments are for positions alone.
+  ced::neighbor_block with_channels;
+  with_channels.set_channels({ced::channel_source{xyz, 3, false}});
+  EXPECT_THROW(with_channels.set_moments(true), std::logic_error);
+}
+
 // A modality whose evaluator reads neighbour lists (not sums) gets exactly
 // the neighbourhoods of the definition: a checksum of each point's neighbour
 // indices matches brute force, for several block sizes.

@@ -102,20 +102,27 @@ std::vector<float> lab_values(const std::array<const field*, 3>& f, const std::a
 /// smallest eigenvalue of the covariance of its neighbours within `radius`
 /// (itself included), N×3 floats, row-major. The sign is not oriented (the
 /// largest component is made positive). Points with fewer than 3 neighbours,
-/// or all at one place, get (0, 0, 0). The moments are summed in index order
-/// in double, so the result depends only on each point's neighbours: the
-/// same for any thread count and in any tile that holds them. `threads`: 0 =
-/// all cores. Throws std::invalid_argument unless radius > 0.
+/// or all at one place, get (0, 0, 0). The moments Σ d and Σ d dᵀ of the
+/// offsets d = p_j − p_i are summed by the neighbour pass itself, in float
+/// vector lanes in an order fixed by the grid's sub-cells, and the
+/// eigenvector found by Jacobi rotations in double: the result is the same
+/// for any thread count and instruction set and in any tile that holds the
+/// neighbours. `threads`: 0 = all cores. Throws std::invalid_argument unless
+/// radius > 0.
 std::vector<float> estimate_normals(const point_cloud& cloud, double radius, unsigned threads = 0);
 /// The same over each point's neighbourhood under `params` (its radius,
 /// neighbourhood, search and threads), scaled by `factor` in (0, 1]: under
 /// the fixed radius the ball of factor × radius, as above; under knn:K the
 /// K nearest (factor 1) or the ball of factor × the K-th distance; under
-/// adaptive the ball of factor × each point's own radius. Throws
+/// adaptive the ball of factor × each point's own radius. Under knn,
+/// adaptive and search = cgal the moments are summed in double over the
+/// neighbours in index order (normal_from_neighbors). Throws
 /// std::invalid_argument for bad parameters.
 std::vector<float> estimate_normals(const point_cloud& cloud, const detect_params& params, double factor = 1.0);
-/// One point's normal as estimate_normals computes it, from its `n`
-/// neighbours (indices into `xyz`, N×3 floats) in the given order.
+/// One point's normal from its `n` neighbours (indices into `xyz`, N×3
+/// floats), the moments summed in double in the given order: bitwise
+/// estimate_normals' under knn, adaptive and search = cgal (neighbours by
+/// index), and within float rounding of it under the grid's fixed radius.
 void normal_from_neighbors(const float* xyz, std::uint32_t point, const std::uint32_t* neighbors, std::uint32_t n,
                            float out[3]) noexcept;
 /// N×6 floats: the orientation tensor n nᵀ of every normal (N×3, made unit

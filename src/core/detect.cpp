@@ -44,6 +44,13 @@ detection_context::~detection_context() = default;
 
 void detection_context::without_neighbor_lists() { m_impl->keep_lists = false; }
 
+void detection_context::with_position_moments() {
+  const auto& p = m_impl->params;
+  if (!(p.neighborhood.fixed() && p.search == search_kind::grid))
+    throw std::logic_error("with_position_moments: only on the grid's pass");
+  m_impl->moments = true;
+}
+
 void detection_context::scale_with_radius(const std::vector<double>& thresholds_at_twice) {
   const auto& t = m_impl->result.thresholds;
   if (thresholds_at_twice.size() != t.size())

@@ -34,6 +34,11 @@ class detection_context {
   /// then throws std::logic_error). The NMS queries its neighbourhoods
   /// anew. Used by saliency_of, whose pass has no candidates.
   void without_neighbor_lists();
+  /// The next compute_saliency() also sums the positions' second moments
+  /// (neighbor_block::set_moments: position_sums(k)[3..9)). Only on the
+  /// grid's pass (a fixed radius, search = grid) and with sources that carry
+  /// no channels; std::logic_error otherwise.
+  void with_position_moments();
   /// Candidates, products and NMS; moves the result out.
   detection_result finish();
   /// Under knn and adaptive neighbourhoods, the saliency of modality m is
@@ -60,6 +65,7 @@ struct detection_context::impl {
   std::vector<candidate_hits> hits;
   chunk_arena hit_memory;  // the hits' arrays
   bool keep_lists = true;  // see detection_context::without_neighbor_lists
+  bool moments = false;    // see detection_context::with_position_moments
   // Modalities whose threshold is proportional to the radius (they measure
   // distances): under knn and adaptive their saliency is taken per unit of
   // each point's own radius (scale_with_radius).

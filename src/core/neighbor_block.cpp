@@ -79,6 +79,13 @@ void neighbor_block::set_channels(const std::vector<channel_source>& sources) {
     }
   }
   m_sum_stride = 3 + m_channels;
+  if (m_moments && m_channels != 0) throw std::logic_error("neighbor_block: moments are summed only with no channels");
+  if (m_moments) m_sum_stride = 9;
+}
+
+void neighbor_block::set_moments(bool on) {
+  m_moments = on;
+  set_channels(std::vector<channel_source>(m_sources));
 }
 
 std::size_t neighbor_block::cell_start_sorted(std::uint64_t key) const noexcept {
@@ -342,8 +349,8 @@ void neighbor_block::run(const std::uint32_t* points, std::size_t count, double 
   grow(m_sums, m_sum_stride * count);
 
   const detail::block_kernel_input in{
-      m_gx.data(), m_gy.data(),     m_gz.data(),  m_channel_values.data(), stride,           m_channels,
-      count,       m_centre.data(), m_own.data(), m_ranges.data(),         squared_radius(r)};
+      m_gx.data(),     m_gy.data(),  m_gz.data(),     m_channel_values.data(), stride,   m_channels, count,
+      m_centre.data(), m_own.data(), m_ranges.data(), squared_radius(r),       m_moments};
   m_r2 = squared_radius(r);
   if (m_keep_distances) return;  // ball() sweeps a point at a time
   const detail::block_kernel_output out{m_counts.data(), m_sums.data(), bits ? m_bits.data() : nullptr};

@@ -40,6 +40,11 @@ class neighbor_block {
   /// alone, no channels). Then only size(), point() and ball() may be
   /// called.
   void set_keep_distances(bool keep) noexcept { m_keep_distances = keep; }
+  /// Whether fill() also sums the positions' second moments Σ d dᵀ, d =
+  /// p_j − p_i (default false; only with no channels, as set_channels was
+  /// given positions alone). They follow the position sums: view()'s
+  /// position_sums(k)[3..9) hold xx, yy, zz, xy, xz, yz.
+  void set_moments(bool on);
 
   /// Runs the pass for points `points[0..count)`, gathering from the blocks'
   /// grid (in an order that does not depend on the rest of the cloud: a
@@ -142,7 +147,7 @@ class neighbor_block {
   std::vector<std::uint8_t> m_bits;
   // Lists, built on demand.
   mutable bool m_lists_built = false;
-  bool m_keep_lists = true, m_keep_distances = false;
+  bool m_keep_lists = true, m_keep_distances = false, m_moments = false;
   // The balls with their distances (set_keep_distances).
   std::vector<std::int32_t> m_ball_bits;
   std::vector<std::uint32_t> m_ball_ids;

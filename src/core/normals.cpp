@@ -66,10 +66,29 @@ bool smallest_eigenvector(double a[3][3], float out[3]) noexcept {
 
 }  // namespace
 
-void normal_from_neighbors(const float* xyz, std::uint32_t point, const std::uint32_t* neighbors, std::uint32_t n,
-                           float out[3]) noexcept {
+namespace {
+/// The normal from a neighbourhood's n, Σ d and Σ d dᵀ (xx, xy, xz, yy, yz,
+/// zz) of the offsets d from the point: (0, 0, 0) below 3 neighbours or
+/// when they are all at one place.
+void normal_from_moments(std::uint32_t n, const double s[3], const double ss[6], float out[3]) noexcept {
   out[0] = out[1] = out[2] = 0;
   if (n < 3) return;
+  const double inv = 1.0 / n;
+  const double mx = s[0] * inv, my = s[1] * inv, mz = s[2] * inv;
+  double c[3][3];
+  c[0][0] = ss[0] * inv - mx * mx;
+  c[0][1] = c[1][0] = ss[1] * inv - mx * my;
+  c[0][2] = c[2][0] = ss[2] * inv - mx * mz;
+  c[1][1] = ss[3] * inv - my * my;
+  c[1][2] = c[2][1] = ss[4] * inv - my * mz;
+  c[2][2] = ss[5] * inv - mz * mz;
+  if (!(c[0][0] + c[1][1] + c[2][2] > 0)) return;  // all at one place
+  smallest_eigenvector(c, out);
+}
+}  // namespace
+
+void normal_from_neighbors(const float* xyz, std::uint32_t point, const std::uint32_t* neighbors, std::uint32_t n,
+                           float out[3]) noexcept {
   // Moments of the offsets from the point, in double: stable far from the
   // origin.
   const double px = xyz[3 * std::size_t(point)], py = xyz[3 * std::size_t(point) + 1],
@@ -82,17 +101,7 @@ void normal_from_neighbors(const float* xyz, std::uint32_t point, const std::uin
     ss[0] += dx * dx, ss[1] += dx * dy, ss[2] += dx * dz;
     ss[3] += dy * dy, ss[4] += dy * dz, ss[5] += dz * dz;
   }
-  const double inv = 1.0 / n;
-  const double mx = s[0] * inv, my = s[1] * inv, mz = s[2] * inv;
-  double c[3][3];
-  c[0][0] = ss[0] * inv - mx * mx;
-  c[0][1] = c[1][0] = ss[1] * inv - mx * my;
-  c[0][2] = c[2][0] = ss[2] * inv - mx * mz;
-  c[1][1] = ss[3] * inv - my * my;
-  c[1][2] = c[2][1] = ss[4] * inv - my * mz;
-  c[2][2] = ss[5] * inv - mz * mz;
-  if (!(c[0][0] + c[1][1] + c[2][2] > 0)) return;  // all at one place
-  smallest_eigenvector(c, out);
+  normal_from_moments(n, s, ss, out);
 }
 
 std::vector<float> estimate_normals(const point_cloud& cloud, double radius, unsigned threads) {
@@ -119,6 +128,21 @@ std::vector<float> estimate_normals(const point_cloud& cloud, const detect_param
   if (cloud.empty()) return normals;
   detail::detection_context ctx(cloud, p, {"normals"}, {std::numeric_limits<double>::max()});
   const float* xyz = cloud.positions().data();
+  if (p.neighborhood.fixed() && p.search == search_kind::grid) {
+    // The grid's pass sums d and d dᵀ in its vector lanes, in an order fixed
+    // by the sub-cells (so the same in any tile), with no neighbour lists.
+    ctx.without_neighbor_lists();
+    ctx.with_position_moments();
+    ctx.compute_saliency({channel_source{}}, [&](const block_view& block, float* const*) {
+      for (std::size_t k = 0; k < block.size(); ++k) {
+        const double* s = block.position_sums(k);
+        const double* m = s + 3;  // xx, yy, zz, xy, xz, yz
+        const double ss[6] = {m[0], m[3], m[4], m[1], m[5], m[2]};
+        normal_from_moments(block.count(k), s, ss, normals.data() + 3 * std::size_t(block.point(k)));
+      }
+    });
+    return normals;
+  }
   ctx.compute_saliency({channel_source{}}, [&](const block_view& block, float* const*) {
     std::vector<std::uint32_t> sorted;
     for (std::size_t k = 0; k < block.size(); ++k) {

@@ -92,6 +92,7 @@ void grid_pass(Impl& s, const std::vector<channel_source>& sources, const salien
     auto w = pool.take([&] {
       auto made = std::make_unique<worker>();
       made->block.set_channels(sources);
+      made->block.set_moments(s.moments);
       made->block.set_keep_lists(keep_lists);
       return made;
     });

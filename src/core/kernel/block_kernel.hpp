@@ -43,13 +43,17 @@ struct block_kernel_input {
   const float* own;
   const std::uint32_t* ranges;
   float r2;
+  /// Also sum the positions' second moments (only with channel_count 0).
+  bool moments = false;
 };
 
 struct block_kernel_output {
   /// Neighbours of each point within the radius (itself included).
   std::uint32_t* counts;
   /// Per point, 3 + channel_count sums of (v_j − v_i) over its neighbours:
-  /// positions first, then the channels.
+  /// positions first, then the channels. With input.moments, 9: the
+  /// positions' sums, then Σ d dᵀ of d = p_j − p_i as (xx, yy, zz, xy, xz,
+  /// yz), each product rounded to float and summed in the positions' lanes.
   double* sums;
   /// Per group of 8 tested points, bit l set when lane l is a neighbour;
   /// groups follow the ranges in order, point after point. nullptr: not
