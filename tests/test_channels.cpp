@@ -318,3 +318,69 @@ TEST(Channels, EightBitValuesIn16BitFields) {
   tile.whole_range = ced::value_range{0, 1000};
   EXPECT_FALSE(ced::holds_8bit_in_16(tile));
 }
+
+// Many bands by a range or a glob, in every way a spec is given.
+TEST(Channels, BandRangesAndGlobs) {
+  using names = std::vector<std::string>;
+  EXPECT_EQ(ced::expand_field_ranges({"b000..b003"}), (names{"b000", "b001", "b002", "b003"}));
+  EXPECT_EQ(ced::expand_field_ranges({"b08..b11"}), (names{"b08", "b09", "b10", "b11"}));
+  EXPECT_EQ(ced::expand_field_ranges({"b1..b3", "nir"}), (names{"b1", "b2", "b3", "nir"}));
+  EXPECT_EQ(ced::expand_field_ranges({"band_9..band_11"}), (names{"band_9", "band_10", "band_11"}));
+  EXPECT_EQ(ced::expand_field_ranges({"B2..b2"}), (names{"B2"}));
+  EXPECT_EQ(ced::expand_field_ranges({"b*"}), (names{"b*"}));
+  for (const char* bad : {"b3..b1", "b..b3", "a1..b3", "b1..", "..b3", "b0..b99999999"})
+    EXPECT_THROW(ced::expand_field_ranges({bad}), std::invalid_argument) << bad;
+  EXPECT_TRUE(ced::field_name_matches("b*", "B017"));
+  EXPECT_TRUE(ced::field_name_matches("*_nm", "band_550_nm"));
+  EXPECT_TRUE(ced::field_name_matches("b?", "b7"));
+  EXPECT_TRUE(ced::field_name_matches("*", ""));
+  EXPECT_TRUE(ced::field_name_matches("a*b*c", "axxbyyc"));
+  EXPECT_FALSE(ced::field_name_matches("b?", "b17"));
+  EXPECT_FALSE(ced::field_name_matches("a*b*c", "axxbyy"));
+  EXPECT_FALSE(ced::field_name_matches("nir", "nir2"));
+
+  // A cloud with 12 bands and colour: bands(b00..b11), bands(b*) and the
+  // names typed one by one read the same fields and give the same result.
+  auto c = ced_test::make_room(3000, 29);
+  std::mt19937 rng(5);
+  names typed;
+  for (int b = 0; b < 12; ++b) {
+    std::vector<double> v(c.size());
+    for (double& x : v) x = double(rng() % 1000);
+    typed.push_back((b < 10 ? "b0" : "b") + std::to_string(b));
+    c.add_field(typed.back(), ced::scalar_type::uint16, std::move(v));
+  }
+  ced::detect_params p;
+  p.threads = 2;
+  const auto want = ced::detect(c, p, std::vector<ced::any_modality>{ced::bands(typed, 0.05)});
+  ASSERT_GT(want.keypoints.size(), 5u);
+  // (b* would take "blue" too: the room has colour.)
+  for (const auto& [spec, fields] :
+       std::vector<std::pair<const char*, names>>{{"bands(b00..b11):0.05", typed},
+                                                  {"bands(b?\?):0.05", {"b?\?"}},
+                                                  {"bands(B0?,b10..b11):0.05", {"B0?", "b10", "b11"}}}) {
+    SCOPED_TRACE(spec);
+    const auto m = ced::make_modality(spec);
+    EXPECT_EQ(*m.fields(), fields);  // ranges expanded, globs kept as patterns
+    const auto got = ced::detect(c, p, std::vector<ced::any_modality>{m});
+    EXPECT_EQ(got.saliency, want.saliency);
+    EXPECT_EQ(got.keypoints, want.keypoints);
+  }
+  // A field selection keeps what a glob matches.
+  const auto only = ced::field_selection::only({"b*", "nir"});
+  EXPECT_TRUE(only.wants("B03"));
+  EXPECT_TRUE(only.wants("NIR"));
+  EXPECT_FALSE(only.wants("red"));
+  // Clear errors: nothing matched, a field named twice, a bad pattern.
+  const auto none = invalid_argument_of(
+      [&] { ced::detect(c, p, std::vector<ced::any_modality>{ced::make_modality("bands(swir*)")}); });
+  EXPECT_NE(none.find("'swir*' matches no field"), std::string::npos) << "[" << none << "]";
+  EXPECT_NE(none.find("b00"), std::string::npos) << none;  // the fields present
+  const auto twice = invalid_argument_of(
+      [&] { ced::detect(c, p, std::vector<ced::any_modality>{ced::make_modality("bands(b?\?,b03)")}); });
+  EXPECT_NE(twice.find("names field 'b03' twice"), std::string::npos) << twice;
+  EXPECT_THROW(ced::make_modality("bands(b$)"), std::invalid_argument);
+  const auto backwards = invalid_argument_of(
+      [&] { ced::detect(c, p, std::vector<ced::any_modality>{ced::make_modality("bands(b11..b00)")}); });
+  EXPECT_NE(backwards.find("runs backwards"), std::string::npos) << backwards;
+}

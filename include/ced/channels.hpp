@@ -77,6 +77,25 @@ std::string missing_field_hint(const std::vector<std::string>& present, const st
 std::vector<const field*> require_fields(const point_cloud& cloud, const std::vector<std::string>& names,
                                          const std::string& modality);
 
+/// Field names with ranges expanded, for modalities that take many fields
+/// (bands): `b000..b191` is b000, b001, ..., b191. Both ends end in digits
+/// after the same text; the names are zero-padded to the first end's width
+/// when its digits start with 0 or both ends have as many digits
+/// (`b08..b12`: b08 ... b12; `b1..b12`: b1 ... b12). Other names, globs
+/// included, are kept. Throws std::invalid_argument for a malformed range,
+/// one that runs backwards, or one of more than 65,536 names.
+std::vector<std::string> expand_field_ranges(const std::vector<std::string>& names);
+/// True when field `name` matches `pattern`, ignoring case: `*` stands for
+/// any run of characters and `?` for any one; without them, equality.
+bool field_name_matches(std::string_view pattern, std::string_view name) noexcept;
+/// require_fields() for names that may be ranges or globs: ranges are
+/// expanded (expand_field_ranges), a glob stands for every field of the
+/// cloud it matches, in the cloud's order, and must match at least one
+/// (missing_field_error otherwise). A field named twice, by any of them, is
+/// an error naming it.
+std::vector<const field*> require_field_patterns(const point_cloud& cloud, const std::vector<std::string>& names,
+                                                 const std::string& modality);
+
 /// Throws std::invalid_argument naming `modality`, the field and the first
 /// point whose value is NaN, infinite or beyond the float range (channels are
 /// computed in float).

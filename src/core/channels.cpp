@@ -211,6 +211,106 @@ std::vector<const field*> require_fields(const point_cloud& cloud, const std::ve
   return out;
 }
 
+namespace {
+bool is_digit(char c) noexcept { return c >= '0' && c <= '9'; }
+bool is_glob(std::string_view s) noexcept { return s.find_first_of("*?") != std::string_view::npos; }
+}  // namespace
+
+std::vector<std::string> expand_field_ranges(const std::vector<std::string>& names) {
+  constexpr std::uint64_t most = 65536;
+  std::vector<std::string> out;
+  for (const std::string& name : names) {
+    const std::size_t dots = name.find("..");
+    if (dots == std::string::npos) {
+      out.push_back(name);
+      continue;
+    }
+    const std::string lo = name.substr(0, dots), hi = name.substr(dots + 2);
+    const auto split = [&](const std::string& end, std::string& text, std::string& digits) {
+      std::size_t d = end.size();
+      while (d > 0 && is_digit(end[d - 1])) --d;
+      text = end.substr(0, d);
+      digits = end.substr(d);
+      if (digits.empty() || digits.size() > 9)
+        throw std::invalid_argument("field range '" + name +
+                                    "': both ends must end in a number of 1 to 9 digits, e.g. b000..b191");
+    };
+    std::string lo_text, lo_digits, hi_text, hi_digits;
+    split(lo, lo_text, lo_digits);
+    split(hi, hi_text, hi_digits);
+    if (!detail::iequal(lo_text, hi_text))
+      throw std::invalid_argument("field range '" + name + "': the ends must share the text before their numbers ('" +
+                                  lo_text + "' against '" + hi_text + "')");
+    const std::uint64_t a = std::stoull(lo_digits), b = std::stoull(hi_digits);
+    if (b < a) throw std::invalid_argument("field range '" + name + "' runs backwards");
+    if (b - a + 1 > most)
+      throw std::invalid_argument("field range '" + name + "' names " + std::to_string(b - a + 1) +
+                                  " fields, more than " + std::to_string(most));
+    const bool padded = (lo_digits.size() > 1 && lo_digits[0] == '0') || lo_digits.size() == hi_digits.size();
+    for (std::uint64_t v = a; v <= b; ++v) {
+      std::string number = std::to_string(v);
+      if (padded && number.size() < lo_digits.size()) number.insert(0, lo_digits.size() - number.size(), '0');
+      out.push_back(lo_text + number);
+    }
+  }
+  return out;
+}
+
+bool field_name_matches(std::string_view pattern, std::string_view name) noexcept {
+  if (!is_glob(pattern)) return detail::iequal(pattern, name);
+  // Greedy with one backtrack point: the last '*' seen.
+  std::size_t p = 0, n = 0, star = std::string_view::npos, from = 0;
+  while (n < name.size()) {
+    if (p < pattern.size() &&
+        (pattern[p] == '?' || (pattern[p] != '*' && detail::ascii_lower(pattern[p]) == detail::ascii_lower(name[n])))) {
+      ++p, ++n;
+    } else if (p < pattern.size() && pattern[p] == '*') {
+      star = p++;
+      from = n;
+    } else if (star != std::string_view::npos) {
+      p = star + 1;
+      n = ++from;
+    } else {
+      return false;
+    }
+  }
+  while (p < pattern.size() && pattern[p] == '*') ++p;
+  return p == pattern.size();
+}
+
+std::vector<const field*> require_field_patterns(const point_cloud& cloud, const std::vector<std::string>& names,
+                                                 const std::string& modality) {
+  std::vector<const field*> out;
+  const auto add = [&](const field* f, const std::string& named_as) {
+    for (const field* g : out)
+      if (g == f)
+        throw std::invalid_argument("modality '" + modality + "' names field '" + f->name + "' twice (again as '" +
+                                    named_as + "')");
+    out.push_back(f);
+  };
+  for (const std::string& name : expand_field_ranges(names)) {
+    if (!is_glob(name)) {
+      add(require_fields(cloud, {name}, modality).front(), name);
+      continue;
+    }
+    std::size_t matched = 0;
+    std::string present;
+    for (const field& f : cloud.fields()) {
+      present += (present.empty() ? "" : ", ") + f.name;
+      if (!field_name_matches(name, f.name)) continue;
+      require_finite(f, modality);
+      add(&f, name);
+      ++matched;
+    }
+    if (matched == 0)
+      throw missing_field_error(
+          modality, name,
+          "modality '" + modality + "': '" + name +
+              "' matches no field of the cloud (fields present: " + (present.empty() ? "none" : present) + ")");
+  }
+  return out;
+}
+
 void require_finite(const field& f, const std::string& modality) {
   const std::size_t n = f.values.size();
   const std::size_t i = first_unfit(f.values);

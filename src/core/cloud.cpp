@@ -10,6 +10,7 @@
 #include <ostream>
 #include <type_traits>
 
+#include "ced/channels.hpp"
 #include "core/text.hpp"
 
 #if defined(__linux__)
@@ -94,7 +95,7 @@ std::array<double, 2> natural_range(scalar_type t) noexcept {
 bool field_selection::wants(std::string_view name) const noexcept {
   if (all) return true;
   for (const auto& n : names)
-    if (detail::iequal(n, name)) return true;
+    if (field_name_matches(n, name)) return true;
   return false;
 }
 

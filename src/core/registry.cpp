@@ -43,6 +43,14 @@ bool valid_identifier(const std::string& s) {
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.')) return false;
   return true;
 }
+/// A field name, a range of them (b000..b191: dots are allowed) or a glob
+/// (* and ?).
+bool valid_field_pattern(const std::string& s) {
+  std::string plain = s;
+  for (char& c : plain)
+    if (c == '*' || c == '?') c = '_';
+  return valid_identifier(plain);
+}
 }  // namespace
 
 std::vector<std::string> split_modality_specs(std::string_view text) {
@@ -91,7 +99,7 @@ modality_spec modality_spec::parse(std::string_view text) {
     for (;;) {
       const std::size_t c = inner.find(',', b);
       std::string arg = trimmed(inner.substr(b, c == std::string::npos ? std::string::npos : c - b));
-      if (!valid_identifier(arg)) fail("'" + arg + "' is not a field name");
+      if (!valid_field_pattern(arg)) fail("'" + arg + "' is not a field name, range (b000..b191) or glob (b*)");
       if (!seen.insert(detail::to_lower(arg)).second) fail("it lists field '" + arg + "' twice");
       s.m_args.push_back(arg);
       if (c == std::string::npos) break;

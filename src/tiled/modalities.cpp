@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <exception>
 
+#include "ced/channels.hpp"
 #include "ced/scaled.hpp"
 #include "core/text.hpp"
 #include "tiled/records.hpp"
@@ -38,7 +39,7 @@ std::optional<std::vector<std::string>> detection_fields(const tile_plan& p) {
   tile_plan slim = p;
   slim.tile_fields.emplace();
   for (const auto& f : p.fields)
-    if (std::any_of(read.begin(), read.end(), [&](const std::string& n) { return detail::iequal(n, f.name); }))
+    if (std::any_of(read.begin(), read.end(), [&](const std::string& n) { return field_name_matches(n, f.name); }))
       slim.tile_fields->push_back(f.name);
   if (slim.tile_fields->size() == p.fields.size()) return std::nullopt;
   // The modalities must find their fields among these (they look them up

@@ -202,6 +202,20 @@ def test_modality_objects_equal_spec_strings(sample):
     assert list(r.saliency) == ["xyz", "lab", "bands(red,blue)"]
 
 
+def test_band_ranges_and_globs_read_the_same_fields():
+    rng = np.random.default_rng(3)
+    pts = (rng.random((4000, 3)) * [1.0, 1.0, 0.05]).astype(np.float32)
+    fields = {"b%02d" % i: rng.integers(0, 256, len(pts)).astype(np.uint8) for i in range(12)}
+    fields["blue"] = rng.integers(0, 256, len(pts)).astype(np.uint8)
+    typed = ced.detect(pts, fields, modalities=["bands(%s):0.2" % ",".join("b%02d" % i for i in range(12))], radius=0.08)
+    assert len(typed.keypoints) > 5
+    for m in ["bands(b00..b11):0.2", "bands(b??):0.2", ced.bands("b00..b11", 0.2), ced.bands(["b0?", "b1?"], 0.2)]:
+        r = ced.detect(pts, fields, modalities=[m], radius=0.08)
+        np.testing.assert_array_equal(r.keypoints, typed.keypoints)
+    with pytest.raises(ValueError, match="swir"):
+        ced.detect(pts, fields, modalities=["bands(swir*)"], radius=0.08)
+
+
 def test_result_views_and_fields(sample):
     r = ced.detect(sample, threads=1)
     n = len(sample)

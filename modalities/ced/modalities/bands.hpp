@@ -6,6 +6,8 @@
 //   bands(nir,red,red_edge):0.1              integer bands by their type's range
 //   bands(b1,b2):0.05,range=0..10000         one fixed range for all bands
 //   bands(b1,b2):0.05,range=auto,norm=l2     each band by its own data range, L2
+//   bands(b000..b191):0.1,range=auto         a range of names: b000, b001, ..., b191
+//   bands(b*):0.1                            every field whose name matches, in the cloud's order
 #pragma once
 
 #include "ced/channels.hpp"
@@ -16,7 +18,9 @@ namespace ced {
 struct bands {
   static constexpr const char* spec_name = "bands";
   /// One line for `ced modalities` and ced.modalities().
-  static constexpr const char* spec_help = "bands(F1,F2,...): named channels as one vector; options norm=, range=";
+  static constexpr const char* spec_help =
+      "bands(F1,F2,...): named channels as one vector; F may be a range (b000..b191) or a glob (b*); options norm=, "
+      "range=";
   std::vector<std::string> names;
   double threshold_value = 0.1;
   norm_type norm = norm_type::l1;
@@ -32,11 +36,12 @@ struct bands {
     return s + ")";
   }
   double threshold(const detect_params&) const { return threshold_value; }
-  /// The fields bind() reads.
-  std::vector<std::string> fields() const { return names; }
+  /// The fields bind() reads: ranges expanded, globs as patterns
+  /// (field_selection and the tiles' field lists match them).
+  std::vector<std::string> fields() const { return expand_field_ranges(names); }
   centroid_distance<0> bind(const point_cloud& cloud, const detect_params& params) const {
     if (names.empty()) throw std::invalid_argument("bands() needs at least one field name, e.g. bands(nir,red)");
-    auto f = require_fields(cloud, names, name());
+    auto f = require_field_patterns(cloud, names, name());
     std::vector<double> scale;
     for (const field* b : f) {
       const value_range r = resolve_range(*b, range);
