@@ -16,6 +16,7 @@
 #include "ced/ced.hpp"
 #include "ced/channels.hpp"
 #include "ced/cloud.hpp"
+#include "core/kernel/dispatch.hpp"
 #include "test_support.hpp"
 
 namespace {
@@ -383,4 +384,42 @@ TEST(Channels, BandRangesAndGlobs) {
   const auto backwards = invalid_argument_of(
       [&] { ced::detect(c, p, std::vector<ced::any_modality>{ced::make_modality("bands(b11..b00)")}); });
   EXPECT_NE(backwards.find("runs backwards"), std::string::npos) << backwards;
+}
+
+// Past 16 channels the pass sums whole rows of channels (one float sum a
+// channel in sweep order): the saliencies and keypoints of 17, 40 and 200
+// bands are those of the definition, on every build of the pass.
+TEST(Channels, ManyBandsMatchTheOracle) {
+  for (const std::size_t bands : {std::size_t(17), std::size_t(40), std::size_t(200)}) {
+    SCOPED_TRACE(std::to_string(bands) + " bands");
+    auto c = ced_test::make_room(2500, 31);
+    std::mt19937 rng{static_cast<unsigned>(bands)};
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    ced_test::oracle_channel ch;
+    ch.values.assign(c.size(), std::vector<double>(bands));
+    for (std::size_t b = 0; b < bands; ++b) {
+      std::vector<double> v(c.size());
+      for (std::size_t i = 0; i < c.size(); ++i)
+        v[i] = ch.values[i][b] = double(float(0.3 * std::sin(7.0 * c.position(i)[0] + 0.1 * double(b)) + 0.2 * u(rng)));
+      c.add_field("s" + std::to_string(1000 + b), ced::scalar_type::float32, std::move(v));
+    }
+    ch.scale.assign(bands, 1.0);
+    ch.norm = 1;
+    ch.threshold = 0.05 * double(bands);
+    ced::detect_params p;
+    p.threads = 2;
+    const auto o = ced_test::oracle(c, {ch}, p.radius, p.nms_radius, p.min_neighbors);
+    for (const std::string& isa : ced::detail::kernel_isas()) {
+      SCOPED_TRACE(isa);
+      ced::detail::force_kernel_isa(isa);
+      const auto got = ced::detect(c, p,
+                                   std::vector<ced::any_modality>{ced::make_modality(
+                                       "bands(s*):" + std::to_string(ch.threshold) + ",range=0..1")});
+      for (std::size_t i = 0; i < c.size(); ++i)
+        ASSERT_NEAR(got.saliency[0][i], o.saliency[0][i], 1e-5 * double(bands)) << "point " << i;
+      EXPECT_EQ(got.keypoints, o.keypoints);
+      EXPECT_GT(got.keypoints.size(), 5u);
+    }
+    ced::detail::force_generic_kernel(false);
+  }
 }

@@ -163,12 +163,18 @@ std::vector<float> interleave(const std::vector<const field*>& fields, unsigned 
                                   shortest(f->values[bad]) + ") at point " + std::to_string(bad));
   }
   std::vector<float> out(n * d);
+  // Points a few KiB of rows at a time, every field into them, so that the
+  // rows being written stay in cache however many fields there are.
+  const std::size_t tile = std::max<std::size_t>(16, 8192 / d);
   detail::parallel_for(n, threads, 1 << 15, [&](std::size_t b, std::size_t e) {
-    for (std::size_t k = 0; k < d; ++k) {
-      // Through double, as the values were read before fields kept their type.
-      fields[k]->values.visit([&](const auto* v, std::size_t) {
-        for (std::size_t i = b; i < e; ++i) out[i * d + k] = static_cast<float>(static_cast<double>(v[i]));
-      });
+    for (std::size_t t0 = b; t0 < e; t0 += tile) {
+      const std::size_t t1 = std::min(e, t0 + tile);
+      for (std::size_t k = 0; k < d; ++k) {
+        // Through double, as the values were read before fields kept their type.
+        fields[k]->values.visit([&](const auto* v, std::size_t) {
+          for (std::size_t i = t0; i < t1; ++i) out[i * d + k] = static_cast<float>(static_cast<double>(v[i]));
+        });
+      }
     }
   });
   return out;

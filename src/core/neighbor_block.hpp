@@ -143,6 +143,7 @@ class neighbor_block {
   std::vector<float> m_gx, m_gy, m_gz, m_channel_values, m_centre, m_own;
   // Per point: ranges, results, and the neighbour bits of its groups.
   std::vector<std::uint32_t> m_ranges, m_counts, m_bit_offsets;
+  std::vector<std::uint32_t> m_places;  // the kernel's row_scratch (many channels)
   std::vector<double> m_sums;
   std::vector<std::uint8_t> m_bits;
   // Lists, built on demand.

@@ -245,6 +245,60 @@ void bm_generated(benchmark::State& state) {
       benchmark::Counter(double(n), benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 
+/// A hyperspectral surface (issue #60): 100,000 points on a gently waved
+/// 10 x 10 m sheet (about 31 neighbours within 0.1 m), with `bands` float
+/// bands b0000, b0001, ... in [0, 1]: a smooth spectrum per patch plus
+/// noise. Deterministic; made once per band count.
+const ced::point_cloud& spectral_surface(std::size_t bands) {
+  static std::map<std::size_t, ced::point_cloud> made;
+  auto it = made.find(bands);
+  if (it != made.end()) return it->second;
+  constexpr std::size_t n = 100000;
+  std::mt19937 rng(60);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  ced::point_cloud c;
+  c.reserve(n);
+  std::vector<int> patch(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const float x = 10 * u(rng), y = 10 * u(rng);
+    c.push_back(x, y, 0.2f * std::sin(x) * std::cos(0.7f * y));
+    patch[i] = int(x / 0.7f) * 31 + int(y / 0.9f);
+  }
+  for (std::size_t b = 0; b < bands; ++b) {
+    std::vector<double> v(n);
+    for (std::size_t i = 0; i < n; ++i)
+      v[i] = 0.5 + 0.3 * std::sin(0.05 * double(b) + 0.37 * double(patch[i] % 17)) + 0.05 * (u(rng) - 0.5);
+    char name[32];
+    std::snprintf(name, sizeof name, "b%04zu", b);
+    c.add_field(name, ced::scalar_type::float32, std::move(v));
+  }
+  return made.emplace(bands, std::move(c)).first->second;
+}
+
+/// xyz alone (0 bands) or xyz + bands(all of them) on spectral_surface, one
+/// thread: the saliency stage's time a band (#60: flat from 4 to 1024).
+void bm_bands(benchmark::State& state) {
+  const auto bands = static_cast<std::size_t>(state.range(0));
+  const auto& c = spectral_surface(bands);
+  ced::detect_params p;
+  p.radius = p.nms_radius = 0.1;
+  p.threads = 1;
+  std::vector<ced::any_modality> mods = {ced::make_modality("xyz:0.2")};
+  if (bands > 0) mods.push_back(ced::make_modality("bands(b\?\?\?\?):0.1,range=0..1"));
+  ced::detection_result r;
+  double saliency = 0;
+  for (auto _ : state) {
+    r = ced::detect(c, p, mods);
+    saliency += r.times.saliency_ms;
+    benchmark::DoNotOptimize(r.keypoints.data());
+  }
+  report(state, r, c.size());
+  state.counters["saliency_ms"] = saliency / double(state.iterations());
+  double neighbours = 0;
+  for (auto k : r.neighbor_count) neighbours += k;
+  state.counters["mean_neighbours"] = neighbours / double(c.size());
+}
+
 /// 10,000 points spread over 10 x 10 x 1 m, and with `crowd` 50,000 more
 /// at (0, 0, 0), as LiDAR stores invalid returns (#57).
 const ced::point_cloud& crowded_cloud(bool crowd) {
@@ -469,6 +523,10 @@ void register_benchmarks(const std::vector<std::string>& names) {
           ->UseRealTime();
 #endif
   }
+  benchmark::RegisterBenchmark("bands", bm_bands)
+      ->ArgsProduct({{0, 1, 4, 16, 64, 192, 1024}})
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime();
   benchmark::RegisterBenchmark("generated_room_ced6d", bm_generated)
       ->ArgsProduct({{10000, 100000, 1000000}, {1, 2}})
       ->Unit(benchmark::kMillisecond)

@@ -45,13 +45,25 @@ struct block_kernel_input {
   float r2;
   /// Also sum the positions' second moments (only with channel_count 0).
   bool moments = false;
+  /// Non-null: the channels are laid out as rows, gathered point t's at
+  /// channels + t * stride (stride a multiple of rows_chunk, zero past
+  /// channel_count), for the any-count path (more than 16 channels), and
+  /// this is room for 8 × (the most groups a point tests) + 8 entries.
+  std::uint32_t* row_scratch = nullptr;
 };
+/// The row layout's width is a multiple of this many floats.
+inline constexpr std::size_t rows_chunk = 32;
+/// Up to this many channels the pass sums them in registers (structure of
+/// arrays); past it, from rows (row_scratch).
+inline constexpr std::size_t max_register_channels = 16;
 
 struct block_kernel_output {
   /// Neighbours of each point within the radius (itself included).
   std::uint32_t* counts;
   /// Per point, 3 + channel_count sums of (v_j − v_i) over its neighbours:
-  /// positions first, then the channels. With input.moments, 9: the
+  /// positions first, then the channels. (Row layout: each channel's sum
+  /// is one float sum over the neighbours in sweep order; otherwise eight
+  /// lanes' float sums reduced in double.) With input.moments, 9: the
   /// positions' sums, then Σ d dᵀ of d = p_j − p_i as (xx, yy, zz, xy, xz,
   /// yz), each product rounded to float and summed in the positions' lanes.
   double* sums;
