@@ -13,6 +13,7 @@
 #include "ced/modalities/lab.hpp"
 #include "ced/modalities/normals.hpp"
 #include "ced/modalities/rgb.hpp"
+#include "ced/modalities/sam.hpp"
 #include "ced/modalities/xyz.hpp"
 
 namespace ced {
@@ -27,6 +28,6 @@ struct modality_types {
   }
 };
 
-using builtin_modalities = modality_types<xyz, rgb, lab, normals, intensity, bands, corner>;
+using builtin_modalities = modality_types<xyz, rgb, lab, normals, intensity, bands, corner, sam>;
 
 }  // namespace ced
