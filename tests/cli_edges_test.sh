@@ -427,5 +427,36 @@ for opt in -o --indices --viewer --png --html --summary --indices-original; do
   expect_exit 2 ": an empty path: give a file name" "$opt ''" -- detect "$sample" --preset ced3d "$opt" "" -q
 done
 
+# Multispectral LiDAR channels merged into one cloud (issue #60): three
+# channels with different points; the merged LAS has one intensity a
+# channel, which bands() reads; the rest are clear errors.
+for ch in 1:0 2:300 3:600; do
+  k=${ch%%:*} off=${ch##*:}
+  { printf 'ply\nformat ascii 1.0\nelement vertex 400\nproperty double x\nproperty double y\nproperty double z\n'
+    printf 'property ushort intensity\nend_header\n'
+    # channel k's points shifted by k mm: each reference point's partner is 1-2 mm away
+    awk -v k="$k" -v off="$off" 'BEGIN { for (i = 0; i < 400; i++) { x = i % 20; y = int(i / 20)
+      printf "%.3f %.3f 0 %d\n", x + k / 1000, y + k / 1000, 1000 + off + (x * 37 + y * 11) % 200 } }'
+  } > "$T/ch$k.ply"
+done
+"$CED" convert "$T/ch1.ply" "$T/merged.las" --merge-channels "$T/ch2.ply,$T/ch3.ply" --merge-radius 0.01 2> "$T/err"
+check "merge: succeeds" test -s "$T/merged.las"
+check "merge: says how many found a partner" grep -q "ch2: 400 of 400 points (100.0 %); ch3: 400 of 400" "$T/err"
+"$CED" info "$T/merged.las" > "$T/info"
+check "merge: intensity_ch2 read back" grep -q "intensity_ch2 (uint16) 1300 .. 1499" "$T/info"
+check "merge: intensity_ch3 read back" grep -q "intensity_ch3 (uint16) 1600 .. 1799" "$T/info"
+"$CED" detect "$T/merged.las" -r 2.5 -m 'bands(intensity*):0.01,range=auto' -q > "$T/kp_merged.txt"
+check "merge: bands(intensity*) detects" test -s "$T/kp_merged.txt"
+"$CED" convert "$T/ch1.ply" "$T/m2.ply" --merge-channels "$T/ch2.ply" --merge-radius 0.0015 2> "$T/err"
+check "merge: a small radius drops points and says so" grep -q "point(s) without a partner in every channel dropped" "$T/err"
+"$CED" convert "$T/ch1.ply" "$T/m3.ply" --merge-channels "$T/ch2.ply" --merge-radius 0.0015 --merge-missing nan 2> "$T/err"
+check "merge: nan keeps every point" grep -q "element vertex 400" "$T/m3.ply"
+expect_exit 2 "go with --merge-channels" "merge options alone" -- convert "$T/ch1.ply" "$T/m4.ply" --merge-radius 1
+expect_exit 2 "must be drop or nan" "merge-missing bad" -- convert "$T/ch1.ply" "$T/m4.ply" --merge-channels "$T/ch2.ply" --merge-missing keep
+expect_exit 2 "--merge-radius" "merge-radius bad" -- convert "$T/ch1.ply" "$T/m4.ply" --merge-channels "$T/ch2.ply" --merge-radius -1
+expect_exit 1 "has no field 'nir'" "merge a missing field" -- convert "$T/ch1.ply" "$T/m4.ply" --merge-channels "$T/ch2.ply" --merge-fields nir
+check "merge: no half-written output" test ! -e "$T/m4.ply"
+expect_exit 2 "" "merge into a channel" -- convert "$T/ch1.ply" "$T/ch2.ply" --merge-channels "$T/ch2.ply"
+
 echo "cli_edges: $pass passed, $fail failed"
 [ "$fail" = 0 ]

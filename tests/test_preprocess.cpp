@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <stdexcept>
+#include <vector>
 
 #include "ced/preprocess.hpp"
 #include "test_support.hpp"
@@ -55,4 +57,62 @@ TEST(Preprocess, ResolutionOfAGrid) {
   ced::point_cloud one;
   one.push_back(0, 0, 0);
   EXPECT_EQ(ced::estimate_resolution(one), 0.0);
+}
+
+// Multispectral LiDAR channels merged by nearest neighbour: hand-placed
+// partners, origins that differ, ties, radius, dropped or NaN.
+TEST(Preprocess, MergeChannelsTakesTheNearestPartner) {
+  ced::point_cloud ref;  // origin (100, 0, 0)
+  ref.set_origin({100, 0, 0});
+  for (int i = 0; i < 4; ++i) ref.push_back(float(i == 3 ? 6 : i), 0, 0);  // absolute x 100, 101, 102, 106
+  ref.add_field("intensity", ced::scalar_type::uint16, {10, 11, 12, 13});
+  ced::point_cloud c2;  // origin (0, 0, 0): absolute x 100.1, 101.3, 102.5, 101.5, 110
+  for (float x : {100.1f, 101.3f, 102.5f, 101.5f, 110.0f}) c2.push_back(x, 0, 0);
+  c2.add_field("intensity", ced::scalar_type::uint16, {200, 201, 202, 203, 204});
+  c2.add_field("amplitude", ced::scalar_type::float32, {1.5, 2.5, 3.5, 4.5, 5.5});
+  ced::channel_merge_options o;
+  o.radius = 0.55;
+  o.when_missing = ced::channel_merge_options::missing::nan;
+  ced::channel_merge_report r;
+  const auto m = ced::merge_channels(ref, {{"c2", &c2}}, o, &r);
+  ASSERT_EQ(m.size(), 4u);
+  const auto* f = m.find_field("intensity_c2");
+  ASSERT_NE(f, nullptr);
+  EXPECT_EQ(f->type(), ced::scalar_type::float32);
+  EXPECT_EQ(f->values[0], 200);           // 0.1 away
+  EXPECT_EQ(f->values[1], 201);           // 0.3 away, before 101.5 at 0.5
+  EXPECT_EQ(f->values[2], 202);           // 102.5 and 101.5 both exactly 0.5 away: the smaller index
+  EXPECT_TRUE(std::isnan(f->values[3]));  // nothing within 0.55 of 106
+  EXPECT_EQ(r.partnered, std::vector<std::size_t>{3});
+  EXPECT_EQ(m.find_field("intensity")->values[3], 13);  // the reference's own fields stay
+  // Dropped: the fourth point goes; the merged field keeps its type.
+  o.when_missing = ced::channel_merge_options::missing::drop;
+  o.fields = {"intensity", "amplitude"};
+  const auto d = ced::merge_channels(ref, {{"c2", &c2}}, o, &r);
+  ASSERT_EQ(d.size(), 3u);
+  EXPECT_EQ(r.dropped, 1u);
+  EXPECT_EQ(d.find_field("intensity_c2")->type(), ced::scalar_type::uint16);
+  EXPECT_EQ(d.find_field("amplitude_c2")->values[1], 2.5);
+  // Errors name the problem.
+  o.radius = 0;
+  EXPECT_THROW(ced::merge_channels(ref, {{"c2", &c2}}, o), std::invalid_argument);
+  o.radius = 0.55;
+  o.fields = {"nir"};
+  EXPECT_THROW(ced::merge_channels(ref, {{"c2", &c2}}, o), std::invalid_argument);
+  o.fields = {"intensity"};
+  EXPECT_THROW(ced::merge_channels(ref, {{"c2", &c2}, {"c2", &c2}}, o), std::invalid_argument);
+  ced::point_cloud clash = ref;
+  clash.add_field("intensity_c2", ced::scalar_type::uint16, {0, 0, 0, 0});
+  EXPECT_THROW(ced::merge_channels(clash, {{"c2", &c2}}, o), std::invalid_argument);
+  // Any thread count, the same partners (a larger random case).
+  const auto a = ced_test::make_room(4000, 3), b = ced_test::make_room(3000, 4);
+  o.radius = 0.02;
+  o.threads = 1;
+  const auto one = ced::merge_channels(a, {{"b", &b}}, o);
+  o.threads = 3;
+  const auto three = ced::merge_channels(a, {{"b", &b}}, o);
+  ASSERT_EQ(one.size(), three.size());
+  EXPECT_GT(one.size(), 100u);
+  for (std::size_t i = 0; i < one.size(); ++i)
+    ASSERT_EQ(one.find_field("intensity_b")->values[i], three.find_field("intensity_b")->values[i]);
 }

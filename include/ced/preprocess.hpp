@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "ced/cloud.hpp"
@@ -48,5 +50,42 @@ std::size_t coincident_points(const point_cloud& cloud);
 /// quantile outside [0, 1].
 std::vector<double> k_distance_quantiles(const point_cloud& cloud, std::size_t k, const std::vector<double>& q,
                                          std::size_t max_samples = 20000);
+
+/// Multispectral LiDAR delivers each wavelength as its own point set (three
+/// LAS files for an Optech Titan). merge_channels() gives every point of a
+/// `reference` channel the fields of its nearest point in each other
+/// channel, as OPALS' preMergeChannels does before any per-point analysis.
+struct channel_merge_options {
+  /// A partner lies strictly within this distance (metres; > 0).
+  double radius = 0;
+  /// Taken from each other channel, named `FIELD_CHANNEL` in the result.
+  std::vector<std::string> fields = {"intensity"};
+  /// A reference point with no partner in some channel: dropped from the
+  /// result (the merged fields keep their files' types), or kept with NaN
+  /// in that channel's fields (then float32; `bands` refuses NaN, so filter
+  /// them before detecting).
+  enum class missing { drop, nan } when_missing = missing::drop;
+  unsigned threads = 0;  ///< 0 = all cores; the result does not depend on it
+};
+/// One other channel: its name (in the merged fields' names) and its points.
+struct named_channel {
+  std::string name;
+  const point_cloud* cloud = nullptr;
+};
+/// What merge_channels() did, to be said to the user.
+struct channel_merge_report {
+  std::vector<std::size_t> partnered;  ///< per other channel: reference points with a partner
+  std::size_t dropped = 0;             ///< reference points dropped (missing::drop)
+};
+/// The reference cloud with, for each other channel and each of
+/// options.fields, a field `FIELD_NAME`: the value at the channel's point
+/// nearest to the reference point (in absolute coordinates: the clouds'
+/// origins may differ), within options.radius; ties to the smaller index.
+/// Reference points with a non-finite coordinate have no partner. Throws
+/// std::invalid_argument for a radius ≤ 0 or not finite, a channel without
+/// a field, an empty or repeated channel name, or a merged name the
+/// reference already has.
+point_cloud merge_channels(const point_cloud& reference, const std::vector<named_channel>& others,
+                           const channel_merge_options& options, channel_merge_report* report = nullptr);
 
 }  // namespace ced

@@ -1,5 +1,7 @@
 // SPDX-License-Identifier: MIT
 // `ced convert`: between formats (by extension), optionally voxel down-sampled.
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -18,7 +20,84 @@ namespace {
 struct convert_options {
   std::string input, output, format = "auto", columns, to;
   double voxel = 0;
+  std::vector<std::string> merge_channels, merge_fields = {"intensity"};
+  std::string merge_radius = "auto", merge_missing = "drop";
 };
+
+/// A channel's name in the merged fields: its file's name up to the first
+/// dot, with characters other than letters, digits and '_' made '_'.
+std::string channel_name(const std::string& path) {
+  const auto slash = path.find_last_of('/');
+  std::string name = path.substr(slash == std::string::npos ? 0 : slash + 1);
+  name = name.substr(0, name.find('.'));
+  for (char& ch : name)
+    if (!(std::isalnum(static_cast<unsigned char>(ch)) || ch == '_')) ch = '_';
+  return name;
+}
+
+/// The --merge-* options, checked before anything is read.
+void check_merge_options(const convert_options& o) {
+  if (o.merge_channels.empty() && (o.merge_fields != std::vector<std::string>{"intensity"} ||
+                                   o.merge_radius != "auto" || o.merge_missing != "drop"))
+    throw usage_error("--merge-fields, --merge-radius and --merge-missing go with --merge-channels");
+  if (o.merge_missing != "drop" && o.merge_missing != "nan")
+    throw usage_error("--merge-missing must be drop or nan, got '" + o.merge_missing + "'");
+  if (o.merge_radius != "auto") {
+    double r = 0;
+    try {
+      r = ced::parse_number(o.merge_radius, "--merge-radius");
+    } catch (const std::invalid_argument& e) {
+      throw usage_error(e.what());
+    }
+    if (!(r > 0) || !std::isfinite(r))
+      throw usage_error("--merge-radius must be a distance > 0 or auto, got " + o.merge_radius);
+  }
+  for (const std::string& path : o.merge_channels) check_paths({{"a channel", path}}, {{"the output", o.output}});
+}
+
+/// --merge-channels: each other channel's fields onto the input's points.
+ced::point_cloud merge_into(const ced::point_cloud& c, const convert_options& o) {
+  ced::channel_merge_options m;
+  m.fields = o.merge_fields;
+  m.when_missing =
+      o.merge_missing == "nan" ? ced::channel_merge_options::missing::nan : ced::channel_merge_options::missing::drop;
+  std::vector<ced::point_cloud> clouds;
+  clouds.reserve(o.merge_channels.size());
+  for (const std::string& path : o.merge_channels)
+    clouds.push_back(ced::io::read_cloud(path, make_read_options("auto", "")));
+  std::vector<ced::named_channel> others;
+  for (std::size_t k = 0; k < clouds.size(); ++k) others.push_back({channel_name(o.merge_channels[k]), &clouds[k]});
+  if (o.merge_radius == "auto") {
+    // Twice the coarsest channel's resolution: a partner is a neighbour.
+    double res = ced::estimate_resolution(c);
+    for (const auto& cl : clouds) res = std::max(res, ced::estimate_resolution(cl));
+    if (!(res > 0)) throw usage_error("--merge-radius auto: the channels have no resolution (fewer than two points)");
+    m.radius = 2 * res;
+  } else {
+    m.radius = ced::parse_number(o.merge_radius, "--merge-radius");  // checked by check_merge_options
+  }
+  ced::channel_merge_report r;
+  const std::size_t before = c.size();
+  ced::point_cloud out;
+  try {
+    out = ced::merge_channels(c, others, m, &r);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("--merge-channels: ") + e.what());
+  }
+  std::string line;
+  for (std::size_t k = 0; k < others.size(); ++k) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "%s%s: %zu of %zu points (%.1f %%)", k ? "; " : "", others[k].name.c_str(),
+                  r.partnered[k], before, before ? 100.0 * double(r.partnered[k]) / double(before) : 0.0);
+    line += buf;
+  }
+  std::fprintf(stderr, "ced: note: %s: partners within %g m: %s", o.output.c_str(), m.radius, line.c_str());
+  if (m.when_missing == ced::channel_merge_options::missing::drop)
+    std::fprintf(stderr, "; %zu point(s) without a partner in every channel dropped\n", r.dropped);
+  else
+    std::fprintf(stderr, "; points without a partner have NaN in that channel's fields\n");
+  return out;
+}
 
 /// The output's format: --to's, else its extension's (a path without one,
 /// such as /dev/stdout, needs --to; --format names the input's).
@@ -41,6 +120,7 @@ ced::io::file_format output_format(const convert_options& o) {
 
 int run_convert(const convert_options& o) {
   if (o.voxel < 0 || !std::isfinite(o.voxel)) throw usage_error("--voxel must be a positive size");
+  check_merge_options(o);
   const auto fmt = output_format(o);
   // Refused rather than converted in place: ced never writes over what it reads.
   check_paths({{"the input", o.input}}, {{"the output", o.output}});
@@ -48,6 +128,7 @@ int run_convert(const convert_options& o) {
   ced::io::read_report report;
   ced::point_cloud c = ced::io::read_cloud(o.input, make_read_options(o.format, o.columns), &report);
   warn_float_precision(c, o.input);
+  if (!o.merge_channels.empty()) c = merge_into(c, o);
   if (report.las && (!report.las->other_vlrs.empty() || report.las->extended_vlrs > 0)) {
     // What no writer carries over (a coordinate system among them) is said, not lost in silence.
     std::string what;
@@ -97,6 +178,18 @@ command add_convert_command(CLI::App& app) {
   conv->add_option("--to", o->to,
                    "The output's format when its name does not say (e.g. /dev/stdout): ply, pcd, las, laz, copc, csv");
   conv->add_option("--voxel", o->voxel, "Voxel size for down-sampling (metres)");
+  conv->add_option("--merge-channels", o->merge_channels,
+                   "Multispectral LiDAR: other channels' files (comma-separated or repeated); each input point gets "
+                   "the fields of its nearest point in each, as FIELD_CHANNEL (CHANNEL: the file's name)")
+      ->delimiter(',');
+  conv->add_option("--merge-fields", o->merge_fields, "With --merge-channels: the fields to take (default intensity)")
+      ->delimiter(',');
+  conv->add_option("--merge-radius", o->merge_radius,
+                   "With --merge-channels: a partner lies within this distance (metres; default auto: twice the "
+                   "coarsest channel's resolution)");
+  conv->add_option("--merge-missing", o->merge_missing,
+                   "With --merge-channels: points without a partner in some channel are dropped (drop, default) or "
+                   "kept with NaN in its fields (nan)");
   return {conv, [o] { return run_convert(*o); }};
 }
 

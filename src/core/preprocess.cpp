@@ -9,6 +9,7 @@
 #include <string>
 
 #include "core/neighbor_index.hpp"
+#include "core/parallel.hpp"
 
 namespace ced {
 
@@ -160,6 +161,93 @@ std::vector<double> k_distance_quantiles(const point_cloud& cloud, std::size_t k
   std::sort(d.begin(), d.end());
   std::vector<double> out;
   for (double v : q) out.push_back(d[static_cast<std::size_t>(std::lround(v * double(samples - 1)))]);
+  return out;
+}
+
+}  // namespace ced
+
+namespace ced {
+
+point_cloud merge_channels(const point_cloud& reference, const std::vector<named_channel>& others,
+                           const channel_merge_options& options, channel_merge_report* report) {
+  if (!(options.radius > 0) || !std::isfinite(options.radius))
+    throw std::invalid_argument("merge_channels: the radius must be a finite number > 0, got " +
+                                std::to_string(options.radius));
+  if (options.fields.empty()) throw std::invalid_argument("merge_channels: name at least one field to take");
+  point_cloud out = reference;
+  const std::size_t n = reference.size();
+  const bool drop = options.when_missing == channel_merge_options::missing::drop;
+  std::vector<std::uint8_t> complete(n, 1);
+  channel_merge_report r;
+  std::vector<std::string> names;
+  for (const named_channel& ch : others) {
+    if (!ch.cloud) throw std::invalid_argument("merge_channels: channel '" + ch.name + "' has no cloud");
+    if (ch.name.empty()) throw std::invalid_argument("merge_channels: a channel needs a name");
+    if (std::find(names.begin(), names.end(), ch.name) != names.end())
+      throw std::invalid_argument("merge_channels: two channels are named '" + ch.name + "'");
+    names.push_back(ch.name);
+    const point_cloud& c = *ch.cloud;
+    std::vector<const field*> take;
+    for (const std::string& f : options.fields) {
+      const field* found = c.find_field_icase(f);
+      if (!found) throw std::invalid_argument("merge_channels: channel '" + ch.name + "' has no field '" + f + "'");
+      const std::string merged = f + "_" + ch.name;
+      if (out.find_field_icase(merged))
+        throw std::invalid_argument("merge_channels: the reference already has a field '" + merged + "'");
+      take.push_back(found);
+    }
+    // The channel's finite points in the reference's frame: origin + p, then
+    // less the reference's origin, in double, rounded to float once.
+    std::vector<float> xyz;
+    std::vector<std::uint32_t> index_of;
+    xyz.reserve(3 * c.size());
+    for (std::size_t i = 0; i < c.size(); ++i) {
+      const float* p = c.position(i);
+      float q[3];
+      bool finite = true;
+      for (int a = 0; a < 3; ++a) {
+        q[a] = static_cast<float>((c.origin()[std::size_t(a)] - reference.origin()[std::size_t(a)]) + double(p[a]));
+        finite = finite && std::isfinite(q[a]);
+      }
+      if (!finite) continue;
+      xyz.insert(xyz.end(), q, q + 3);
+      index_of.push_back(static_cast<std::uint32_t>(i));
+    }
+    std::vector<std::uint32_t> partner(n, UINT32_MAX);
+    const float r2 = static_cast<float>(options.radius * options.radius);
+    if (!index_of.empty()) {
+      const neighbor_index index(xyz.data(), index_of.size(), 32);
+      detail::parallel_for(n, detail::resolve_threads(options.threads), 4096, [&](std::size_t b, std::size_t e) {
+        std::vector<neighbor_index::ranked_point> found;
+        for (std::size_t i = b; i < e; ++i) {
+          const float* p = reference.position(i);
+          if (!(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]))) continue;
+          index.k_nearest(p, 1, UINT32_MAX, found);
+          if (!found.empty() && found[0].d2 < r2) partner[i] = index_of[found[0].index];
+        }
+      });
+    }
+    std::size_t partnered = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      partnered += partner[i] != UINT32_MAX;
+      if (partner[i] == UINT32_MAX) complete[i] = 0;
+    }
+    r.partnered.push_back(partnered);
+    for (std::size_t k = 0; k < take.size(); ++k) {
+      const field& src = *take[k];
+      const scalar_type type = drop ? src.type() : scalar_type::float32;
+      // (Points without a partner: NaN, or 0 where they are dropped below.)
+      const double none = drop ? 0.0 : std::numeric_limits<double>::quiet_NaN();
+      std::vector<double> v(n);
+      for (std::size_t i = 0; i < n; ++i) v[i] = partner[i] != UINT32_MAX ? src.values[partner[i]] : none;
+      out.add_field(options.fields[k] + "_" + ch.name, type, v);
+    }
+  }
+  if (drop) {
+    for (std::uint8_t k : complete) r.dropped += k == 0;
+    if (r.dropped > 0) out.filter(complete);
+  }
+  if (report) *report = std::move(r);
   return out;
 }
 
