@@ -423,3 +423,72 @@ TEST(Channels, ManyBandsMatchTheOracle) {
     ced::detail::force_generic_kernel(false);
   }
 }
+
+// Per-band normalisation: z-score (σ) and percentiles (a robust span).
+TEST(Channels, ZscoreAndPercentileRanges) {
+  using kind = ced::range_policy::kind;
+  EXPECT_EQ(ced::range_policy::parse("zscore").how, kind::zscore);
+  const auto q = ced::range_policy::parse("quantile");
+  EXPECT_EQ(q.how, kind::percentiles);
+  EXPECT_EQ(q.fixed.lo, 2);
+  EXPECT_EQ(q.fixed.hi, 98);
+  EXPECT_EQ(ced::range_policy::parse("p5..95").fixed.lo, 5);
+  for (const char* bad : {"p", "p5", "p50..10", "p-1..50", "p0..101", "pa..b", "z"})
+    EXPECT_THROW(ced::range_policy::parse(bad), std::invalid_argument) << bad;
+
+  // 0, 1, ..., 100 in shuffled order, and one outlier in a copy.
+  std::vector<double> v(101);
+  for (int i = 0; i <= 100; ++i) v[std::size_t(i)] = double((i * 37) % 101);
+  const ced::field f("a", ced::scalar_type::float64, v);
+  const auto p = ced::resolve_range(f, ced::range_policy::parse("p2..98"));
+  EXPECT_DOUBLE_EQ(p.lo, 2.0);
+  EXPECT_DOUBLE_EQ(p.hi, 98.0);
+  const auto z = ced::resolve_range(f, ced::range_policy::parse("zscore"));
+  EXPECT_DOUBLE_EQ(z.lo, 50.0);
+  EXPECT_NEAR(z.hi - z.lo, std::sqrt(850.0), 1e-12);  // population σ of 0..100
+  std::vector<double> w = v;
+  w[7] = 1e6;
+  const ced::field g("b", ced::scalar_type::float64, w);
+  const auto pg = ced::resolve_range(g, ced::range_policy::parse("quantile"));
+  EXPECT_LT(pg.hi - pg.lo, 100.0);  // the outlier does not set the span
+  EXPECT_GT(ced::resolve_range(g, ced::range_policy::parse("auto")).hi, 1e5);
+  // A tile has no whole cloud's values to take them from: a clear error.
+  ced::field tile_field = f;
+  tile_field.whole_range = ced::value_range{0, 100};
+  EXPECT_THROW(ced::resolve_range(tile_field, ced::range_policy::parse("zscore")), std::invalid_argument);
+
+  // bands(...,range=zscore) measures what bands of the standardised values
+  // measures: two bands 1000 times apart in scale weigh alike.
+  auto c = ced_test::make_room(3000, 37);
+  std::mt19937 rng(9);
+  std::normal_distribution<double> u(0.0, 1.0);
+  std::vector<double> a(c.size()), b(c.size());
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    a[i] = 1000.0 * (std::sin(9.0 * c.position(i)[0]) + 0.3 * u(rng));
+    b[i] = 5.0 + std::cos(7.0 * c.position(i)[1]) + 0.3 * u(rng);
+  }
+  const auto standard = [](const std::vector<double>& x) {
+    double m = 0, s = 0;
+    for (double t : x) m += t;
+    m /= double(x.size());
+    for (double t : x) s += (t - m) * (t - m);
+    s = std::sqrt(s / double(x.size()));
+    std::vector<double> out(x.size());
+    for (std::size_t i = 0; i < x.size(); ++i) out[i] = x[i] / s;  // the offset cancels in differences
+    return out;
+  };
+  c.add_field("za", ced::scalar_type::float64, standard(a));
+  c.add_field("zb", ced::scalar_type::float64, standard(b));
+  c.add_field("a", ced::scalar_type::float64, a);
+  c.add_field("b", ced::scalar_type::float64, b);
+  ced::detect_params dp;
+  const auto got =
+      ced::detect(c, dp, std::vector<ced::any_modality>{ced::make_modality("bands(a,b):0.2,range=zscore")});
+  const auto want =
+      ced::detect(c, dp, std::vector<ced::any_modality>{ced::make_modality("bands(za,zb):0.2,range=0..1")});
+  for (std::size_t i = 0; i < c.size(); ++i) ASSERT_NEAR(got.saliency[0][i], want.saliency[0][i], 1e-4) << i;
+  EXPECT_GT(got.keypoints.size(), 5u);
+  EXPECT_THROW(
+      ced::detect_tiled(c, dp, std::vector<ced::any_modality>{ced::make_modality("bands(a,b):0.2,range=zscore")}, 0.3),
+      std::invalid_argument);
+}

@@ -17,20 +17,28 @@
 namespace ced {
 
 /// How a modality normalises a field: its type's natural range (integers:
-/// [0, 255] for uint8 ...; floats: used as they are), a fixed range, or the
-/// data's own min..max ("auto").
+/// [0, 255] for uint8 ...; floats: used as they are), a fixed range, the
+/// data's own min..max ("auto"), its standard deviation ("zscore": a band's
+/// differences in units of its σ), or the span between two of its
+/// percentiles ("pLO..HI", "quantile" = p2..98: a scale that a few outliers
+/// do not set). Only differences are measured, so a range sets a scale: 1 /
+/// (hi − lo).
 struct range_policy {
-  enum class kind { natural, fixed, data } how = kind::natural;
-  value_range fixed;
+  enum class kind { natural, fixed, data, zscore, percentiles } how = kind::natural;
+  value_range fixed;  ///< fixed: the range; percentiles: the two percentiles (0..100)
 
-  /// Parses "LO..HI" (e.g. "0..255", "-1..1") or "auto"; throws
+  /// Parses "LO..HI" (e.g. "0..255", "-1..1"), "auto", "zscore", "quantile"
+  /// or "pLO..HI" (e.g. "p2..98", 0 ≤ LO < HI ≤ 100); throws
   /// std::invalid_argument naming `option` otherwise.
   static range_policy parse(std::string_view text, const std::string& option = "range");
 };
 
 /// The range `policy` gives for `f` (a degenerate data range becomes [lo, lo+1]).
 /// The data's range is `f.whole_range` when it is set (a tile of a larger
-/// cloud), else the min..max of `f`'s values.
+/// cloud), else the min..max of `f`'s values. zscore: [mean, mean + σ];
+/// percentiles: the two percentiles (linear between the sorted values).
+/// Both need the whole cloud: a tile (whole_range set) throws
+/// std::invalid_argument saying so.
 value_range resolve_range(const field& f, const range_policy& policy);
 
 /// True when `f` is a 16-bit integer field whose values all lie in [0, 255]

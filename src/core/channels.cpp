@@ -11,6 +11,7 @@
 #include <string>
 #include <string_view>
 #include <type_traits>
+#include <vector>
 
 #include "ced/modality.hpp"
 #include "core/parallel.hpp"
@@ -59,9 +60,28 @@ range_policy range_policy::parse(std::string_view text, const std::string& optio
     p.how = kind::data;
     return p;
   }
+  if (text == "zscore") {
+    p.how = kind::zscore;
+    return p;
+  }
+  if (text == "quantile") text = "p2..98";
+  if (!text.empty() && text[0] == 'p') {
+    const auto dots = text.find("..");
+    if (dots == std::string_view::npos)
+      throw std::invalid_argument("option '" + option + "': percentiles are pLO..HI, e.g. p2..98, got '" +
+                                  std::string(text) + "'");
+    p.how = kind::percentiles;
+    p.fixed.lo = parse_number(text.substr(1, dots - 1), option + " (low percentile)");
+    p.fixed.hi = parse_number(text.substr(dots + 2), option + " (high percentile)");
+    if (!(p.fixed.lo >= 0 && p.fixed.hi <= 100 && p.fixed.hi > p.fixed.lo))
+      throw std::invalid_argument("option '" + option + "': percentiles must satisfy 0 <= LO < HI <= 100, got '" +
+                                  std::string(text) + "'");
+    return p;
+  }
   const auto dots = text.find("..");
   if (dots == std::string_view::npos)
-    throw std::invalid_argument("option '" + option + "' must be LO..HI or auto, got '" + std::string(text) + "'");
+    throw std::invalid_argument("option '" + option + "' must be LO..HI, auto, zscore, quantile or pLO..HI, got '" +
+                                std::string(text) + "'");
   p.how = kind::fixed;
   p.fixed.lo = parse_number(text.substr(0, dots), option + " (low end)");
   p.fixed.hi = parse_number(text.substr(dots + 2), option + " (high end)");
@@ -93,6 +113,42 @@ value_range resolve_range(const field& f, const range_policy& policy) {
           hi = std::max(hi, v);
         }
       });
+      if (!(hi > lo)) hi = lo + 1.0;
+      return {lo, hi};
+    }
+    case range_policy::kind::zscore:
+    case range_policy::kind::percentiles: {
+      const bool z = policy.how == range_policy::kind::zscore;
+      if (f.whole_range)
+        throw std::invalid_argument("field '" + f.name + "': range=" + (z ? "zscore" : "pLO..HI") +
+                                    " needs the whole cloud's values, which a tile does not have; in tiled runs use "
+                                    "range=auto or a fixed range");
+      const std::size_t n = f.values.size();
+      if (n == 0) return {0.0, 1.0};
+      std::vector<double> v(n);
+      for (std::size_t i = 0; i < n; ++i) v[i] = f.values[i];
+      double lo = 0, hi = 0;
+      if (z) {
+        // Two passes in double, in index order: the same on any machine.
+        double sum = 0;
+        for (double x : v) sum += x;
+        const double mean = sum / double(n);
+        double ss = 0;
+        for (double x : v) ss += (x - mean) * (x - mean);
+        lo = mean;
+        hi = mean + std::sqrt(ss / double(n));
+      } else {
+        // Percentile q: linear between the sorted values at rank q/100·(n − 1).
+        std::sort(v.begin(), v.end());
+        const auto at = [&](double q) {
+          const double rank = q / 100.0 * double(n - 1);
+          const auto k = static_cast<std::size_t>(rank);
+          const double t = rank - double(k);
+          return k + 1 < n ? v[k] + t * (v[k + 1] - v[k]) : v[n - 1];
+        };
+        lo = at(policy.fixed.lo);
+        hi = at(policy.fixed.hi);
+      }
       if (!(hi > lo)) hi = lo + 1.0;
       return {lo, hi};
     }
