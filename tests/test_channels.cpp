@@ -492,3 +492,90 @@ TEST(Channels, ZscoreAndPercentileRanges) {
       ced::detect_tiled(c, dp, std::vector<ced::any_modality>{ced::make_modality("bands(a,b):0.2,range=zscore")}, 0.3),
       std::invalid_argument);
 }
+
+// Band reduction by PCA: the components' properties, thread counts, L2
+// distances kept by all components, and tiles refused.
+TEST(Channels, PrincipalComponentsOfBands) {
+  auto c = ced_test::make_room(4000, 41);
+  std::mt19937 rng(13);
+  std::normal_distribution<double> u(0.0, 1.0);
+  const std::size_t d = 12;
+  // Two latent factors spread over 12 bands, plus a little noise.
+  std::vector<std::vector<double>> v(d, std::vector<double>(c.size()));
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    const double f1 = std::sin(11.0 * c.position(i)[0]) + 0.2 * u(rng), f2 = std::cos(8.0 * c.position(i)[1]);
+    for (std::size_t b = 0; b < d; ++b)
+      v[b][i] = 0.3 + 0.2 * f1 * std::cos(0.3 * double(b)) + 0.1 * f2 * std::sin(0.5 * double(b)) + 0.005 * u(rng);
+  }
+  std::vector<const ced::field*> f;
+  for (std::size_t b = 0; b < d; ++b) c.add_field("w" + std::to_string(10 + b), ced::scalar_type::float32, v[b]);
+  for (std::size_t b = 0; b < d; ++b) f.push_back(c.find_field("w" + std::to_string(10 + b)));
+  const std::vector<double> ones(d, 1.0);
+  std::vector<double> lambda;
+  const auto all = ced::principal_components(f, ones, d, 1, &lambda);
+  ASSERT_EQ(all.size(), c.size() * d);
+  // Eigenvalues largest first, summing to the trace; two carry nearly all.
+  double trace = 0;
+  for (std::size_t b = 0; b < d; ++b) {
+    double m = 0, s = 0;
+    for (double x : v[b]) m += double(float(x));
+    m /= double(c.size());
+    for (double x : v[b]) s += (double(float(x)) - m) * (double(float(x)) - m);
+    trace += s / double(c.size());
+  }
+  double sum = 0;
+  for (std::size_t k = 0; k < d; ++k) {
+    sum += lambda[k];
+    if (k > 0) {
+      EXPECT_GE(lambda[k - 1], lambda[k]);
+    }
+  }
+  EXPECT_NEAR(sum, trace, 1e-9 * trace);
+  EXPECT_GT((lambda[0] + lambda[1]) / trace, 0.99);
+  // The components are uncorrelated, with variances the eigenvalues.
+  for (std::size_t a = 0; a < 3; ++a)
+    for (std::size_t b = 0; b < 3; ++b) {
+      double s = 0;
+      for (std::size_t i = 0; i < c.size(); ++i) s += double(all[i * d + a]) * double(all[i * d + b]);
+      s /= double(c.size());
+      EXPECT_NEAR(s, a == b ? lambda[a] : 0.0, 1e-4 * lambda[0]) << a << "," << b;
+    }
+  // No unit direction has more variance than the first component.
+  for (int t = 0; t < 20; ++t) {
+    std::vector<double> dir(d);
+    double norm = 0;
+    for (double& x : dir) {
+      x = u(rng);
+      norm += x * x;
+    }
+    double m = 0, s = 0;
+    std::vector<double> proj(c.size());
+    for (std::size_t i = 0; i < c.size(); ++i) {
+      for (std::size_t b = 0; b < d; ++b) proj[i] += double(float(v[b][i])) * dir[b] / std::sqrt(norm);
+      m += proj[i];
+    }
+    m /= double(c.size());
+    for (double p : proj) s += (p - m) * (p - m);
+    EXPECT_LE(s / double(c.size()), lambda[0] * (1 + 1e-9));
+  }
+  // Any thread count: the same bits.
+  EXPECT_EQ(ced::principal_components(f, ones, 3, 3), ced::principal_components(f, ones, 3, 1));
+  // All components under L2: the same distances as the bands themselves
+  // (a rotation); fewer components: a spec of its own, checked for errors.
+  ced::detect_params p;
+  p.threads = 2;
+  const auto plain =
+      ced::detect(c, p, std::vector<ced::any_modality>{ced::make_modality("bands(w*):0.02,norm=l2,range=0..1")});
+  const auto rotated =
+      ced::detect(c, p, std::vector<ced::any_modality>{ced::make_modality("bands(w*):0.02,norm=l2,range=0..1,pca=12")});
+  for (std::size_t i = 0; i < c.size(); ++i) ASSERT_NEAR(rotated.saliency[0][i], plain.saliency[0][i], 2e-6) << i;
+  const auto two =
+      ced::detect(c, p, std::vector<ced::any_modality>{ced::make_modality("bands(w*):0.02,norm=l2,range=0..1,pca=2")});
+  EXPECT_GT(two.keypoints.size(), 5u);
+  EXPECT_THROW(ced::make_modality("bands(w*):0.1,pca=0"), std::invalid_argument);
+  EXPECT_THROW(ced::make_modality("bands(w*):0.1,pca=1.5"), std::invalid_argument);
+  EXPECT_THROW(ced::detect(c, p, std::vector<ced::any_modality>{ced::make_modality("bands(w1?):0.1,pca=13")}),
+               std::invalid_argument);
+  EXPECT_THROW(ced::detect_tiled(c, p, std::vector<ced::any_modality>{ced::make_modality("bands(w*):0.02,pca=2")}, 0.3),
+               std::invalid_argument);
+}

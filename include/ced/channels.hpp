@@ -61,6 +61,20 @@ std::vector<float> interleave(const std::vector<const field*>& fields);
 /// depend on the thread count.
 std::vector<float> interleave(const std::vector<const field*>& fields, unsigned threads);
 
+/// The first `k` principal components of the fields (each value times its
+/// `scale` first), N×k floats: every point's values less their means,
+/// projected on the k eigenvectors of the largest eigenvalues of their
+/// covariance. The means and covariance come from up to 20,000 points spread
+/// evenly through the cloud (all of them in smaller clouds), in double; the
+/// eigenvectors from orthogonal iteration and a Jacobi step, with a fixed
+/// start and each vector's largest component made positive: the same bits
+/// for any thread count and on any CPU. `eigenvalues`, when given, receives
+/// all k eigenvalues, largest first. Throws std::invalid_argument unless
+/// 1 ≤ k ≤ fields.size(), or when a field lies in a tile (whole_range set:
+/// the components must come from the whole cloud).
+std::vector<float> principal_components(const std::vector<const field*>& fields, const std::vector<double>& scale,
+                                        std::size_t k, unsigned threads, std::vector<double>* eigenvalues = nullptr);
+
 /// What require_fields() throws when the cloud lacks a field: the message
 /// names the modality, the field and the fields present; the members keep
 /// the first two (a caller that read only some of a file's fields can then

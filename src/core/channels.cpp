@@ -386,3 +386,179 @@ void require_finite(const field& f, const std::string& modality) {
 }
 
 }  // namespace ced
+
+namespace ced {
+
+namespace {
+/// Symmetric k×k matrix a (row-major) diagonalised by cyclic Jacobi
+/// rotations; v receives the eigenvectors as columns (row-major k×k).
+void jacobi_eigen(std::vector<double>& a, std::vector<double>& v, std::size_t k) {
+  v.assign(k * k, 0.0);
+  for (std::size_t i = 0; i < k; ++i) v[i * k + i] = 1;
+  for (int sweep = 0; sweep < 100; ++sweep) {
+    double off = 0, diag = 0;
+    for (std::size_t i = 0; i < k; ++i)
+      for (std::size_t j = 0; j < k; ++j) (i == j ? diag : off) += std::abs(a[i * k + j]);
+    if (off <= 1e-15 * diag || off == 0) break;
+    for (std::size_t p = 0; p + 1 < k; ++p)
+      for (std::size_t q = p + 1; q < k; ++q) {
+        const double apq = a[p * k + q];
+        if (apq == 0) continue;
+        const double theta = (a[q * k + q] - a[p * k + p]) / (2 * apq);
+        const double t = (theta >= 0 ? 1.0 : -1.0) / (std::abs(theta) + std::sqrt(theta * theta + 1));
+        const double c = 1 / std::sqrt(t * t + 1), s = t * c;
+        for (std::size_t r = 0; r < k; ++r) {  // a ← a·J
+          const double arp = a[r * k + p], arq = a[r * k + q];
+          a[r * k + p] = c * arp - s * arq;
+          a[r * k + q] = s * arp + c * arq;
+        }
+        for (std::size_t r = 0; r < k; ++r) {  // a ← Jᵀ·a
+          const double apr = a[p * k + r], aqr = a[q * k + r];
+          a[p * k + r] = c * apr - s * aqr;
+          a[q * k + r] = s * apr + c * aqr;
+        }
+        for (std::size_t r = 0; r < k; ++r) {  // v ← v·J
+          const double vrp = v[r * k + p], vrq = v[r * k + q];
+          v[r * k + p] = c * vrp - s * vrq;
+          v[r * k + q] = s * vrp + c * vrq;
+        }
+      }
+  }
+}
+}  // namespace
+
+std::vector<float> principal_components(const std::vector<const field*>& fields, const std::vector<double>& scale,
+                                        std::size_t k, unsigned threads, std::vector<double>* eigenvalues) {
+  const std::size_t d = fields.size();
+  if (k < 1 || k > d)
+    throw std::invalid_argument("principal components: k must be from 1 to the number of fields (" + std::to_string(d) +
+                                "), got " + std::to_string(k));
+  if (scale.size() != d) throw std::invalid_argument("principal components: one scale per field");
+  for (const field* f : fields)
+    if (f->whole_range)
+      throw std::invalid_argument("field '" + f->name +
+                                  "': principal components need the whole cloud's values, which a tile does not "
+                                  "have; not available in tiled runs");
+  const std::size_t n = fields[0]->values.size();
+  std::vector<float> out(n * k, 0.0f);
+  if (n == 0) return out;
+  // The sample: up to 20,000 points spread evenly, in index order, held
+  // band by band (each band's values contiguous).
+  const std::size_t m = std::min<std::size_t>(n, 20000);
+  std::vector<double> x(d * m);  // fields × sample, scaled
+  for (std::size_t b = 0; b < d; ++b)
+    fields[b]->values.visit([&](const auto* p, std::size_t) {
+      for (std::size_t j = 0; j < m; ++j) x[b * m + j] = static_cast<double>(p[j * n / m]) * scale[b];
+    });
+  std::vector<double> mean(d, 0.0);
+  for (std::size_t b = 0; b < d; ++b) {
+    double s = 0;
+    for (std::size_t j = 0; j < m; ++j) s += x[b * m + j];
+    mean[b] = s / double(m);
+    for (std::size_t j = 0; j < m; ++j) x[b * m + j] -= mean[b];
+  }
+  // Covariance (upper triangle, then mirrored), each entry a sum in sample order.
+  std::vector<double> cov(d * d, 0.0);
+  detail::parallel_for(d, threads, 1, [&](std::size_t b0, std::size_t b1) {
+    for (std::size_t a = b0; a < b1; ++a)
+      for (std::size_t b = a; b < d; ++b) {
+        const double* xa = x.data() + a * m;
+        const double* xb = x.data() + b * m;
+        // Four running sums (sample j into sum j mod 4), added in a fixed
+        // order: independent chains for the CPU, the same bits every time.
+        double s[4] = {0, 0, 0, 0};
+        std::size_t j = 0;
+        for (; j + 4 <= m; j += 4)
+          for (std::size_t l = 0; l < 4; ++l) s[l] += xa[j + l] * xb[j + l];
+        for (; j < m; ++j) s[j % 4] += xa[j] * xb[j];
+        cov[a * d + b] = ((s[0] + s[1]) + (s[2] + s[3])) / double(m);
+      }
+  });
+  for (std::size_t a = 0; a < d; ++a)
+    for (std::size_t b = 0; b < a; ++b) cov[a * d + b] = cov[b * d + a];
+  // Orthogonal iteration for the k leading eigenvectors (columns of q, d×k),
+  // from a fixed start, then a Jacobi step on qᵀ C q to order them.
+  std::vector<double> q(d * k), z(d * k);
+  std::uint64_t lcg = 0x9E3779B97F4A7C15ull;
+  for (double& v : q) {
+    lcg = lcg * 6364136223846793005ull + 1442695040888963407ull;
+    v = double(lcg >> 11) / double(1ull << 53) - 0.5;
+  }
+  auto orthonormalise = [&](std::vector<double>& w) {
+    for (std::size_t c = 0; c < k; ++c) {
+      for (std::size_t e = 0; e < c; ++e) {
+        double dot = 0;
+        for (std::size_t b = 0; b < d; ++b) dot += w[b * k + c] * w[b * k + e];
+        for (std::size_t b = 0; b < d; ++b) w[b * k + c] -= dot * w[b * k + e];
+      }
+      double norm = 0;
+      for (std::size_t b = 0; b < d; ++b) norm += w[b * k + c] * w[b * k + c];
+      norm = std::sqrt(norm);
+      for (std::size_t b = 0; b < d; ++b) w[b * k + c] = norm > 0 ? w[b * k + c] / norm : (b == c ? 1.0 : 0.0);
+    }
+  };
+  orthonormalise(q);
+  for (int it = 0; it < 300; ++it) {
+    for (std::size_t a = 0; a < d; ++a)
+      for (std::size_t c = 0; c < k; ++c) {
+        double s = 0;
+        for (std::size_t b = 0; b < d; ++b) s += cov[a * d + b] * q[b * k + c];
+        z[a * k + c] = s;
+      }
+    orthonormalise(z);
+    double change = 0;
+    for (std::size_t t = 0; t < d * k; ++t) change = std::max(change, std::abs(std::abs(z[t]) - std::abs(q[t])));
+    q.swap(z);
+    if (change < 1e-13) break;
+  }
+  std::vector<double> h(k * k, 0.0), rot;
+  for (std::size_t c = 0; c < k; ++c)
+    for (std::size_t e = 0; e < k; ++e) {
+      double s = 0;
+      for (std::size_t a = 0; a < d; ++a) {
+        double ca = 0;
+        for (std::size_t b = 0; b < d; ++b) ca += cov[a * d + b] * q[b * k + e];
+        s += q[a * k + c] * ca;
+      }
+      h[c * k + e] = s;
+    }
+  jacobi_eigen(h, rot, k);
+  std::vector<std::size_t> order(k);
+  for (std::size_t c = 0; c < k; ++c) order[c] = c;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return h[a * k + a] > h[b * k + b]; });
+  std::vector<double> axes(d * k);  // d×k, the eigenvectors largest first
+  for (std::size_t c = 0; c < k; ++c) {
+    const std::size_t src = order[c];
+    for (std::size_t b = 0; b < d; ++b) {
+      double s = 0;
+      for (std::size_t e = 0; e < k; ++e) s += q[b * k + e] * rot[e * k + src];
+      axes[b * k + c] = s;
+    }
+    std::size_t big = 0;
+    for (std::size_t b = 1; b < d; ++b)
+      if (std::abs(axes[b * k + c]) > std::abs(axes[big * k + c])) big = b;
+    if (axes[big * k + c] < 0)
+      for (std::size_t b = 0; b < d; ++b) axes[b * k + c] = -axes[b * k + c];
+  }
+  if (eigenvalues) {
+    eigenvalues->clear();
+    for (std::size_t c = 0; c < k; ++c) eigenvalues->push_back(h[order[c] * k + order[c]]);
+  }
+  // Every point's components, in double from its own values (read as
+  // floats, as interleave() gives them): the same for any split into threads.
+  const std::vector<float> rows = interleave(fields, threads);
+  detail::parallel_for(n, threads, 1 << 12, [&](std::size_t i0, std::size_t i1) {
+    std::vector<double> v(d), acc(k);
+    for (std::size_t i = i0; i < i1; ++i) {
+      for (std::size_t b = 0; b < d; ++b) v[b] = double(rows[i * d + b]) * scale[b] - mean[b];
+      std::fill(acc.begin(), acc.end(), 0.0);
+      for (std::size_t b = 0; b < d; ++b)
+        for (std::size_t c = 0; c < k; ++c) acc[c] += v[b] * axes[b * k + c];
+      for (std::size_t c = 0; c < k; ++c) out[i * k + c] = static_cast<float>(acc[c]);
+    }
+  });
+  return out;
+}
+
+}  // namespace ced

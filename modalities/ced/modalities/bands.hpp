@@ -8,7 +8,14 @@
 //   bands(b1,b2):0.05,range=auto,norm=l2     each band by its own data range, L2
 //   bands(b000..b191):0.1,range=auto         a range of names: b000, b001, ..., b191
 //   bands(b*):0.1                            every field whose name matches, in the cloud's order
+//   bands(b*):0.1,range=zscore,pca=8         the first 8 principal components of the standardised bands
 #pragma once
+
+#include <cmath>
+#include <cstddef>
+#include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "ced/channels.hpp"
 #include "ced/modality.hpp"
@@ -20,11 +27,14 @@ struct bands {
   /// One line for `ced modalities` and ced.modalities().
   static constexpr const char* spec_help =
       "bands(F1,F2,...): named channels as one vector; F may be a range (b000..b191) or a glob (b*); options norm=, "
-      "range=";
+      "range=, pca=";
   std::vector<std::string> names;
   double threshold_value = 0.1;
   norm_type norm = norm_type::l1;
   range_policy range;
+  /// > 0: the distance over the first `pca` principal components of the
+  /// bands (after their range scaling) instead of the bands themselves.
+  std::size_t pca = 0;
 
   bands() = default;
   explicit bands(std::vector<std::string> fields, double threshold = 0.1, norm_type n = norm_type::l1)
@@ -47,6 +57,13 @@ struct bands {
       const value_range r = resolve_range(*b, range);
       scale.push_back(1.0 / (r.hi - r.lo));
     }
+    if (pca > 0) {
+      if (pca > f.size())
+        throw std::invalid_argument("modality '" + name() + "': pca=" + std::to_string(pca) + " but it reads " +
+                                    std::to_string(f.size()) + " band(s)");
+      return centroid_distance<0>(principal_components(f, scale, pca, params.threads), std::vector<double>(pca, 1.0),
+                                  norm);
+    }
     return centroid_distance<0>(interleave(f, params.threads), scale, norm);
   }
   static bands from_spec(modality_spec& s) {
@@ -57,6 +74,12 @@ struct bands {
     m.threshold_value = s.threshold_or(0.1);
     if (auto n = s.take("norm")) m.norm = parse_norm(*n);
     if (auto r = s.take("range")) m.range = range_policy::parse(*r);
+    if (auto k = s.take("pca")) {
+      const double v = parse_number(*k, "pca= in '" + s.text() + "'");
+      if (!(v >= 1) || v != std::floor(v) || v > 65536)
+        throw std::invalid_argument("'" + s.text() + "': pca= must be a whole number of components >= 1");
+      m.pca = static_cast<std::size_t>(v);
+    }
     return m;
   }
 };
