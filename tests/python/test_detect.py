@@ -214,6 +214,12 @@ def test_band_ranges_and_globs_read_the_same_fields():
         np.testing.assert_array_equal(r.keypoints, typed.keypoints)
     with pytest.raises(ValueError, match="swir"):
         ced.detect(pts, fields, modalities=["bands(swir*)"], radius=0.08)
+    # An (n, B) array is one band block: its columns are hyper_0 ... hyper_11, and a glob or range takes them
+    # without naming each.
+    block = np.stack([fields["b%02d" % i] for i in range(12)], axis=1)
+    for spec in ["bands(hyper_*):0.2", "bands(hyper_0..hyper_11):0.2"]:
+        r = ced.detect(pts, {"hyper": block}, modalities=[spec], radius=0.08)
+        np.testing.assert_array_equal(r.keypoints, typed.keypoints)
 
 
 def test_result_views_and_fields(sample):
