@@ -458,5 +458,9 @@ expect_exit 1 "has no field 'nir'" "merge a missing field" -- convert "$T/ch1.pl
 check "merge: no half-written output" test ! -e "$T/m4.ply"
 expect_exit 2 "" "merge into a channel" -- convert "$T/ch1.ply" "$T/ch2.ply" --merge-channels "$T/ch2.ply"
 
+# A band glob that matches nothing names the glob, the file and its fields.
+expect_exit 1 "'swir\*' matches no field of .*merged.las (its fields: .*intensity_ch2" "glob matches nothing" -- \
+  detect "$T/merged.las" -r 2.5 -m 'bands(swir*):0.1' -q
+
 echo "cli_edges: $pass passed, $fail failed"
 [ "$fail" = 0 ]

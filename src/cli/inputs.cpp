@@ -73,10 +73,13 @@ ced::missing_field_error with_file_fields(const ced::missing_field_error& e, con
   }
   std::string list;
   for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
+  const std::string fields = "(its fields: " + (list.empty() ? std::string("none besides x, y, z") : list) + ")";
+  if (e.field_name.find_first_of("*?") != std::string::npos)  // a glob (bands(b*))
+    return {e.modality_name, e.field_name,
+            "modality '" + e.modality_name + "': '" + e.field_name + "' matches no field of " + path + " " + fields};
   return {e.modality_name, e.field_name,
-          "modality '" + e.modality_name + "' needs field '" + e.field_name + "', which " + path +
-              " does not have (its fields: " + (list.empty() ? "none besides x, y, z" : list) + ")" +
-              ced::missing_field_hint(names, e.field_name, e.modality_name)};
+          "modality '" + e.modality_name + "' needs field '" + e.field_name + "', which " + path + " does not have " +
+              fields + ced::missing_field_hint(names, e.field_name, e.modality_name)};
 }
 
 ced::point_cloud read_finite(const std::string& path, const std::string& format, const std::string& columns,
