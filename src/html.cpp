@@ -17,37 +17,17 @@
 #include "ced/io/output_file.hpp"
 #include "ced/modalities/rgb.hpp"
 #include "ced/preprocess.hpp"
+#include "core/text.hpp"
 #include "html_viewer.hpp"  // generated: ced::detail::viewer_html
 
 namespace ced {
 
 namespace {
 
-void base64(const void* data, std::size_t size, std::string& out) {
-  static const char table[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  const auto* p = static_cast<const unsigned char*>(data);
-  out.reserve(out.size() + (size + 2) / 3 * 4);
-  std::size_t i = 0;
-  for (; i + 2 < size; i += 3) {
-    const unsigned v = (unsigned(p[i]) << 16) | (unsigned(p[i + 1]) << 8) | p[i + 2];
-    out += table[v >> 18];
-    out += table[(v >> 12) & 63];
-    out += table[(v >> 6) & 63];
-    out += table[v & 63];
-  }
-  if (i < size) {
-    const unsigned v = (unsigned(p[i]) << 16) | (i + 1 < size ? unsigned(p[i + 1]) << 8 : 0u);
-    out += table[v >> 18];
-    out += table[(v >> 12) & 63];
-    out += i + 1 < size ? table[(v >> 6) & 63] : '=';
-    out += '=';
-  }
-}
-
 template <class T>
 std::string base64_of(const std::vector<T>& v) {
   std::string s;
-  base64(v.data(), v.size() * sizeof(T), s);
+  detail::base64_append(v.data(), v.size() * sizeof(T), s);
   return s;
 }
 

@@ -31,14 +31,37 @@ struct range_policy {
   /// or "pLO..HI" (e.g. "p2..98", 0 ≤ LO < HI ≤ 100); throws
   /// std::invalid_argument naming `option` otherwise.
   static range_policy parse(std::string_view text, const std::string& option = "range");
+  /// zscore and percentiles: statistics of the whole cloud (its sample), which
+  /// a tiled run's plan gathers once for every tile.
+  bool needs_whole_cloud() const noexcept { return how == kind::zscore || how == kind::percentiles; }
 };
+
+/// The whole-cloud statistics (range=zscore, range=pLO..HI, pca=) come from a
+/// sample of up to this many points, spread evenly through the cloud: all
+/// of them in smaller clouds.
+inline constexpr std::size_t whole_sample_size = 20000;
+
+/// The sample's size for a cloud of n points: min(n, whole_sample_size).
+inline std::size_t whole_sample_count(std::uint64_t n) noexcept {
+  return n < whole_sample_size ? static_cast<std::size_t>(n) : whole_sample_size;
+}
+
+/// The index of the sample's j-th point in a cloud of n points: ⌊j·n/m⌋ with
+/// m = whole_sample_count(n), ascending.
+inline std::uint64_t whole_sample_index(std::size_t j, std::uint64_t n) noexcept {
+  return std::uint64_t(j) * n / whole_sample_count(n);
+}
+
+/// f's values at the sample points (whole_sample_index()): f.whole_sample
+/// when it is set (a tile of a larger cloud), else taken from f's values.
+/// Throws std::invalid_argument, naming the field, for a tile without one.
+std::vector<double> field_sample(const field& f);
 
 /// The range `policy` gives for `f` (a degenerate data range becomes [lo, lo+1]).
 /// The data's range is `f.whole_range` when it is set (a tile of a larger
 /// cloud), else the min..max of `f`'s values. zscore: [mean, mean + σ];
-/// percentiles: the two percentiles (linear between the sorted values).
-/// Both need the whole cloud: a tile (whole_range set) throws
-/// std::invalid_argument saying so.
+/// percentiles: the two percentiles (linear between the sorted values);
+/// both of the whole cloud's sample (field_sample()).
 value_range resolve_range(const field& f, const range_policy& policy);
 
 /// True when `f` is a 16-bit integer field whose values all lie in [0, 255]
@@ -69,9 +92,10 @@ std::vector<float> interleave(const std::vector<const field*>& fields, unsigned 
 /// eigenvectors from orthogonal iteration and a Jacobi step, with a fixed
 /// start and each vector's largest component made positive: the same bits
 /// for any thread count and on any CPU. `eigenvalues`, when given, receives
-/// all k eigenvalues, largest first. Throws std::invalid_argument unless
-/// 1 ≤ k ≤ fields.size(), or when a field lies in a tile (whole_range set:
-/// the components must come from the whole cloud).
+/// all k eigenvalues, largest first. The sample is field_sample()'s, so a
+/// tile whose fields carry the whole cloud's sample gets the whole cloud's
+/// components. Throws std::invalid_argument unless 1 ≤ k ≤ fields.size(),
+/// or for a tile without the sample.
 std::vector<float> principal_components(const std::vector<const field*>& fields, const std::vector<double>& scale,
                                         std::size_t k, unsigned threads, std::vector<double>* eigenvalues = nullptr);
 

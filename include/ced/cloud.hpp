@@ -337,6 +337,11 @@ struct field {
   /// fields) is then decided from it, so that every part decides alike.
   /// A modality of your own that looks at the data should do the same.
   std::optional<value_range> whole_range;
+  /// Set when the cloud is a part of a larger one and a modality needs
+  /// statistics of the whole cloud (range=zscore, range=pLO..HI, pca=): the
+  /// whole cloud's values at its sample points (whole_sample_index() in
+  /// ced/channels.hpp), as field_sample() would take them from it.
+  std::shared_ptr<const std::vector<double>> whole_sample;
 
   field() = default;
   field(std::string n, column v) : name(std::move(n)), values(std::move(v)) {}

@@ -117,6 +117,13 @@ struct declares_neighborhood_channels<
     M, std::void_t<decltype(bool(std::declval<const M&>().channels_from_neighborhoods()))>> : std::true_type {};
 
 template <class M, class = void>
+struct declares_whole_cloud_fields : std::false_type {};
+template <class M>
+struct declares_whole_cloud_fields<
+    M, std::void_t<decltype(std::vector<std::string>(std::declval<const M&>().whole_cloud_fields()))>>
+    : std::true_type {};
+
+template <class M, class = void>
 struct is_modality : std::false_type {};
 template <class M>
 struct is_modality<
@@ -150,6 +157,18 @@ std::optional<std::vector<std::string>> fields_of(const M& m) {
     return std::vector<std::string>(m.fields());
   else
     return std::nullopt;
+}
+
+/// The fields whose whole-cloud sample modality `m` needs (its
+/// whole_cloud_fields(): fields or globs, as fields() names them; none when
+/// it does not say): a tiled run's plan gathers it, so that every tile
+/// decides what the whole cloud would (field::whole_sample).
+template <class M>
+std::vector<std::string> whole_cloud_fields_of(const M& m) {
+  if constexpr (detail::declares_whole_cloud_fields<M>::value)
+    return std::vector<std::string>(m.whole_cloud_fields());
+  else
+    return {};
 }
 
 /// Whether modality `m` makes a point's channel from the point's own
@@ -245,6 +264,8 @@ class any_modality {
   std::optional<std::vector<std::string>> fields() const { return m_self->fields(); }
   /// Whether it makes a point's channel from the point's own neighbourhood.
   bool channels_from_neighborhoods() const { return m_self->channels_from_neighborhoods(); }
+  /// The fields whose whole-cloud sample it needs (whole_cloud_fields_of()).
+  std::vector<std::string> whole_cloud_fields() const { return m_self->whole_cloud_fields(); }
   std::unique_ptr<bound_modality> bind(const point_cloud& c, const detect_params& p) const {
     return m_self->bind(c, p);
   }
@@ -265,6 +286,7 @@ class any_modality {
     virtual double threshold(const detect_params&) const = 0;
     virtual std::optional<std::vector<std::string>> fields() const = 0;
     virtual bool channels_from_neighborhoods() const = 0;
+    virtual std::vector<std::string> whole_cloud_fields() const = 0;
     virtual std::unique_ptr<bound_modality> bind(const point_cloud&, const detect_params&) const = 0;
   };
   template <class M>
@@ -282,6 +304,7 @@ class any_modality {
     double threshold(const detect_params& p) const override { return modality.threshold(p); }
     std::optional<std::vector<std::string>> fields() const override { return fields_of(modality); }
     bool channels_from_neighborhoods() const override { return channels_from_neighborhoods_of(modality); }
+    std::vector<std::string> whole_cloud_fields() const override { return whole_cloud_fields_of(modality); }
     std::unique_ptr<bound_modality> bind(const point_cloud& c, const detect_params& p) const override {
       return std::make_unique<bound>(modality.bind(c, p));
     }
@@ -293,6 +316,7 @@ class any_modality {
     double threshold(const detect_params&) const override { return value; }
     std::optional<std::vector<std::string>> fields() const override { return inner->fields(); }
     bool channels_from_neighborhoods() const override { return inner->channels_from_neighborhoods(); }
+    std::vector<std::string> whole_cloud_fields() const override { return inner->whole_cloud_fields(); }
     std::unique_ptr<bound_modality> bind(const point_cloud& c, const detect_params& p) const override {
       return inner->bind(c, p);
     }

@@ -32,8 +32,8 @@
 // 2: column views (ced::column::view); 3: field::whole_range;
 // 4: detect_params::max_keypoints; 5: precomputed_saliency (the centroid shift);
 // 6: any_modality::channels_from_neighborhoods (and detect_params::neighborhood, search);
-// 7: detect_params::keypoint_share.
-#define CED_PLUGIN_ABI_VERSION 7
+// 7: detect_params::keypoint_share; 8: field::whole_sample and any_modality::whole_cloud_fields.
+#define CED_PLUGIN_ABI_VERSION 8
 
 #define CED_PLUGIN_STR_(x) #x
 #define CED_PLUGIN_STR(x) CED_PLUGIN_STR_(x)

@@ -111,8 +111,8 @@ double grown_reach(double tried, double needed, bool unmeasured = false) noexcep
 tile_grid make_tile_grid(const double lo[3], const double hi[3], double size, const detect_params& params);
 
 /// One tile of an in-memory cloud: its points (core and halo, in the cloud's
-/// order, the same origin), each field's whole_range set from the whole
-/// cloud, and index[i], the cloud's index of point i.
+/// order, the same origin), each field's whole_range and whole_sample set
+/// from the whole cloud, and index[i], the cloud's index of point i.
 struct cloud_tile {
   point_cloud cloud;
   std::vector<std::uint32_t> index;

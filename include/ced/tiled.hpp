@@ -11,6 +11,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -68,6 +69,11 @@ struct plan_field {
   std::string name;
   scalar_type type = scalar_type::float32;
   value_range range;  ///< over the whole file's finite points: each tile's whole_range
+  /// Only for fields whose whole-cloud statistics a modality needs
+  /// (any_modality::whole_cloud_fields()): the values at the whole file's
+  /// sample points among its finite points (whole_sample_index()), each
+  /// tile's whole_sample. Empty otherwise.
+  std::shared_ptr<const std::vector<double>> sample;
 };
 
 /// The plan of a tiled run: the input (and a fingerprint of it), what was

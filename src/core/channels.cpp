@@ -91,6 +91,21 @@ range_policy range_policy::parse(std::string_view text, const std::string& optio
   return p;
 }
 
+std::vector<double> field_sample(const field& f) {
+  if (f.whole_sample) return *f.whole_sample;
+  if (f.whole_range)
+    throw std::invalid_argument(
+        "field '" + f.name +
+        "': range=zscore, range=pLO..HI and pca= need the whole cloud's sample, which this tile "
+        "was not given (plan the tiles with this ced, which gathers it)");
+  const std::size_t n = f.values.size(), m = whole_sample_count(n);
+  std::vector<double> out(m);
+  f.values.visit([&](const auto* p, std::size_t) {
+    for (std::size_t j = 0; j < m; ++j) out[j] = static_cast<double>(p[whole_sample_index(j, n)]);
+  });
+  return out;
+}
+
 value_range resolve_range(const field& f, const range_policy& policy) {
   switch (policy.how) {
     case range_policy::kind::fixed:
@@ -119,14 +134,9 @@ value_range resolve_range(const field& f, const range_policy& policy) {
     case range_policy::kind::zscore:
     case range_policy::kind::percentiles: {
       const bool z = policy.how == range_policy::kind::zscore;
-      if (f.whole_range)
-        throw std::invalid_argument("field '" + f.name + "': range=" + (z ? "zscore" : "pLO..HI") +
-                                    " needs the whole cloud's values, which a tile does not have; in tiled runs use "
-                                    "range=auto or a fixed range");
-      const std::size_t n = f.values.size();
+      std::vector<double> v = field_sample(f);
+      const std::size_t n = v.size();
       if (n == 0) return {0.0, 1.0};
-      std::vector<double> v(n);
-      for (std::size_t i = 0; i < n; ++i) v[i] = f.values[i];
       double lo = 0, hi = 0;
       if (z) {
         // Two passes in double, in index order: the same on any machine.
@@ -434,22 +444,26 @@ std::vector<float> principal_components(const std::vector<const field*>& fields,
     throw std::invalid_argument("principal components: k must be from 1 to the number of fields (" + std::to_string(d) +
                                 "), got " + std::to_string(k));
   if (scale.size() != d) throw std::invalid_argument("principal components: one scale per field");
-  for (const field* f : fields)
-    if (f->whole_range)
-      throw std::invalid_argument("field '" + f->name +
-                                  "': principal components need the whole cloud's values, which a tile does not "
-                                  "have; not available in tiled runs");
   const std::size_t n = fields[0]->values.size();
   std::vector<float> out(n * k, 0.0f);
   if (n == 0) return out;
-  // The sample: up to 20,000 points spread evenly, in index order, held
+  // The sample (field_sample(): the whole cloud's, also in a tile), held
   // band by band (each band's values contiguous).
-  const std::size_t m = std::min<std::size_t>(n, 20000);
-  std::vector<double> x(d * m);  // fields × sample, scaled
-  for (std::size_t b = 0; b < d; ++b)
-    fields[b]->values.visit([&](const auto* p, std::size_t) {
-      for (std::size_t j = 0; j < m; ++j) x[b * m + j] = static_cast<double>(p[j * n / m]) * scale[b];
-    });
+  std::vector<double> x;  // fields × sample, scaled
+  std::size_t m = 0;
+  for (std::size_t b = 0; b < d; ++b) {
+    std::vector<double> v = field_sample(*fields[b]);
+    if (b == 0) {
+      m = v.size();
+      x.resize(d * m);
+    } else if (v.size() != m) {
+      throw std::invalid_argument("principal components: field '" + fields[b]->name + "' has a sample of " +
+                                  std::to_string(v.size()) + " values, field '" + fields[0]->name + "' one of " +
+                                  std::to_string(m));
+    }
+    for (std::size_t j = 0; j < m; ++j) x[b * m + j] = v[j] * scale[b];
+  }
+  if (m == 0) return out;
   std::vector<double> mean(d, 0.0);
   for (std::size_t b = 0; b < d; ++b) {
     double s = 0;

@@ -91,4 +91,58 @@ inline std::vector<std::string_view> split_words(std::string_view line) {
   return words;
 }
 
+/// Appends `size` bytes at `data` to `out` as base64 (RFC 4648, with '=' padding).
+inline void base64_append(const void* data, std::size_t size, std::string& out) {
+  static const char table[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  const auto* p = static_cast<const unsigned char*>(data);
+  out.reserve(out.size() + (size + 2) / 3 * 4);
+  std::size_t i = 0;
+  for (; i + 2 < size; i += 3) {
+    const unsigned v = (unsigned(p[i]) << 16) | (unsigned(p[i + 1]) << 8) | p[i + 2];
+    out += table[v >> 18];
+    out += table[(v >> 12) & 63];
+    out += table[(v >> 6) & 63];
+    out += table[v & 63];
+  }
+  if (i < size) {
+    const unsigned v = (unsigned(p[i]) << 16) | (i + 1 < size ? unsigned(p[i + 1]) << 8 : 0u);
+    out += table[v >> 18];
+    out += table[(v >> 12) & 63];
+    out += i + 1 < size ? table[(v >> 6) & 63] : '=';
+    out += '=';
+  }
+}
+
+/// The bytes that base64_append() wrote as `text`; false (and `out` partly
+/// filled) when `text` is not such base64: a length not a multiple of 4, a
+/// character outside the alphabet, or misplaced padding.
+inline bool base64_decode(std::string_view text, std::string& out) {
+  out.clear();
+  if (text.size() % 4 != 0) return false;
+  const auto value = [](char c) -> int {
+    if (c >= 'A' && c <= 'Z') return c - 'A';
+    if (c >= 'a' && c <= 'z') return c - 'a' + 26;
+    if (c >= '0' && c <= '9') return c - '0' + 52;
+    if (c == '+') return 62;
+    if (c == '/') return 63;
+    return -1;
+  };
+  out.reserve(text.size() / 4 * 3);
+  for (std::size_t i = 0; i < text.size(); i += 4) {
+    const bool last = i + 4 == text.size();
+    const int pad = last ? (text[i + 3] == '=') + (text[i + 2] == '=') : 0;
+    if (pad == 1 && text[i + 2] == '=') return false;  // "x=y=" style
+    unsigned v = 0;
+    for (int k = 0; k < 4; ++k) {
+      const int d = k >= 4 - pad ? 0 : value(text[i + std::size_t(k)]);
+      if (d < 0) return false;
+      v = (v << 6) | unsigned(d);
+    }
+    out += static_cast<char>(v >> 16);
+    if (pad < 2) out += static_cast<char>((v >> 8) & 255);
+    if (pad < 1) out += static_cast<char>(v & 255);
+  }
+  return true;
+}
+
 }  // namespace ced::detail

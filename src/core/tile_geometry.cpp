@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <limits>
 #include <map>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -17,6 +18,7 @@
 #include <immintrin.h>
 #endif
 
+#include "ced/channels.hpp"
 #include "ced/scaled.hpp"
 #include "core/kernel/dispatch.hpp"
 #include "core/neighbor_block.hpp"
@@ -326,9 +328,19 @@ std::vector<value_range> field_ranges(const point_cloud& cloud) {
 }
 
 namespace {
+using field_samples = std::vector<std::shared_ptr<const std::vector<double>>>;
+
+/// Every field's sample (field_sample()), what a tile's fields carry as
+/// whole_sample for range=zscore, percentiles and pca=.
+field_samples samples_of(const point_cloud& cloud) {
+  field_samples out;
+  for (const field& f : cloud.fields()) out.push_back(std::make_shared<const std::vector<double>>(field_sample(f)));
+  return out;
+}
+
 /// The tile of `cloud` made of the points `index` (ascending).
-cloud_tile make_tile(const point_cloud& cloud, std::vector<std::uint32_t> index,
-                     const std::vector<value_range>& whole) {
+cloud_tile make_tile(const point_cloud& cloud, std::vector<std::uint32_t> index, const std::vector<value_range>& whole,
+                     const field_samples& samples) {
   cloud_tile out;
   out.index = std::move(index);
   out.cloud.set_origin(cloud.origin());
@@ -343,7 +355,9 @@ cloud_tile make_tile(const point_cloud& cloud, std::vector<std::uint32_t> index,
     column values(src.type(), out.index.size());
     for (std::size_t j = 0; j < out.index.size(); ++j)
       std::copy_n(src.values.bytes() + w * out.index[j], w, values.bytes() + w * j);
-    out.cloud.add_field(src.name, std::move(values)).whole_range = whole[f];
+    field& added = out.cloud.add_field(src.name, std::move(values));
+    added.whole_range = whole[f];
+    added.whole_sample = samples[f];
   }
   return out;
 }
@@ -360,7 +374,7 @@ cloud_tile extract_tile(const point_cloud& cloud, const tile_grid& grid, std::ui
     grid.tiles_near(cloud.position(i), near);
     if (std::find(near.begin(), near.end(), t) != near.end()) index.push_back(static_cast<std::uint32_t>(i));
   }
-  return make_tile(cloud, std::move(index), whole);
+  return make_tile(cloud, std::move(index), whole, samples_of(cloud));
 }
 
 std::vector<std::uint32_t> core_keypoints(const tile_grid& grid, std::uint64_t t, const point_cloud& tile_cloud,
@@ -519,6 +533,7 @@ std::optional<tiled_keypoints> tiles_at(const point_cloud& cloud, const detect_p
   passed.grid = grid;
   const double check_extra = tile_check_extra(params, modalities);
   const std::vector<value_range> ranges = field_ranges(cloud);
+  const field_samples samples = samples_of(cloud);
   // Each tile's points, and which tiles own a point: only those are detected.
   std::vector<std::vector<std::uint32_t>> members(grid.count());
   std::vector<std::uint8_t> owns(grid.count(), 0);
@@ -537,7 +552,7 @@ std::optional<tiled_keypoints> tiles_at(const point_cloud& cloud, const detect_p
     if (!owns[t]) continue;
     auto done = passed.keypoints.find(t);
     if (done == passed.keypoints.end()) {
-      const cloud_tile tile = make_tile(cloud, std::move(members[t]), ranges);
+      const cloud_tile tile = make_tile(cloud, std::move(members[t]), ranges, samples);
       try {
         check_tile_reach(grid, t, tile.cloud, nullptr, per_tile);
         const detection_result r = detect(tile.cloud, per_tile, modalities);

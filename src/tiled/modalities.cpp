@@ -45,7 +45,7 @@ std::optional<std::vector<std::string>> detection_fields(const tile_plan& p) {
   // The modalities must find their fields among these (they look them up
   // by their own rules): else every field goes through the cache.
   try {
-    const point_cloud one = empty_cloud(slim, 1);
+    const point_cloud one = probe_cloud(slim);
     for (const auto& m : modalities) m.bind(one, probe_params(p.request.params));
   } catch (const std::exception&) {
     return std::nullopt;

@@ -5,12 +5,15 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <stdexcept>
 #include <string>
 
+#include "ced/channels.hpp"
 #include "core/hash.hpp"
+#include "core/text.hpp"
 #include "io/base/scalar_io.hpp"
 #include "tiled/fingerprint.hpp"
 #include "tiled/modalities.hpp"
@@ -143,14 +146,34 @@ void grid_from_json(const nlohmann::json& g, tile_plan& p, const std::string& na
                                  std::to_string(needed) + " its radii and modalities need (tiles would not be exact)");
 }
 
+/// A field's "sample": base64 of its values as little-endian doubles, as
+/// many as whole_sample_count() of the plan's finite points, all finite.
+std::shared_ptr<const std::vector<double>> sample_from_json(const nlohmann::json& text, const tile_plan& p,
+                                                            const std::string& field, const std::string& name) {
+  std::string bytes;
+  const std::size_t m = whole_sample_count(p.finite_points);
+  if (!text.is_string() || !detail::base64_decode(text.get<std::string>(), bytes) || bytes.size() != 8 * m)
+    throw io::io_error(name, "invalid tile plan: field '" + field + "' has a sample that is not base64 of " +
+                                 std::to_string(m) + " doubles");
+  auto v = std::make_shared<std::vector<double>>(m);
+  for (std::size_t j = 0; j < m; ++j) {
+    (*v)[j] = io::detail::load_le<double>(reinterpret_cast<const unsigned char*>(bytes.data()) + 8 * j);
+    if (!std::isfinite((*v)[j]))
+      throw io::io_error(name, "invalid tile plan: field '" + field + "' has a sample value that is not finite");
+  }
+  return v;
+}
+
 void fields_from_json(const nlohmann::json& fields, tile_plan& p, const std::string& name) {
   std::set<std::string> names;
   for (const auto& f : fields) {
-    const plan_field pf{f.at("name").get<std::string>(),
-                        type_named(f.at("type").get<std::string>(), name),
-                        {number_of(f, "lo"), number_of(f, "hi")}};
+    plan_field pf{f.at("name").get<std::string>(),
+                  type_named(f.at("type").get<std::string>(), name),
+                  {number_of(f, "lo"), number_of(f, "hi")},
+                  nullptr};
     if (pf.name.empty() || !names.insert(pf.name).second || !(pf.range.lo <= pf.range.hi))
       throw io::io_error(name, "invalid tile plan: field '" + pf.name + "' is unnamed, repeated or has lo > hi");
+    if (f.contains("sample")) pf.sample = sample_from_json(f.at("sample"), p, pf.name, name);
     p.fields.push_back(pf);
   }
 }
@@ -261,8 +284,17 @@ std::string tile_plan::to_json() const {
   j["origin"] = origin;
   j["grid"] = {{"lo", grid.lo}, {"size", grid.size}, {"dims", grid.dims}, {"halo", grid.halo}};
   auto& fl = j["fields"] = nlohmann::json::array();
-  for (const auto& f : fields)
+  for (const auto& f : fields) {
     fl.push_back({{"name", f.name}, {"type", std::string(name_of(f.type))}, {"lo", f.range.lo}, {"hi", f.range.hi}});
+    if (f.sample) {
+      std::string bytes(8 * f.sample->size(), '\0');
+      for (std::size_t i = 0; i < f.sample->size(); ++i)
+        io::detail::store_le(reinterpret_cast<unsigned char*>(bytes.data()) + 8 * i, (*f.sample)[i]);
+      std::string text;
+      detail::base64_append(bytes.data(), bytes.size(), text);
+      fl.back()["sample"] = std::move(text);
+    }
+  }
   if (tile_fields) j["tile_fields"] = *tile_fields;
   auto& tl = j["tiles"] = nlohmann::json::array();
   for (const auto& t : tiles) tl.push_back({t.id, t.core_points, t.points});

@@ -8,11 +8,13 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
 #include <vector>
 
+#include "ced/channels.hpp"
 #include "ced/io/las.hpp"
 #include "ced/scaled.hpp"
 #include "core/text.hpp"
@@ -68,7 +70,7 @@ void check_point_count(const tile_plan& p) {
 /// every tile.
 void bind_modalities(tile_plan& p, const point_cloud& probe) {
   if (p.request.modalities.empty()) p.request.modalities = preset_specs(probe.has_rgb() ? "ced6d" : "ced3d");
-  const point_cloud one = empty_cloud(p, 1);
+  const point_cloud one = probe_cloud(p);
   for (const auto& m : modalities_of(p.request.modalities)) m.bind(one, probe_params(p.request.params));
 }
 
@@ -117,7 +119,7 @@ void plan_fields(tile_plan& p, io::point_stream& s, const scan_result& scan) {
   point_cloud probe;
   s.read(1, p.origin, probe);
   s.rewind();
-  for (const field& f : probe.fields()) p.fields.push_back({f.name, f.type(), value_range{0, 0}});
+  for (const field& f : probe.fields()) p.fields.push_back({f.name, f.type(), value_range{0, 0}, nullptr});
   set_ranges(p.fields, scan);
   bind_modalities(p, probe);
 }
@@ -315,6 +317,51 @@ void set_ranges(std::vector<plan_field>& fields, const scan_result& scan) {
   }
 }
 
+void sample_fields(tile_plan& p, const tiled_progress& progress) {
+  std::vector<std::string> want;
+  for (const auto& m : modalities_of(p.request.modalities))
+    for (auto& name : m.whole_cloud_fields()) want.push_back(std::move(name));
+  std::vector<plan_field*> fields;
+  for (plan_field& f : p.fields)
+    if (std::any_of(want.begin(), want.end(), [&](const std::string& w) { return field_name_matches(w, f.name); }))
+      fields.push_back(&f);
+  if (fields.empty()) return;  // none needed, or the modality will name the field it lacks
+  std::vector<std::string> names;
+  for (const plan_field* f : fields) names.push_back(f->name);
+  io::read_options o = p.request.read;
+  o.fields = field_selection::only(names);
+  const auto s = io::open_point_stream(p.request.input, o);
+  // The sample points are the finite points whose rank among them is
+  // whole_sample_index(j, n): strictly ascending in j, as n ≥ m.
+  const std::uint64_t n = p.finite_points;
+  const std::size_t m = whole_sample_count(n);
+  std::vector<std::vector<double>> values(fields.size());
+  for (auto& v : values) v.reserve(m);
+  std::uint64_t finite = 0, read = 0;
+  std::size_t j = 0;
+  std::vector<const field*> here(fields.size());
+  for_each_chunk(*s, p.origin, [&](const point_cloud& c) {
+    for (std::size_t k = 0; k < fields.size(); ++k) here[k] = c.find_field(fields[k]->name);
+    for (std::size_t i = 0; i < c.size() && j < m; ++i) {
+      if (!finite3(c.position(i))) continue;
+      if (whole_sample_index(j, n) == finite) {
+        // A field a chunk lacks (a LAS flag none of its points sets) is 0 there.
+        for (std::size_t k = 0; k < fields.size(); ++k) values[k].push_back(here[k] ? here[k]->values[i] : 0.0);
+        ++j;
+      }
+      ++finite;
+    }
+    read += c.size();
+    if (progress) progress("reading (the sample of the whole-cloud statistics)", double(read) / double(p.file_points));
+  });
+  if (j != m)
+    throw io::io_error(p.request.input, "its sample for range=zscore, percentiles or pca= read short (" +
+                                            std::to_string(j) + " of " + std::to_string(m) +
+                                            " points): the file changed since it was planned");
+  for (std::size_t k = 0; k < fields.size(); ++k)
+    fields[k]->sample = std::make_shared<const std::vector<double>>(std::move(values[k]));
+}
+
 bool is_las_flag(const std::string& name) {
   const auto& flags = io::las_flag_fields();
   return std::find(flags.begin(), flags.end(), name) != flags.end();
@@ -331,7 +378,7 @@ std::optional<tile_plan> plan_from_header(const tiled_request& request, io::poin
   // stream of its own: a run read spends a stream's pass).
   point_cloud probe;
   io::open_point_stream(request.input, request.read)->read_run({0, 1}, io::las_flag_fields(), p.origin, probe);
-  for (const field& f : probe.fields()) p.fields.push_back({f.name, f.type(), value_range{0, 0}});
+  for (const field& f : probe.fields()) p.fields.push_back({f.name, f.type(), value_range{0, 0}, nullptr});
   bind_modalities(p, probe);
   p.tile_fields = detection_fields(p);
   // Without tile_fields every field goes through the cache (a modality that
@@ -433,17 +480,21 @@ void count_tiles_by_runs(io::point_stream& s, tile_plan& p, const std::vector<io
 
 tile_plan plan_tiles(const tiled_request& request, const tiled_progress& progress) {
   auto s = io::open_point_stream(request.input, request.read);
-  if (auto p = plan_from_index(request, *s, progress)) return std::move(*p);
+  if (auto p = plan_from_index(request, *s, progress)) {
+    sample_fields(*p, progress);
+    return std::move(*p);
+  }
   tile_plan p = plan_grid(request, *s, progress);
   // LAS, LAZ, binary PLY and PCD (every point finite): a tile reads only the runs near it.
   const auto runs = s->chunk_runs();
   if (!runs.empty() && p.finite_points == p.file_points) {
     count_tiles_by_runs(*s, p, runs, progress);
-    return p;
+  } else {
+    std::uint64_t content = 0;
+    p.tiles = count_tiles(*s, p, progress, &content);  // pass 2
+    p.content = hex(content);
   }
-  std::uint64_t content = 0;
-  p.tiles = count_tiles(*s, p, progress, &content);  // pass 2
-  p.content = hex(content);
+  sample_fields(p, progress);
   return p;
 }
 

@@ -43,6 +43,11 @@ bool is_las_flag(const std::string& name);
 /// the caller to check after a pass (build_cache).
 std::optional<tile_plan> plan_from_header(const tiled_request& request, io::point_stream& s);
 
+/// The sample of every field whose whole-cloud statistics a modality of
+/// the request needs (plan_field::sample), from a pass that reads only those
+/// fields; nothing when none does.
+void sample_fields(tile_plan& p, const tiled_progress& progress);
+
 /// Plans without the tiles' counts (run_tiled counts them while it fills
 /// its cache; plan_tiles in a pass of its own). Leaves `s` rewound.
 tile_plan plan_grid(const tiled_request& request, io::point_stream& s, const tiled_progress& progress);

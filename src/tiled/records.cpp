@@ -20,6 +20,7 @@
 #include "tiled/records.hpp"
 
 #include <algorithm>
+#include <memory>
 #include <string>
 
 namespace ced::tiled_detail {
@@ -131,7 +132,11 @@ point_cloud cloud_with(const tile_plan& p, const std::vector<plan_field>& fields
   point_cloud c;
   c.set_origin(p.origin);
   c.resize(n);
-  for (const auto& f : fields) c.add_field(f.name, column(f.type, n)).whole_range = f.range;
+  for (const auto& f : fields) {
+    field& added = c.add_field(f.name, column(f.type, n));
+    added.whole_range = f.range;
+    added.whole_sample = f.sample;
+  }
   return c;
 }
 
@@ -172,6 +177,14 @@ struct cache_reader {
 }  // namespace
 
 point_cloud empty_cloud(const tile_plan& p, std::size_t n) { return cloud_with(p, tile_fields_of(p), n); }
+
+point_cloud probe_cloud(const tile_plan& p) {
+  point_cloud c = empty_cloud(p, 1);
+  const auto none = std::make_shared<const std::vector<double>>();
+  for (field& f : c.fields())
+    if (!f.whole_sample) f.whole_sample = none;
+  return c;
+}
 
 point_cloud record_cloud(const tile_plan& p, std::size_t n) { return cloud_with(p, p.fields, n); }
 

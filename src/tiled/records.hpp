@@ -202,6 +202,10 @@ const char* decode_records(const char* p, std::size_t n, point_cloud& c, std::si
 
 /// An empty cloud with the plan's origin and tile fields (whole ranges set), room for n points.
 point_cloud empty_cloud(const tile_plan& p, std::size_t n);
+/// empty_cloud(p, 1) for binding the modalities before the plan has its
+/// samples: a field without one gets an empty sample (a modality then finds
+/// its fields and checks its options, and computes nothing from them).
+point_cloud probe_cloud(const tile_plan& p);
 /// The same with every field of the plan: the input's records.
 point_cloud record_cloud(const tile_plan& p, std::size_t n);
 /// The same with no field: positions only.

@@ -337,6 +337,7 @@ tile_plan build_cache(const tiled_request& request, const tiled_run_options& o, 
       scan_result scan;
       fill_cache(*plan, *s, o, dir, announced, &scan);
       if (settle_header_plan(*plan, *s, scan)) {
+        sample_fields(*plan, o.progress);
         io::write_text_file_atomic(plan_path.string(), plan->to_json());
         return std::move(*plan);
       }
@@ -349,6 +350,7 @@ tile_plan build_cache(const tiled_request& request, const tiled_run_options& o, 
   plan.tile_fields = detection_fields(plan);
   if (plan.tile_fields) s = slim_stream(plan);
   fill_cache(plan, *s, o, dir, announced, nullptr);
+  sample_fields(plan, o.progress);
   io::write_text_file_atomic(plan_path.string(), plan.to_json());
   return plan;
 }

@@ -49,6 +49,10 @@ struct bands {
   /// The fields bind() reads: ranges expanded, globs as patterns
   /// (field_selection and the tiles' field lists match them).
   std::vector<std::string> fields() const { return expand_field_ranges(names); }
+  /// range=zscore or pLO..HI, or pca=: statistics of the whole cloud.
+  std::vector<std::string> whole_cloud_fields() const {
+    return range.needs_whole_cloud() || pca > 0 ? fields() : std::vector<std::string>{};
+  }
   centroid_distance<0> bind(const point_cloud& cloud, const detect_params& params) const {
     if (names.empty()) throw std::invalid_argument("bands() needs at least one field name, e.g. bands(nir,red)");
     auto f = require_field_patterns(cloud, names, name());

@@ -30,6 +30,10 @@ struct intensity {
   double threshold(const detect_params&) const { return threshold_value; }
   /// The fields bind() reads.
   std::vector<std::string> fields() const { return {field_name}; }
+  /// range=zscore or pLO..HI: statistics of the whole cloud.
+  std::vector<std::string> whole_cloud_fields() const {
+    return range.needs_whole_cloud() ? fields() : std::vector<std::string>{};
+  }
   centroid_distance<1> bind(const point_cloud& cloud, const detect_params& params) const {
     auto f = require_fields(cloud, {field_name}, name());
     // 8-bit intensities in a 16-bit field (LAS files from 8-bit sensors):

@@ -28,6 +28,10 @@ struct rgb {
   double threshold(const detect_params&) const { return threshold_value; }
   /// The fields bind() reads.
   std::vector<std::string> fields() const { return rgb_field_names(); }
+  /// range=zscore or pLO..HI: statistics of the whole cloud.
+  std::vector<std::string> whole_cloud_fields() const {
+    return range && range->needs_whole_cloud() ? fields() : std::vector<std::string>{};
+  }
   centroid_distance<3> bind(const point_cloud& cloud, const detect_params& params) const {
     const auto f = fields(cloud);
     const auto s = scale(f, range);
