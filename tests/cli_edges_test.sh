@@ -457,6 +457,10 @@ expect_exit 2 "--merge-radius" "merge-radius bad" -- convert "$T/ch1.ply" "$T/m4
 expect_exit 1 "has no field 'nir'" "merge a missing field" -- convert "$T/ch1.ply" "$T/m4.ply" --merge-channels "$T/ch2.ply" --merge-fields nir
 check "merge: no half-written output" test ! -e "$T/m4.ply"
 expect_exit 2 "" "merge into a channel" -- convert "$T/ch1.ply" "$T/ch2.ply" --merge-channels "$T/ch2.ply"
+# Channels in different coordinate systems (one LAS file has WKT, the other none) are refused with both names.
+expect_exit 1 "is in coordinate system 'none', the input .*file_with_both_wkt_and_geotiff_vlrs.las in 'NAD83_2011_Nebraska_ft'" \
+  "merge across coordinate systems" -- convert "$DATA/file_with_both_wkt_and_geotiff_vlrs.las" "$T/m5.las" --merge-channels "$DATA/simple.las"
+check "merge across coordinate systems: no output" test ! -e "$T/m5.las"
 
 # A band glob that matches nothing names the glob, the file and its fields.
 expect_exit 1 "'swir\*' matches no field of .*merged.las (its fields: .*intensity_ch2" "glob matches nothing" -- \

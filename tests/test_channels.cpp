@@ -384,6 +384,16 @@ TEST(Channels, BandRangesAndGlobs) {
   const auto backwards = invalid_argument_of(
       [&] { ced::detect(c, p, std::vector<ced::any_modality>{ced::make_modality("bands(b11..b00)")}); });
   EXPECT_NE(backwards.find("runs backwards"), std::string::npos) << backwards;
+  // Float and integer bands under the default scaling: an error naming both
+  // and the ranges that put them on one scale, which then work.
+  auto mixed = c;
+  mixed.add_field("refl", ced::scalar_type::float32, std::vector<double>(mixed.size(), 0.25));
+  const auto mix = invalid_argument_of(
+      [&] { ced::detect(mixed, p, std::vector<ced::any_modality>{ced::make_modality("bands(b00,refl)")}); });
+  EXPECT_NE(mix.find("mixes float and integer bands ('b00' uint16, 'refl' float32)"), std::string::npos) << mix;
+  EXPECT_NE(mix.find("range=auto"), std::string::npos) << mix;
+  EXPECT_NO_THROW(
+      ced::detect(mixed, p, std::vector<ced::any_modality>{ced::make_modality("bands(b00,refl),range=auto")}));
 }
 
 // Past 16 channels the pass sums whole rows of channels (one float sum a

@@ -85,13 +85,24 @@ TEST(Sam, HandComputedSpectra) {
   const auto r = ced::detect(c, p, std::vector<ced::any_modality>{ced::make_modality("sam(a,b):0.5")});
   for (int i = 0; i < 4; ++i) EXPECT_NEAR(r.saliency[0][std::size_t(i)], M_PI / 4, 1e-6) << i;
   EXPECT_EQ(r.names[0], "sam(a,b)");
-  // A zero spectrum has no angle: 0; the others agree with their mean.
+  // A zero spectrum has no direction: an error naming the point.
   ced::point_cloud z;
   for (int i = 0; i < 4; ++i) z.push_back(0.01f * float(i), 0, 0);
-  z.add_field("a", ced::scalar_type::float32, {0, 1, 1, 1});
-  z.add_field("b", ced::scalar_type::float32, {0, 2, 2, 2});
-  const auto rz = ced::detect(z, p, std::vector<ced::any_modality>{ced::make_modality("sam(a,b):0.5")});
-  for (int i = 0; i < 4; ++i) EXPECT_NEAR(rz.saliency[0][std::size_t(i)], 0.0, 1e-6) << i;
+  z.add_field("a", ced::scalar_type::float32, {1, 1, 0, 1});
+  z.add_field("b", ced::scalar_type::float32, {2, 2, 0, 2});
+  try {
+    ced::detect(z, p, std::vector<ced::any_modality>{ced::make_modality("sam(a,b):0.5")});
+    ADD_FAILURE() << "a zero spectrum was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("point 2 has every band 0"), std::string::npos) << e.what();
+  }
+  // A mean spectrum of zero (negative bands that cancel): 0, not an error.
+  ced::point_cloud m;
+  for (int i = 0; i < 2; ++i) m.push_back(0.01f * float(i), 0, 0);
+  m.add_field("a", ced::scalar_type::float32, {1, -1});
+  m.add_field("b", ced::scalar_type::float32, {1, -1});
+  const auto rm = ced::detect(m, p, std::vector<ced::any_modality>{ced::make_modality("sam(a,b):0.5")});
+  for (int i = 0; i < 2; ++i) EXPECT_EQ(rm.saliency[0][std::size_t(i)], 0.0f) << i;
 }
 
 TEST(Sam, MatchesTheOracleAndIgnoresBrightness) {
@@ -157,6 +168,16 @@ TEST(Sam, ClearErrors) {
   };
   EXPECT_NE(message("sam(s00)").find("at least two"), std::string::npos);
   EXPECT_NE(message("sam(swir*)").find("matches no field"), std::string::npos);
+  // Bands of different types are in different units.
+  auto mixed = c;
+  mixed.add_field("dn", ced::scalar_type::uint16, std::vector<double>(mixed.size(), 300.0));
+  try {
+    ced::detect(mixed, p, std::vector<ced::any_modality>{ced::make_modality("sam(s00,s01,dn)")});
+    ADD_FAILURE() << "bands of mixed types were accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("bands of different types ('s00' float32, 'dn' uint16)"), std::string::npos)
+        << e.what();
+  }
   EXPECT_THROW(ced::make_modality("sam"), std::invalid_argument);
   EXPECT_EQ(ced::make_modality("sam(s00,s01)").threshold({}), 0.05);
 }

@@ -56,15 +56,26 @@ void check_merge_options(const convert_options& o) {
 }
 
 /// --merge-channels: each other channel's fields onto the input's points.
-ced::point_cloud merge_into(const ced::point_cloud& c, const convert_options& o) {
+ced::point_cloud merge_into(const ced::point_cloud& c, const convert_options& o, const ced::io::read_report& input) {
   ced::channel_merge_options m;
   m.fields = o.merge_fields;
   m.when_missing =
       o.merge_missing == "nan" ? ced::channel_merge_options::missing::nan : ced::channel_merge_options::missing::drop;
   std::vector<ced::point_cloud> clouds;
   clouds.reserve(o.merge_channels.size());
-  for (const std::string& path : o.merge_channels)
-    clouds.push_back(ced::io::read_cloud(path, make_read_options("auto", "")));
+  // The channels must share the input's coordinate system (LAS: its
+  // projection VLRs, byte for byte); other formats carry none.
+  const std::string crs = input.las ? input.las->coordinate_system : std::string();
+  for (const std::string& path : o.merge_channels) {
+    ced::io::read_report report;
+    clouds.push_back(ced::io::read_cloud(path, make_read_options("auto", ""), &report));
+    const std::string other = report.las ? report.las->coordinate_system : std::string();
+    if (other != crs)
+      throw std::invalid_argument("--merge-channels: " + path + " is in coordinate system '" +
+                                  ced::io::coordinate_system_name(other) + "', the input " + o.input + " in '" +
+                                  ced::io::coordinate_system_name(crs) +
+                                  "': channels are merged by position, so reproject them into one system first");
+  }
   std::vector<ced::named_channel> others;
   for (std::size_t k = 0; k < clouds.size(); ++k) others.push_back({channel_name(o.merge_channels[k]), &clouds[k]});
   if (o.merge_radius == "auto") {
@@ -128,7 +139,7 @@ int run_convert(const convert_options& o) {
   ced::io::read_report report;
   ced::point_cloud c = ced::io::read_cloud(o.input, make_read_options(o.format, o.columns), &report);
   warn_float_precision(c, o.input);
-  if (!o.merge_channels.empty()) c = merge_into(c, o);
+  if (!o.merge_channels.empty()) c = merge_into(c, o, report);
   if (report.las && (!report.las->other_vlrs.empty() || report.las->extended_vlrs > 0)) {
     // What no writer carries over (a coordinate system among them) is said, not lost in silence.
     std::string what;

@@ -181,8 +181,10 @@ point_cloud empty_cloud(const tile_plan& p, std::size_t n) { return cloud_with(p
 point_cloud probe_cloud(const tile_plan& p) {
   point_cloud c = empty_cloud(p, 1);
   const auto none = std::make_shared<const std::vector<double>>();
-  for (field& f : c.fields())
+  for (field& f : c.fields()) {
+    f.values.set(0, 1);  // not all zero: sam refuses a spectrum of zeros
     if (!f.whole_sample) f.whole_sample = none;
+  }
   return c;
 }
 

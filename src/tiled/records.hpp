@@ -204,7 +204,8 @@ const char* decode_records(const char* p, std::size_t n, point_cloud& c, std::si
 point_cloud empty_cloud(const tile_plan& p, std::size_t n);
 /// empty_cloud(p, 1) for binding the modalities before the plan has its
 /// samples: a field without one gets an empty sample (a modality then finds
-/// its fields and checks its options, and computes nothing from them).
+/// its fields and checks its options, and computes nothing from them), and
+/// every field's value is 1 (no modality takes the point as degenerate).
 point_cloud probe_cloud(const tile_plan& p);
 /// The same with every field of the plan: the input's records.
 point_cloud record_cloud(const tile_plan& p, std::size_t n);

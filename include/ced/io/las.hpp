@@ -32,7 +32,17 @@ struct las_read_info {
   /// them over; and the count of extended VLRs (LAS 1.4), likewise.
   std::vector<std::string> other_vlrs;
   std::uint32_t extended_vlrs = 0;
+  /// The coordinate system's VLRs ('LASF_Projection' 2112, OGC WKT, and
+  /// 34735–34737, GeoTIFF keys), as "record id:" and their bytes, in file
+  /// order; empty when there are none (extended VLRs are not read). Two
+  /// files whose strings differ are taken to be in different systems.
+  std::string coordinate_system;
 };
+
+/// A name for las_read_info::coordinate_system in messages: the WKT's own
+/// name (its first quoted string, e.g. "NAD83 / Oregon GIC Lambert (ft)"),
+/// else "GeoTIFF keys #<hash of the keys>", else "none".
+std::string coordinate_system_name(const std::string& coordinate_system);
 
 /// Reads an uncompressed LAS file, versions 1.0 to 1.4, point data record
 /// formats 0 to 10.

@@ -56,6 +56,14 @@ struct bands {
   centroid_distance<0> bind(const point_cloud& cloud, const detect_params& params) const {
     if (names.empty()) throw std::invalid_argument("bands() needs at least one field name, e.g. bands(nir,red)");
     auto f = require_field_patterns(cloud, names, name());
+    if (range.how == range_policy::kind::natural)
+      for (const field* b : f)
+        if (is_integer(b->type()) != is_integer(f[0]->type()))
+          throw std::invalid_argument(
+              "modality '" + name() + "' mixes float and integer bands ('" + f[0]->name + "' " +
+              std::string(name_of(f[0]->type())) + ", '" + b->name + "' " + std::string(name_of(b->type())) +
+              "), which the default scaling puts on different scales (floats as they are, integers by their "
+              "type's range); give range=auto, zscore, quantile or LO..HI");
     std::vector<double> scale;
     for (const field* b : f) {
       const value_range r = resolve_range(*b, range);

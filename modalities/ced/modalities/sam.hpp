@@ -5,7 +5,10 @@
 //
 //     s_i = ∠(v_i, m_i) = 2 · atan( |u − w| / |u + w| ),  u = v_i/|v_i|, w = m_i/|m_i|
 //
-// in [0, π]; 0 when either spectrum is all zeros. The angle does not change
+// in [0, π]. A point whose bands are all zero has no direction: bind()
+// refuses it, naming the point, as it refuses bands of different types
+// (different units: the angle would mix them); a mean spectrum of zero
+// (bands with negative values that cancel) gives 0. The angle does not change
 // when a spectrum is scaled (illumination, gain between flight lines), which
 // the distance of `bands` does. Kahan's form of the angle stays accurate for
 // the small angles between neighbouring spectra, where acos loses them. The
@@ -105,7 +108,24 @@ struct sam {
     if (f.size() < 2)
       throw std::invalid_argument("modality '" + name() + "' reads " + std::to_string(f.size()) +
                                   " band: a spectral angle needs at least two");
-    return {interleave(f, params.threads), static_cast<std::uint32_t>(f.size())};
+    for (const field* b : f)
+      if (b->type() != f[0]->type())
+        throw std::invalid_argument("modality '" + name() + "' reads bands of different types ('" + f[0]->name + "' " +
+                                    std::string(name_of(f[0]->type())) + ", '" + b->name + "' " +
+                                    std::string(name_of(b->type())) +
+                                    "): a spectral angle needs every band in one unit; convert them to one type");
+    evaluator e{interleave(f, params.threads), static_cast<std::uint32_t>(f.size())};
+    const std::size_t d = f.size(), n = e.values.size() / d;
+    for (std::size_t i = 0; i < n; ++i) {
+      const float* v = e.values.data() + i * d;
+      bool zero = true;
+      for (std::size_t k = 0; k < d; ++k) zero = zero && v[k] == 0.0f;
+      if (zero)
+        throw std::invalid_argument("modality '" + name() + "': point " + std::to_string(i) +
+                                    " has every band 0, a spectrum with no direction, whose angle is undefined "
+                                    "(drop such points first, or use bands())");
+    }
+    return e;
   }
   static sam from_spec(modality_spec& s) {
     sam m;

@@ -155,7 +155,8 @@ las_header read_header(const unsigned char* d, std::size_t size, const std::stri
 /// header and the point data), placed after the standard fields and checked
 /// to fit in a point record; none without an extra-bytes VLR.
 std::vector<extra_desc> read_vlrs(const unsigned char* d, const las_header& h, const std::string& file, laz_layout* laz,
-                                  std::optional<copc_info>* copc, std::vector<std::string>* others) {
+                                  std::optional<copc_info>* copc, std::vector<std::string>* others,
+                                  std::string* coordinate_system) {
   std::vector<extra_desc> extras;
   bool have_laz = false;
   bool have_extras = false;
@@ -183,6 +184,13 @@ std::vector<extra_desc> read_vlrs(const unsigned char* d, const las_header& h, c
       const laz_layout l = parse_laszip_vlr(d + pos + k_vlr_header_size, len, h.format, h.record_length, file);
       if (laz) *laz = l;
       have_laz = true;
+    }
+    // The coordinate system: OGC WKT (2112) and GeoTIFF's keys (34735-34737), as stored.
+    if (coordinate_system && user_id == "LASF_Projection" &&
+        (record_id == 2112 || (record_id >= 34735 && record_id <= 34737))) {
+      *coordinate_system += std::to_string(record_id) + ":";
+      coordinate_system->append(reinterpret_cast<const char*>(d + pos + k_vlr_header_size), len);
+      *coordinate_system += '\n';
     }
     const bool known = (user_id == "LASF_Spec" && record_id == 4) || (user_id == "copc" && record_id == 1) ||
                        (user_id == "laszip encoded" && record_id == 22204);

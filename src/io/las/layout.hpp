@@ -289,7 +289,7 @@ void read_scale_and_offset(const unsigned char* d, las_header& h, const std::str
 las_header read_header(const unsigned char* d, std::size_t size, const std::string& file);
 std::vector<extra_desc> read_vlrs(const unsigned char* d, const las_header& h, const std::string& file,
                                   laz_layout* laz = nullptr, std::optional<copc_info>* copc = nullptr,
-                                  std::vector<std::string>* others = nullptr);
+                                  std::vector<std::string>* others = nullptr, std::string* coordinate_system = nullptr);
 void fill_info(las_read_info& info, const las_header& h, const unsigned char* d);
 std::array<double, 3> las_origin(const std::int32_t lo[3], const std::int32_t hi[3], const las_header& h);
 record_scan scan_records(const record_source& src, std::uint64_t n);

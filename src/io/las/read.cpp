@@ -287,11 +287,13 @@ point_cloud read_las_records(const unsigned char* d, const las_header& h, std::u
   laz_layout layout;
   std::optional<copc_info> copc;
   std::vector<std::string> others;
-  const std::vector<extra_desc> extras = read_vlrs(d, h, file, &layout, &copc, &others);
+  std::string crs;
+  const std::vector<extra_desc> extras = read_vlrs(d, h, file, &layout, &copc, &others, &crs);
   if (info) {
     fill_info(*info, h, d);
     info->copc = copc.has_value();
     info->other_vlrs = std::move(others);
+    info->coordinate_system = std::move(crs);
   }
   if (!h.compressed) return read_records(plain, h, extras, selection);
   const laz_points z = open_laz(h, layout, size, read, file);
@@ -327,6 +329,21 @@ point_cloud read_las_buffer(std::string_view bytes, const std::string& name, las
 
 point_cloud read_las(const std::string& path, las_read_info* info, const field_selection& fields) {
   return read_las_file(path, info, fields);
+}
+
+std::string coordinate_system_name(const std::string& coordinate_system) {
+  if (coordinate_system.empty()) return "none";
+  const std::size_t wkt = coordinate_system.find("2112:");
+  if (wkt != std::string::npos) {
+    const std::size_t a = coordinate_system.find('"', wkt);
+    const std::size_t b = a == std::string::npos ? a : coordinate_system.find('"', a + 1);
+    if (b != std::string::npos && b > a + 1 && b - a < 200) return coordinate_system.substr(a + 1, b - a - 1);
+  }
+  std::uint64_t h = 1469598103934665603ull;  // FNV-1a
+  for (const char c : coordinate_system) h = (h ^ static_cast<unsigned char>(c)) * 1099511628211ull;
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
+  return std::string(wkt != std::string::npos ? "WKT #" : "GeoTIFF keys #") + hex;
 }
 
 }  // namespace ced::io
