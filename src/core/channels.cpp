@@ -2,6 +2,7 @@
 #include "ced/channels.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -222,17 +223,16 @@ std::vector<float> interleave(const std::vector<const field*>& fields, unsigned 
   const std::size_t d = fields.size();
   if (d == 0) return {};
   const std::size_t n = fields[0]->values.size();
-  for (const field* f : fields) {
-    const std::size_t bad = first_unfit(f->values);
-    if (bad != n)
-      throw std::invalid_argument("field '" + f->name + "' has a value that is not finite or beyond the float range (" +
-                                  shortest(f->values[bad]) + ") at point " + std::to_string(bad));
-  }
   std::vector<float> out(n * d);
   // Points a few KiB of rows at a time, every field into them, so that the
-  // rows being written stay in cache however many fields there are.
+  // rows being written stay in cache however many fields there are. A value
+  // that is NaN, infinite or beyond the float range is a float whose
+  // exponent bits are all set: each tile's rows are tested while in cache,
+  // and only a failed test searches the fields for the message.
   const std::size_t tile = std::max<std::size_t>(16, 8192 / d);
+  std::atomic<bool> unfit{false};
   detail::parallel_for(n, threads, 1 << 15, [&](std::size_t b, std::size_t e) {
+    std::uint32_t bad = 0;
     for (std::size_t t0 = b; t0 < e; t0 += tile) {
       const std::size_t t1 = std::min(e, t0 + tile);
       for (std::size_t k = 0; k < d; ++k) {
@@ -241,8 +241,23 @@ std::vector<float> interleave(const std::vector<const field*>& fields, unsigned 
           for (std::size_t i = t0; i < t1; ++i) out[i * d + k] = static_cast<float>(static_cast<double>(v[i]));
         });
       }
+      const float* rows = out.data() + t0 * d;
+      for (std::size_t j = 0; j < (t1 - t0) * d; ++j) {
+        std::uint32_t bits;
+        std::memcpy(&bits, rows + j, sizeof bits);
+        bad |= static_cast<std::uint32_t>((bits & 0x7f800000u) == 0x7f800000u);
+      }
     }
+    if (bad) unfit = true;
   });
+  if (unfit)
+    for (const field* f : fields) {
+      const std::size_t at = first_unfit(f->values);
+      if (at != n)
+        throw std::invalid_argument("field '" + f->name +
+                                    "' has a value that is not finite or beyond the float range (" +
+                                    shortest(f->values[at]) + ") at point " + std::to_string(at));
+    }
   return out;
 }
 
