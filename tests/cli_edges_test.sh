@@ -466,5 +466,18 @@ check "merge across coordinate systems: no output" test ! -e "$T/m5.las"
 expect_exit 1 "'swir\*' matches no field of .*merged.las (its fields: .*intensity_ch2" "glob matches nothing" -- \
   detect "$T/merged.las" -r 2.5 -m 'bands(swir*):0.1' -q
 
+# --progress json: one JSON object a line, a stage's start, and the end; -q silences it; a bad mode is a usage error.
+"$CED" detect "$sample" --preset ced6d --progress json --indices "$T/prog.txt" 2> "$T/prog.err"
+check "progress json: the detecting stage with its points" grep -q '^{"event":"progress","stage":"detecting","fraction":0.0000,"elapsed_s":[0-9.]*,"points":[0-9]*,' "$T/prog.err"
+check "progress json: the end" grep -q '^{"event":"done","elapsed_s":[0-9.]*}$' "$T/prog.err"
+check "progress json: every line an object" test "$(grep -c '^{"event":"[a-z]*",.*}$' "$T/prog.err")" = "$(grep -c '^{' "$T/prog.err")"
+"$CED" detect "$sample" --preset ced6d --progress json -q --indices "$T/prog.txt" 2> "$T/prog_q.err"
+check "progress json under -q: nothing" test ! -s "$T/prog_q.err"
+expect_exit 2 "--progress" "progress bad mode" -- detect "$sample" --progress fancy --indices "$T/prog.txt"
+# A tiled run reports its passes.
+"$CED" detect "$sample" --preset ced6d --tile-size 0.7 --progress json --indices "$T/prog_t.txt" 2> "$T/prog_t.err"
+check "progress json: a tiled run's passes" grep -q '^{"event":"progress","stage":"[^"]*pass' "$T/prog_t.err"
+check "progress json: a tiled run's tiles" grep -q '^{"event":"tiles","done":[0-9]*,"tiles":[0-9]*,"tiles_elapsed_s":' "$T/prog_t.err"
+
 echo "cli_edges: $pass passed, $fail failed"
 [ "$fail" = 0 ]

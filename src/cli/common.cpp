@@ -120,32 +120,140 @@ void keep_freed_memory() noexcept {
 #endif
 }
 
-progress_bar::progress_bar(bool enabled) : m_enabled(enabled && isatty(STDERR_FILENO)) {}
+progress_bar::mode progress_bar::mode_of(const std::string& option, bool quiet) {
+  if (option != "auto" && option != "bar" && option != "lines" && option != "json" && option != "none")
+    throw usage_error("--progress must be auto, bar, lines, json or none, got '" + option + "'");
+  if (quiet || option == "none") return mode::none;
+  if (option == "bar") return mode::bar;
+  if (option == "lines") return mode::lines;
+  if (option == "json") return mode::json;
+  return isatty(STDERR_FILENO) ? mode::bar : mode::lines;
+}
 
-void progress_bar::stage(const std::string& name) {
-  if (!m_enabled) return;
+progress_bar::progress_bar(mode m) : m_mode(m), m_start(clock::now()), m_stage_start(m_start), m_last(m_start) {}
+
+void progress_bar::stage(const std::string& name, std::uint64_t points) {
+  if (m_mode == mode::none) return;
   std::lock_guard<std::mutex> lock(m_mutex);
   m_stage = name;
-  draw(0);
+  m_points = points;
+  m_stage_start = clock::now();
+  update(0, m_mode != mode::lines);
 }
 
 std::function<void(double)> progress_bar::callback() {
-  if (!m_enabled) return {};
+  if (m_mode == mode::none) return {};
   return [this](double f) {
     std::unique_lock<std::mutex> lock(m_mutex, std::try_to_lock);
-    if (lock) draw(f);
+    if (lock) update(f, false);
   };
 }
 
-void progress_bar::done() {
-  if (m_enabled && !m_stage.empty()) std::fprintf(stderr, "\r\033[K");
+void progress_bar::pause() {
+  std::lock_guard<std::mutex> lock(m_mutex);
+  if (m_mode == mode::bar && !m_stage.empty()) {
+    std::fprintf(stderr, "\r\033[K");
+    std::fflush(stderr);
+  }
   m_stage.clear();
 }
 
-void progress_bar::draw(double f) {
-  const int width = 30, filled = static_cast<int>(std::clamp(f, 0.0, 1.0) * width);
-  std::fprintf(stderr, "\r\033[Kced: %-10s [%s%s] %3d%%", m_stage.c_str(), std::string(filled, '#').c_str(),
-               std::string(width - filled, ' ').c_str(), static_cast<int>(f * 100));
+void progress_bar::tiles(std::size_t done, std::size_t total, double ms) {
+  if (m_mode == mode::none) return;
+  std::lock_guard<std::mutex> lock(m_mutex);
+  const double left = done ? ms / double(done) * double(total - done) : 0;
+  if (m_mode == mode::json) {
+    if (done < total && ms - m_last_tiles_ms < 1000) return;
+    m_last_tiles_ms = ms;
+    std::fprintf(stderr, "{\"event\":\"tiles\",\"done\":%zu,\"tiles\":%zu,\"tiles_elapsed_s\":%.3f,\"eta_s\":%.1f}\n",
+                 done, total, ms / 1000, left / 1000);
+    std::fflush(stderr);
+    return;
+  }
+  // About twenty lines a run, and one at least every ten seconds.
+  if (done < total && done % std::max<std::size_t>(1, total / 20) != 0 && ms - m_last_tiles_ms < 10000) return;
+  m_last_tiles_ms = ms;
+  if (m_mode == mode::bar && !m_stage.empty()) std::fprintf(stderr, "\r\033[K");
+  m_stage.clear();
+  std::fprintf(stderr, "ced: tile %zu/%zu done; %.1f s elapsed, about %.0f s left\n", done, total, ms / 1000,
+               left / 1000);
+  std::fflush(stderr);
+}
+
+void progress_bar::done() {
+  std::lock_guard<std::mutex> lock(m_mutex);
+  if (m_mode == mode::bar && !m_stage.empty()) std::fprintf(stderr, "\r\033[K");
+  if (m_mode == mode::json && !m_finished)
+    std::fprintf(stderr, "{\"event\":\"done\",\"elapsed_s\":%.3f}\n",
+                 std::chrono::duration<double>(clock::now() - m_start).count());
+  m_finished = true;
+  std::fflush(stderr);
+  m_stage.clear();
+}
+
+namespace {
+/// 4200000 as "4.20 M", 950 as "950".
+std::string short_count(double v) {
+  char buf[32];
+  if (v >= 1e9)
+    std::snprintf(buf, sizeof buf, "%.2f G", v / 1e9);
+  else if (v >= 1e6)
+    std::snprintf(buf, sizeof buf, "%.2f M", v / 1e6);
+  else if (v >= 1e4)
+    std::snprintf(buf, sizeof buf, "%.1f k", v / 1e3);
+  else
+    std::snprintf(buf, sizeof buf, "%.0f", v);
+  return buf;
+}
+}  // namespace
+
+void progress_bar::update(double f, bool forced) {
+  f = std::clamp(f, 0.0, 1.0);
+  const clock::time_point now = clock::now();
+  const double since_last = std::chrono::duration<double>(now - m_last).count();
+  const double every = m_mode == mode::bar ? 0.1 : m_mode == mode::json ? 1.0 : 5.0;
+  if (!forced && since_last < every && !(m_mode == mode::bar && !m_printed)) return;
+  m_last = now;
+  m_printed = true;
+  const double elapsed = std::chrono::duration<double>(now - m_stage_start).count();
+  const double total = std::chrono::duration<double>(now - m_start).count();
+  const double done_points = f * double(m_points);
+  const double rate = elapsed > 0 ? done_points / elapsed : 0;
+  // The time left, from this stage's pace so far (once it has some).
+  const double left = f >= 0.01 && f < 1 ? elapsed * (1 - f) / f : -1;
+  if (m_mode == mode::json) {
+    std::fprintf(stderr, "{\"event\":\"progress\",\"stage\":\"%s\",\"fraction\":%.4f,\"elapsed_s\":%.3f",
+                 m_stage.c_str(), f, total);
+    if (m_points > 0)
+      std::fprintf(stderr, ",\"points\":%llu,\"points_done\":%.0f,\"points_per_s\":%.0f",
+                   static_cast<unsigned long long>(m_points), done_points, rate);
+    if (left >= 0) std::fprintf(stderr, ",\"eta_s\":%.1f", left);
+    std::fprintf(stderr, "}\n");
+    std::fflush(stderr);
+    return;
+  }
+  std::string text;
+  char buf[160];
+  if (m_mode == mode::bar) {
+    const int width = 20, filled = static_cast<int>(f * width);
+    text = "\r\033[Kced: " + m_stage + " [" + std::string(filled, '#') + std::string(width - filled, ' ') + "]";
+  } else {
+    text = "ced: " + m_stage;
+  }
+  std::snprintf(buf, sizeof buf, " %3d%%", static_cast<int>(f * 100));
+  text += buf;
+  if (m_points > 0)
+    text += ", " + short_count(done_points) + " of " + short_count(double(m_points)) + " points, " + short_count(rate) +
+            " points/s";
+  if (left >= 0) {
+    std::snprintf(buf, sizeof buf, ", %.0f s left", std::ceil(left));
+    text += buf;
+  }
+  if (m_mode == mode::lines) {
+    std::snprintf(buf, sizeof buf, " (%.0f s in)\n", total);
+    text += buf;
+  }
+  std::fputs(text.c_str(), stderr);
   std::fflush(stderr);
 }
 

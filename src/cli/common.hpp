@@ -4,7 +4,9 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <chrono>
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <iosfwd>
 #include <mutex>
@@ -114,19 +116,41 @@ void warn_float_precision(const ced::point_cloud& cloud, const std::string& inpu
 /// once. A no-op elsewhere than glibc.
 void keep_freed_memory() noexcept;
 
-/// A one-line progress bar on stderr, only when stderr is a terminal.
+/// Progress of a long run on stderr (--progress): `bar`, one line redrawn
+/// in place with the stage, its share done, the points done and their rate,
+/// and the time left; `lines`, the same as a line of its own every 5 s (a
+/// log, a batch job); `json`, one JSON object a line when a stage starts,
+/// at most every second, and at the end; `none`. `auto` (the default) is
+/// `bar` on a terminal and `lines` elsewhere; -q is `none`. A run shorter
+/// than 5 s prints nothing under `lines`.
 class progress_bar {
  public:
-  explicit progress_bar(bool enabled);
+  enum class mode { none, bar, lines, json };
+  /// The mode of --progress `option` ("auto", "bar", "lines", "json",
+  /// "none") and -q; usage_error for another option.
+  static mode mode_of(const std::string& option, bool quiet);
+  explicit progress_bar(mode m);
   ~progress_bar() { done(); }
-  void stage(const std::string& name);
+  /// A new stage; `points`, when known, the points it goes through.
+  void stage(const std::string& name, std::uint64_t points = 0);
   std::function<void(double)> callback();
+  /// Clears the bar's line before other output (the run goes on).
+  void pause();
+  /// A tiled run's tiles: `done` of `total` after `ms`: a line (about twenty
+  /// a run, one at least every ten seconds), or a JSON "tiles" event.
+  void tiles(std::size_t done, std::size_t total, double ms);
+  /// The end: clears the bar; json: the "done" event.
   void done();
 
  private:
-  void draw(double f);
-  bool m_enabled;
+  using clock = std::chrono::steady_clock;
+  void update(double f, bool forced);
+  mode m_mode;
   std::string m_stage;
+  std::uint64_t m_points = 0;
+  clock::time_point m_start, m_stage_start, m_last;
+  bool m_printed = false, m_finished = false;
+  double m_last_tiles_ms = -1e9;
   std::mutex m_mutex;
 };
 

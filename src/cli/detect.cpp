@@ -240,11 +240,11 @@ int run_detect(const detect_options& o) {
   if (wants_tiles(o)) return run_detect_tiled(o);
   detect_plan plan = make_plan(o);
   detect_outputs out(o, input_paths(o));
-  progress_bar progress(!o.quiet);
+  progress_bar progress(progress_bar::mode_of(o.progress, o.quiet));
   const detect_input in = read_input(o, plan.read_opts, progress);
   complete_plan(o, in.cloud, plan);
 
-  progress.stage("detecting");
+  progress.stage("detecting", in.cloud.size());
   plan.params.progress = progress.callback();
   const ced::detection_result r =
       naming_file_fields(o, plan, [&] { return ced::detect(in.cloud, plan.params, plan.modalities); });
@@ -303,6 +303,10 @@ void add_detector_options(CLI::App* cmd, detect_options& o, const std::string& r
   cmd->add_option("--max-keypoints", o.max_keypoints,
                   "Keep at most N keypoints: the highest scores (product of saliencies), ties to the smaller index "
                   "(default 0: no limit)");
+  cmd->add_option("--progress", o.progress,
+                  "Progress on stderr: bar (one line redrawn), lines (a line every five seconds), json (JSON lines: at each "
+                  "stage, every second, at the end) or none; default auto: bar on a terminal, else lines; -q: none")
+      ->check(CLI::IsMember({"auto", "bar", "lines", "json", "none"}));
   cmd->add_option("--keypoint-share", o.keypoint_share,
                   "Keep at most this share of the candidate points as keypoints, the strongest, as --max-keypoints "
                   "ranks them (0 to 1; 0: no limit; robust3d, robust6d: 0.01): holds the count steady under noise");

@@ -39,6 +39,7 @@ struct detect_options {
   bool png_top = false;
   bool refine = false, no_refine = false;  // default: the preset's (robust3d/6d refine)
   bool quiet = false;
+  std::string progress = "auto";  // --progress: auto, bar, lines, json, none
   // Tiles (tiled_commands.cpp): one process with a tile cache, or one tile of a plan.
   std::string tile_size, memory_limit, work_dir, plan;
   bool resume = false;

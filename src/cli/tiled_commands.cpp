@@ -296,26 +296,16 @@ int run_detect_tiled(const detect_options& o) {
   const auto t_start = clock_type::now();
   ced::tiled_run_options& ro = s.run;
   ro.threads = plan.params.threads;
-  progress_bar bar(!o.quiet);
+  progress_bar bar(progress_bar::mode_of(o.progress, o.quiet));
   ro.progress = bar_progress(bar);
   ro.planned = [&](const ced::tile_plan& p) {
-    bar.done();
+    bar.pause();
     report_plan(p, o.quiet, /*grows_reach=*/true);
   };
-  double last_print = -1e9;
-  ro.tile_done = [&](std::size_t done, std::size_t total, double ms) {
-    // About twenty lines a run, and one at least every ten seconds.
-    if (o.quiet || (done < total && done % std::max<std::size_t>(1, total / 20) != 0 && ms - last_print < 10000))
-      return;
-    last_print = ms;
-    bar.done();
-    const double left = done ? ms / double(done) * double(total - done) : 0;
-    std::fprintf(stderr, "ced: tile %zu/%zu done; %.1f s elapsed, about %.0f s left\n", done, total, ms / 1000,
-                 left / 1000);
-  };
+  ro.tile_done = [&](std::size_t done, std::size_t total, double ms) { bar.tiles(done, total, ms); };
   ro.reach_grown = [&, say = reach_grown_report("ced", o.quiet)](double tried, double needed, double next,
                                                                  std::size_t tiles) {
-    bar.done();
+    bar.pause();
     say(tried, needed, next, tiles);
   };
   ced::tile_plan p;
@@ -435,7 +425,7 @@ command add_plan_command(CLI::App& app) {
             if (!wants_tiles(*o)) throw usage_error("give --tile-size or --memory-limit");
             check_paths(input_paths(*o), {{"-o", *plan_path}});
             ced::io::atomic_output_file out(*plan_path);
-            progress_bar bar(!o->quiet);
+            progress_bar bar(progress_bar::mode_of(o->progress, o->quiet));
             const ced::tile_plan p = ced::plan_tiles(r, bar_progress(bar));
             bar.done();
             out.stream() << p.to_json();
