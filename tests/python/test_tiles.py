@@ -152,3 +152,24 @@ def test_dask_example(las, tmp_path):
     assert f"{len(whole.keypoints)} keypoints" in out
     assert (tmp_path / "kp.txt").read_text().split() == [str(k) for k in whole.keypoints]
     assert len(ced.read(str(tmp_path / "kp.ply"))) == len(whole.keypoints)
+
+
+def test_whole_cloud_statistics_give_the_whole_result_in_tiles(tmp_path):
+    """range=zscore, quantile and pca= are taken from the whole cloud's sample, which the plan gathers and
+    pickles with itself: every tile gets the whole cloud's statistics. 30,000 points: more than the sample."""
+    rng = np.random.default_rng(11)
+    n = 30000
+    pts = (rng.random((n, 3)) * [1.5, 1.5, 0.02]).astype(np.float32)
+    x, y = pts[:, 0].astype(np.float64), pts[:, 1].astype(np.float64)
+    block = np.stack([1000 * np.sin(9 * x), 5 + np.cos(7 * y), 0.01 * np.sin(5 * (x + y)), 200 + 40 * np.sin(11 * x * y)],
+                     axis=1) + rng.normal(0, 0.05, (n, 4)) * [1000, 1, 0.01, 40]
+    path = str(tmp_path / "bands.ply")
+    ced.write(path, pts, {"hyper": block.astype(np.float32)})
+    for spec in ["bands(hyper_*):0.3,range=zscore", "bands(hyper_*):0.2,range=quantile",
+                 "bands(hyper_*):0.1,range=zscore,norm=l2,pca=2"]:
+        mods = ["xyz:0.2", spec]
+        whole = ced.detect(ced.read(path), modalities=mods, radius=0.05)
+        assert len(whole.keypoints) > 20, spec
+        plan = pickle.loads(pickle.dumps(ced.plan_tiles(path, tile_size=0.5, modalities=mods, radius=0.05)))
+        merged = ced.merge_parts(plan, [ced.detect_tile(plan, t) for t, _, _ in plan.tiles])
+        assert np.array_equal(merged.keypoints, np.asarray(whole.keypoints, dtype=np.uint64)), spec
