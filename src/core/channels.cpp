@@ -227,8 +227,9 @@ std::vector<float> interleave(const std::vector<const field*>& fields, unsigned 
   // Points a few KiB of rows at a time, every field into them, so that the
   // rows being written stay in cache however many fields there are. A value
   // that is NaN, infinite or beyond the float range is a float whose
-  // exponent bits are all set: each tile's rows are tested while in cache,
-  // and only a failed test searches the fields for the message.
+  // exponent bits are all set, or ±FLT_MAX: each tile's rows are tested while
+  // in cache, and only a failed test searches the fields (which also finds
+  // whether a FLT_MAX was a value beyond it) for the message.
   const std::size_t tile = std::max<std::size_t>(16, 8192 / d);
   std::atomic<bool> unfit{false};
   detail::parallel_for(n, threads, 1 << 15, [&](std::size_t b, std::size_t e) {
@@ -245,7 +246,10 @@ std::vector<float> interleave(const std::vector<const field*>& fields, unsigned 
       for (std::size_t j = 0; j < (t1 - t0) * d; ++j) {
         std::uint32_t bits;
         std::memcpy(&bits, rows + j, sizeof bits);
-        bad |= static_cast<std::uint32_t>((bits & 0x7f800000u) == 0x7f800000u);
+        // Also ±FLT_MAX, which a double just beyond the range rounds to:
+        // the search below tells the two apart.
+        bad |= static_cast<std::uint32_t>((bits & 0x7f800000u) == 0x7f800000u) |
+               static_cast<std::uint32_t>((bits & 0x7fffffffu) == 0x7f7fffffu);
       }
     }
     if (bad) unfit = true;
