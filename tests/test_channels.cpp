@@ -384,16 +384,22 @@ TEST(Channels, BandRangesAndGlobs) {
   const auto backwards = invalid_argument_of(
       [&] { ced::detect(c, p, std::vector<ced::any_modality>{ced::make_modality("bands(b11..b00)")}); });
   EXPECT_NE(backwards.find("runs backwards"), std::string::npos) << backwards;
-  // Float and integer bands under the default scaling: an error naming both
-  // and the ranges that put them on one scale, which then work.
+  // Integer bands (scaled by their type's range) beside float bands that are
+  // not in [0, 1] (taken as they are): an error naming the float band, its
+  // values and the ranges that give both one scale, which then work. Float
+  // bands already in [0, 1] mix as documented.
   auto mixed = c;
-  mixed.add_field("refl", ced::scalar_type::float32, std::vector<double>(mixed.size(), 0.25));
+  std::vector<double> dn(mixed.size(), 250.0), refl(mixed.size(), 0.25);
+  dn[7] = 4000.0;
+  mixed.add_field("dn", ced::scalar_type::float32, dn);
+  mixed.add_field("refl", ced::scalar_type::float32, refl);
   const auto mix = invalid_argument_of(
-      [&] { ced::detect(mixed, p, std::vector<ced::any_modality>{ced::make_modality("bands(b00,refl)")}); });
-  EXPECT_NE(mix.find("mixes float and integer bands ('b00' uint16, 'refl' float32)"), std::string::npos) << mix;
+      [&] { ced::detect(mixed, p, std::vector<ced::any_modality>{ced::make_modality("bands(b00,dn)")}); });
+  EXPECT_NE(mix.find("with float band 'dn' (float32, 250 .. 4000)"), std::string::npos) << mix;
   EXPECT_NE(mix.find("range=auto"), std::string::npos) << mix;
   EXPECT_NO_THROW(
-      ced::detect(mixed, p, std::vector<ced::any_modality>{ced::make_modality("bands(b00,refl),range=auto")}));
+      ced::detect(mixed, p, std::vector<ced::any_modality>{ced::make_modality("bands(b00,dn),range=auto")}));
+  EXPECT_NO_THROW(ced::detect(mixed, p, std::vector<ced::any_modality>{ced::make_modality("bands(b00,refl)")}));
 }
 
 // Past 16 channels the pass sums whole rows of channels (one float sum a
