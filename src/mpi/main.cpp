@@ -203,6 +203,8 @@ int run_mpi(const detect_options& o, mpi::communicator& world) {
   if (!root) return work(o, world, r, threads);
 
   ced::tile_plan plan = ced::tile_plan::from_json(r.plan_json, r.work_dir + "/plan.json");
+  progress_bar bar(progress_bar::mode_of(o.progress, o.quiet));  // the tiles' progress, as ced detect's
+  const auto t_tiles = clock_type::now();
   std::size_t total = 0;
   for (;;) {
     // The queue, largest tiles first (their cost grows with density).
@@ -212,11 +214,7 @@ int run_mpi(const detect_options& o, mpi::communicator& world) {
     total = queue.size();
     ced::reach_shortfall shortfall;
     share_tiles(
-        world, plan, queue, r.work_dir, threads,
-        [&](std::size_t d) {
-          if (o.quiet || (d < total && d % std::max<std::size_t>(1, total / 20) != 0)) return;
-          std::fprintf(stderr, "ced-mpi: tile %zu/%zu done; %.1f s elapsed\n", d, total, ms_since(t_start) / 1000);
-        },
+        world, plan, queue, r.work_dir, threads, [&](std::size_t d) { bar.tiles(d, total, ms_since(t_tiles)); },
         shortfall);
     // A reach of ced's own that proved short: the next round detects the
     // short tiles with a longer one (the others keep their parts).
@@ -233,6 +231,7 @@ int run_mpi(const detect_options& o, mpi::communicator& world) {
   const ced::tile_part totals = ced::finish_tiled(plan, r.work_dir, &sink, /*keep_work_dir=*/true);
   writer.finish(plan, totals, ms_since(t_start));
   ced::remove_work_dir(r.work_dir);  // ced's own files only, once the outputs are committed
+  bar.done();
   if (!o.quiet)
     std::fprintf(stderr, "ced-mpi: %llu keypoints; %zu tiles on %d rank(s), %u thread(s) each; total %.1f ms\n",
                  static_cast<unsigned long long>(writer.keypoints()), total, world.size(), threads, ms_since(t_start));
