@@ -112,8 +112,7 @@ class centroid_distance {
         for (std::uint32_t j : nb) acc += static_cast<double>(values[dims * j + d] - vi[d]);
         r[d % 4] = combine(r[d % 4], acc * inv_n * m_scale[d]);
       }
-      const double result = m_norm == norm_type::linf ? std::max(std::max(r[0], r[1]), std::max(r[2], r[3]))
-                                                      : (r[0] + r[1]) + (r[2] + r[3]);
+      const double result = join_chains(r, m_norm);
       return static_cast<float>(m_norm == norm_type::l2 ? std::sqrt(result) : result);
     }
   }
@@ -142,6 +141,12 @@ class centroid_distance {
     }
     return so_far;
   }
+  /// The norm's four chains of many bands (band d in chain d mod 4) as one
+  /// value, in a fixed order.
+  static double join_chains(const double (&r)[4], norm_type norm) noexcept {
+    return norm == norm_type::linf ? std::max(std::max(r[0], r[1]), std::max(r[2], r[3]))
+                                   : (r[0] + r[1]) + (r[2] + r[3]);
+  }
   template <norm_type N>
   float finish(const double* acc, std::size_t dims, double inv_n) const noexcept {
     double result = 0;
@@ -156,8 +161,7 @@ class centroid_distance {
       for (; d + 4 <= dims; d += 4)
         for (std::size_t c = 0; c < 4; ++c) r[c] = combine<N>(r[c], acc[d + c] * inv_n * m_scale[d + c]);
       for (; d < dims; ++d) r[d % 4] = combine<N>(r[d % 4], acc[d] * inv_n * m_scale[d]);
-      result =
-          N == norm_type::linf ? std::max(std::max(r[0], r[1]), std::max(r[2], r[3])) : (r[0] + r[1]) + (r[2] + r[3]);
+      result = join_chains(r, N);
     }
     return static_cast<float>(N == norm_type::l2 ? std::sqrt(result) : result);
   }

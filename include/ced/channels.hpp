@@ -64,6 +64,11 @@ std::vector<double> field_sample(const field& f);
 /// both of the whole cloud's sample (field_sample()).
 value_range resolve_range(const field& f, const range_policy& policy);
 
+/// The min and max of f's values: f.whole_range when it is set (a tile of a
+/// larger cloud), else over its values; {0, 0} when it has none. (range=auto
+/// is this, with a degenerate range widened to [lo, lo+1].)
+value_range data_range(const field& f);
+
 /// True when `f` is a 16-bit integer field whose values all lie in [0, 255]
 /// (its whole_range when set, as in a tile): 8-bit data stored in 16 bits,
 /// common in LAS files, which rgb and intensity then scale by 255.

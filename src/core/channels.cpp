@@ -34,21 +34,7 @@ std::optional<value_range> narrow_integer_range(const field& f) {
   const scalar_type t = f.type();
   if (t != scalar_type::int32 && t != scalar_type::uint32 && t != scalar_type::int64 && t != scalar_type::uint64)
     return std::nullopt;
-  double lo = 0, hi = 0;
-  if (f.whole_range) {
-    lo = f.whole_range->lo;
-    hi = f.whole_range->hi;
-  } else if (f.values.size() > 0) {
-    f.values.visit([&](const auto* v, std::size_t n) {
-      auto mn = v[0], mx = v[0];
-      for (std::size_t i = 1; i < n; ++i) {
-        mn = std::min(mn, v[i]);
-        mx = std::max(mx, v[i]);
-      }
-      lo = double(mn);
-      hi = double(mx);
-    });
-  }
+  const auto [lo, hi] = data_range(f);
   if (lo < 0) return std::nullopt;
   if (hi <= 255) return value_range{0.0, 255.0};
   if (hi <= 65535) return value_range{0.0, 65535.0};
@@ -107,6 +93,20 @@ std::vector<double> field_sample(const field& f) {
   return out;
 }
 
+value_range data_range(const field& f) {
+  if (f.whole_range) return *f.whole_range;
+  if (f.values.empty()) return {0.0, 0.0};
+  value_range r{f.values[0], f.values[0]};
+  f.values.visit([&](const auto* p, std::size_t n) {
+    for (std::size_t i = 0; i < n; ++i) {
+      const double v = static_cast<double>(p[i]);
+      r.lo = std::min(r.lo, v);
+      r.hi = std::max(r.hi, v);
+    }
+  });
+  return r;
+}
+
 value_range resolve_range(const field& f, const range_policy& policy) {
   switch (policy.how) {
     case range_policy::kind::fixed:
@@ -116,21 +116,9 @@ value_range resolve_range(const field& f, const range_policy& policy) {
       return {r[0], r[1]};
     }
     case range_policy::kind::data: {
-      if (f.whole_range) {
-        const value_range w = *f.whole_range;
-        return {w.lo, w.hi > w.lo ? w.hi : w.lo + 1.0};
-      }
-      if (f.values.empty()) return {0.0, 1.0};
-      double lo = f.values[0], hi = f.values[0];
-      f.values.visit([&](const auto* p, std::size_t n) {
-        for (std::size_t i = 0; i < n; ++i) {
-          const double v = static_cast<double>(p[i]);
-          lo = std::min(lo, v);
-          hi = std::max(hi, v);
-        }
-      });
-      if (!(hi > lo)) hi = lo + 1.0;
-      return {lo, hi};
+      value_range r = data_range(f);
+      if (!(r.hi > r.lo)) r.hi = r.lo + 1.0;
+      return r;
     }
     case range_policy::kind::zscore:
     case range_policy::kind::percentiles: {

@@ -60,31 +60,22 @@ struct bands {
     auto f = require_field_patterns(cloud, names, name());
     // The default scaling takes integers by their type's range and floats as
     // already in [0, 1]: float bands beside integer ones must be so.
-    if (range.how == range_policy::kind::natural)
-      for (const field* b : f)
-        if (!is_integer(b->type()) &&
-            std::any_of(f.begin(), f.end(), [](const field* x) { return is_integer(x->type()); })) {
-          value_range r{0, 0};
-          if (b->whole_range) {
-            r = *b->whole_range;
-          } else if (!b->values.empty()) {
-            r = {b->values[0], b->values[0]};
-            for (std::size_t i = 1; i < b->values.size(); ++i) {
-              r.lo = std::min(r.lo, b->values[i]);
-              r.hi = std::max(r.hi, b->values[i]);
-            }
-          }
-          if (r.lo < 0 || r.hi > 1) {
-            char span[64];
-            std::snprintf(span, sizeof span, "%g .. %g", r.lo, r.hi);
-            throw std::invalid_argument("modality '" + name() +
-                                        "' mixes integer bands, scaled to [0, 1] by their type's range, with float "
-                                        "band '" +
-                                        b->name + "' (" + std::string(name_of(b->type())) + ", " + span +
-                                        "), taken as already in [0, 1]: give them one scale with range=auto, zscore, "
-                                        "quantile or LO..HI");
-          }
+    if (range.how == range_policy::kind::natural &&
+        std::any_of(f.begin(), f.end(), [](const field* x) { return is_integer(x->type()); }))
+      for (const field* b : f) {
+        if (is_integer(b->type())) continue;
+        const value_range r = data_range(*b);
+        if (r.lo < 0 || r.hi > 1) {
+          char span[64];
+          std::snprintf(span, sizeof span, "%g .. %g", r.lo, r.hi);
+          throw std::invalid_argument("modality '" + name() +
+                                      "' mixes integer bands, scaled to [0, 1] by their type's range, with float "
+                                      "band '" +
+                                      b->name + "' (" + std::string(name_of(b->type())) + ", " + span +
+                                      "), taken as already in [0, 1]: give them one scale with range=auto, zscore, "
+                                      "quantile or LO..HI");
         }
+      }
     std::vector<double> scale;
     for (const field* b : f) {
       const value_range r = resolve_range(*b, range);
