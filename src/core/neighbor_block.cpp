@@ -79,6 +79,10 @@ void neighbor_block::set_channels(const std::vector<channel_source>& sources) {
     }
   }
   m_sum_stride = 3 + m_channels;
+  m_row_sources.clear();
+  for (std::size_t s = 0; s < sources.size(); ++s)
+    if (!sources[s].positions && sources[s].values && sources[s].dims != 0)
+      m_row_sources.push_back({sources[s].values, sources[s].dims, m_slot_offset[s]});
   if (m_moments && m_channels != 0) throw std::logic_error("neighbor_block: moments are summed only with no channels");
   if (m_moments) m_sum_stride = 9;
 }
@@ -171,40 +175,9 @@ void neighbor_block::sort_into_cells(const float lo[3], const float hi[3], doubl
 /// block points' own values; returns the distance between channels.
 std::size_t neighbor_block::copy_channels_in(const std::uint32_t* points, std::size_t count) {
   const std::size_t g = m_raw.size();
-  if (m_channels > detail::max_register_channels) {
-    // Many channels: one row a gathered point (the kernel adds whole rows
-    // of its neighbours), zero past the channels, each less the block's
-    // first point's value as below.
-    const std::size_t w = (m_channels + detail::rows_chunk - 1) / detail::rows_chunk * detail::rows_chunk;
-    grow(m_channel_values, (g + 8) * w);
-    grow(m_own, m_channels * count);
-    float* const rows = m_channel_values.data();
-    for (std::size_t t = 0; t < g; ++t) std::fill(rows + t * w + m_channels, rows + (t + 1) * w, 0.0f);
-    std::size_t base = 0;
-    for (const channel_source& s : m_sources) {
-      if (s.positions || !s.values) continue;
-      const std::size_t dims = s.dims;
-      const float* const first = s.values + dims * points[0];
-      // The gathered points' rows lie anywhere in the source: ask for the
-      // rows a few points ahead while this one is copied.
-      constexpr std::size_t ahead = 6;
-      for (std::size_t t = 0; t < g; ++t) {
-        if (t + ahead < g) {
-          const char* next = reinterpret_cast<const char*>(s.values + dims * m_gathered[t + ahead]);
-          for (std::size_t b = 0; b < dims * sizeof(float); b += 64) __builtin_prefetch(next + b);
-        }
-        const float* v = s.values + dims * m_gathered[t];
-        float* dst = rows + t * w + base;
-        for (std::size_t d = 0; d < dims; ++d) dst[d] = v[d] - first[d];
-      }
-      for (std::size_t k = 0; k < count; ++k) {
-        const float* v = s.values + dims * points[k];
-        for (std::size_t d = 0; d < dims; ++d) m_own[m_channels * k + base + d] = v[d] - first[d];
-      }
-      base += dims;
-    }
-    return w;
-  }
+  // Many channels: the kernel reads the neighbours' rows where they lie
+  // (set_channels listed them), nothing to copy.
+  if (m_channels > detail::max_register_channels) return 0;
   // Gathered channels as structure of arrays, 8 floats of zero padding at
   // the end (the kernel reads whole groups of 8).
   const std::size_t stride =
@@ -389,9 +362,23 @@ void neighbor_block::run(const std::uint32_t* points, std::size_t count, double 
     grow(m_places, 8 * std::size_t(most) + 8);
     row_scratch = m_places.data();
   }
-  const detail::block_kernel_input in{
-      m_gx.data(),     m_gy.data(),  m_gz.data(),     m_channel_values.data(), stride,    m_channels, count,
-      m_centre.data(), m_own.data(), m_ranges.data(), squared_radius(r),       m_moments, row_scratch};
+  const detail::block_kernel_input in{m_gx.data(),
+                                      m_gy.data(),
+                                      m_gz.data(),
+                                      m_channel_values.data(),
+                                      stride,
+                                      m_channels,
+                                      count,
+                                      m_centre.data(),
+                                      m_own.data(),
+                                      m_ranges.data(),
+                                      squared_radius(r),
+                                      m_moments,
+                                      row_scratch,
+                                      m_row_sources.data(),
+                                      m_row_sources.size(),
+                                      m_gathered.data(),
+                                      points};
   m_r2 = squared_radius(r);
   if (m_keep_distances) return;  // ball() sweeps a point at a time
   const detail::block_kernel_output out{m_counts.data(), m_sums.data(), bits ? m_bits.data() : nullptr};

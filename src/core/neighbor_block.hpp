@@ -11,6 +11,7 @@
 
 #include "ced/neighborhood.hpp"
 #include "core/block_partition.hpp"
+#include "core/kernel/block_kernel.hpp"
 #include "core/neighbor_index.hpp"
 #include "core/raw_vector.hpp"
 
@@ -59,7 +60,9 @@ class neighbor_block {
   /// Σ_{j ∈ N(i)} (v_j − v_i) for channel slot `slot` (sources[slot].dims
   /// values), accumulated in float over 8 fixed lanes and reduced in double
   /// (positions as p_j − p_i; other channels as v_j − ref for a per-block
-  /// reference, then n·(v_i − ref) taken off in double).
+  /// reference, then n·(v_i − ref) taken off in double; past 16 channels,
+  /// one float sum of v_j a channel in sweep order, then n·v_i taken off in
+  /// double).
   const double* sums(std::size_t k, std::size_t slot) const noexcept {
     return m_sums.data() + m_sum_stride * k + m_slot_offset[slot];
   }
@@ -143,7 +146,8 @@ class neighbor_block {
   std::vector<float> m_gx, m_gy, m_gz, m_channel_values, m_centre, m_own;
   // Per point: ranges, results, and the neighbour bits of its groups.
   std::vector<std::uint32_t> m_ranges, m_counts, m_bit_offsets;
-  std::vector<std::uint32_t> m_places;  // the kernel's row_scratch (many channels)
+  std::vector<std::uint32_t> m_places;                                // the kernel's row_scratch (many channels)
+  std::vector<detail::block_kernel_input::row_source> m_row_sources;  // (many channels)
   std::vector<double> m_sums;
   std::vector<std::uint8_t> m_bits;
   // Lists, built on demand.

@@ -45,13 +45,24 @@ struct block_kernel_input {
   float r2;
   /// Also sum the positions' second moments (only with channel_count 0).
   bool moments = false;
-  /// Non-null: the channels are laid out as rows, gathered point t's at
-  /// channels + t * stride (stride a multiple of rows_chunk, zero past
-  /// channel_count), for the any-count path (more than 16 channels), and
-  /// this is room for 8 × (the most groups a point tests) + 8 entries.
+  /// Non-null: the any-count path (more than 16 channels), which reads the
+  /// neighbours' rows where they lie (row_sources, not `channels`); this is
+  /// room for 8 × (the most groups a point tests) + 8 entries.
   std::uint32_t* row_scratch = nullptr;
+  /// (Any-count path.) The sources' rows: point i's `dims` values at
+  /// rows + i · dims, summed to sums[first_sum ..]; the gathered points'
+  /// indices into them (in sweep order) and the block's points'.
+  struct row_source {
+    const float* rows;
+    std::size_t dims;
+    std::size_t first_sum;
+  };
+  const row_source* row_sources = nullptr;
+  std::size_t row_source_count = 0;
+  const std::uint32_t* gathered_ids = nullptr;
+  const std::uint32_t* point_ids = nullptr;
 };
-/// The row layout's width is a multiple of this many floats.
+/// The any-count path sums this many channels at a time (AVX: twice as many).
 inline constexpr std::size_t rows_chunk = 32;
 /// Up to this many channels the pass sums them in registers (structure of
 /// arrays); past it, from rows (row_scratch).
@@ -61,8 +72,9 @@ struct block_kernel_output {
   /// Neighbours of each point within the radius (itself included).
   std::uint32_t* counts;
   /// Per point, 3 + channel_count sums of (v_j − v_i) over its neighbours:
-  /// positions first, then the channels. (Row layout: each channel's sum
-  /// is one float sum over the neighbours in sweep order; otherwise eight
+  /// positions first, then the channels. (Any-count path: each channel's
+  /// sum is one float sum of the values as they are over the neighbours in
+  /// sweep order, less n times the point's own in double; otherwise eight
   /// lanes' float sums reduced in double.) With input.moments, 9: the
   /// positions' sums, then Σ d dᵀ of d = p_j − p_i as (xx, yy, zz, xy, xz,
   /// yz), each product rounded to float and summed in the positions' lanes.
