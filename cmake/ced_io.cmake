@@ -27,6 +27,7 @@ ced_library(ced_io io
   src/io/csv/stream.cpp
   src/io/stream.cpp
   src/io/io.cpp
+  src/io/catalogue.cpp
   src/io/formats.cpp
   src/io/rgbd.cpp
   src/io/transform_io.cpp)

@@ -457,6 +457,22 @@ std::array<double, 3> choose_origin(const double lo[3], const double hi[3]) noex
 /// The same from per-axis coordinate arrays of n points (non-finite skipped).
 std::array<double, 3> choose_origin(const double* x, const double* y, const double* z, std::size_t n) noexcept;
 
+namespace detail {
+/// While alive, choose_origin() on this thread gives `origin` whatever the
+/// points: how io::read_options::origin reaches the readers. Nests.
+class scoped_origin {
+ public:
+  explicit scoped_origin(const std::array<double, 3>& origin) noexcept;
+  ~scoped_origin();
+  scoped_origin(const scoped_origin&) = delete;
+  scoped_origin& operator=(const scoped_origin&) = delete;
+
+ private:
+  const std::array<double, 3>* m_before;
+  std::array<double, 3> m_origin;
+};
+}  // namespace detail
+
 /// Building a cloud from arrays (the Python module, ced/eigen.hpp, ced/pcl.hpp).
 ///
 /// Sets `cloud`'s positions to `n` points read from three coordinate arrays

@@ -224,7 +224,19 @@ void point_cloud::add_rgb(const std::vector<std::array<std::uint8_t, 3>>& rgb) {
   }
 }
 
+namespace {
+thread_local const std::array<double, 3>* forced_origin = nullptr;
+}
+
+namespace detail {
+scoped_origin::scoped_origin(const std::array<double, 3>& origin) noexcept : m_before(forced_origin), m_origin(origin) {
+  forced_origin = &m_origin;
+}
+scoped_origin::~scoped_origin() { forced_origin = m_before; }
+}  // namespace detail
+
 std::array<double, 3> choose_origin(const double lo[3], const double hi[3]) noexcept {
+  if (forced_origin) return *forced_origin;
   std::array<double, 3> o{0.0, 0.0, 0.0};
   for (std::size_t k = 0; k < 3; ++k) {
     const double c = 0.5 * lo[k] + 0.5 * hi[k];

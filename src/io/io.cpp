@@ -97,7 +97,15 @@ point_cloud read_cloud_here(const std::string& path, const read_options& options
 
 point_cloud read_cloud(const std::string& path, const read_options& options, read_report* report) {
   point_cloud c;
-  ced::detail::with_thread_limit(options.threads, [&] { c = read_cloud_here(path, options, report); });
+  ced::detail::with_thread_limit(options.threads, [&] {
+    if (!options.origin) {
+      c = read_cloud_here(path, options, report);
+      return;
+    }
+    // On the thread that reads (the readers choose the origin there).
+    const ced::detail::scoped_origin forced(*options.origin);
+    c = read_cloud_here(path, options, report);
+  });
   return c;
 }
 

@@ -3,6 +3,7 @@
 // or explicitly: PLY, PCD, LAS, CSV/XYZ/TXT.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <iosfwd>
@@ -50,6 +51,10 @@ struct read_options {
   /// Threads that decode binary records in parallel (0 = all cores). The
   /// cloud is the same for any number.
   unsigned threads = 0;
+  /// Positions relative to this origin instead of the one the reader
+  /// chooses (choose_origin()): how several files become one cloud
+  /// (read_catalogue()). read_cloud() only.
+  std::optional<std::array<double, 3>> origin;
 };
 
 /// What reading found besides the points.

@@ -1,0 +1,52 @@
+// SPDX-License-Identifier: MIT
+// A catalogue: several point files (a delivery's tiles, a survey's
+// segments) read as one cloud.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "ced/cloud.hpp"
+#include "ced/io/io.hpp"
+
+namespace ced::io {
+
+/// The files that `inputs` name, in order: each entry a file, a folder (its
+/// files in a point-cloud format, by name; not its sub-folders), or a list
+/// file given as `@path` (one path a line, relative to the list's folder;
+/// blank lines and lines starting with '#' skipped). Throws io_error naming
+/// the path for one that does not exist, a folder with no point files, a
+/// list that names none, and a file named twice (the same file by two
+/// names, or two files with the same bytes).
+std::vector<std::string> catalogue_files(const std::vector<std::string>& inputs);
+
+/// What read_catalogue() found besides the points.
+struct catalogue_report {
+  std::vector<std::string> files;
+  /// Point i of the cloud (before any is dropped) is point i − first[f] of
+  /// files[f], for the f with first[f] ≤ i < first[f + 1] (files.size() + 1
+  /// entries): the catalogue's global numbering, file after file.
+  std::vector<std::uint64_t> first;
+  /// Each file's read_report.
+  std::vector<read_report> reports;
+  /// The files and their point index of global index `i` (below first.back()).
+  std::pair<std::size_t, std::uint64_t> locate(std::uint64_t i) const;
+};
+
+/// Reads `files` as one cloud: their points file after file, positions
+/// relative to one origin (choose_origin() of the union of the files'
+/// bounds; a LAS, LAZ or COPC file's bounds are its header's), so that the
+/// cloud is the one a merged file would give. Options as read_cloud()
+/// (read_options::origin is ignored). Throws io_error naming the file for:
+/// a field the selection needs that a file lacks; a field two files hold
+/// in different types; a field (other than a LAS flag, which is 0 where a
+/// file does not set it) that some files have and others not, when every
+/// field is wanted; and two LAS files in different coordinate systems
+/// (both named). One file is read as read_cloud() reads it.
+point_cloud read_catalogue(const std::vector<std::string>& files, const read_options& options = {},
+                           catalogue_report* report = nullptr);
+
+}  // namespace ced::io
