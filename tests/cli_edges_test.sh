@@ -479,5 +479,38 @@ expect_exit 2 "--progress" "progress bad mode" -- detect "$sample" --progress fa
 check "progress json: a tiled run's passes" grep -q '^{"event":"progress","stage":"[^"]*pass' "$T/prog_t.err"
 check "progress json: a tiled run's tiles" grep -q '^{"event":"tiles","done":[0-9]*,"tiles":[0-9]*,"tiles_elapsed_s":' "$T/prog_t.err"
 
+# Several inputs are one cloud (#61): each keypoint's file and index, a global
+# numbering, the fields in -o; a folder and an @list name the same files.
+mkdir -p "$T/cat" "$T/cat2"
+cp "$DATA/apartment_mesh_213.ply" "$T/cat/a.ply"
+cp "$DATA/apartment_mesh_214.ply" "$T/cat/b.ply"
+printf '# two rooms\n../cat/a.ply\n\n../cat/b.ply\n' > "$T/cat2/rooms.list"
+"$CED" detect "$T/cat/a.ply" "$T/cat/b.ply" --preset ced6d --indices "$T/cat_i.txt" --indices-global "$T/cat_g.txt" \
+  -o "$T/cat_kp.ply" -q
+check "catalogue: 'file_id index' lines" test "$(grep -cE '^[01] [0-9]+$' "$T/cat_i.txt")" = "$(wc -l < "$T/cat_i.txt")"
+check "catalogue: keypoints in both files" test "$(grep -c '^0 ' "$T/cat_i.txt")" -gt 0 -a "$(grep -c '^1 ' "$T/cat_i.txt")" -gt 0
+n0=$("$CED" info "$T/cat/a.ply" 2>&1 | grep -oE '[0-9]+ points' | head -1 | grep -oE '[0-9]+')
+check "catalogue: the global numbering is file after file" test "$(awk -v n0="$n0" '{print ($1 == 0 ? $2 : n0 + $2)}' "$T/cat_i.txt" | cmp - "$T/cat_g.txt" && echo same)" = same
+check "catalogue: -o carries file_id and file_index" grep -qa 'property uint file_index' "$T/cat_kp.ply"
+"$CED" detect "$T/cat" --preset ced6d --indices "$T/cat_dir.txt" -q
+check "catalogue: a folder is its files by name" cmp -s "$T/cat_i.txt" "$T/cat_dir.txt"
+"$CED" detect "@$T/cat2/rooms.list" --preset ced6d --indices "$T/cat_list.txt" -q
+check "catalogue: an @list, relative to its folder" cmp -s "$T/cat_i.txt" "$T/cat_list.txt"
+expect_exit 1 "named twice" "catalogue: a file twice" -- detect "$T/cat/a.ply" "$T/cat" --preset ced6d --indices "$T/cat_x.txt" -q
+cp "$T/cat/a.ply" "$T/cat2/copy.ply"
+expect_exit 1 "same bytes as" "catalogue: a copy of a file" -- detect "$T/cat" "$T/cat2/copy.ply" --preset ced6d --indices "$T/cat_x.txt" -q
+expect_exit 1 "no such file or folder" "catalogue: a missing file" -- detect "$T/cat/a.ply" "$T/cat/none.ply" --indices "$T/cat_x.txt" -q
+expect_exit 1 "coordinate system" "catalogue: two coordinate systems" -- \
+  detect "$DATA/simple.las" "$DATA/file_with_both_wkt_and_geotiff_vlrs.las" -r 5 -m xyz:0.2 --indices "$T/cat_x.txt" -q
+expect_exit 2 "take one input file" "catalogue: tiles" -- detect "$T/cat" --preset ced6d --tile-size 1 --indices "$T/cat_x.txt" -q
+check "catalogue errors: no output" test ! -e "$T/cat_x.txt"
+# ced info lists a folder's files; ced convert joins the files of an @list into one.
+"$CED" info "$T/cat" > "$T/cat_info.txt"
+check "info: a folder's files" grep -q "file 1: .*b.ply: [0-9]* points" "$T/cat_info.txt"
+"$CED" convert "@$T/cat2/rooms.list" "$T/joined.ply" 2> /dev/null
+check "convert: an @list joined into one file" test "$("$CED" info "$T/joined.ply" | head -1 | grep -oE '[0-9]+ points')" = \
+  "$(grep -oE '^[^ ]+: [0-9]+ points' "$T/cat_info.txt" | grep -oE '[0-9]+ points')"
+expect_exit 2 "" "convert: into one of its inputs" -- convert "$T/cat" "$T/cat/a.ply"
+
 echo "cli_edges: $pass passed, $fail failed"
 [ "$fail" = 0 ]

@@ -18,6 +18,7 @@
 #include "../core/timing.hpp"
 #include "ced/ced.hpp"
 #include "ced/eval.hpp"
+#include "ced/io/catalogue.hpp"
 #include "ced/io/io.hpp"
 #include "ced/io/output_file.hpp"
 #include "ced/params.hpp"
@@ -173,6 +174,19 @@ CLI::Option* add_pair_options(CLI::App* cmd, pair_options& o, const std::string&
 /// help), --format and --columns. Returns INPUT's option (to require it).
 CLI::Option* add_input_options(CLI::App* cmd, std::string& input, const std::string& what, std::string& format,
                                std::string& columns);
+/// The same with several inputs (ced detect: a catalogue).
+CLI::Option* add_input_options(CLI::App* cmd, std::vector<std::string>& inputs, const std::string& what,
+                               std::string& format, std::string& columns);
+/// Whether `inputs` name a catalogue: several files, a folder or @LIST.
+bool names_catalogue(const std::vector<std::string>& inputs);
+/// One report for a catalogue's files: the first's format, every distinct
+/// description, and the LAS header to write like only when all share its
+/// point format, scale and offset.
+ced::io::read_report catalogue_read_report(const ced::io::catalogue_report& c);
+/// Reads one input file, or a catalogue as one cloud (`report` then
+/// describes all of them; `catalogue`, when given, gets their numbering).
+ced::point_cloud read_inputs(const std::vector<std::string>& inputs, const ced::io::read_options& options,
+                             ced::io::read_report& report, ced::io::catalogue_report* catalogue = nullptr);
 /// The read options of --format and --columns; a usage error for an unknown format.
 ced::io::read_options make_read_options(const std::string& format, const std::string& columns);
 

@@ -134,10 +134,20 @@ int run_convert(const convert_options& o) {
   check_merge_options(o);
   const auto fmt = output_format(o);
   // Refused rather than converted in place: ced never writes over what it reads.
-  check_paths({{"the input", o.input}}, {{"the output", o.output}});
+  std::vector<ced::io::named_path> inputs{{"the input", o.input}};
+  const bool several = names_catalogue({o.input});
+  if (several) {
+    if (!o.merge_channels.empty()) throw usage_error("--merge-channels takes one input file, not a folder or @LIST");
+    inputs.clear();
+    for (const auto& f : ced::io::catalogue_files({o.input})) inputs.push_back({"an input", f});
+  }
+  check_paths(inputs, {{"the output", o.output}});
   ced::io::atomic_output_file out(o.output);
   ced::io::read_report report;
-  ced::point_cloud c = ced::io::read_cloud(o.input, make_read_options(o.format, o.columns), &report);
+  ced::point_cloud c = read_inputs({o.input}, make_read_options(o.format, o.columns), report);
+  if (several && !report.las)
+    std::fprintf(stderr, "ced: note: %s: the inputs are not LAS files of one point format, scale and offset\n",
+                 o.output.c_str());
   warn_float_precision(c, o.input);
   if (!o.merge_channels.empty()) c = merge_into(c, o, report);
   if (report.las && (!report.las->other_vlrs.empty() || report.las->extended_vlrs > 0)) {
@@ -184,7 +194,9 @@ command add_convert_command(CLI::App& app) {
   auto o = std::make_shared<convert_options>();
   auto* conv =
       app.add_subcommand("convert", "Convert between formats (by extension or --to), optionally voxel down-sampled");
-  add_input_options(conv, o->input, "Input point cloud", o->format, o->columns)->required();
+  add_input_options(conv, o->input, "Input point cloud, or a folder or @LIST of files joined into one", o->format,
+                    o->columns)
+      ->required();
   conv->add_option("output", o->output, "Output: .ply, .pcd, .las, .laz, .copc.laz or .csv")->required();
   conv->add_option("--to", o->to,
                    "The output's format when its name does not say (e.g. /dev/stdout): ply, pcd, las, laz, copc, csv");

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -27,6 +28,7 @@ namespace ced_cli {
 detect_outputs::detect_outputs(const detect_options& o, const std::vector<ced::io::named_path>& inputs) {
   check_paths(inputs, {{"--indices", o.indices},
                        {"--indices-original", o.indices_original},
+                       {"--indices-global", o.indices_global},
                        {"-o", o.output},
                        {"--viewer", o.viewer},
                        {"--png", o.png},
@@ -34,6 +36,7 @@ detect_outputs::detect_outputs(const detect_options& o, const std::vector<ced::i
                        {"--html", o.html}});
   indices = open(o.indices);
   original = open(o.indices_original);
+  global = open(o.indices_global);
   keypoints = open(o.output);
   viewer = open(o.viewer);
   png = open(o.png);
@@ -198,7 +201,8 @@ detect_input read_input(const detect_options& o, const ced::io::read_options& re
   detect_input in;
   progress.stage("reading");
   const auto t_load = clock_type::now();
-  in.cloud = ced::io::read_cloud(o.input, read_opts, &in.report);
+  if (is_catalogue(o)) in.catalogue.emplace();
+  in.cloud = read_inputs(o.inputs, read_opts, in.report, in.catalogue ? &*in.catalogue : nullptr);
   in.load_ms = ms_since(t_load);
   in.n_file = in.cloud.size() + in.report.nonfinite_removed;
   in.original = ced::remove_nonfinite(in.cloud);
@@ -215,8 +219,9 @@ detect_input read_input(const detect_options& o, const ced::io::read_options& re
     in.cloud = std::move(v.cloud);
     in.voxel_ms = ms_since(t);
   }
-  // Only --indices-original reads the mapping: 4 bytes a point less for the detection.
-  if (o.indices_original.empty()) std::vector<std::uint32_t>().swap(in.original);
+  // Only the file indices read the mapping: 4 bytes a point less for the detection.
+  if (o.indices_original.empty() && o.indices_global.empty() && !(in.catalogue && !o.indices.empty()))
+    std::vector<std::uint32_t>().swap(in.original);
   return in;
 }
 
@@ -237,6 +242,10 @@ int run_detect(const detect_options& o) {
   const auto t_start = clock_type::now();
   if (!o.plan.empty()) return run_detect_plan_tile(o);
   if (o.input.empty()) throw usage_error("give an input file (or --plan and --tile)");
+  if (is_catalogue(o) && wants_tiles(o))
+    throw usage_error(
+        "--tile-size and --memory-limit take one input file: several inputs (a folder, @LIST) are "
+        "detected whole, in memory");
   if (wants_tiles(o)) return run_detect_tiled(o);
   detect_plan plan = make_plan(o);
   detect_outputs out(o, input_paths(o));
@@ -261,8 +270,16 @@ int run_detect(const detect_options& o) {
 
 }  // namespace
 
+bool is_catalogue(const detect_options& o) { return names_catalogue(o.inputs); }
+
+std::vector<std::string> catalogue_inputs(const detect_options& o) { return ced::io::catalogue_files(o.inputs); }
+
 std::vector<ced::io::named_path> input_paths(const detect_options& o) {
-  std::vector<ced::io::named_path> in{{"the input", o.input}};
+  std::vector<ced::io::named_path> in;
+  if (is_catalogue(o))
+    for (const auto& f : catalogue_inputs(o)) in.push_back({"an input", f});
+  else
+    in.push_back({"the input", o.input});
   for (const auto& p : o.plugins) in.push_back({"--plugin", p});
   return in;
 }
@@ -303,9 +320,10 @@ void add_detector_options(CLI::App* cmd, detect_options& o, const std::string& r
   cmd->add_option("--max-keypoints", o.max_keypoints,
                   "Keep at most N keypoints: the highest scores (product of saliencies), ties to the smaller index "
                   "(default 0: no limit)");
-  cmd->add_option("--progress", o.progress,
-                  "Progress on stderr: bar (one line redrawn), lines (a line every five seconds), json (JSON lines: at each "
-                  "stage, every second, at the end) or none; default auto: bar on a terminal, else lines; -q: none")
+  cmd->add_option(
+         "--progress", o.progress,
+         "Progress on stderr: bar (one line redrawn), lines (a line every five seconds), json (JSON lines: at each "
+         "stage, every second, at the end) or none; default auto: bar on a terminal, else lines; -q: none")
       ->check(CLI::IsMember({"auto", "bar", "lines", "json", "none"}));
   cmd->add_option("--keypoint-share", o.keypoint_share,
                   "Keep at most this share of the candidate points as keypoints, the strongest, as --max-keypoints "
@@ -315,18 +333,26 @@ void add_detector_options(CLI::App* cmd, detect_options& o, const std::string& r
 command add_detect_command(CLI::App& app, std::function<int(const detect_options&)> run) {
   auto o = std::make_shared<detect_options>();
   auto* det = app.add_subcommand("detect", "Detect keypoints");
-  add_input_options(det, o->input, "Input cloud: .ply, .pcd, .las, .laz (COPC too), .csv/.xyz/.txt/.pts", o->format,
-                    o->columns);
+  add_input_options(det, o->inputs,
+                    "Input cloud: .ply, .pcd, .las, .laz (COPC too), .csv/.xyz/.txt/.pts; several files, a folder "
+                    "(its point files) or @LIST (a file of paths, one a line) are read as one cloud",
+                    o->format, o->columns);
   add_detector_options(
       det, *o,
       "Neighbourhood radius in metres, or auto = factor x resolution (default: 0.05 with --preset, else auto)");
   det->add_option("--radius-factor", o->radius_factor, "For --radius auto: radius = factor x resolution (default 5)");
   det->add_option("--voxel", o->voxel, "Down-sample first: average every channel per voxel of this size (metres)");
   det->add_option("-j,--threads", o->threads, "Threads (default 0 = all cores; the result does not depend on it)");
-  det->add_option("--indices", o->indices, "Keypoint indices into the cloud the detector saw (0-based, ascending)");
+  det->add_option("--indices", o->indices,
+                  "Keypoint indices into the cloud the detector saw (0-based, ascending); with several inputs, "
+                  "'FILE_ID INDEX' a line: the file's number among the inputs and the point's in that file");
   det->add_option(
       "--indices-original", o->indices_original,
-      "Keypoint indices into the input file's points (after --voxel: the point nearest each voxel centroid)");
+      "Keypoint indices into the input file's points (after --voxel: the point nearest each voxel centroid); "
+      "with several inputs 'FILE_ID INDEX' as --indices");
+  det->add_option("--indices-global", o->indices_global,
+                  "With several inputs: each keypoint's number in the inputs' points taken file after file "
+                  "(the index in its file plus the points of the files before it)");
   det->add_option("-o,--output", o->output,
                   "Keypoints with all fields + saliency_<modality>: .ply, .pcd, .las, .laz, .copc.laz or .csv");
   det->add_option("--viewer", o->viewer, "Whole cloud as PLY, keypoints red, scalar_keypoint/scalar_saliency_* fields");
@@ -368,6 +394,9 @@ command add_detect_command(CLI::App& app, std::function<int(const detect_options
       "Without any output option the indices go to stdout. Exit codes: 0 ok, 1 bad input data or I/O, 2 usage.");
   // What a plan fixes: with --plan, these options would be silently ignored.
   auto note_given = [det, o] {
+    o->input.clear();
+    if (o->inputs.size() == 1) o->input = o->inputs[0];
+    if (o->inputs.size() > 1) o->input = o->inputs[0] + " and " + std::to_string(o->inputs.size() - 1) + " more";
     o->given_plan_options.clear();
     for (const char* name :
          {"--radius", "--preset", "--modality", "--nms-radius", "--min-neighbors", "--refine", "--no-refine",

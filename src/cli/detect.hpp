@@ -8,10 +8,12 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "ced/ced.hpp"
+#include "ced/io/catalogue.hpp"
 #include "ced/io/io.hpp"
 #include "ced/render.hpp"
 #include "ced/tiled.hpp"
@@ -21,6 +23,9 @@ namespace ced_cli {
 
 struct detect_options {
   std::string input, format = "auto", columns;
+  /// ced detect's positional inputs: one file, or several, a folder or
+  /// @LIST, read as one cloud (a catalogue). `input` names them in messages.
+  std::vector<std::string> inputs;
   std::string preset;
   std::vector<std::string> modalities;
   std::vector<std::string> plugins;
@@ -33,7 +38,7 @@ struct detect_options {
   long long max_keypoints = 0;  // 0: no limit
   std::string keypoint_share;   // empty: the preset's (none without a preset)
   std::string neighborhood = "radius", search = "grid";
-  std::string indices, indices_original, output, viewer, png, summary, html;
+  std::string indices, indices_original, indices_global, output, viewer, png, summary, html;
   long long html_max_points = 2000000;
   std::string view = "iso", png_size = "1280x960", png_color = "rgb";
   bool png_top = false;
@@ -75,8 +80,8 @@ struct detect_plan {
 /// one file (check_paths).
 struct detect_outputs {
   std::vector<std::unique_ptr<ced::io::atomic_output_file>> files;
-  ced::io::atomic_output_file *indices = nullptr, *original = nullptr, *keypoints = nullptr, *viewer = nullptr,
-                              *png = nullptr, *summary = nullptr, *html = nullptr;
+  ced::io::atomic_output_file *indices = nullptr, *original = nullptr, *global = nullptr, *keypoints = nullptr,
+                              *viewer = nullptr, *png = nullptr, *summary = nullptr, *html = nullptr;
 
   detect_outputs(const detect_options& o, const std::vector<ced::io::named_path>& inputs);
   ced::io::atomic_output_file* open(const std::string& path);
@@ -85,12 +90,19 @@ struct detect_outputs {
 /// The cloud the detector sees: finite points, voxel down-sampled with --voxel.
 struct detect_input {
   ced::io::read_report report;
+  /// Several inputs: their files and where each begins in the cloud's numbering.
+  std::optional<ced::io::catalogue_report> catalogue;
   ced::point_cloud cloud;
   std::vector<std::uint32_t> original;  // original[i]: index in the input file's (finite) points of point i
                                         // (only with --indices-original)
   std::size_t n_file = 0, n_finite = 0, n_dropped = 0;
   double load_ms = 0, voxel_ms = 0;
 };
+
+/// Whether the inputs are a catalogue (several files, a folder or @LIST).
+bool is_catalogue(const detect_options& o);
+/// The files of a catalogue, in order (catalogue_files()).
+std::vector<std::string> catalogue_inputs(const detect_options& o);
 
 /// The options' checks and the modalities, before any file is read (detect.cpp).
 detect_plan make_plan(const detect_options& o);

@@ -83,11 +83,26 @@ void add_saliency(ced::point_cloud& c, const ced::detection_result& r, const std
 
 /// -o: the keypoints with all their fields and their saliencies.
 void write_keypoints(std::ostream& out, const ced::point_cloud& cloud, const ced::detection_result& r,
-                     ced::io::file_format format) {
+                     ced::io::file_format format, const detect_input* catalogue) {
   std::vector<std::uint8_t> keep(cloud.size(), 0);
   for (std::uint32_t k : r.keypoints) keep[k] = 1;
   ced::point_cloud kp = cloud;
   kp.filter(keep);
+  if (catalogue) {  // several inputs: each keypoint's file and its index there
+    std::vector<double> file_id, file_index;
+    for (std::uint32_t k : r.keypoints) {
+      const auto [f, i] = catalogue->catalogue->locate(catalogue->original[k]);
+      file_id.push_back(double(f));
+      file_index.push_back(double(i));
+    }
+    const bool narrow = catalogue->catalogue->first.back() <= 0xffffffffu;  // PLY has no 64-bit integers
+    for (const char* name : {"file_id", "file_index"})
+      if (kp.find_field(name))
+        throw ced::io::io_error(std::string("-o: the inputs already have a field '") + name +
+                                "', which -o writes with several inputs");
+    kp.add_field("file_id", ced::scalar_type::uint32, file_id);
+    kp.add_field("file_index", narrow ? ced::scalar_type::uint32 : ced::scalar_type::uint64, file_index);
+  }
   std::vector<std::vector<float>> saliency(r.names.size());
   for (std::size_t m = 0; m < r.names.size(); ++m)
     for (std::uint32_t k : r.keypoints) saliency[m].push_back(r.saliency[m][k]);
@@ -144,6 +159,7 @@ nlohmann::json summary_json(const detect_options& o, const detect_plan& plan, co
   const ced::point_cloud& cloud = in.cloud;
   const ced::detect_params& params = plan.params;
   nlohmann::json j;
+  if (in.catalogue) j["input_files"] = in.catalogue->files;
   j["input"] = {{"path", o.input},
                 {"format", ced::io::format_name(in.report.format)},
                 {"details", in.report.details},
@@ -236,12 +252,28 @@ ced::html_options html_options_of(const detect_options& o, const detect_plan& pl
 
 void write_outputs(const detect_options& o, const detect_plan& plan, const detect_input& in,
                    const ced::detection_result& r, detect_outputs& out) {
-  if (out.indices)
-    for (std::uint32_t k : r.keypoints) out.indices->stream() << k << '\n';
-  if (out.original)
-    for (std::uint32_t k : r.keypoints) out.original->stream() << in.original[k] << '\n';
+  if (in.catalogue) {
+    // Several inputs: each keypoint's file and its index there.
+    auto file_lines = [&](std::ostream& s) {
+      for (std::uint32_t k : r.keypoints) {
+        const auto [f, i] = in.catalogue->locate(in.original[k]);
+        s << f << ' ' << i << '\n';
+      }
+    };
+    if (out.indices) file_lines(out.indices->stream());
+    if (out.original) file_lines(out.original->stream());
+  } else {
+    if (out.indices)
+      for (std::uint32_t k : r.keypoints) out.indices->stream() << k << '\n';
+    if (out.original)
+      for (std::uint32_t k : r.keypoints) out.original->stream() << in.original[k] << '\n';
+  }
+  if (out.global)
+    for (std::uint32_t k : r.keypoints) out.global->stream() << in.original[k] << '\n';
   if (out.keypoints)
-    ced::io::write_named(*out.keypoints, [&](std::ostream& s) { write_keypoints(s, in.cloud, r, plan.out_format); });
+    ced::io::write_named(*out.keypoints, [&](std::ostream& s) {
+      write_keypoints(s, in.cloud, r, plan.out_format, in.catalogue ? &in : nullptr);
+    });
   if (out.viewer) ced::io::write_named(*out.viewer, [&](std::ostream& s) { write_viewer(s, in.cloud, r); });
   if (out.png) {
     ced::render_options view = plan.view;

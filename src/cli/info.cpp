@@ -77,8 +77,12 @@ int run_info(const info_options& opt) {
     if (k < 1 || k > 65535) throw usage_error("--knn: K must be from 1 to 65535, got " + std::to_string(k));
   const std::string& path = opt.input;
   ced::io::read_report report;
-  ced::point_cloud cloud = ced::io::read_cloud(path, make_read_options(opt.format, opt.columns), &report);
+  ced::io::catalogue_report files;
+  ced::point_cloud cloud = read_inputs({path}, make_read_options(opt.format, opt.columns), report, &files);
   std::cout << path << ": " << cloud.size() << " points (" << report.details << ")\n";
+  for (std::size_t f = 0; f < files.files.size(); ++f)  // a folder or @LIST: its files, numbered
+    std::cout << "  file " << f << ": " << files.files[f] << ": " << files.first[f + 1] - files.first[f] << " points ("
+              << files.reports[f].details << ")\n";
   if (report.nonfinite_removed)
     std::cout << "non-finite points dropped while reading: " << report.nonfinite_removed << "\n";
   const auto& o = cloud.origin();
@@ -99,7 +103,9 @@ int run_info(const info_options& opt) {
 command add_info_command(CLI::App& app) {
   auto o = std::make_shared<info_options>();
   auto* info = app.add_subcommand("info", "Print a cloud's fields, point count, bounds and resolution");
-  add_input_options(info, o->input, "Input point cloud", o->format, o->columns)->required();
+  add_input_options(info, o->input, "Input point cloud, or a folder or @LIST of files read as one", o->format,
+                    o->columns)
+      ->required();
   info->add_option("--knn", o->knn, "K values of the k-distance table (default 8 16 32)");
   return {info, [o] { return run_info(*o); }};
 }

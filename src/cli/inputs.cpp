@@ -26,6 +26,7 @@
 
 #include "ced/ced.hpp"
 #include "ced/eval.hpp"
+#include "ced/io/catalogue.hpp"
 #include "ced/io/io.hpp"
 #include "ced/io/rgbd.hpp"
 #include "ced/io/stream.hpp"
@@ -37,6 +38,14 @@ namespace ced_cli {
 CLI::Option* add_input_options(CLI::App* cmd, std::string& input, const std::string& what, std::string& format,
                                std::string& columns) {
   CLI::Option* in = cmd->add_option("input", input, what);
+  cmd->add_option("--format", format, "Input format when the extension does not say: ply, pcd, las, laz, csv, auto");
+  cmd->add_option("--columns", columns, "CSV column names, e.g. x,y,z,intensity (the file then has no header)");
+  return in;
+}
+
+CLI::Option* add_input_options(CLI::App* cmd, std::vector<std::string>& inputs, const std::string& what,
+                               std::string& format, std::string& columns) {
+  CLI::Option* in = cmd->add_option("input", inputs, what);
   cmd->add_option("--format", format, "Input format when the extension does not say: ply, pcd, las, laz, csv, auto");
   cmd->add_option("--columns", columns, "CSV column names, e.g. x,y,z,intensity (the file then has no header)");
   return in;
@@ -80,6 +89,41 @@ ced::missing_field_error with_file_fields(const ced::missing_field_error& e, con
   return {e.modality_name, e.field_name,
           "modality '" + e.modality_name + "' needs field '" + e.field_name + "', which " + path + " does not have " +
               fields + ced::missing_field_hint(names, e.field_name, e.modality_name)};
+}
+
+bool names_catalogue(const std::vector<std::string>& inputs) {
+  if (inputs.size() > 1) return true;
+  if (inputs.size() != 1) return false;
+  const std::string& in = inputs[0];
+  std::error_code ec;
+  return (!in.empty() && in[0] == '@') || std::filesystem::is_directory(in, ec);
+}
+
+/// One report for a catalogue's files: the first's format, every distinct
+/// description, and the LAS header to write like only when all agree.
+ced::io::read_report catalogue_read_report(const ced::io::catalogue_report& c) {
+  ced::io::read_report r = c.reports.at(0);
+  std::vector<std::string> kinds;
+  bool same_las = true;
+  for (const auto& f : c.reports) {
+    if (std::find(kinds.begin(), kinds.end(), f.details) == kinds.end()) kinds.push_back(f.details);
+    same_las = same_las && f.las && r.las && f.las->point_format == r.las->point_format &&
+               f.las->scale == r.las->scale && f.las->offset == r.las->offset;
+  }
+  r.details = std::to_string(c.files.size()) + " files: ";
+  for (std::size_t k = 0; k < kinds.size(); ++k) r.details += (k ? "; " : "") + kinds[k];
+  if (!same_las) r.las.reset();
+  return r;
+}
+
+ced::point_cloud read_inputs(const std::vector<std::string>& inputs, const ced::io::read_options& options,
+                             ced::io::read_report& report, ced::io::catalogue_report* catalogue) {
+  if (!names_catalogue(inputs)) return ced::io::read_cloud(inputs.at(0), options, &report);
+  ced::io::catalogue_report c;
+  ced::point_cloud cloud = ced::io::read_catalogue(ced::io::catalogue_files(inputs), options, &c);
+  report = catalogue_read_report(c);
+  if (catalogue) *catalogue = std::move(c);
+  return cloud;
 }
 
 ced::point_cloud read_finite(const std::string& path, const std::string& format, const std::string& columns,
