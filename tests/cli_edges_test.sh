@@ -502,7 +502,8 @@ expect_exit 1 "same bytes as" "catalogue: a copy of a file" -- detect "$T/cat" "
 expect_exit 1 "no such file or folder" "catalogue: a missing file" -- detect "$T/cat/a.ply" "$T/cat/none.ply" --indices "$T/cat_x.txt" -q
 expect_exit 1 "coordinate system" "catalogue: two coordinate systems" -- \
   detect "$DATA/simple.las" "$DATA/file_with_both_wkt_and_geotiff_vlrs.las" -r 5 -m xyz:0.2 --indices "$T/cat_x.txt" -q
-expect_exit 2 "take one input file" "catalogue: tiles" -- detect "$T/cat" --preset ced6d --tile-size 1 --indices "$T/cat_x.txt" -q
+expect_exit 2 "give several files as a folder or @LIST" "catalogue: tiles over several inputs" -- \
+  detect "$T/cat/a.ply" "$T/cat/b.ply" --preset ced6d --tile-size 1 --indices "$T/cat_x.txt" -q
 check "catalogue errors: no output" test ! -e "$T/cat_x.txt"
 # ced info lists a folder's files; ced convert joins the files of an @list into one.
 "$CED" info "$T/cat" > "$T/cat_info.txt"

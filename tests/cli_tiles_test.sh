@@ -252,6 +252,36 @@ check "resume exit 0" test $? = 0
 same_outputs "killed and resumed" "$T/r" mid_whole
 check "work directory removed" test ! -e "$T/wd"
 
+# --- A folder of LAS, LAZ and COPC files (#61): tiles give the whole catalogue's keypoints ---
+mkdir -p "$T/cat"
+"$GEN" 60000 51 "$T/cat/a.las"
+"$GEN" 60000 52 "$T/cat_b.las"
+"$GEN" 60000 53 "$T/cat_c.las"
+"$CED" convert "$T/cat_b.las" "$T/cat/b.laz" 2> /dev/null
+"$CED" convert "$T/cat_c.las" "$T/cat/c.copc.laz" 2> /dev/null
+catargs=(--preset ced6d --indices-global)
+"$CED" detect "$T/cat" "${catargs[@]}" "$T/cat_whole_g.txt" --indices "$T/cat_whole.txt" -q
+check "catalogue whole: keypoints in every file" test "$(cut -d' ' -f1 "$T/cat_whole.txt" | sort -u | wc -l)" = 3
+"$CED" detect "$T/cat" "${catargs[@]}" "$T/cat_tiled_g.txt" --indices "$T/cat_tiled.txt" --tile-size 0.5 -q
+check "catalogue tiled: the whole catalogue's keypoints" cmp -s "$T/cat_whole.txt" "$T/cat_tiled.txt"
+check "catalogue tiled: the global numbering" cmp -s "$T/cat_whole_g.txt" "$T/cat_tiled_g.txt"
+"$CED" plan "$T/cat" --preset ced6d --tile-size 0.5 -o "$T/cat_plan.json" -q
+run_tiles_and_merge "$T/cat_plan.json" cat_merged
+check "catalogue plan, tiles and merge" cmp -s "$T/cat_whole.txt" "$T/cat_merged.txt"
+check "catalogue plan, tiles and merge: the files' indices" cmp -s "$T/cat_whole.txt" "$T/cat_merged_o.txt"
+CED_TEST_KILL_AFTER_TILES=2 "$CED" detect "$T/cat" --preset ced6d --tile-size 0.5 --work-dir "$T/cat_wd" \
+  --indices "$T/cat_r.txt" -q 2> /dev/null
+check "catalogue: the killed run wrote no output" test ! -e "$T/cat_r.txt"
+"$CED" detect "$T/cat" --preset ced6d --tile-size 0.5 --work-dir "$T/cat_wd" --indices "$T/cat_r.txt" --resume -q
+check "catalogue: killed and resumed" cmp -s "$T/cat_whole.txt" "$T/cat_r.txt"
+if [ -n "$MPI" ] && command -v mpirun > /dev/null; then
+  mpirun --allow-run-as-root --oversubscribe -np 3 "$MPI" detect "$T/cat" --preset ced6d --tile-size 0.5 \
+    --indices "$T/cat_mpi.txt" -q > /dev/null 2>&1
+  check "catalogue: ced-mpi on 3 ranks" cmp -s "$T/cat_whole.txt" "$T/cat_mpi.txt"
+fi
+expect_exit 2 "give several files as a folder or @LIST" "several files with tiles" -- \
+  detect "$T/cat/a.las" "$T/cat/b.laz" --preset ced6d --tile-size 0.5 --indices "$T/cat_x.txt"
+
 # --- Bad input ---
 for bad in 0 -1 nan inf; do
   expect_exit 2 "tile-size must be a positive" "--tile-size $bad" -- detect "$T/mid.las" --preset ced6d \

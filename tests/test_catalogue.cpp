@@ -15,8 +15,10 @@
 #include "ced/ced.hpp"
 #include "ced/io/catalogue.hpp"
 #include "ced/io/io.hpp"
+#include "ced/tiled.hpp"
 #include "file_support.hpp"
 #include "test_support.hpp"
+#include "tiled_support.hpp"
 
 namespace {
 
@@ -299,4 +301,43 @@ TEST(Catalogue, MixedInputsAreNamedErrors) {
   const std::string crs = error_of({std::string(CED_TEST_DATA_DIR) + "/simple.las",
                                     std::string(CED_TEST_DATA_DIR) + "/file_with_both_wkt_and_geotiff_vlrs.las"});
   EXPECT_NE(crs.find("coordinate system"), std::string::npos) << crs;
+}
+
+// A folder or @LIST of LAS, LAZ and COPC files through the tiles: planned
+// from the headers (run_tiled) and by passes (scan), a plan as JSON with its
+// tiles one by one, 1 and 2 threads: the whole catalogue's keypoints, as
+// global indices (file after file).
+TEST(Catalogue, TilesEqualTheWholeCatalogue) {
+  const auto fx = make_catalogue(17, "tiled");
+  const std::string list = temp_file("tiled.list");
+  {
+    std::ofstream out(list);
+    out << "# the parts\n";
+    for (const auto& f : fx.files) out << fs::path(f).filename().string() << "\n";
+  }
+  const ced::point_cloud whole_cloud = ced::io::read_catalogue(fx.files);
+  ced::tiled_request r;
+  r.input = "@" + list;
+  r.tile_size = 0.25;
+  r.params.radius = r.params.nms_radius = 0.04;
+  r.modalities = {"xyz:0.2", "rgb:0.1"};
+  const auto whole = ced::detect(whole_cloud, r.params, ced_test::specs(r.modalities)).keypoints;
+  ASSERT_GT(whole.size(), 20u);
+  const std::vector<std::uint64_t> expected(whole.begin(), whole.end());
+  for (bool scan : {false, true})
+    for (unsigned threads : {1u, 2u}) {
+      SCOPED_TRACE(std::string(scan ? "scan" : "header") + ", " + std::to_string(threads) + " thread(s)");
+      r.scan = scan;
+      r.params.threads = threads;
+      ced::tiled_run_options o;
+      o.work_dir = temp_file("tiled_work");
+      ced::tile_plan used;
+      EXPECT_EQ(ced::run_tiled(r, o, &used).index, expected);
+      EXPECT_GT(used.tiles.size(), 4u);
+    }
+  r.scan = false;
+  const ced::tile_plan plan = ced::tile_plan::from_json(ced::plan_tiles(r).to_json(), "plan.json");
+  std::vector<ced::tile_part> parts;
+  for (const ced::tile_entry& t : plan.tiles) parts.push_back(ced_test::detect_planned_tile(plan, t.id));
+  EXPECT_EQ(ced::merge_parts(plan, std::move(parts)).index, expected);
 }

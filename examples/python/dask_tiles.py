@@ -8,6 +8,9 @@ shared folder; the parts are merged here into exactly the keypoints of a
 whole-cloud detection. Needs Debian's python3-distributed.
 
     python3 examples/python/dask_tiles.py big.las --tile-size 50 --workers 2 -o keypoints.ply
+
+The input may be a folder of tiles or @LIST (a file of paths): one cloud,
+with exact halos across the files' borders.
 """
 import argparse
 import os
@@ -25,7 +28,7 @@ def detect_one(plan, tile, folder):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("input")
+    ap.add_argument("input", help="a point file, a folder of them, or @LIST")
     ap.add_argument("--tile-size", type=float, required=True, help="edge of a tile's core, metres")
     ap.add_argument("--modalities", default="ced6d", help="a preset or specs joined by commas")
     ap.add_argument("--radius", type=float, default=0.05)

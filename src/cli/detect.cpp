@@ -242,10 +242,8 @@ int run_detect(const detect_options& o) {
   const auto t_start = clock_type::now();
   if (!o.plan.empty()) return run_detect_plan_tile(o);
   if (o.input.empty()) throw usage_error("give an input file (or --plan and --tile)");
-  if (is_catalogue(o) && wants_tiles(o))
-    throw usage_error(
-        "--tile-size and --memory-limit take one input file: several inputs (a folder, @LIST) are "
-        "detected whole, in memory");
+  if (o.inputs.size() > 1 && wants_tiles(o))
+    throw usage_error("--tile-size and --memory-limit take one input: give several files as a folder or @LIST");
   if (wants_tiles(o)) return run_detect_tiled(o);
   detect_plan plan = make_plan(o);
   detect_outputs out(o, input_paths(o));

@@ -178,14 +178,19 @@ std::function<void(double, double, double, std::size_t)> reach_grown_report(cons
 /// files, the indices go to stdout.
 class merged_writer {
  public:
-  merged_writer(detect_outputs& out, ced::io::file_format format);
+  /// `request`: the run's input (a folder or @LIST: each keypoint's file
+  /// and index in it, as ced detect gives them for several inputs).
+  merged_writer(detect_outputs& out, ced::io::file_format format, const ced::tiled_request& request);
   ced::merge_sink sink();
   void finish(const ced::tile_plan& p, const ced::tile_part& totals, double total_ms);
   std::uint64_t keypoints() const noexcept { return m_count; }
 
  private:
+  /// The keypoints' records, with file_id and file_index for a catalogue.
+  ced::point_cloud records(const ced::tile_part& c) const;
   detect_outputs& m_out;
   ced::io::file_format m_format;
+  std::vector<std::uint64_t> m_first;  // a catalogue's numbering (catalogue_first()); else empty
   std::unique_ptr<ced::io::cloud_writer> m_cloud;
   std::uint64_t m_count = 0;
 };

@@ -16,6 +16,7 @@
 #include "../core/hash.hpp"
 #include "../core/text.hpp"
 #include "ced/ced.hpp"
+#include "ced/io/catalogue.hpp"
 #include "ced/io/io.hpp"
 #include "ced/io/stream.hpp"
 #include "ced/tiled.hpp"
@@ -116,7 +117,7 @@ void check_outside_work_dir(const detect_options& o) {
     return r.lexically_normal();
   };
   const fs::path dir = resolved(work_dir_of(o));
-  for (const auto* p : {&o.input, &o.indices, &o.indices_original, &o.output, &o.summary}) {
+  for (const auto* p : {&o.input, &o.indices, &o.indices_original, &o.indices_global, &o.output, &o.summary}) {
     if (p->empty()) continue;
     const fs::path rel = resolved(*p).lexically_relative(dir);
     if (!rel.empty() && *rel.begin() != "..")
@@ -129,7 +130,7 @@ std::string default_work_dir(const detect_options& o) {
   namespace fs = std::filesystem;
   std::error_code ec;
   std::string key = fs::absolute(o.input, ec).string();
-  for (const auto* p : {&o.indices, &o.indices_original, &o.output, &o.summary})
+  for (const auto* p : {&o.indices, &o.indices_original, &o.indices_global, &o.output, &o.summary})
     key += "|" + (p->empty() ? std::string() : fs::absolute(*p, ec).string());
   const std::uint64_t h = ced::detail::fnv1a(key);
   char name[40];
@@ -202,15 +203,33 @@ void report_plan(const ced::tile_plan& p, bool quiet, bool grows_reach) {
                static_cast<unsigned long long>(largest));
 }
 
-merged_writer::merged_writer(detect_outputs& out, ced::io::file_format format) : m_out(out), m_format(format) {}
+merged_writer::merged_writer(detect_outputs& out, ced::io::file_format format, const ced::tiled_request& request)
+    : m_out(out), m_format(format) {
+  if (ced::io::names_catalogue(request.input))
+    m_first = ced::io::catalogue_first(ced::io::catalogue_files({request.input}), request.read);
+}
+
+ced::point_cloud merged_writer::records(const ced::tile_part& c) const {
+  ced::point_cloud kp = keypoint_cloud(c.keypoints, c.names, c.saliency);
+  if (m_first.empty()) return kp;
+  std::vector<double> id, index;
+  for (std::uint64_t g : c.file_index) {
+    const auto f = static_cast<std::size_t>(std::upper_bound(m_first.begin(), m_first.end(), g) - m_first.begin()) - 1;
+    id.push_back(double(f));
+    index.push_back(double(g - m_first[f]));
+  }
+  kp.add_field("file_id", ced::scalar_type::uint32, id);
+  kp.add_field("file_index", m_first.back() <= 0xffffffffu ? ced::scalar_type::uint32 : ced::scalar_type::uint64,
+               index);
+  return kp;
+}
 
 ced::merge_sink merged_writer::sink() {
   ced::merge_sink s;
   s.begin = [this](const ced::tile_part& totals, std::uint64_t n) {
     m_count = n;
     if (m_out.keypoints)
-      m_cloud = std::make_unique<ced::io::cloud_writer>(
-          m_out.keypoints->stream(), keypoint_cloud(totals.keypoints, totals.names, totals.saliency), n, m_format);
+      m_cloud = std::make_unique<ced::io::cloud_writer>(m_out.keypoints->stream(), records(totals), n, m_format);
   };
   s.chunk = [this](const ced::tile_part& c) {
     std::string text;
@@ -219,12 +238,27 @@ ced::merge_sink merged_writer::sink() {
       for (std::uint64_t k : v) text += std::to_string(k) + '\n';
       os.write(text.data(), static_cast<std::streamsize>(text.size()));
     };
-    if (m_out.indices) lines(c.index, m_out.indices->stream());
-    if (m_out.original) lines(c.file_index, m_out.original->stream());
-    if (m_out.files.empty()) lines(c.index, std::cout);
-    if (m_cloud)
-      ced::io::write_named(*m_out.keypoints,
-                           [&](std::ostream&) { m_cloud->write(keypoint_cloud(c.keypoints, c.names, c.saliency)); });
+    // A catalogue: each keypoint's file and its index there.
+    auto file_lines = [&](std::ostream& os) {
+      text.clear();
+      for (std::uint64_t g : c.file_index) {
+        const auto f =
+            static_cast<std::size_t>(std::upper_bound(m_first.begin(), m_first.end(), g) - m_first.begin()) - 1;
+        text += std::to_string(f) + ' ' + std::to_string(g - m_first[f]) + '\n';
+      }
+      os.write(text.data(), static_cast<std::streamsize>(text.size()));
+    };
+    if (m_first.empty()) {
+      if (m_out.indices) lines(c.index, m_out.indices->stream());
+      if (m_out.original) lines(c.file_index, m_out.original->stream());
+      if (m_out.files.empty()) lines(c.index, std::cout);
+    } else {
+      if (m_out.indices) file_lines(m_out.indices->stream());
+      if (m_out.original) file_lines(m_out.original->stream());
+      if (m_out.files.empty()) file_lines(std::cout);
+    }
+    if (m_out.global) lines(c.file_index, m_out.global->stream());
+    if (m_cloud) ced::io::write_named(*m_out.keypoints, [&](std::ostream&) { m_cloud->write(records(c)); });
   };
   s.records = m_out.keypoints != nullptr;  // only a keypoint cloud needs the fields
   return s;
@@ -311,7 +345,7 @@ int run_detect_tiled(const detect_options& o) {
   ced::tile_plan p;
   ced::tiled_times times;
   ro.times = &times;
-  merged_writer writer(*s.out, plan.out_format);
+  merged_writer writer(*s.out, plan.out_format, s.request);
   const ced::merge_sink sink = writer.sink();
   ro.sink = &sink;
   ro.tile_done = [&, tile_done = ro.tile_done](std::size_t done, std::size_t total, double ms) {
@@ -352,8 +386,8 @@ int run_detect_tiled(const detect_options& o) {
 int run_detect_plan_tile(const detect_options& o) {
   if (o.tile < 0) throw usage_error("--plan needs --tile ID (a tile id of the plan)");
   if (o.output.empty()) throw usage_error("--plan --tile writes the tile's part: give -o PART");
-  if (!o.indices.empty() || !o.indices_original.empty() || !o.viewer.empty() || !o.png.empty() || !o.summary.empty() ||
-      !o.html.empty())
+  if (!o.indices.empty() || !o.indices_original.empty() || !o.indices_global.empty() || !o.viewer.empty() ||
+      !o.png.empty() || !o.summary.empty() || !o.html.empty())
     throw usage_error("--plan --tile writes only the tile's part (-o); `ced merge` writes the outputs");
   if (!o.input.empty()) throw usage_error("--plan names the input: give no input file with it");
   if (!o.given_plan_options.empty()) {
@@ -443,7 +477,10 @@ command add_merge_command(CLI::App& app) {
   cmd->add_option("plan", *plan_path, "The plan (from `ced plan`)")->required();
   cmd->add_option("parts", *parts, "The parts (from `ced detect --plan --tile`), one per tile")->required();
   cmd->add_option("--indices", o->indices, "Keypoint indices into the input's finite points (0-based, ascending)");
-  cmd->add_option("--indices-original", o->indices_original, "Keypoint indices into the input file's points");
+  cmd->add_option("--indices-original", o->indices_original,
+                  "Keypoint indices into the input file's points ('FILE_ID INDEX' for a folder or @LIST)");
+  cmd->add_option("--indices-global", o->indices_global,
+                  "For a folder or @LIST: each keypoint's number in its files' points taken file after file");
   cmd->add_option("-o,--output", o->output,
                   "Keypoints with all fields + saliency_<modality>: .ply, .pcd, .las, .laz, .copc.laz, .csv");
   cmd->add_option("--summary", o->summary, "JSON summary");
@@ -459,7 +496,7 @@ command add_merge_command(CLI::App& app) {
             for (const auto& part : *parts) inputs.push_back({"part", part});
             for (const auto& plugin : o->plugins) inputs.push_back({"--plugin", plugin});
             detect_outputs out(*o, inputs);
-            merged_writer writer(out, format);
+            merged_writer writer(out, format, p.request);
             ced::tile_part totals;
             ced::merge_sink sink = writer.sink();
             sink.begin = [&, begin = sink.begin](const ced::tile_part& t, std::uint64_t n) {

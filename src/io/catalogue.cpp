@@ -93,6 +93,17 @@ bool is_las_flag(const std::string& name) {
   return std::find(flags.begin(), flags.end(), name) != flags.end();
 }
 
+/// io_error naming two of `files` whose coordinate systems `crs` differ.
+void check_one_crs(const std::vector<std::string>& crs, const std::vector<std::string>& files) {
+  auto name = [](const std::string& c) {
+    return c.empty() ? std::string("none (no projection records)") : "'" + coordinate_system_name(c) + "'";
+  };
+  for (std::size_t f = 1; f < crs.size(); ++f)
+    if (crs[f] != crs[0])
+      throw io_error(files[f], "is in coordinate system " + name(crs[f]) + ", " + files[0] + " in " + name(crs[0]) +
+                                   ": the files of one cloud need one");
+}
+
 bool is_colour(const std::string& name) { return name == "red" || name == "green" || name == "blue" || name == "nir"; }
 
 bool is_signed(scalar_type t) {
@@ -211,14 +222,21 @@ point_cloud read_catalogue(const std::vector<std::string>& files, const read_opt
     }
     any = true;
   };
-  for (std::size_t f = 0; f < files.size(); ++f) {
+  // (The same rule as the catalogue's stream: the headers' bounds when
+  // every file has them, else the points'.)
+  bool headers = true;
+  for (std::size_t f = 0; f < files.size() && headers; ++f) {
     double a[3], b[3];
-    if (las_family(files[f], o) && open_point_stream(files[f], o)->header_bounds(a, b)) {
-      take(a, b);
-      continue;
+    headers = las_family(files[f], o) && open_point_stream(files[f], o)->header_bounds(a, b);
+    if (headers) take(a, b);
+  }
+  if (!headers) {
+    any = false;
+    for (std::size_t f = 0; f < files.size(); ++f) {
+      double a[3], b[3];
+      read[f] = read_cloud(files[f], o, &rep.reports[f]);
+      if (cloud_bounds(*read[f], a, b)) take(a, b);
     }
-    read[f] = read_cloud(files[f], o, &rep.reports[f]);
-    if (cloud_bounds(*read[f], a, b)) take(a, b);
   }
   const std::array<double, 3> origin = any ? choose_origin(lo, hi) : std::array<double, 3>{0, 0, 0};
   o.origin = origin;
@@ -232,22 +250,13 @@ point_cloud read_catalogue(const std::vector<std::string>& files, const read_opt
 
   // One coordinate system (LAS files: the projection's records, none
   // being one answer too).
-  std::size_t crs_file = files.size();
-  for (std::size_t f = 0; f < files.size(); ++f) {
-    const auto& las = rep.reports[f].las;
-    if (!las) continue;
-    if (crs_file == files.size()) {
-      crs_file = f;
-      continue;
+  std::vector<std::string> crs, crs_files;
+  for (std::size_t f = 0; f < files.size(); ++f)
+    if (rep.reports[f].las) {
+      crs.push_back(rep.reports[f].las->coordinate_system);
+      crs_files.push_back(files[f]);
     }
-    const std::string& first_crs = rep.reports[crs_file].las->coordinate_system;
-    auto name = [](const std::string& crs) {
-      return crs.empty() ? std::string("none (no projection records)") : "'" + coordinate_system_name(crs) + "'";
-    };
-    if (las->coordinate_system != first_crs)
-      throw io_error(files[f], "is in coordinate system " + name(las->coordinate_system) + ", " + files[crs_file] +
-                                   " in " + name(first_crs) + ": the files of one cloud need one");
-  }
+  check_one_crs(crs, crs_files);
 
   // The same fields in every file (a LAS flag no point of a file sets is 0
   // there), each in one type: a type that holds another's values exactly
@@ -317,6 +326,366 @@ point_cloud read_catalogue(const std::vector<std::string>& files, const read_opt
   }
   if (report) *report = std::move(rep);
   return out;
+}
+
+namespace {
+
+/// Several files as one stream: their points file after file (global index
+/// = the file's first point in the catalogue + its own index), every chunk
+/// in one layout of fields (catalogue_layout()), positions relative to the
+/// origin asked for.
+class catalogue_stream final : public point_stream {
+ public:
+  catalogue_stream(std::vector<std::string> files, const read_options& options)
+      : m_files(std::move(files)), m_options(options) {
+    m_options.origin.reset();
+    m_first.assign(1, 0);
+    bool counted = true, headers = true;
+    bool chunked = true;
+    for (const std::string& f : m_files) {
+      auto s = open_point_stream(f, m_options);
+      m_details.push_back(s->details());
+      const std::uint64_t n = s->declared_points();
+      counted = counted && n > 0;
+      m_first.push_back(m_first.back() + n);
+      double lo[3], hi[3];
+      if (headers && s->header_bounds(lo, hi))
+        take(m_header_lo, m_header_hi, m_any_header, lo, hi);
+      else
+        headers = false;
+      auto runs = s->chunk_runs();
+      chunked = chunked && !runs.empty();
+      for (auto& r : runs) m_runs.push_back({r.first + m_first[m_first.size() - 2], r.count});
+      m_streaming = m_streaming && s->streaming();
+      probe(*s, f);
+      if (las_family(f, m_options)) {
+        m_crs.push_back(read_las_info(f).coordinate_system);
+        m_crs_files.push_back(f);
+      }
+    }
+    check_one_crs(m_crs, m_crs_files);
+    m_counted = counted;
+    m_headers = headers;
+    if (!counted || !chunked) m_runs.clear();
+  }
+
+  std::size_t read(std::size_t max, const std::array<double, 3>& origin, point_cloud& out) override {
+    for (;;) {
+      if (m_cur == m_files.size()) {
+        out = point_cloud();
+        out.set_origin(origin);
+        return 0;
+      }
+      if (!m_stream) {
+        m_stream = open_point_stream(m_files[m_cur], m_options);
+        if (!m_taken.empty()) m_stream->take_fields(m_taken);
+      }
+      point_cloud chunk;
+      const std::size_t n = m_stream->read(max, origin, chunk);
+      if (n > 0) {
+        m_pass_points += n;
+        normalise(chunk, m_cur, out);
+        return n;
+      }
+      // The file's pass is complete: its bounds and flags count.
+      if (!m_pass_done) {
+        double lo[3], hi[3];
+        m_stream->bounds(lo, hi);
+        if (m_pass_points > m_member_start) take(m_lo, m_hi, m_any, lo, hi);
+        for (auto& f : m_stream->flags_set())
+          if (std::find(m_flags.begin(), m_flags.end(), f) == m_flags.end()) m_flags.push_back(f);
+      }
+      m_member_start = m_pass_points;
+      m_stream.reset();
+      if (++m_cur == m_files.size() && !m_pass_done) {
+        m_pass_done = true;
+        order_flags();
+      }
+    }
+  }
+  void rewind() override {
+    m_stream.reset();
+    m_cur = 0;
+    m_pass_points = m_member_start = 0;
+  }
+  std::array<double, 3> origin() const override {
+    if (m_headers && m_any_header) return choose_origin(m_header_lo, m_header_hi);
+    return m_any ? choose_origin(m_lo, m_hi) : std::array<double, 3>{0, 0, 0};
+  }
+  void bounds(double lo[3], double hi[3]) const override {
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = m_any ? m_lo[k] : 0;
+      hi[k] = m_any ? m_hi[k] : 0;
+    }
+  }
+  std::string details() const override {
+    std::vector<std::string> kinds;
+    for (const auto& d : m_details)
+      if (std::find(kinds.begin(), kinds.end(), d) == kinds.end()) kinds.push_back(d);
+    std::string out = std::to_string(m_files.size()) + " files: ";
+    for (std::size_t k = 0; k < kinds.size(); ++k) out += (k ? "; " : "") + kinds[k];
+    return out;
+  }
+  bool streaming() const noexcept override { return m_streaming; }
+  std::uint64_t declared_points() const noexcept override { return m_counted ? m_first.back() : 0; }
+
+  std::optional<std::vector<index_node>> index_nodes() override {
+    if (!m_counted) return std::nullopt;
+    std::vector<index_node> all;
+    for (std::size_t f = 0; f < m_files.size(); ++f) {
+      const auto nodes = open_point_stream(m_files[f], m_options)->index_nodes();
+      if (!nodes) return std::nullopt;
+      for (index_node n : *nodes) {
+        n.run.first += m_first[f];
+        all.push_back(n);
+      }
+    }
+    return all;
+  }
+  std::vector<point_run> chunk_runs() const override { return m_runs; }
+  std::vector<std::string> flags_set() const override { return m_flags; }
+  bool header_bounds(double lo[3], double hi[3]) const override {
+    if (!m_headers || !m_any_header) return false;
+    std::copy_n(m_header_lo, 3, lo);
+    std::copy_n(m_header_hi, 3, hi);
+    return true;
+  }
+  bool header_box(double growth, double box[6]) const override {
+    // Each file's box as its header vouches for it, joined.
+    bool any = false;
+    for (const auto& f : m_files) {
+      double b[6];
+      if (!open_point_stream(f, m_options)->header_box(growth, b)) return false;
+      for (int k = 0; k < 3; ++k) {
+        box[k] = any ? std::min(box[k], b[k]) : b[k];
+        box[3 + k] = any ? std::max(box[3 + k], b[3 + k]) : b[3 + k];
+      }
+      any = true;
+    }
+    return any;
+  }
+  bool take_fields(const std::vector<std::string>& fields) override {
+    m_taken = fields;
+    m_flags.clear();
+    for (const auto& f : fields)
+      if (is_las_flag(f)) m_flags.push_back(f);
+    order_flags();
+    m_pass_done = true;
+    return true;
+  }
+  void read_run(const point_run& r, const std::vector<std::string>& fields, const std::array<double, 3>& origin,
+                point_cloud& out) override {
+    if (!m_counted) throw std::logic_error("point_stream::read_run: this catalogue reads no runs");
+    check_run(r, m_first.back(), true);
+    use_flags(fields);
+    point_cloud joined;
+    joined.set_origin(origin);
+    std::uint64_t at = r.first, left = r.count;
+    while (left > 0) {
+      const std::size_t f = file_of(at);
+      const std::uint64_t take = std::min(left, m_first[f + 1] - at);
+      point_cloud part, norm;
+      open_point_stream(m_files[f], m_options)->read_run({at - m_first[f], take}, fields, origin, part);
+      normalise(part, f, norm);
+      append(joined, norm);
+      at += take;
+      left -= take;
+    }
+    out = std::move(joined);
+  }
+  bool read_points(const std::vector<std::uint64_t>& at, const std::vector<std::string>& fields,
+                   const std::array<double, 3>& origin, point_cloud& out) override {
+    if (!m_counted) return false;
+    for (std::uint64_t i : at)
+      if (i >= m_first.back()) throw std::logic_error("point_stream::read_points: a point past the catalogue's");
+    use_flags(fields);
+    point_cloud joined;
+    joined.set_origin(origin);
+    std::size_t k = 0;
+    bool all = true;
+    for (std::size_t f = 0; f < m_files.size() && (k < at.size() || at.empty()); ++f) {
+      std::vector<std::uint64_t> local;
+      while (k < at.size() && at[k] < m_first[f + 1]) local.push_back(at[k++] - m_first[f]);
+      if (local.empty() && !at.empty()) continue;
+      point_cloud part, norm;
+      all = open_point_stream(m_files[f], m_options)->read_points(local, fields, origin, part) && all;
+      if (!all) return false;
+      normalise(part, f, norm);
+      append(joined, norm);
+      if (at.empty()) continue;  // (asked whether points can be read: every file answers)
+    }
+    out = std::move(joined);
+    return all;
+  }
+
+ private:
+  static bool is_las_flag(const std::string& name) {
+    const auto& flags = las_flag_fields();
+    return std::find(flags.begin(), flags.end(), name) != flags.end();
+  }
+  static void take(double lo[3], double hi[3], bool& any, const double a[3], const double b[3]) {
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = any ? std::min(lo[k], a[k]) : a[k];
+      hi[k] = any ? std::max(hi[k], b[k]) : b[k];
+    }
+    any = true;
+  }
+  std::size_t file_of(std::uint64_t i) const {
+    return static_cast<std::size_t>(std::upper_bound(m_first.begin(), m_first.end(), i) - m_first.begin()) - 1;
+  }
+  /// A file's fields from its first point (LAS: every flag too), into the
+  /// catalogue's layout: each name once, in one type (as read_catalogue()).
+  void probe(point_stream& s, const std::string& file) {
+    point_cloud one;
+    if (s.declared_points() > 0 && !s.chunk_runs().empty()) {
+      s.read_run({0, 1}, las_flag_fields(), {0, 0, 0}, one);
+    } else {
+      s.read(1, {0, 0, 0}, one);
+      s.rewind();
+    }
+    std::vector<std::string> here;
+    for (const field& f : one.fields()) {
+      if (is_las_flag(f.name)) continue;
+      here.push_back(f.name);
+      auto it = std::find_if(m_layout.begin(), m_layout.end(), [&](const auto& p) { return p.first == f.name; });
+      if (it == m_layout.end()) {
+        if (!m_layout_files.empty() && m_first.size() > 2)
+          throw io_error(file, "has a field '" + f.name + "', which " + m_layout_files.front() + " has not" +
+                                   " (a run that needs it needs it in every file)");
+        m_layout.push_back({f.name, f.type()});
+        continue;
+      }
+      if (it->second == f.type()) continue;
+      const auto both = common_type(f.name, it->second, f.type());
+      if (!both)
+        throw io_error(file, "its field '" + f.name + "' is " + std::string(name_of(f.type())) + ", in " +
+                                 m_layout_files.front() + " it is " + std::string(name_of(it->second)) +
+                                 ": the files of one cloud need one type a field");
+      it->second = *both;
+    }
+    for (const auto& [name, type] : m_layout) {
+      (void)type;
+      if (std::find(here.begin(), here.end(), name) == here.end())
+        throw io_error(file, "has no field '" + name + "', which " + m_layout_files.front() +
+                                 " has (a run that needs it needs it in every file)");
+    }
+    m_layout_files.push_back(file);
+  }
+  void order_flags() {
+    std::vector<std::string> ordered;
+    for (const auto& f : las_flag_fields())
+      if (std::find(m_flags.begin(), m_flags.end(), f) != m_flags.end()) ordered.push_back(f);
+    m_flags = std::move(ordered);
+  }
+  /// The flags a run read names, as the catalogue's (a plan records them).
+  void use_flags(const std::vector<std::string>& fields) {
+    m_flags.clear();
+    for (const auto& f : fields)
+      if (is_las_flag(f)) m_flags.push_back(f);
+    order_flags();
+  }
+  /// `in` (a chunk of file f) in the catalogue's layout: its fields in
+  /// order and type, then the flags (those of the catalogue's that the
+  /// file does not set: 0).
+  void normalise(point_cloud& in, std::size_t f, point_cloud& out) const {
+    (void)f;
+    point_cloud o;
+    o.set_origin(in.origin());
+    o.positions() = std::move(in.positions());
+    const std::size_t n = o.size();
+    for (const auto& [name, type] : m_layout) {
+      field* fd = nullptr;
+      for (field& x : in.fields())
+        if (x.name == name) fd = &x;
+      if (!fd) continue;  // a selection that reads fewer fields
+      if (fd->values.type() == type) {
+        o.add_field(name, std::move(fd->values));
+        continue;
+      }
+      column c(type, n);
+      const double factor = is_colour(name) && fd->values.type() == scalar_type::uint8 ? 257.0 : 1.0;
+      for (std::size_t i = 0; i < n; ++i) c.set(i, fd->values[i] * factor);
+      o.add_field(name, std::move(c));
+    }
+    std::vector<std::string> flags = m_flags;
+    for (const field& x : in.fields())
+      if (is_las_flag(x.name) && std::find(flags.begin(), flags.end(), x.name) == flags.end()) flags.push_back(x.name);
+    for (const auto& name : las_flag_fields()) {
+      if (std::find(flags.begin(), flags.end(), name) == flags.end()) continue;
+      field* fd = nullptr;
+      for (field& x : in.fields())
+        if (x.name == name) fd = &x;
+      if (fd)
+        o.add_field(name, std::move(fd->values));
+      else
+        o.add_field(name, column(scalar_type::uint8, n));
+    }
+    out = std::move(o);
+  }
+  static void append(point_cloud& into, const point_cloud& part) {
+    if (into.empty() && into.fields().empty()) {
+      const auto origin = into.origin();
+      into = part;
+      into.set_origin(origin);
+      return;
+    }
+    const std::size_t n0 = into.size();
+    into.positions().insert(into.positions().end(), part.positions().begin(), part.positions().end());
+    for (field& f : into.fields()) {
+      const field* g = part.find_field(f.name);
+      const std::size_t w = size_of(f.values.type());
+      f.values.resize(n0 + part.size());
+      if (g) std::memcpy(f.values.bytes() + n0 * w, g->values.bytes(), part.size() * w);
+    }
+  }
+
+  std::vector<std::string> m_files;
+  read_options m_options;
+  std::vector<std::string> m_details;
+  std::vector<std::uint64_t> m_first;  // declared points before each file (m_counted)
+  std::vector<point_run> m_runs;
+  bool m_counted = false, m_headers = false, m_streaming = true;
+  double m_header_lo[3] = {0, 0, 0}, m_header_hi[3] = {0, 0, 0};
+  bool m_any_header = false;
+  std::vector<std::pair<std::string, scalar_type>> m_layout;
+  std::vector<std::string> m_layout_files, m_crs, m_crs_files;
+  // The pass.
+  std::unique_ptr<point_stream> m_stream;
+  std::size_t m_cur = 0;
+  std::uint64_t m_pass_points = 0, m_member_start = 0;
+  bool m_pass_done = false, m_any = false;
+  double m_lo[3] = {0, 0, 0}, m_hi[3] = {0, 0, 0};
+  std::vector<std::string> m_flags, m_taken;
+};
+
+}  // namespace
+
+std::unique_ptr<point_stream> open_catalogue_stream(const std::vector<std::string>& files,
+                                                    const read_options& options) {
+  if (files.empty()) throw std::invalid_argument("open_catalogue_stream: no files");
+  return std::make_unique<catalogue_stream>(files, options);
+}
+
+std::vector<std::uint64_t> catalogue_first(const std::vector<std::string>& files, const read_options& options) {
+  read_options o = options;
+  o.fields = field_selection::only({});
+  o.origin.reset();
+  std::vector<std::uint64_t> first{0};
+  for (const auto& f : files) {
+    auto s = open_point_stream(f, o);
+    std::uint64_t n = s->declared_points();
+    if (n == 0) {
+      point_cloud chunk;
+      while (const std::size_t got = s->read(std::size_t(1) << 20, {0, 0, 0}, chunk)) n += got;
+    }
+    first.push_back(first.back() + n);
+  }
+  return first;
+}
+
+bool names_catalogue(const std::string& path) {
+  std::error_code ec;
+  return (!path.empty() && path[0] == '@') || fs::is_directory(path, ec);
 }
 
 }  // namespace ced::io

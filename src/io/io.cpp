@@ -3,6 +3,7 @@
 
 #include <stdexcept>
 
+#include "ced/io/catalogue.hpp"
 #include "core/parallel.hpp"
 #include "core/text.hpp"
 #include "io/base/formats.hpp"
@@ -96,6 +97,18 @@ point_cloud read_cloud_here(const std::string& path, const read_options& options
 }  // namespace
 
 point_cloud read_cloud(const std::string& path, const read_options& options, read_report* report) {
+  if (names_catalogue(path)) {  // a folder or @LIST: its files as one cloud
+    catalogue_report files;
+    point_cloud c = read_catalogue(catalogue_files({path}), options, &files);
+    if (report) {
+      *report = files.reports.at(0);
+      report->details = std::to_string(files.files.size()) + " files from " + path;
+      report->las.reset();
+      report->nonfinite_removed = 0;
+      for (const auto& r : files.reports) report->nonfinite_removed += r.nonfinite_removed;
+    }
+    return c;
+  }
   point_cloud c;
   ced::detail::with_thread_limit(options.threads, [&] {
     if (!options.origin) {

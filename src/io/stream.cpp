@@ -14,6 +14,7 @@
 #include <system_error>
 #include <utility>
 
+#include "ced/io/catalogue.hpp"
 #include "io/base/formats.hpp"
 #include "io/base/scalar_io.hpp"
 #include "io/base/stream_support.hpp"
@@ -246,6 +247,7 @@ std::optional<std::vector<point_stream::point_run>> point_stream::runs_within(co
 }
 
 std::unique_ptr<point_stream> open_point_stream(const std::string& path, const read_options& options) {
+  if (names_catalogue(path)) return open_catalogue_stream(catalogue_files({path}), options);
   const file_format f = options.format == file_format::automatic ? format_of(path) : options.format;
   const detail::format_entry& format = detail::format_entry_of(f);
   if (format.streams_any_file) return format.stream(path, options);

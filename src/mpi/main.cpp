@@ -226,7 +226,7 @@ int run_mpi(const detect_options& o, mpi::communicator& world) {
     if (world.size() > 1) mpi::broadcast(world, next_json, 0);
     if (next_json.empty()) break;
   }
-  merged_writer writer(*r.setup.out, r.setup.plan.out_format);
+  merged_writer writer(*r.setup.out, r.setup.plan.out_format, plan.request);
   const ced::merge_sink sink = writer.sink();
   const ced::tile_part totals = ced::finish_tiled(plan, r.work_dir, &sink, /*keep_work_dir=*/true);
   writer.finish(plan, totals, ms_since(t_start));

@@ -12,6 +12,7 @@
 #include <system_error>
 #include <vector>
 
+#include "ced/io/catalogue.hpp"
 #include "core/hash.hpp"
 #include "tiled/records.hpp"
 
@@ -81,6 +82,16 @@ std::uint64_t hash_points(const point_cloud& c, std::size_t first, std::size_t n
 /// 64 blocks of 4 KiB spread evenly (a different file, or one changed in
 /// place, almost surely differs; reading it whole would cost a pass).
 std::string fingerprint_of(const std::string& path, std::uint64_t& bytes) {
+  if (io::names_catalogue(path)) {  // a folder or @LIST: its files, named and hashed in order
+    bytes = 0;
+    std::string all;
+    for (const std::string& f : io::catalogue_files({path})) {
+      std::uint64_t b = 0;
+      all += f + '\n' + fingerprint_of(f, b) + '\n';
+      bytes += b;
+    }
+    return hex(detail::fnv1a(all));
+  }
   std::error_code ec;
   bytes = fs::file_size(path, ec);
   if (ec) throw io::io_error(path, "cannot read its size: " + ec.message());

@@ -173,3 +173,27 @@ def test_whole_cloud_statistics_give_the_whole_result_in_tiles(tmp_path):
         plan = pickle.loads(pickle.dumps(ced.plan_tiles(path, tile_size=0.5, modalities=mods, radius=0.05)))
         merged = ced.merge_parts(plan, [ced.detect_tile(plan, t) for t, _, _ in plan.tiles])
         assert np.array_equal(merged.keypoints, np.asarray(whole.keypoints, dtype=np.uint64)), spec
+
+
+def test_a_folder_of_files_is_one_cloud_whole_and_in_tiles(las, tmp_path):
+    """A folder (or @list) of files is one cloud: ced.read gives the points file after file, and the tiles of
+    plan_tiles give its keypoints, through pickled plans as a Dask worker gets them (#61)."""
+    c = ced.read(las)
+    pts = c.points
+    left = pts[:, 0] < np.median(pts[:, 0])
+    folder = tmp_path / "tiles"
+    folder.mkdir()
+    fields = {k: v for k, v in c.fields.items()}
+    for name, keep in (("a.las", left), ("b.las", ~left)):
+        ced.write(str(folder / name), ced.Cloud(pts[keep], {k: v[keep] for k, v in fields.items()}))
+    both = ced.read(str(folder))
+    assert len(both) == len(c)
+    assert np.array_equal(both.points, np.concatenate([pts[left], pts[~left]]))
+    whole = ced.detect(both, modalities="ced6d")
+    assert len(whole.keypoints) > 10
+    (tmp_path / "list.txt").write_text("tiles/a.las\ntiles/b.las\n")
+    for name in (str(folder), "@" + str(tmp_path / "list.txt")):
+        plan = pickle.loads(pickle.dumps(ced.plan_tiles(name, tile_size=0.8, modalities="ced6d")))
+        assert len(plan.tiles) > 3
+        merged = ced.merge_parts(plan, [ced.detect_tile(plan, t) for t, _, _ in plan.tiles])
+        assert np.array_equal(merged.keypoints, np.asarray(whole.keypoints, dtype=np.uint64))

@@ -5,12 +5,14 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "ced/cloud.hpp"
 #include "ced/io/io.hpp"
+#include "ced/io/stream.hpp"
 
 namespace ced::io {
 
@@ -48,5 +50,25 @@ struct catalogue_report {
 /// (both named). One file is read as read_cloud() reads it.
 point_cloud read_catalogue(const std::vector<std::string>& files, const read_options& options = {},
                            catalogue_report* report = nullptr);
+
+/// Where each of `files` begins in their numbering (files.size() + 1
+/// entries, catalogue_report::first): from the counts their headers
+/// declare, or a pass over a file that declares none.
+std::vector<std::uint64_t> catalogue_first(const std::vector<std::string>& files, const read_options& options = {});
+
+/// Whether `path` names a catalogue: a folder, or @LIST.
+bool names_catalogue(const std::string& path);
+
+/// `files` as one point stream: their points file after file (a point's
+/// index is its index in its file plus the points of the files before it),
+/// every chunk with the same fields in the same types (as
+/// read_catalogue()), LAS flags as a pass over every file decides them.
+/// Runs and indexed reads (chunk_runs(), read_run(), read_points(),
+/// index_nodes()) when every file declares its count; header_bounds() when
+/// every file has them. After a complete pass, origin() is that of the
+/// headers' bounds when every file has them, else of the points' bounds.
+/// open_point_stream() of a folder or @LIST gives one.
+std::unique_ptr<point_stream> open_catalogue_stream(const std::vector<std::string>& files,
+                                                    const read_options& options = {});
 
 }  // namespace ced::io

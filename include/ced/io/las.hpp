@@ -39,6 +39,10 @@ struct las_read_info {
   std::string coordinate_system;
 };
 
+/// A LAS, LAZ or COPC file's header and VLRs, without its points (io_error
+/// naming the file for one that is not such a file).
+las_read_info read_las_info(const std::string& path);
+
 /// A name for las_read_info::coordinate_system in messages: the WKT's own
 /// name (its first quoted string, e.g. "NAD83 / Oregon GIC Lambert (ft)"),
 /// else "GeoTIFF keys #<hash of the keys>", else "none".

@@ -239,6 +239,24 @@ class las_stream final : public point_stream {
 };
 }  // namespace
 
+las_read_info read_las_info(const std::string& path) {
+  input_file file(path);
+  const std::string head = read_head(file);
+  const auto* d = reinterpret_cast<const unsigned char*>(head.data());
+  const las_header h = read_header(d, static_cast<std::size_t>(file.size()), path);
+  laz_layout layout;
+  std::optional<copc_info> copc;
+  std::vector<std::string> others;
+  std::string crs;
+  read_vlrs(d, h, path, &layout, &copc, &others, &crs);
+  las_read_info info;
+  fill_info(info, h, d);
+  info.copc = copc.has_value();
+  info.other_vlrs = std::move(others);
+  info.coordinate_system = std::move(crs);
+  return info;
+}
+
 std::unique_ptr<point_stream> open_las_stream(const std::string& path, const field_selection& fields) {
   return std::make_unique<las_stream>(path, fields);
 }
