@@ -505,6 +505,14 @@ expect_exit 1 "coordinate system" "catalogue: two coordinate systems" -- \
 expect_exit 2 "give several files as a folder or @LIST" "catalogue: tiles over several inputs" -- \
   detect "$T/cat/a.ply" "$T/cat/b.ply" --preset ced6d --tile-size 1 --indices "$T/cat_x.txt" -q
 check "catalogue errors: no output" test ! -e "$T/cat_x.txt"
+# --origin: positions relative to a given point; the reader's own origin gives the same run; tiles refuse it.
+own=$("$CED" info "$DATA/autzen_trim.las" | sed -n 's/^origin: \([^ ]*\) \([^ ]*\) \([^ ]*\) .*/\1,\2,\3/p')
+"$CED" detect "$DATA/autzen_trim.las" -r 5 -m xyz:0.2 --indices "$T/org_a.txt" -q
+"$CED" detect "$DATA/autzen_trim.las" -r 5 -m xyz:0.2 --origin "$own" --indices "$T/org_b.txt" -q
+check "origin: the reader's own gives the same keypoints ($own)" cmp -s "$T/org_a.txt" "$T/org_b.txt"
+expect_exit 2 "give X,Y,Z" "origin: two numbers" -- detect "$sample" --preset ced6d --origin 1,2 --indices "$T/org_x.txt"
+expect_exit 2 "is not a finite number" "origin: nan" -- detect "$sample" --preset ced6d --origin 1,nan,2 --indices "$T/org_x.txt"
+expect_exit 2 "whole-cloud runs" "origin: tiles" -- detect "$sample" --preset ced6d --origin 0,0,0 --tile-size 1 --indices "$T/org_x.txt"
 # ced info lists a folder's files; ced convert joins the files of an @list into one.
 "$CED" info "$T/cat" > "$T/cat_info.txt"
 check "info: a folder's files" grep -q "file 1: .*b.ply: [0-9]* points" "$T/cat_info.txt"

@@ -190,6 +190,13 @@ detect_plan make_plan(const detect_options& o) {
   // Non-finite points are dropped below (and by tiles), after their file
   // indices are known: --indices-original counts every point of the file.
   plan.read_opts.keep_nonfinite = true;
+  if (!o.origin.empty()) {
+    const auto v = parse_number_list(o.origin, "--origin", [](double x) {
+      if (!std::isfinite(x)) throw std::invalid_argument("must be finite");
+    });
+    if (v.size() != 3) throw usage_error("--origin: give X,Y,Z, three numbers, got '" + o.origin + "'");
+    plan.read_opts.origin = std::array<double, 3>{v[0], v[1], v[2]};
+  }
   plan.read_opts.threads = static_cast<unsigned>(o.threads);
   return plan;
 }
@@ -244,6 +251,8 @@ int run_detect(const detect_options& o) {
   if (o.input.empty()) throw usage_error("give an input file (or --plan and --tile)");
   if (o.inputs.size() > 1 && wants_tiles(o))
     throw usage_error("--tile-size and --memory-limit take one input: give several files as a folder or @LIST");
+  if (!o.origin.empty() && wants_tiles(o))
+    throw usage_error("--origin is for whole-cloud runs: a tile plan takes its origin from the input");
   if (wants_tiles(o)) return run_detect_tiled(o);
   detect_plan plan = make_plan(o);
   detect_outputs out(o, input_paths(o));
@@ -339,6 +348,9 @@ command add_detect_command(CLI::App& app, std::function<int(const detect_options
       det, *o,
       "Neighbourhood radius in metres, or auto = factor x resolution (default: 0.05 with --preset, else auto)");
   det->add_option("--radius-factor", o->radius_factor, "For --radius auto: radius = factor x resolution (default 5)");
+  det->add_option("--origin", o->origin,
+                  "X,Y,Z: store positions relative to this point instead of the centre the reader rounds from the "
+                  "bounds (so that a run over part of a catalogue computes in the frame of a run over all of it)");
   det->add_option("--voxel", o->voxel, "Down-sample first: average every channel per voxel of this size (metres)");
   det->add_option("-j,--threads", o->threads, "Threads (default 0 = all cores; the result does not depend on it)");
   det->add_option("--indices", o->indices,

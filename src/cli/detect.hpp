@@ -26,6 +26,7 @@ struct detect_options {
   /// ced detect's positional inputs: one file, or several, a folder or
   /// @LIST, read as one cloud (a catalogue). `input` names them in messages.
   std::vector<std::string> inputs;
+  std::string origin;  // --origin X,Y,Z: positions relative to it (empty: the readers' choice)
   std::string preset;
   std::vector<std::string> modalities;
   std::vector<std::string> plugins;

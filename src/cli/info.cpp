@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 // `ced info`: a cloud's fields, point count, bounds and resolution.
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <iostream>
 #include <memory>
@@ -20,6 +21,13 @@ struct info_options {
   std::string input, format = "auto", columns;
   std::vector<int> knn = {8, 16, 32};
 };
+
+/// `v` in the fewest digits that read back as it (an origin, for --origin).
+std::string exact(double v) {
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, r.ptr);
+}
 
 /// The bounds (absolute coordinates) and the resolution of a cloud of finite points.
 void print_extent(const ced::point_cloud& cloud) {
@@ -87,7 +95,8 @@ int run_info(const info_options& opt) {
     std::cout << "non-finite points dropped while reading: " << report.nonfinite_removed << "\n";
   const auto& o = cloud.origin();
   if (o[0] != 0 || o[1] != 0 || o[2] != 0)
-    std::cout << "origin: " << o[0] << " " << o[1] << " " << o[2] << " (positions are stored relative to it)\n";
+    std::cout << "origin: " << exact(o[0]) << " " << exact(o[1]) << " " << exact(o[2])
+              << " (positions are stored relative to it; --origin X,Y,Z)\n";
   const std::size_t before = cloud.size();
   ced::remove_nonfinite(cloud);
   if (cloud.size() != before) std::cout << "non-finite points: " << before - cloud.size() << "\n";

@@ -110,7 +110,7 @@ ced::io::read_report catalogue_read_report(const ced::io::catalogue_report& c) {
     same_las = same_las && f.las && r.las && f.las->point_format == r.las->point_format &&
                f.las->scale == r.las->scale && f.las->offset == r.las->offset;
   }
-  r.details = std::to_string(c.files.size()) + " files: ";
+  r.details = std::to_string(c.files.size()) + (c.files.size() == 1 ? " file: " : " files: ");
   for (std::size_t k = 0; k < kinds.size(); ++k) r.details += (k ? "; " : "") + kinds[k];
   if (!same_las) r.las.reset();
   return r;

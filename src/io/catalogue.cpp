@@ -203,7 +203,6 @@ point_cloud read_catalogue(const std::vector<std::string>& files, const read_opt
   rep.files = files;
   rep.reports.resize(files.size());
   read_options o = options;
-  o.origin.reset();
   if (files.size() == 1) {
     point_cloud c = read_cloud(files[0], o, &rep.reports[0]);
     rep.first = {0, c.size() + rep.reports[0].nonfinite_removed};
@@ -238,7 +237,9 @@ point_cloud read_catalogue(const std::vector<std::string>& files, const read_opt
       if (cloud_bounds(*read[f], a, b)) take(a, b);
     }
   }
-  const std::array<double, 3> origin = any ? choose_origin(lo, hi) : std::array<double, 3>{0, 0, 0};
+  const std::array<double, 3> origin = options.origin ? *options.origin
+                                       : any          ? choose_origin(lo, hi)
+                                                      : std::array<double, 3>{0, 0, 0};
   o.origin = origin;
   std::uint64_t total = 0;
   rep.first.assign(1, 0);
@@ -422,7 +423,7 @@ class catalogue_stream final : public point_stream {
     std::vector<std::string> kinds;
     for (const auto& d : m_details)
       if (std::find(kinds.begin(), kinds.end(), d) == kinds.end()) kinds.push_back(d);
-    std::string out = std::to_string(m_files.size()) + " files: ";
+    std::string out = std::to_string(m_files.size()) + (m_files.size() == 1 ? " file: " : " files: ");
     for (std::size_t k = 0; k < kinds.size(); ++k) out += (k ? "; " : "") + kinds[k];
     return out;
   }

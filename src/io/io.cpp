@@ -102,7 +102,8 @@ point_cloud read_cloud(const std::string& path, const read_options& options, rea
     point_cloud c = read_catalogue(catalogue_files({path}), options, &files);
     if (report) {
       *report = files.reports.at(0);
-      report->details = std::to_string(files.files.size()) + " files from " + path;
+      report->details =
+          std::to_string(files.files.size()) + (files.files.size() == 1 ? " file from " : " files from ") + path;
       report->las.reset();
       report->nonfinite_removed = 0;
       for (const auto& r : files.reports) report->nonfinite_removed += r.nonfinite_removed;

@@ -42,7 +42,7 @@ struct catalogue_report {
 /// relative to one origin (choose_origin() of the union of the files'
 /// bounds; a LAS, LAZ or COPC file's bounds are its header's), so that the
 /// cloud is the one a merged file would give. Options as read_cloud()
-/// (read_options::origin is ignored). Throws io_error naming the file for:
+/// (read_options::origin, when set, is the origin). Throws io_error naming the file for:
 /// a field the selection needs that a file lacks; a field two files hold
 /// in different types; a field (other than a LAS flag, which is 0 where a
 /// file does not set it) that some files have and others not, when every
