@@ -214,9 +214,9 @@ ced::point_cloud merged_writer::records(const ced::tile_part& c) const {
   if (m_first.empty()) return kp;
   std::vector<double> id, index;
   for (std::uint64_t g : c.file_index) {
-    const auto f = static_cast<std::size_t>(std::upper_bound(m_first.begin(), m_first.end(), g) - m_first.begin()) - 1;
+    const auto [f, i] = ced::io::locate(m_first, g);
     id.push_back(double(f));
-    index.push_back(double(g - m_first[f]));
+    index.push_back(double(i));
   }
   kp.add_field("file_id", ced::scalar_type::uint32, id);
   kp.add_field("file_index", m_first.back() <= 0xffffffffu ? ced::scalar_type::uint32 : ced::scalar_type::uint64,
@@ -242,9 +242,8 @@ ced::merge_sink merged_writer::sink() {
     auto file_lines = [&](std::ostream& os) {
       text.clear();
       for (std::uint64_t g : c.file_index) {
-        const auto f =
-            static_cast<std::size_t>(std::upper_bound(m_first.begin(), m_first.end(), g) - m_first.begin()) - 1;
-        text += std::to_string(f) + ' ' + std::to_string(g - m_first[f]) + '\n';
+        const auto [f, i] = ced::io::locate(m_first, g);
+        text += std::to_string(f) + ' ' + std::to_string(i) + '\n';
       }
       os.write(text.data(), static_cast<std::streamsize>(text.size()));
     };

@@ -191,11 +191,12 @@ std::vector<std::string> catalogue_files(const std::vector<std::string>& inputs)
   return files;
 }
 
-std::pair<std::size_t, std::uint64_t> catalogue_report::locate(std::uint64_t i) const {
-  const auto it = std::upper_bound(first.begin(), first.end(), i);
-  const auto f = static_cast<std::size_t>(it - first.begin()) - 1;
+std::pair<std::size_t, std::uint64_t> locate(const std::vector<std::uint64_t>& first, std::uint64_t i) {
+  const auto f = static_cast<std::size_t>(std::upper_bound(first.begin(), first.end(), i) - first.begin()) - 1;
   return {f, i - first[f]};
 }
+
+std::pair<std::size_t, std::uint64_t> catalogue_report::locate(std::uint64_t i) const { return io::locate(first, i); }
 
 point_cloud read_catalogue(const std::vector<std::string>& files, const read_options& options,
                            catalogue_report* report) {
@@ -520,10 +521,6 @@ class catalogue_stream final : public point_stream {
   }
 
  private:
-  static bool is_las_flag(const std::string& name) {
-    const auto& flags = las_flag_fields();
-    return std::find(flags.begin(), flags.end(), name) != flags.end();
-  }
   static void take(double lo[3], double hi[3], bool& any, const double a[3], const double b[3]) {
     for (int k = 0; k < 3; ++k) {
       lo[k] = any ? std::min(lo[k], a[k]) : a[k];
@@ -531,9 +528,7 @@ class catalogue_stream final : public point_stream {
     }
     any = true;
   }
-  std::size_t file_of(std::uint64_t i) const {
-    return static_cast<std::size_t>(std::upper_bound(m_first.begin(), m_first.end(), i) - m_first.begin()) - 1;
-  }
+  std::size_t file_of(std::uint64_t i) const { return locate(m_first, i).first; }
   /// A file's fields from its first point (LAS: every flag too), into the
   /// catalogue's layout: each name once, in one type (as read_catalogue()).
   void probe(point_stream& s, const std::string& file) {

@@ -25,6 +25,11 @@ namespace ced::io {
 /// names, or two files with the same bytes).
 std::vector<std::string> catalogue_files(const std::vector<std::string>& inputs);
 
+/// The file and the point index in it of a catalogue's point `i`, given
+/// where each file begins (`first`, as catalogue_report::first; i below
+/// first.back()).
+std::pair<std::size_t, std::uint64_t> locate(const std::vector<std::uint64_t>& first, std::uint64_t i);
+
 /// What read_catalogue() found besides the points.
 struct catalogue_report {
   std::vector<std::string> files;
