@@ -496,6 +496,14 @@ check "catalogue: -o carries file_id and file_index" grep -qa 'property uint fil
 check "catalogue: a folder is its files by name" cmp -s "$T/cat_i.txt" "$T/cat_dir.txt"
 "$CED" detect "@$T/cat2/rooms.list" --preset ced6d --indices "$T/cat_list.txt" -q
 check "catalogue: an @list, relative to its folder" cmp -s "$T/cat_i.txt" "$T/cat_list.txt"
+mkdir -p "$T/per_file"
+"$CED" detect "$T/cat" --preset ced6d --indices-per-file "$T/per_file" -q > "$T/per_file_stdout.txt"
+check "catalogue: --indices-per-file, one file an input" test "$(ls "$T/per_file" | tr '\n' ' ')" = "a.ply.txt b.ply.txt "
+check "catalogue: --indices-per-file, each file's keypoints" cmp -s "$T/per_file/b.ply.txt" <(awk '$1 == 1 {print $2}' "$T/cat_i.txt")
+check "catalogue: --indices-per-file, nothing on stdout" test ! -s "$T/per_file_stdout.txt"
+expect_exit 2 "goes with several inputs" "--indices-per-file with one input" -- \
+  detect "$T/cat/a.ply" --preset ced6d --indices-per-file "$T/per_file"
+expect_exit 2 "is not a folder" "--indices-per-file not a folder" -- detect "$T/cat" --preset ced6d --indices-per-file "$T/none"
 expect_exit 1 "named twice" "catalogue: a file twice" -- detect "$T/cat/a.ply" "$T/cat" --preset ced6d --indices "$T/cat_x.txt" -q
 cp "$T/cat/a.ply" "$T/cat2/copy.ply"
 expect_exit 1 "same bytes as" "catalogue: a copy of a file" -- detect "$T/cat" "$T/cat2/copy.ply" --preset ced6d --indices "$T/cat_x.txt" -q

@@ -42,6 +42,35 @@ detect_outputs::detect_outputs(const detect_options& o, const std::vector<ced::i
   png = open(o.png);
   summary = open(o.summary);
   html = open(o.html);
+  if (o.indices_per_file.empty()) return;
+  // One file an input: DIR/<its name>.txt.
+  std::error_code ec;
+  if (!std::filesystem::is_directory(o.indices_per_file, ec))
+    throw usage_error("--indices-per-file: '" + o.indices_per_file + "' is not a folder");
+  std::vector<ced::io::named_path> outs;
+  for (const auto& in : inputs) {
+    if (in.what != "an input") continue;
+    const std::string name = std::filesystem::path(in.path).filename().string() + ".txt";
+    const std::string path = (std::filesystem::path(o.indices_per_file) / name).string();
+    for (std::size_t k = 0; k < per_file.size(); ++k)
+      if (per_file[k] == path)
+        throw usage_error("--indices-per-file: two inputs named '" +
+                          std::filesystem::path(in.path).filename().string() + "' would write one file, " + path);
+    per_file.push_back(path);
+    outs.push_back({"--indices-per-file", path});
+  }
+  if (per_file.empty()) throw usage_error("--indices-per-file goes with several inputs (files, a folder or @LIST)");
+  check_paths(inputs, outs);
+}
+
+void detect_outputs::write_per_file(const std::vector<std::pair<std::size_t, std::uint64_t>>& found) {
+  std::vector<std::string> text(per_file.size());
+  for (const auto& [f, i] : found) text.at(f) += std::to_string(i) + '\n';
+  for (std::size_t f = 0; f < per_file.size(); ++f) {
+    ced::io::atomic_output_file* file = open(per_file[f]);
+    file->stream() << text[f];
+    file->finish();  // closed: a catalogue of many files holds no descriptor each
+  }
 }
 
 ced::io::atomic_output_file* detect_outputs::open(const std::string& path) {
@@ -227,7 +256,8 @@ detect_input read_input(const detect_options& o, const ced::io::read_options& re
     in.voxel_ms = ms_since(t);
   }
   // Only the file indices read the mapping: 4 bytes a point less for the detection.
-  if (o.indices_original.empty() && o.indices_global.empty() && !(in.catalogue && !o.indices.empty()))
+  // (Several inputs: always, for each keypoint's file in every output.)
+  if (o.indices_original.empty() && o.indices_global.empty() && !in.catalogue)
     std::vector<std::uint32_t>().swap(in.original);
   return in;
 }
@@ -270,7 +300,7 @@ int run_detect(const detect_options& o) {
   progress.done();
 
   if (!o.quiet) print_report(o, plan, in, r, t_start);
-  if (out.files.empty())
+  if (out.files.empty() && out.per_file.empty())
     for (std::uint32_t k : r.keypoints) std::cout << k << '\n';
   return exit_ok;
 }
@@ -360,6 +390,9 @@ command add_detect_command(CLI::App& app, std::function<int(const detect_options
       "--indices-original", o->indices_original,
       "Keypoint indices into the input file's points (after --voxel: the point nearest each voxel centroid); "
       "with several inputs 'FILE_ID INDEX' as --indices");
+  det->add_option("--indices-per-file", o->indices_per_file,
+                  "With several inputs: in this folder, one file per input, <its name>.txt, its keypoints' indices "
+                  "in it (empty when it has none)");
   det->add_option("--indices-global", o->indices_global,
                   "With several inputs: each keypoint's number in the inputs' points taken file after file "
                   "(the index in its file plus the points of the files before it)");

@@ -39,7 +39,7 @@ struct detect_options {
   long long max_keypoints = 0;  // 0: no limit
   std::string keypoint_share;   // empty: the preset's (none without a preset)
   std::string neighborhood = "radius", search = "grid";
-  std::string indices, indices_original, indices_global, output, viewer, png, summary, html;
+  std::string indices, indices_original, indices_global, indices_per_file, output, viewer, png, summary, html;
   long long html_max_points = 2000000;
   std::string view = "iso", png_size = "1280x960", png_color = "rgb";
   bool png_top = false;
@@ -84,8 +84,14 @@ struct detect_outputs {
   ced::io::atomic_output_file *indices = nullptr, *original = nullptr, *global = nullptr, *keypoints = nullptr,
                               *viewer = nullptr, *png = nullptr, *summary = nullptr, *html = nullptr;
 
+  /// --indices-per-file: the path of each input file's indices (empty without).
+  std::vector<std::string> per_file;
+
   detect_outputs(const detect_options& o, const std::vector<ced::io::named_path>& inputs);
   ced::io::atomic_output_file* open(const std::string& path);
+  /// Writes --indices-per-file (`found`: each keypoint's file and index in
+  /// it, in order), each file finished, to be committed with the others.
+  void write_per_file(const std::vector<std::pair<std::size_t, std::uint64_t>>& found);
 };
 
 /// The cloud the detector sees: finite points, voxel down-sampled with --voxel.
@@ -192,6 +198,7 @@ class merged_writer {
   detect_outputs& m_out;
   ced::io::file_format m_format;
   std::vector<std::uint64_t> m_first;  // a catalogue's numbering (catalogue_first()); else empty
+  std::vector<std::pair<std::size_t, std::uint64_t>> m_per_file;  // --indices-per-file: the keypoints' files
   std::unique_ptr<ced::io::cloud_writer> m_cloud;
   std::uint64_t m_count = 0;
 };

@@ -262,6 +262,11 @@ void write_outputs(const detect_options& o, const detect_plan& plan, const detec
     };
     if (out.indices) file_lines(out.indices->stream());
     if (out.original) file_lines(out.original->stream());
+    if (!out.per_file.empty()) {
+      std::vector<std::pair<std::size_t, std::uint64_t>> at;
+      for (std::uint32_t k : r.keypoints) at.push_back(in.catalogue->locate(in.original[k]));
+      out.write_per_file(at);
+    }
   } else {
     if (out.indices)
       for (std::uint32_t k : r.keypoints) out.indices->stream() << k << '\n';

@@ -250,13 +250,15 @@ ced::merge_sink merged_writer::sink() {
     if (m_first.empty()) {
       if (m_out.indices) lines(c.index, m_out.indices->stream());
       if (m_out.original) lines(c.file_index, m_out.original->stream());
-      if (m_out.files.empty()) lines(c.index, std::cout);
+      if (m_out.files.empty() && m_out.per_file.empty()) lines(c.index, std::cout);
     } else {
       if (m_out.indices) file_lines(m_out.indices->stream());
       if (m_out.original) file_lines(m_out.original->stream());
-      if (m_out.files.empty()) file_lines(std::cout);
+      if (m_out.files.empty() && m_out.per_file.empty()) file_lines(std::cout);
     }
     if (m_out.global) lines(c.file_index, m_out.global->stream());
+    if (!m_out.per_file.empty())
+      for (std::uint64_t g : c.file_index) m_per_file.push_back(ced::io::locate(m_first, g));
     if (m_cloud) ced::io::write_named(*m_out.keypoints, [&](std::ostream&) { m_cloud->write(records(c)); });
   };
   s.records = m_out.keypoints != nullptr;  // only a keypoint cloud needs the fields
@@ -265,6 +267,7 @@ ced::merge_sink merged_writer::sink() {
 
 void merged_writer::finish(const ced::tile_plan& p, const ced::tile_part& m, double total_ms) {
   if (m_cloud) ced::io::write_named(*m_out.keypoints, [&](std::ostream&) { m_cloud->finish(); });
+  if (!m_out.per_file.empty()) m_out.write_per_file(m_per_file);
   if (m_out.summary) {
     nlohmann::json j;
     j["input"] = {{"path", p.request.input},
@@ -480,6 +483,8 @@ command add_merge_command(CLI::App& app) {
                   "Keypoint indices into the input file's points ('FILE_ID INDEX' for a folder or @LIST)");
   cmd->add_option("--indices-global", o->indices_global,
                   "For a folder or @LIST: each keypoint's number in its files' points taken file after file");
+  cmd->add_option("--indices-per-file", o->indices_per_file,
+                  "For a folder or @LIST: in this folder, one file per input, <its name>.txt, its keypoints' indices");
   cmd->add_option("-o,--output", o->output,
                   "Keypoints with all fields + saliency_<modality>: .ply, .pcd, .las, .laz, .copc.laz, .csv");
   cmd->add_option("--summary", o->summary, "JSON summary");
@@ -492,6 +497,8 @@ command add_merge_command(CLI::App& app) {
                 o->output.empty() ? ced::io::file_format::automatic : ced::io::format_of(o->output);
             const ced::tile_plan p = ced::tile_plan::load(*plan_path);
             std::vector<ced::io::named_path> inputs{{"the plan", *plan_path}, {"the plan's input", p.request.input}};
+            if (ced::io::names_catalogue(p.request.input))
+              for (const auto& f : ced::io::catalogue_files({p.request.input})) inputs.push_back({"an input", f});
             for (const auto& part : *parts) inputs.push_back({"part", part});
             for (const auto& plugin : o->plugins) inputs.push_back({"--plugin", plugin});
             detect_outputs out(*o, inputs);
