@@ -179,10 +179,6 @@ CLI::Option* add_input_options(CLI::App* cmd, std::vector<std::string>& inputs, 
                                std::string& format, std::string& columns);
 /// Whether `inputs` name a catalogue: several files, a folder or @LIST.
 bool names_catalogue(const std::vector<std::string>& inputs);
-/// One report for a catalogue's files: the first's format, every distinct
-/// description, and the LAS header to write like only when all share its
-/// point format, scale and offset.
-ced::io::read_report catalogue_read_report(const ced::io::catalogue_report& c);
 /// Reads one input file, or a catalogue as one cloud (`report` then
 /// describes all of them; `catalogue`, when given, gets their numbering).
 ced::point_cloud read_inputs(const std::vector<std::string>& inputs, const ced::io::read_options& options,

@@ -92,28 +92,7 @@ ced::missing_field_error with_file_fields(const ced::missing_field_error& e, con
 }
 
 bool names_catalogue(const std::vector<std::string>& inputs) {
-  if (inputs.size() > 1) return true;
-  if (inputs.size() != 1) return false;
-  const std::string& in = inputs[0];
-  std::error_code ec;
-  return (!in.empty() && in[0] == '@') || std::filesystem::is_directory(in, ec);
-}
-
-/// One report for a catalogue's files: the first's format, every distinct
-/// description, and the LAS header to write like only when all agree.
-ced::io::read_report catalogue_read_report(const ced::io::catalogue_report& c) {
-  ced::io::read_report r = c.reports.at(0);
-  std::vector<std::string> kinds;
-  bool same_las = true;
-  for (const auto& f : c.reports) {
-    if (std::find(kinds.begin(), kinds.end(), f.details) == kinds.end()) kinds.push_back(f.details);
-    same_las = same_las && f.las && r.las && f.las->point_format == r.las->point_format &&
-               f.las->scale == r.las->scale && f.las->offset == r.las->offset;
-  }
-  r.details = std::to_string(c.files.size()) + (c.files.size() == 1 ? " file: " : " files: ");
-  for (std::size_t k = 0; k < kinds.size(); ++k) r.details += (k ? "; " : "") + kinds[k];
-  if (!same_las) r.las.reset();
-  return r;
+  return inputs.size() > 1 || (inputs.size() == 1 && ced::io::names_catalogue(inputs[0]));
 }
 
 ced::point_cloud read_inputs(const std::vector<std::string>& inputs, const ced::io::read_options& options,
@@ -121,7 +100,7 @@ ced::point_cloud read_inputs(const std::vector<std::string>& inputs, const ced::
   if (!names_catalogue(inputs)) return ced::io::read_cloud(inputs.at(0), options, &report);
   ced::io::catalogue_report c;
   ced::point_cloud cloud = ced::io::read_catalogue(ced::io::catalogue_files(inputs), options, &c);
-  report = catalogue_read_report(c);
+  report = c.summary();
   if (catalogue) *catalogue = std::move(c);
   return cloud;
 }

@@ -135,6 +135,88 @@ std::optional<scalar_type> common_type(const std::string& name, scalar_type a, s
   return std::nullopt;
 }
 
+/// "N files: " and each distinct description, in order.
+std::string catalogue_details(const std::vector<std::string>& details) {
+  std::vector<std::string> kinds;
+  for (const auto& d : details)
+    if (std::find(kinds.begin(), kinds.end(), d) == kinds.end()) kinds.push_back(d);
+  std::string out = std::to_string(details.size()) + (details.size() == 1 ? " file: " : " files: ");
+  for (std::size_t k = 0; k < kinds.size(); ++k) out += (k ? "; " : "") + kinds[k];
+  return out;
+}
+
+/// Grows the box [lo, hi] (none yet: `any` false) to hold [a, b].
+void join_box(double lo[3], double hi[3], bool& any, const double a[3], const double b[3]) {
+  for (int k = 0; k < 3; ++k) {
+    lo[k] = any ? std::min(lo[k], a[k]) : a[k];
+    hi[k] = any ? std::max(hi[k], b[k]) : b[k];
+  }
+  any = true;
+}
+
+/// The fields of files read as one cloud, file by file: each name once, in
+/// one type (common_type()), every file with every field but the LAS flags
+/// (those a file lacks are 0 there). io_error naming the file otherwise.
+class field_layout {
+ public:
+  /// with_flags: the LAS flags are fields of the layout too.
+  explicit field_layout(bool with_flags) : m_with_flags(with_flags) {}
+  void add(const std::string& file, const point_cloud& c) {
+    std::vector<std::string> here;
+    for (const field& f : c.fields()) {
+      const bool flag = is_las_flag(f.name);
+      if (flag && !m_with_flags) continue;
+      here.push_back(f.name);
+      auto it = std::find_if(m_fields.begin(), m_fields.end(), [&](const auto& p) { return p.first == f.name; });
+      if (it == m_fields.end()) {
+        if (!flag && !m_files.empty())
+          throw io_error(file, "has a field '" + f.name + "', which " + m_files.front() +
+                                   " has not (a run that needs it needs it in every file)");
+        m_fields.push_back({f.name, f.type()});
+        continue;
+      }
+      if (it->second == f.type()) continue;
+      const std::optional<scalar_type> both = common_type(f.name, it->second, f.type());
+      if (!both) {
+        std::string why;
+        if (f.name == "scan_angle")
+          why =
+              " (LAS point formats 0-5 give whole degrees, 6-10 steps of 0.006 degrees: convert the files to one "
+              "point format, or run without the field)";
+        throw io_error(file, "its field '" + f.name + "' is " + std::string(name_of(f.type())) + ", in " +
+                                 m_files.front() + " it is " + std::string(name_of(it->second)) +
+                                 ": the files of one cloud need one type a field" + why);
+      }
+      it->second = *both;
+    }
+    for (const auto& [name, type] : m_fields) {
+      (void)type;
+      if (!is_las_flag(name) && std::find(here.begin(), here.end(), name) == here.end())
+        throw io_error(file, "has no field '" + name + "', which " + m_files.front() +
+                                 " has (a run that needs it needs it in every file)");
+    }
+    m_files.push_back(file);
+  }
+  const std::vector<std::pair<std::string, scalar_type>>& fields() const noexcept { return m_fields; }
+
+ private:
+  bool m_with_flags;
+  std::vector<std::pair<std::string, scalar_type>> m_fields;
+  std::vector<std::string> m_files;
+};
+
+/// `src`'s values into `dst` from row `row`, in `dst`'s type (one that
+/// holds them, common_type()): 8-bit colour into 16-bit × 257.
+void copy_converted(column& dst, std::size_t row, const std::string& name, const column& src) {
+  if (src.type() == dst.type()) {
+    const std::size_t w = size_of(src.type());
+    std::memcpy(dst.bytes() + row * w, src.bytes(), src.size() * w);
+    return;
+  }
+  const double factor = is_colour(name) && src.type() == scalar_type::uint8 ? 257.0 : 1.0;
+  for (std::size_t i = 0; i < src.size(); ++i) dst.set(row + i, src[i] * factor);
+}
+
 /// The absolute bounds of a cloud's positions; false when it has none.
 bool cloud_bounds(const point_cloud& c, double lo[3], double hi[3]) {
   if (c.empty()) return false;
@@ -198,6 +280,22 @@ std::pair<std::size_t, std::uint64_t> locate(const std::vector<std::uint64_t>& f
 
 std::pair<std::size_t, std::uint64_t> catalogue_report::locate(std::uint64_t i) const { return io::locate(first, i); }
 
+read_report catalogue_report::summary() const {
+  read_report r = reports.at(0);
+  std::vector<std::string> details;
+  bool same_las = true;
+  r.nonfinite_removed = 0;
+  for (const auto& f : reports) {
+    details.push_back(f.details);
+    r.nonfinite_removed += f.nonfinite_removed;
+    same_las = same_las && f.las && r.las && f.las->point_format == r.las->point_format &&
+               f.las->scale == r.las->scale && f.las->offset == r.las->offset;
+  }
+  r.details = catalogue_details(details);
+  if (!same_las) r.las.reset();
+  return r;
+}
+
 point_cloud read_catalogue(const std::vector<std::string>& files, const read_options& options,
                            catalogue_report* report) {
   catalogue_report rep;
@@ -215,27 +313,20 @@ point_cloud read_catalogue(const std::vector<std::string>& files, const read_opt
   std::vector<std::optional<point_cloud>> read(files.size());
   double lo[3], hi[3];
   bool any = false;
-  auto take = [&](const double a[3], const double b[3]) {
-    for (int k = 0; k < 3; ++k) {
-      lo[k] = any ? std::min(lo[k], a[k]) : a[k];
-      hi[k] = any ? std::max(hi[k], b[k]) : b[k];
-    }
-    any = true;
-  };
   // (The same rule as the catalogue's stream: the headers' bounds when
   // every file has them, else the points'.)
   bool headers = true;
   for (std::size_t f = 0; f < files.size() && headers; ++f) {
     double a[3], b[3];
     headers = las_family(files[f], o) && open_point_stream(files[f], o)->header_bounds(a, b);
-    if (headers) take(a, b);
+    if (headers) join_box(lo, hi, any, a, b);
   }
   if (!headers) {
     any = false;
     for (std::size_t f = 0; f < files.size(); ++f) {
       double a[3], b[3];
       read[f] = read_cloud(files[f], o, &rep.reports[f]);
-      if (cloud_bounds(*read[f], a, b)) take(a, b);
+      if (cloud_bounds(*read[f], a, b)) join_box(lo, hi, any, a, b);
     }
   }
   const std::array<double, 3> origin = options.origin ? *options.origin
@@ -260,44 +351,9 @@ point_cloud read_catalogue(const std::vector<std::string>& files, const read_opt
     }
   check_one_crs(crs, crs_files);
 
-  // The same fields in every file (a LAS flag no point of a file sets is 0
-  // there), each in one type: a type that holds another's values exactly
-  // takes them (uint8 into uint16, float32 into float64, ...); 8-bit colour
-  // beside 16-bit colour becomes 16-bit (x 257, the same fraction of full).
-  std::vector<std::pair<std::string, scalar_type>> fields;
-  std::map<std::string, std::size_t> seen_in;  // field -> the first file that has it
-  for (std::size_t f = 0; f < files.size(); ++f)
-    for (const field& fd : read[f]->fields()) {
-      const auto [it, fresh] = seen_in.emplace(fd.name, f);
-      if (fresh) {
-        fields.push_back({fd.name, fd.values.type()});
-        continue;
-      }
-      scalar_type& t =
-          std::find_if(fields.begin(), fields.end(), [&](const auto& p) { return p.first == fd.name; })->second;
-      const scalar_type u = fd.values.type();
-      if (t == u) continue;
-      const std::optional<scalar_type> both = common_type(fd.name, t, u);
-      if (!both) {
-        std::string why;
-        if (fd.name == "scan_angle")
-          why =
-              " (LAS point formats 0-5 give whole degrees, 6-10 steps of 0.006 degrees: convert the files to one "
-              "point format, or run without the field)";
-        throw io_error(files[f], "its field '" + fd.name + "' is " + std::string(name_of(u)) + ", in " +
-                                     files[it->second] + " it is " + std::string(name_of(t)) +
-                                     ": the files of one cloud need one type a field" + why);
-      }
-      t = *both;
-    }
-  for (const auto& [name, type] : fields) {
-    (void)type;
-    if (is_las_flag(name)) continue;
-    for (std::size_t f = 0; f < files.size(); ++f)
-      if (!read[f]->find_field(name))
-        throw io_error(files[f], "has no field '" + name + "', which " + files[seen_in[name]] +
-                                     " has (a run that needs it needs it in every file)");
-  }
+  // The same fields in every file, each in one type (field_layout).
+  field_layout layout(true);
+  for (std::size_t f = 0; f < files.size(); ++f) layout.add(files[f], *read[f]);
 
   point_cloud out;
   out.set_origin(origin);
@@ -308,20 +364,12 @@ point_cloud read_catalogue(const std::vector<std::string>& files, const read_opt
     std::copy(c.positions().begin(), c.positions().end(), out.positions().begin() + std::ptrdiff_t(3 * at));
     at += c.size();
   }
-  for (const auto& [name, type] : fields) {
+  for (const auto& [name, type] : layout.fields()) {
     column col(type, static_cast<std::size_t>(total));
-    const std::size_t width = size_of(type);
     std::size_t row = 0;
     for (std::size_t f = 0; f < files.size(); ++f) {
       const point_cloud& c = *read[f];
-      if (const field* fd = c.find_field(name)) {
-        if (fd->values.type() == type) {
-          std::memcpy(col.bytes() + row * width, fd->values.bytes(), c.size() * width);
-        } else {
-          const double factor = is_colour(name) && fd->values.type() == scalar_type::uint8 ? 257.0 : 1.0;
-          for (std::size_t i = 0; i < c.size(); ++i) col.set(row + i, fd->values[i] * factor);
-        }
-      }
+      if (const field* fd = c.find_field(name)) copy_converted(col, row, name, fd->values);
       row += c.size();  // a flag the file does not set: zeros
     }
     out.add_field(name, std::move(col));
@@ -334,7 +382,7 @@ namespace {
 
 /// Several files as one stream: their points file after file (global index
 /// = the file's first point in the catalogue + its own index), every chunk
-/// in one layout of fields (catalogue_layout()), positions relative to the
+/// in one layout of fields (field_layout), positions relative to the
 /// origin asked for.
 class catalogue_stream final : public point_stream {
  public:
@@ -352,7 +400,7 @@ class catalogue_stream final : public point_stream {
       m_first.push_back(m_first.back() + n);
       double lo[3], hi[3];
       if (headers && s->header_bounds(lo, hi))
-        take(m_header_lo, m_header_hi, m_any_header, lo, hi);
+        join_box(m_header_lo, m_header_hi, m_any_header, lo, hi);
       else
         headers = false;
       auto runs = s->chunk_runs();
@@ -386,14 +434,14 @@ class catalogue_stream final : public point_stream {
       const std::size_t n = m_stream->read(max, origin, chunk);
       if (n > 0) {
         m_pass_points += n;
-        normalise(chunk, m_cur, out);
+        normalise(chunk, out);
         return n;
       }
       // The file's pass is complete: its bounds and flags count.
       if (!m_pass_done) {
         double lo[3], hi[3];
         m_stream->bounds(lo, hi);
-        if (m_pass_points > m_member_start) take(m_lo, m_hi, m_any, lo, hi);
+        if (m_pass_points > m_member_start) join_box(m_lo, m_hi, m_any, lo, hi);
         for (auto& f : m_stream->flags_set())
           if (std::find(m_flags.begin(), m_flags.end(), f) == m_flags.end()) m_flags.push_back(f);
       }
@@ -420,14 +468,7 @@ class catalogue_stream final : public point_stream {
       hi[k] = m_any ? m_hi[k] : 0;
     }
   }
-  std::string details() const override {
-    std::vector<std::string> kinds;
-    for (const auto& d : m_details)
-      if (std::find(kinds.begin(), kinds.end(), d) == kinds.end()) kinds.push_back(d);
-    std::string out = std::to_string(m_files.size()) + (m_files.size() == 1 ? " file: " : " files: ");
-    for (std::size_t k = 0; k < kinds.size(); ++k) out += (k ? "; " : "") + kinds[k];
-    return out;
-  }
+  std::string details() const override { return catalogue_details(m_details); }
   bool streaming() const noexcept override { return m_streaming; }
   std::uint64_t declared_points() const noexcept override { return m_counted ? m_first.back() : 0; }
 
@@ -488,7 +529,7 @@ class catalogue_stream final : public point_stream {
       const std::uint64_t take = std::min(left, m_first[f + 1] - at);
       point_cloud part, norm;
       open_point_stream(m_files[f], m_options)->read_run({at - m_first[f], take}, fields, origin, part);
-      normalise(part, f, norm);
+      normalise(part, norm);
       append(joined, norm);
       at += take;
       left -= take;
@@ -504,30 +545,21 @@ class catalogue_stream final : public point_stream {
     point_cloud joined;
     joined.set_origin(origin);
     std::size_t k = 0;
-    bool all = true;
     for (std::size_t f = 0; f < m_files.size() && (k < at.size() || at.empty()); ++f) {
       std::vector<std::uint64_t> local;
       while (k < at.size() && at[k] < m_first[f + 1]) local.push_back(at[k++] - m_first[f]);
       if (local.empty() && !at.empty()) continue;
+      // (With `at` empty: whether points can be read, which every file answers.)
       point_cloud part, norm;
-      all = open_point_stream(m_files[f], m_options)->read_points(local, fields, origin, part) && all;
-      if (!all) return false;
-      normalise(part, f, norm);
+      if (!open_point_stream(m_files[f], m_options)->read_points(local, fields, origin, part)) return false;
+      normalise(part, norm);
       append(joined, norm);
-      if (at.empty()) continue;  // (asked whether points can be read: every file answers)
     }
     out = std::move(joined);
-    return all;
+    return true;
   }
 
  private:
-  static void take(double lo[3], double hi[3], bool& any, const double a[3], const double b[3]) {
-    for (int k = 0; k < 3; ++k) {
-      lo[k] = any ? std::min(lo[k], a[k]) : a[k];
-      hi[k] = any ? std::max(hi[k], b[k]) : b[k];
-    }
-    any = true;
-  }
   std::size_t file_of(std::uint64_t i) const { return locate(m_first, i).first; }
   /// A file's fields from its first point (LAS: every flag too), into the
   /// catalogue's layout: each name once, in one type (as read_catalogue()).
@@ -539,33 +571,7 @@ class catalogue_stream final : public point_stream {
       s.read(1, {0, 0, 0}, one);
       s.rewind();
     }
-    std::vector<std::string> here;
-    for (const field& f : one.fields()) {
-      if (is_las_flag(f.name)) continue;
-      here.push_back(f.name);
-      auto it = std::find_if(m_layout.begin(), m_layout.end(), [&](const auto& p) { return p.first == f.name; });
-      if (it == m_layout.end()) {
-        if (!m_layout_files.empty() && m_first.size() > 2)
-          throw io_error(file, "has a field '" + f.name + "', which " + m_layout_files.front() + " has not" +
-                                   " (a run that needs it needs it in every file)");
-        m_layout.push_back({f.name, f.type()});
-        continue;
-      }
-      if (it->second == f.type()) continue;
-      const auto both = common_type(f.name, it->second, f.type());
-      if (!both)
-        throw io_error(file, "its field '" + f.name + "' is " + std::string(name_of(f.type())) + ", in " +
-                                 m_layout_files.front() + " it is " + std::string(name_of(it->second)) +
-                                 ": the files of one cloud need one type a field");
-      it->second = *both;
-    }
-    for (const auto& [name, type] : m_layout) {
-      (void)type;
-      if (std::find(here.begin(), here.end(), name) == here.end())
-        throw io_error(file, "has no field '" + name + "', which " + m_layout_files.front() +
-                                 " has (a run that needs it needs it in every file)");
-    }
-    m_layout_files.push_back(file);
+    m_layout.add(file, one);
   }
   void order_flags() {
     std::vector<std::string> ordered;
@@ -580,16 +586,15 @@ class catalogue_stream final : public point_stream {
       if (is_las_flag(f)) m_flags.push_back(f);
     order_flags();
   }
-  /// `in` (a chunk of file f) in the catalogue's layout: its fields in
+  /// `in` (a chunk of one file) in the catalogue's layout: its fields in
   /// order and type, then the flags (those of the catalogue's that the
   /// file does not set: 0).
-  void normalise(point_cloud& in, std::size_t f, point_cloud& out) const {
-    (void)f;
+  void normalise(point_cloud& in, point_cloud& out) const {
     point_cloud o;
     o.set_origin(in.origin());
     o.positions() = std::move(in.positions());
     const std::size_t n = o.size();
-    for (const auto& [name, type] : m_layout) {
+    for (const auto& [name, type] : m_layout.fields()) {
       field* fd = nullptr;
       for (field& x : in.fields())
         if (x.name == name) fd = &x;
@@ -599,8 +604,7 @@ class catalogue_stream final : public point_stream {
         continue;
       }
       column c(type, n);
-      const double factor = is_colour(name) && fd->values.type() == scalar_type::uint8 ? 257.0 : 1.0;
-      for (std::size_t i = 0; i < n; ++i) c.set(i, fd->values[i] * factor);
+      copy_converted(c, 0, name, fd->values);
       o.add_field(name, std::move(c));
     }
     std::vector<std::string> flags = m_flags;
@@ -643,8 +647,8 @@ class catalogue_stream final : public point_stream {
   bool m_counted = false, m_headers = false, m_streaming = true;
   double m_header_lo[3] = {0, 0, 0}, m_header_hi[3] = {0, 0, 0};
   bool m_any_header = false;
-  std::vector<std::pair<std::string, scalar_type>> m_layout;
-  std::vector<std::string> m_layout_files, m_crs, m_crs_files;
+  field_layout m_layout{false};
+  std::vector<std::string> m_crs, m_crs_files;
   // The pass.
   std::unique_ptr<point_stream> m_stream;
   std::size_t m_cur = 0;

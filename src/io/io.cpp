@@ -100,14 +100,7 @@ point_cloud read_cloud(const std::string& path, const read_options& options, rea
   if (names_catalogue(path)) {  // a folder or @LIST: its files as one cloud
     catalogue_report files;
     point_cloud c = read_catalogue(catalogue_files({path}), options, &files);
-    if (report) {
-      *report = files.reports.at(0);
-      report->details =
-          std::to_string(files.files.size()) + (files.files.size() == 1 ? " file from " : " files from ") + path;
-      report->las.reset();
-      report->nonfinite_removed = 0;
-      for (const auto& r : files.reports) report->nonfinite_removed += r.nonfinite_removed;
-    }
+    if (report) *report = files.summary();
     return c;
   }
   point_cloud c;

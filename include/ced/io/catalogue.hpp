@@ -41,6 +41,11 @@ struct catalogue_report {
   std::vector<read_report> reports;
   /// The files and their point index of global index `i` (below first.back()).
   std::pair<std::size_t, std::uint64_t> locate(std::uint64_t i) const;
+  /// One read_report for all the files: the first's format; "N files: "
+  /// and each distinct description; the non-finite points dropped by all;
+  /// the LAS header to write like only when every file is LAS of its point
+  /// format, scale and offset.
+  read_report summary() const;
 };
 
 /// Reads `files` as one cloud: their points file after file, positions
