@@ -492,6 +492,8 @@ check "catalogue: keypoints in both files" test "$(grep -c '^0 ' "$T/cat_i.txt")
 n0=$("$CED" info "$T/cat/a.ply" 2>&1 | grep -oE '[0-9]+ points' | head -1 | grep -oE '[0-9]+')
 check "catalogue: the global numbering is file after file" test "$(awk -v n0="$n0" '{print ($1 == 0 ? $2 : n0 + $2)}' "$T/cat_i.txt" | cmp - "$T/cat_g.txt" && echo same)" = same
 check "catalogue: -o carries file_id and file_index" grep -qa 'property uint file_index' "$T/cat_kp.ply"
+"$CED" detect "$T/cat/a.ply" "$T/cat/b.ply" --preset ced6d -q > "$T/cat_stdout.txt"
+check "catalogue: without outputs, stdout has what --indices writes" cmp -s "$T/cat_i.txt" "$T/cat_stdout.txt"
 check "catalogue: -o alone" "$CED" detect "$T/cat/a.ply" "$T/cat/b.ply" --preset ced6d -o "$T/cat_kp_only.ply" -q
 check "catalogue: -o alone, the same keypoints" cmp -s "$T/cat_kp.ply" "$T/cat_kp_only.ply"
 "$CED" detect "$T/cat" --preset ced6d --indices "$T/cat_dir.txt" -q

@@ -267,6 +267,8 @@ mkdir -p "$T/cat_pf_whole" "$T/cat_pf_tiled"
 "$CED" detect "$T/cat" "${catargs[@]}" "$T/cat_tiled_g.txt" --indices "$T/cat_tiled.txt" --tile-size 0.5 \
   --indices-per-file "$T/cat_pf_tiled" -q
 check "catalogue tiled: --indices-per-file as the whole run's" diff -r "$T/cat_pf_whole" "$T/cat_pf_tiled"
+"$CED" detect "$T/cat" --preset ced6d --tile-size 0.5 -q > "$T/cat_tiled_stdout.txt"
+check "catalogue tiled: without outputs, stdout has what --indices writes" cmp -s "$T/cat_whole.txt" "$T/cat_tiled_stdout.txt"
 check "catalogue tiled: the whole catalogue's keypoints" cmp -s "$T/cat_whole.txt" "$T/cat_tiled.txt"
 check "catalogue tiled: the global numbering" cmp -s "$T/cat_whole_g.txt" "$T/cat_tiled_g.txt"
 "$CED" plan "$T/cat" --preset ced6d --tile-size 0.5 -o "$T/cat_plan.json" -q

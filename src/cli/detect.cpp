@@ -300,8 +300,7 @@ int run_detect(const detect_options& o) {
   progress.done();
 
   if (!o.quiet) print_report(o, plan, in, r, t_start);
-  if (out.files.empty() && out.per_file.empty())
-    for (std::uint32_t k : r.keypoints) std::cout << k << '\n';
+  if (out.files.empty() && out.per_file.empty()) write_indices(std::cout, in, r);
   return exit_ok;
 }
 

@@ -183,6 +183,19 @@ std::function<void(double, double, double, std::size_t)> reach_grown_report(cons
 /// summary), written as the merge streams: sink() for the merge, then
 /// finish() writes the summary and commits every file. Without output
 /// files, the indices go to stdout.
+/// Several inputs: each keypoint's file (its number among them) and its
+/// index in that file.
+using file_places = std::vector<std::pair<std::size_t, std::uint64_t>>;
+/// FILE_ID INDEX a line, as --indices writes them for several inputs.
+void write_file_places(std::ostream& out, const file_places& at);
+/// -o with several inputs: the fields file_id and file_index (in 32 bits
+/// when `points`, the inputs' count, allows: PLY has no 64-bit integers).
+/// io_error when the inputs have such a field already.
+void add_file_fields(ced::point_cloud& kp, const file_places& at, std::uint64_t points);
+/// The keypoints as --indices writes them (an index a line; with several
+/// inputs, FILE_ID INDEX).
+void write_indices(std::ostream& out, const detect_input& in, const ced::detection_result& r);
+
 class merged_writer {
  public:
   /// `request`: the run's input (a folder or @LIST: each keypoint's file
@@ -193,12 +206,15 @@ class merged_writer {
   std::uint64_t keypoints() const noexcept { return m_count; }
 
  private:
-  /// The keypoints' records, with file_id and file_index for a catalogue.
-  ced::point_cloud records(const ced::tile_part& c) const;
+  /// A catalogue: each of the part's keypoints' file and index in it (else none).
+  file_places places(const ced::tile_part& c) const;
+  /// The keypoints' records, with file_id and file_index for a catalogue
+  /// (`at`: their files and indices).
+  ced::point_cloud records(const ced::tile_part& c, const file_places& at) const;
   detect_outputs& m_out;
   ced::io::file_format m_format;
   std::vector<std::uint64_t> m_first;  // a catalogue's numbering (catalogue_first()); else empty
-  std::vector<std::pair<std::size_t, std::uint64_t>> m_per_file;  // --indices-per-file: the keypoints' files
+  file_places m_per_file;              // --indices-per-file: the keypoints' files
   std::unique_ptr<ced::io::cloud_writer> m_cloud;
   std::uint64_t m_count = 0;
 };

@@ -81,28 +81,23 @@ void add_saliency(ced::point_cloud& c, const ced::detection_result& r, const std
   }
 }
 
-/// -o: the keypoints with all their fields and their saliencies.
-void write_keypoints(std::ostream& out, const ced::point_cloud& cloud, const ced::detection_result& r,
-                     ced::io::file_format format, const detect_input* catalogue) {
+/// Several inputs: each keypoint's file and its index there.
+file_places places_of(const detect_input& in, const ced::detection_result& r) {
+  file_places at;
+  for (std::uint32_t k : r.keypoints) at.push_back(in.catalogue->locate(in.original[k]));
+  return at;
+}
+
+/// -o: the keypoints with all their fields and their saliencies (with
+/// several inputs, `at`: their files and indices).
+void write_keypoints(std::ostream& out, const detect_input& in, const ced::detection_result& r,
+                     ced::io::file_format format, const file_places& at) {
+  const ced::point_cloud& cloud = in.cloud;
   std::vector<std::uint8_t> keep(cloud.size(), 0);
   for (std::uint32_t k : r.keypoints) keep[k] = 1;
   ced::point_cloud kp = cloud;
   kp.filter(keep);
-  if (catalogue) {  // several inputs: each keypoint's file and its index there
-    std::vector<double> file_id, file_index;
-    for (std::uint32_t k : r.keypoints) {
-      const auto [f, i] = catalogue->catalogue->locate(catalogue->original[k]);
-      file_id.push_back(double(f));
-      file_index.push_back(double(i));
-    }
-    const bool narrow = catalogue->catalogue->first.back() <= 0xffffffffu;  // PLY has no 64-bit integers
-    for (const char* name : {"file_id", "file_index"})
-      if (kp.find_field(name))
-        throw ced::io::io_error(std::string("-o: the inputs already have a field '") + name +
-                                "', which -o writes with several inputs");
-    kp.add_field("file_id", ced::scalar_type::uint32, file_id);
-    kp.add_field("file_index", narrow ? ced::scalar_type::uint32 : ced::scalar_type::uint64, file_index);
-  }
+  if (in.catalogue) add_file_fields(kp, at, in.catalogue->first.back());
   std::vector<std::vector<float>> saliency(r.names.size());
   for (std::size_t m = 0; m < r.names.size(); ++m)
     for (std::uint32_t k : r.keypoints) saliency[m].push_back(r.saliency[m][k]);
@@ -250,23 +245,38 @@ ced::html_options html_options_of(const detect_options& o, const detect_plan& pl
 
 }  // namespace
 
+void write_file_places(std::ostream& out, const file_places& at) {
+  std::string text;
+  for (const auto& [f, i] : at) text += std::to_string(f) + ' ' + std::to_string(i) + '\n';
+  out.write(text.data(), static_cast<std::streamsize>(text.size()));
+}
+
+void add_file_fields(ced::point_cloud& kp, const file_places& at, std::uint64_t points) {
+  for (const char* name : {"file_id", "file_index"})
+    if (kp.find_field(name))
+      throw ced::io::io_error(std::string("-o: the inputs already have a field '") + name +
+                              "', which -o writes with several inputs");
+  std::vector<double> id, index;
+  for (const auto& [f, i] : at) {
+    id.push_back(double(f));
+    index.push_back(double(i));
+  }
+  kp.add_field("file_id", ced::scalar_type::uint32, id);
+  kp.add_field("file_index", points <= 0xffffffffu ? ced::scalar_type::uint32 : ced::scalar_type::uint64, index);
+}
+
+void write_indices(std::ostream& out, const detect_input& in, const ced::detection_result& r) {
+  if (in.catalogue) return write_file_places(out, places_of(in, r));
+  for (std::uint32_t k : r.keypoints) out << k << '\n';
+}
+
 void write_outputs(const detect_options& o, const detect_plan& plan, const detect_input& in,
                    const ced::detection_result& r, detect_outputs& out) {
+  const file_places at = in.catalogue ? places_of(in, r) : file_places{};
   if (in.catalogue) {
-    // Several inputs: each keypoint's file and its index there.
-    auto file_lines = [&](std::ostream& s) {
-      for (std::uint32_t k : r.keypoints) {
-        const auto [f, i] = in.catalogue->locate(in.original[k]);
-        s << f << ' ' << i << '\n';
-      }
-    };
-    if (out.indices) file_lines(out.indices->stream());
-    if (out.original) file_lines(out.original->stream());
-    if (!out.per_file.empty()) {
-      std::vector<std::pair<std::size_t, std::uint64_t>> at;
-      for (std::uint32_t k : r.keypoints) at.push_back(in.catalogue->locate(in.original[k]));
-      out.write_per_file(at);
-    }
+    if (out.indices) write_file_places(out.indices->stream(), at);
+    if (out.original) write_file_places(out.original->stream(), at);
+    if (!out.per_file.empty()) out.write_per_file(at);
   } else {
     if (out.indices)
       for (std::uint32_t k : r.keypoints) out.indices->stream() << k << '\n';
@@ -276,9 +286,7 @@ void write_outputs(const detect_options& o, const detect_plan& plan, const detec
   if (out.global)
     for (std::uint32_t k : r.keypoints) out.global->stream() << in.original[k] << '\n';
   if (out.keypoints)
-    ced::io::write_named(*out.keypoints, [&](std::ostream& s) {
-      write_keypoints(s, in.cloud, r, plan.out_format, in.catalogue ? &in : nullptr);
-    });
+    ced::io::write_named(*out.keypoints, [&](std::ostream& s) { write_keypoints(s, in, r, plan.out_format, at); });
   if (out.viewer) ced::io::write_named(*out.viewer, [&](std::ostream& s) { write_viewer(s, in.cloud, r); });
   if (out.png) {
     ced::render_options view = plan.view;

@@ -209,18 +209,16 @@ merged_writer::merged_writer(detect_outputs& out, ced::io::file_format format, c
     m_first = ced::io::catalogue_first(ced::io::catalogue_files({request.input}), request.read);
 }
 
-ced::point_cloud merged_writer::records(const ced::tile_part& c) const {
+file_places merged_writer::places(const ced::tile_part& c) const {
+  file_places at;
+  if (!m_first.empty())
+    for (std::uint64_t g : c.file_index) at.push_back(ced::io::locate(m_first, g));
+  return at;
+}
+
+ced::point_cloud merged_writer::records(const ced::tile_part& c, const file_places& at) const {
   ced::point_cloud kp = keypoint_cloud(c.keypoints, c.names, c.saliency);
-  if (m_first.empty()) return kp;
-  std::vector<double> id, index;
-  for (std::uint64_t g : c.file_index) {
-    const auto [f, i] = ced::io::locate(m_first, g);
-    id.push_back(double(f));
-    index.push_back(double(i));
-  }
-  kp.add_field("file_id", ced::scalar_type::uint32, id);
-  kp.add_field("file_index", m_first.back() <= 0xffffffffu ? ced::scalar_type::uint32 : ced::scalar_type::uint64,
-               index);
+  if (!m_first.empty()) add_file_fields(kp, at, m_first.back());
   return kp;
 }
 
@@ -229,7 +227,8 @@ ced::merge_sink merged_writer::sink() {
   s.begin = [this](const ced::tile_part& totals, std::uint64_t n) {
     m_count = n;
     if (m_out.keypoints)
-      m_cloud = std::make_unique<ced::io::cloud_writer>(m_out.keypoints->stream(), records(totals), n, m_format);
+      m_cloud = std::make_unique<ced::io::cloud_writer>(m_out.keypoints->stream(), records(totals, places(totals)), n,
+                                                        m_format);
   };
   s.chunk = [this](const ced::tile_part& c) {
     std::string text;
@@ -239,27 +238,19 @@ ced::merge_sink merged_writer::sink() {
       os.write(text.data(), static_cast<std::streamsize>(text.size()));
     };
     // A catalogue: each keypoint's file and its index there.
-    auto file_lines = [&](std::ostream& os) {
-      text.clear();
-      for (std::uint64_t g : c.file_index) {
-        const auto [f, i] = ced::io::locate(m_first, g);
-        text += std::to_string(f) + ' ' + std::to_string(i) + '\n';
-      }
-      os.write(text.data(), static_cast<std::streamsize>(text.size()));
-    };
+    const file_places at = places(c);
     if (m_first.empty()) {
       if (m_out.indices) lines(c.index, m_out.indices->stream());
       if (m_out.original) lines(c.file_index, m_out.original->stream());
       if (m_out.files.empty() && m_out.per_file.empty()) lines(c.index, std::cout);
     } else {
-      if (m_out.indices) file_lines(m_out.indices->stream());
-      if (m_out.original) file_lines(m_out.original->stream());
-      if (m_out.files.empty() && m_out.per_file.empty()) file_lines(std::cout);
+      if (m_out.indices) write_file_places(m_out.indices->stream(), at);
+      if (m_out.original) write_file_places(m_out.original->stream(), at);
+      if (m_out.files.empty() && m_out.per_file.empty()) write_file_places(std::cout, at);
     }
     if (m_out.global) lines(c.file_index, m_out.global->stream());
-    if (!m_out.per_file.empty())
-      for (std::uint64_t g : c.file_index) m_per_file.push_back(ced::io::locate(m_first, g));
-    if (m_cloud) ced::io::write_named(*m_out.keypoints, [&](std::ostream&) { m_cloud->write(records(c)); });
+    if (!m_out.per_file.empty()) m_per_file.insert(m_per_file.end(), at.begin(), at.end());
+    if (m_cloud) ced::io::write_named(*m_out.keypoints, [&](std::ostream&) { m_cloud->write(records(c, at)); });
   };
   s.records = m_out.keypoints != nullptr;  // only a keypoint cloud needs the fields
   return s;
