@@ -281,9 +281,26 @@ check "catalogue: the killed run wrote no output" test ! -e "$T/cat_r.txt"
 "$CED" detect "$T/cat" --preset ced6d --tile-size 0.5 --work-dir "$T/cat_wd" --indices "$T/cat_r.txt" --resume -q
 check "catalogue: killed and resumed" cmp -s "$T/cat_whole.txt" "$T/cat_r.txt"
 if [ -n "$MPI" ] && command -v mpirun > /dev/null; then
+  # The ranks fill the tile cache between them, from a plan of the headers:
+  # no rank reads the whole catalogue, and the outputs are one process's.
+  "$CED" detect "$T/cat" --preset ced6d -o "$T/cat_whole.las" -q > /dev/null
+  "$CED" detect "$T/cat" --preset ced6d --tile-size 0.5 -o "$T/cat_tiled.las" -q > /dev/null
+  check "catalogue tiled: -o as the whole run's, byte for byte" cmp -s "$T/cat_whole.las" "$T/cat_tiled.las"
   mpirun --allow-run-as-root --oversubscribe -np 3 "$MPI" detect "$T/cat" --preset ced6d --tile-size 0.5 \
-    --indices "$T/cat_mpi.txt" -q > /dev/null 2>&1
+    --indices "$T/cat_mpi.txt" -o "$T/cat_mpi.las" -q > /dev/null 2>&1
   check "catalogue: ced-mpi on 3 ranks" cmp -s "$T/cat_whole.txt" "$T/cat_mpi.txt"
+  check "catalogue: ced-mpi on 3 ranks, -o as the whole run's" cmp -s "$T/cat_whole.las" "$T/cat_mpi.las"
+  CED_TEST_KILL_AFTER_TILES=2 mpirun --allow-run-as-root --oversubscribe -np 3 "$MPI" detect "$T/cat" \
+    --preset ced6d --tile-size 0.5 --work-dir "$T/cat_wdm" --indices "$T/cat_mk.txt" -q > /dev/null 2>&1
+  check "catalogue: ced-mpi killed, no output" test ! -e "$T/cat_mk.txt"
+  check "catalogue: ced-mpi's plan says the cache was filled in 3 shares" grep -q '"cache_shares": 3' \
+    "$T/cat_wdm/plan.json"
+  check "catalogue: ... and the third rank filled pieces of it" \
+    test -n "$(find "$T/cat_wdm/cache" "$T/cat_wdm/parts" -name 't*s2.bin' 2> /dev/null | head -1)"
+  mpirun --allow-run-as-root --oversubscribe -np 3 "$MPI" detect "$T/cat" --preset ced6d --tile-size 0.5 \
+    --work-dir "$T/cat_wdm" --indices "$T/cat_mk.txt" --resume -q > /dev/null 2>&1
+  check "catalogue: ced-mpi killed and resumed" cmp -s "$T/cat_whole.txt" "$T/cat_mk.txt"
+  check "catalogue: ced-mpi's work directory removed" test ! -e "$T/cat_wdm"
 fi
 expect_exit 2 "give several files as a folder or @LIST" "several files with tiles" -- \
   detect "$T/cat/a.las" "$T/cat/b.laz" --preset ced6d --tile-size 0.5 --indices "$T/cat_x.txt"

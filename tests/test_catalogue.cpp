@@ -341,3 +341,99 @@ TEST(Catalogue, TilesEqualTheWholeCatalogue) {
   for (const ced::tile_entry& t : plan.tiles) parts.push_back(ced_test::detect_planned_tile(plan, t.id));
   EXPECT_EQ(ced::merge_parts(plan, std::move(parts)).index, expected);
 }
+
+namespace {
+
+/// The tile cache filled in `shares` shares (as ced-mpi's ranks fill it,
+/// here one after the other, the last first): the plan, and the keypoints
+/// of its tiles merged.
+std::vector<std::uint64_t> run_in_shares(const ced::tiled_request& r, unsigned shares, ced::tile_plan& plan) {
+  ced::tiled_run_options o;
+  o.work_dir = temp_file("shares_work");
+  const std::string begun = ced::begin_cache_shares(r, o, shares, plan);
+  EXPECT_FALSE(begun.empty());
+  std::vector<std::string> learnt(shares);
+  for (unsigned k = shares; k-- > 0;) learnt[k] = ced::fill_cache_share(begun, k, o);
+  plan = ced::finish_cache_shares(begun, learnt, o);
+  for (const ced::tile_entry& t : plan.tiles) ced::detect_cached_tile(plan, o.work_dir, t.id);
+  const ced::tile_part merged = ced::finish_tiled(plan, o.work_dir);
+  EXPECT_FALSE(fs::exists(o.work_dir));
+  return merged.index;
+}
+
+/// Narrows the x bounds of a LAS file's header (LAS 1.2 to 1.4: max x at
+/// byte 179, min x at 187) to their lower half: its points then lie outside.
+void narrow_header(const std::string& path) {
+  std::fstream f(path, std::ios::binary | std::ios::in | std::ios::out);
+  double hi = 0, lo = 0;
+  f.seekg(179);
+  f.read(reinterpret_cast<char*>(&hi), 8);
+  f.read(reinterpret_cast<char*>(&lo), 8);
+  hi = lo + 0.5 * (hi - lo);
+  f.seekp(179);
+  f.write(reinterpret_cast<const char*>(&hi), 8);
+  ASSERT_TRUE(f.good()) << path;
+}
+
+}  // namespace
+
+// #61: the pass that fills the tile cache shared between processes, none
+// reading the whole catalogue: the plan of one process (but for
+// cache_shares) and the whole catalogue's keypoints, for any number of
+// shares; and when a header belies its points, the passes of one process.
+TEST(Catalogue, TheCacheFilledInSharesGivesTheWholeCatalogue) {
+  const auto fx = make_catalogue(23, "shares");
+  const std::string list = temp_file("shares.list");
+  {
+    std::ofstream out(list);
+    for (const auto& f : fx.files) out << fs::path(f).filename().string() << "\n";
+  }
+  ced::tiled_request r;
+  r.input = "@" + list;
+  r.tile_size = 0.25;
+  r.params.radius = r.params.nms_radius = 0.04;
+  r.modalities = {"xyz:0.2", "rgb:0.1"};
+  const auto whole = ced::detect(ced::io::read_catalogue(fx.files), r.params, ced_test::specs(r.modalities)).keypoints;
+  ASSERT_GT(whole.size(), 20u);
+  const std::vector<std::uint64_t> expected(whole.begin(), whole.end());
+  ced::tiled_run_options o;
+  o.work_dir = temp_file("shares_single_work");
+  ced::tile_plan single;
+  EXPECT_EQ(ced::run_tiled(r, o, &single).index, expected);
+  for (unsigned shares : {2u, 3u, 7u}) {
+    SCOPED_TRACE(std::to_string(shares) + " shares");
+    ced::tile_plan plan;
+    EXPECT_EQ(run_in_shares(r, shares, plan), expected);
+    EXPECT_EQ(plan.cache_shares, shares);
+    ASSERT_EQ(plan.tiles.size(), single.tiles.size());
+    for (std::size_t t = 0; t < plan.tiles.size(); ++t) {
+      EXPECT_EQ(plan.tiles[t].id, single.tiles[t].id);
+      EXPECT_EQ(plan.tiles[t].core_points, single.tiles[t].core_points);
+      EXPECT_EQ(plan.tiles[t].points, single.tiles[t].points);
+    }
+    ASSERT_EQ(plan.fields.size(), single.fields.size());
+    for (std::size_t f = 0; f < plan.fields.size(); ++f) {
+      EXPECT_EQ(plan.fields[f].name, single.fields[f].name);
+      EXPECT_EQ(plan.fields[f].range.lo, single.fields[f].range.lo) << plan.fields[f].name;
+      EXPECT_EQ(plan.fields[f].range.hi, single.fields[f].range.hi) << plan.fields[f].name;
+    }
+    plan.cache_shares = 1;
+    EXPECT_EQ(plan.to_json(), single.to_json());
+  }
+  // One process: no shares, the plan and cache made as prepare_tiled() makes them.
+  {
+    ced::tile_plan plan;
+    o.work_dir = temp_file("shares_one_work");
+    EXPECT_TRUE(ced::begin_cache_shares(r, o, 1, plan).empty());
+    EXPECT_EQ(plan.cache_shares, 1u);
+    EXPECT_EQ(plan.tiles.size(), single.tiles.size());
+    ced::remove_work_dir(o.work_dir);
+  }
+  // A header whose bounds miss its points: the shares' plan cannot stand,
+  // and the first process plans and caches by passes.
+  narrow_header(fx.files[2]);
+  const auto lied = ced::detect(ced::io::read_catalogue(fx.files), r.params, ced_test::specs(r.modalities)).keypoints;
+  ced::tile_plan plan;
+  EXPECT_EQ(run_in_shares(r, 3, plan), std::vector<std::uint64_t>(lied.begin(), lied.end()));
+  EXPECT_EQ(plan.cache_shares, 1u);
+}

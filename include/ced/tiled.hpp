@@ -115,6 +115,10 @@ struct tile_plan {
   /// checks each one's hash (`content` is then empty: every run is read by
   /// some tile).
   std::vector<plan_run> runs;
+  /// The tile cache of a run was filled in this many shares, one a process
+  /// (ced-mpi's ranks: fill_cache_share()): each tile's cache file is then
+  /// in as many pieces. 1 for every other plan.
+  unsigned cache_shares = 1;
 
   std::string to_json() const;
   /// Throws io_error naming `name` for anything malformed.
@@ -277,6 +281,33 @@ tile_part run_tiled(const tiled_request& request, const tiled_run_options& optio
 /// processes (ced-mpi; the work directory on storage they all see):
 /// the plan and the tile cache (or, with resume, the plan found there) ...
 tile_plan prepare_tiled(const tiled_request& request, const tiled_run_options& options);
+/// prepare_tiled() with its pass over the input shared between processes
+/// (ced-mpi's ranks, the work directory on storage they all see), for an
+/// input planned from its headers (LAS, LAZ, COPC, or a catalogue of them):
+/// no process reads the whole input. In three steps:
+/// begin_cache_shares() in one process claims the work directory. When the
+/// plan can come from the headers, it returns that plan as an opaque text
+/// for the others (the `begun` of the steps below). Otherwise it returns ""
+/// with `plan` made: a run to resume, an input that needs passes (then
+/// prepare_tiled() has filled the cache here), or `shares` < 2 ...
+std::string begin_cache_shares(const tiled_request& request, const tiled_run_options& options, unsigned shares,
+                               tile_plan& plan);
+/// ... fill_cache_share() in each process, `share` its number below the
+/// shares: a block of the input's runs (LAS records, LAZ chunks) of about
+/// the points of the others, into its own pieces of the tile cache (the
+/// blocks follow the input's order, so the pieces in share order hold a
+/// tile's points in index order, whatever the number of shares). Returns
+/// what the share learnt (counts per tile, bounds, ranges, the LAS flags
+/// its points set) for the last step ...
+std::string fill_cache_share(const std::string& begun, unsigned share, const tiled_run_options& options);
+/// ... finish_cache_shares() in the first process, with every share's
+/// report in share order: the plan, written to the work directory (the one
+/// a single process makes from the headers, but for cache_shares). When the
+/// points belie the headers (a point outside their bounds, a tile field
+/// that is a flag no point sets, a count that differs), the cache goes and
+/// this process plans and fills it by passes, as prepare_tiled() does.
+tile_plan finish_cache_shares(const std::string& begun, const std::vector<std::string>& learnt,
+                              const tiled_run_options& options);
 /// ... the part of one tile, detected from the cache and kept in the work
 /// directory (or read from there when it is already) ...
 tile_part detect_cached_tile(const tile_plan& plan, const std::string& work_dir, std::uint64_t id, unsigned threads = 0,

@@ -164,6 +164,8 @@ struct tiled_setup {
   ced::tiled_run_options run;
 };
 tiled_setup setup_tiled(const detect_options& o);
+/// The progress bar, for the tiled library's (step, fraction) reports.
+ced::tiled_progress bar_progress(progress_bar& bar);
 /// `ced detect --tile-size/--memory-limit`: setup_tiled(), run_tiled(), the outputs.
 int run_detect_tiled(const detect_options& o);
 int run_detect_plan_tile(const detect_options& o);

@@ -217,9 +217,10 @@ file_places merged_writer::places(const ced::tile_part& c) const {
 }
 
 ced::point_cloud merged_writer::records(const ced::tile_part& c, const file_places& at) const {
-  ced::point_cloud kp = keypoint_cloud(c.keypoints, c.names, c.saliency);
+  // The fields in a whole run's order (write_keypoints): the input's, file_id and file_index, the saliencies.
+  ced::point_cloud kp = c.keypoints;
   if (!m_first.empty()) add_file_fields(kp, at, m_first.back());
-  return kp;
+  return keypoint_cloud(std::move(kp), c.names, c.saliency);
 }
 
 ced::merge_sink merged_writer::sink() {
@@ -287,8 +288,6 @@ void merged_writer::finish(const ced::tile_plan& p, const ced::tile_part& m, dou
   for (auto& f : m_out.files) f->commit();
 }
 
-namespace {
-
 /// Wraps the progress bar for the library's (step, fraction) reports.
 ced::tiled_progress bar_progress(progress_bar& bar) {
   auto last = std::make_shared<std::string>();
@@ -301,8 +300,6 @@ ced::tiled_progress bar_progress(progress_bar& bar) {
     if (*cb) (*cb)(f);
   };
 }
-
-}  // namespace
 
 bool wants_tiles(const detect_options& o) { return !o.tile_size.empty() || !o.memory_limit.empty(); }
 

@@ -2,8 +2,11 @@
 // ced-mpi: `mpirun -np N ced-mpi detect big.las [ced detect's options]`, the
 // tiles of a cloud shared between MPI ranks (Boost.MPI over OpenMPI).
 //
-// Rank 0 plans and fills the tile cache in the work directory (on storage
-// every rank sees: --work-dir), then hands out tile ids from a queue, the
+// Rank 0 plans. LAS, LAZ and COPC files, and catalogues of them, are
+// planned from their headers, and every rank fills the tile cache (in the
+// work directory, on storage every rank sees: --work-dir) from its own block
+// of the input, so that no rank reads the whole input; other inputs are
+// planned and cached by rank 0 alone. Rank 0 then hands out tile ids from a queue, the
 // largest tiles first; the other ranks detect them from the cache and keep
 // each tile's part there. Rank 0 merges the parts and writes the outputs
 // once. With one rank, rank 0 detects the tiles itself. A rank that fails
@@ -55,25 +58,20 @@ unsigned threads_per_rank(int asked) {
 }
 
 /// What rank 0 makes before the tiles, and every rank learns: whether it
-/// worked (an exit code and a message), the plan and the work directory.
+/// worked (an exit code and a message), the plan and the work directory;
+/// or, when the ranks share the pass that fills the cache, the plan from
+/// the headers (`begun`: ced::begin_cache_shares()).
 struct prepared {
   int status = exit_ok;
-  std::string message, plan_json, work_dir;
+  std::string message, plan_json, work_dir, begun;
   tiled_setup setup;  // rank 0's
 };
 
-/// Rank 0: checks the options, opens the outputs, plans and fills the cache.
-void prepare(const detect_options& o, prepared& r) {
+/// Runs f(), turning what it throws into r's status and message.
+template <class F>
+void catching(prepared& r, F&& f) {
   try {
-    if (!o.plan.empty()) throw usage_error("ced-mpi plans itself: no --plan");
-    if (o.input.empty()) throw usage_error("give an input file");
-    if (!wants_tiles(o)) throw usage_error("ced-mpi needs --tile-size or --memory-limit");
-    r.setup = setup_tiled(o);
-    r.work_dir = r.setup.run.work_dir;
-    r.setup.run.planned = [&](const ced::tile_plan& p) { report_plan(p, o.quiet, /*grows_reach=*/true); };
-    r.setup.run.reach_grown = reach_grown_report("ced-mpi", o.quiet);
-    r.plan_json =
-        naming_file_fields(o, r.setup.plan, [&] { return ced::prepare_tiled(r.setup.request, r.setup.run).to_json(); });
+    f();
   } catch (const usage_error& e) {
     r.status = exit_usage;
     r.message = e.what();
@@ -84,6 +82,57 @@ void prepare(const detect_options& o, prepared& r) {
     r.status = exit_failure;
     r.message = e.what();
   }
+}
+
+/// Rank 0: checks the options, opens the outputs and plans: from the
+/// headers, for the ranks to fill the cache between them (LAS, LAZ, COPC and
+/// catalogues of them), else by passes, filling the cache itself.
+void prepare(const detect_options& o, prepared& r, int ranks) {
+  catching(r, [&] {
+    if (!o.plan.empty()) throw usage_error("ced-mpi plans itself: no --plan");
+    if (o.input.empty()) throw usage_error("give an input file");
+    if (!wants_tiles(o)) throw usage_error("ced-mpi needs --tile-size or --memory-limit");
+    r.setup = setup_tiled(o);
+    r.work_dir = r.setup.run.work_dir;
+    r.setup.run.planned = [&](const ced::tile_plan& p) { report_plan(p, o.quiet, /*grows_reach=*/true); };
+    r.setup.run.reach_grown = reach_grown_report("ced-mpi", o.quiet);
+    naming_file_fields(o, r.setup.plan, [&] {
+      ced::tile_plan plan;
+      r.begun = ced::begin_cache_shares(r.setup.request, r.setup.run, static_cast<unsigned>(ranks), plan);
+      if (r.begun.empty()) r.plan_json = plan.to_json();
+    });
+  });
+}
+
+/// Every rank: its share of the pass that fills the cache; then rank 0
+/// makes the plan from what every share learnt (r.plan_json, or r.status
+/// and r.message when a rank failed).
+void fill_shares(const detect_options& o, mpi::communicator& world, prepared& r, unsigned threads,
+                 const ced::tiled_progress& progress) {
+  ced::tiled_run_options run;
+  run.work_dir = r.work_dir;
+  run.threads = threads;
+  run.progress = progress;  // rank 0's share
+  std::string mine;
+  try {
+    mine = ced::fill_cache_share(r.begun, static_cast<unsigned>(world.rank()), run);
+  } catch (const std::exception& e) {
+    mine = "!rank " + std::to_string(world.rank()) + ": " + e.what();
+  }
+  std::vector<std::string> all;
+  mpi::gather(world, mine, all, 0);
+  if (world.rank() != 0) return;
+  for (const std::string& a : all)
+    if (!a.empty() && a[0] == '!') {
+      r.status = exit_failure;
+      r.message = a.substr(1);
+      ced::remove_work_dir(r.work_dir);  // no plan: a rerun fills the cache again
+      return;
+    }
+  catching(r, [&] {
+    naming_file_fields(o, r.setup.plan,
+                       [&] { r.plan_json = ced::finish_cache_shares(r.begun, all, r.setup.run).to_json(); });
+  });
 }
 
 /// A rank other than 0: asks for a tile, detects it, reports, until told to
@@ -191,19 +240,26 @@ int run_mpi(const detect_options& o, mpi::communicator& world) {
   // Rank 0 checks the options, opens the outputs, plans and fills the cache;
   // every rank learns whether that worked.
   prepared r;
-  if (root) prepare(o, r);
-  mpi::broadcast(world, r.status, 0);
-  if (r.status != exit_ok) {
-    if (root) std::cerr << "ced-mpi: error: " << r.message << "\n";
-    return r.status;
+  if (root) prepare(o, r, world.size());
+  const unsigned threads = threads_per_rank(o.threads);
+  const auto failed = [&] {
+    mpi::broadcast(world, r.status, 0);
+    if (r.status != exit_ok && root) std::cerr << "ced-mpi: error: " << r.message << "\n";
+    return r.status != exit_ok;
+  };
+  if (failed()) return r.status;
+  mpi::broadcast(world, r.work_dir, 0);
+  mpi::broadcast(world, r.begun, 0);
+  // The progress of rank 0's share of the cache, then of the tiles, as ced detect's.
+  progress_bar bar(progress_bar::mode_of(o.progress, root ? o.quiet : true));
+  if (!r.begun.empty()) {  // no rank reads the whole input
+    fill_shares(o, world, r, threads, root ? bar_progress(bar) : ced::tiled_progress());
+    if (failed()) return r.status;
   }
   mpi::broadcast(world, r.plan_json, 0);
-  mpi::broadcast(world, r.work_dir, 0);
-  const unsigned threads = threads_per_rank(o.threads);
   if (!root) return work(o, world, r, threads);
 
   ced::tile_plan plan = ced::tile_plan::from_json(r.plan_json, r.work_dir + "/plan.json");
-  progress_bar bar(progress_bar::mode_of(o.progress, o.quiet));  // the tiles' progress, as ced detect's
   const auto t_tiles = clock_type::now();
   std::size_t total = 0;
   for (;;) {

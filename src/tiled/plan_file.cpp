@@ -298,6 +298,7 @@ std::string tile_plan::to_json() const {
   if (tile_fields) j["tile_fields"] = *tile_fields;
   auto& tl = j["tiles"] = nlohmann::json::array();
   for (const auto& t : tiles) tl.push_back({t.id, t.core_points, t.points});
+  if (cache_shares > 1) j["cache_shares"] = cache_shares;
   if (!runs.empty()) {
     auto& rl = j["runs"] = nlohmann::json::array();
     for (const auto& r : runs) {
@@ -310,6 +311,10 @@ std::string tile_plan::to_json() const {
 }
 
 tile_plan tile_plan::from_json(const std::string& text, const std::string& name) {
+  return tiled_detail::plan_from_json(text, name, true);
+}
+
+tile_plan tiled_detail::plan_from_json(const std::string& text, const std::string& name, bool tiles) {
   tile_plan p;
   try {
     const auto j = nlohmann::json::parse(text);
@@ -324,8 +329,11 @@ tile_plan tile_plan::from_json(const std::string& text, const std::string& name)
     grid_from_json(j.at("grid"), p, name);
     fields_from_json(j.at("fields"), p, name);
     if (j.contains("tile_fields")) tile_fields_from_json(j.at("tile_fields"), p, name);
-    tiles_from_json(j.at("tiles"), p, name);
+    if (tiles || !j.at("tiles").empty()) tiles_from_json(j.at("tiles"), p, name);
     if (j.contains("runs")) runs_from_json(j.at("runs"), p, name);
+    p.cache_shares = whole_number<unsigned>(j.value("cache_shares", nlohmann::json(1u)), "'cache_shares'");
+    if (p.cache_shares == 0 || p.cache_shares > (1u << 16))
+      throw io::io_error(name, "invalid tile plan: 'cache_shares' must be 1 to 65536");
   } catch (const nlohmann::json::exception& e) {
     throw io::io_error(name, std::string("malformed tile plan: ") + e.what());
   } catch (const std::invalid_argument& e) {

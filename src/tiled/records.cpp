@@ -192,8 +192,8 @@ point_cloud record_cloud(const tile_plan& p, std::size_t n) { return cloud_with(
 
 point_cloud position_cloud(const tile_plan& p, std::size_t n) { return cloud_with(p, {}, n); }
 
-tile_points points_from_cache(const tile_plan& p, std::uint64_t id, std::size_t n, const std::string& bytes,
-                              std::size_t offset, const std::string& name) {
+tile_points points_from_cache(const tile_plan& p, std::uint64_t id, std::size_t n,
+                              const std::vector<std::string>& pieces, std::size_t offset, const std::string& name) {
   tile_points t;
   t.tile = id;
   t.cloud = empty_cloud(p, n);
@@ -202,23 +202,29 @@ tile_points points_from_cache(const tile_plan& p, std::uint64_t id, std::size_t 
   std::vector<std::pair<unsigned char*, std::size_t>> fields;
   for (auto& f : t.cloud.fields()) fields.push_back({f.values.bytes(), size_of(f.type())});
   float* xyz = t.cloud.positions().data();
-  cache_reader in{bytes.data() + offset, bytes.data() + bytes.size(), name};
-  std::uint64_t next = 0, gap = 0;
-  std::int64_t at[3] = {0, 0, 0};
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::uint64_t head = in.get();
-    if (head & 1) gap += in.get();
-    t.index[i] = next + (head >> 1);
-    t.file_index[i] = t.index[i] + gap;
-    next = t.index[i] + 1;
-    for (std::size_t k = 0; k < 3; ++k) {
-      const std::uint64_t z = in.get();
-      at[k] = std::int64_t(std::uint64_t(at[k]) + (std::uint64_t(z >> 1) ^ (0 - (z & 1))));  // wraps, never UB
-      xyz[3 * i + k] = cache_coder::from_ordered(at[k]);
+  std::size_t i = 0;
+  for (const std::string& bytes : pieces) {
+    cache_reader in{bytes.data() + offset, bytes.data() + bytes.size(), name};
+    std::uint64_t next = 0, gap = 0;
+    std::int64_t at[3] = {0, 0, 0};
+    for (; in.p != in.end; ++i) {
+      if (i == n) throw io::io_error(name, "the tile cache holds more than the tile's points");
+      const std::uint64_t head = in.get();
+      if (head & 1) gap += in.get();
+      t.index[i] = next + (head >> 1);
+      t.file_index[i] = t.index[i] + gap;
+      next = t.index[i] + 1;
+      for (std::size_t k = 0; k < 3; ++k) {
+        const std::uint64_t z = in.get();
+        at[k] = std::int64_t(std::uint64_t(at[k]) + (std::uint64_t(z >> 1) ^ (0 - (z & 1))));  // wraps, never UB
+        xyz[3 * i + k] = cache_coder::from_ordered(at[k]);
+      }
+      for (auto& [to, w] : fields) copy_le(reinterpret_cast<char*>(to + w * i), in.take(w), w);
     }
-    for (auto& [to, w] : fields) copy_le(reinterpret_cast<char*>(to + w * i), in.take(w), w);
   }
-  if (in.p != in.end) throw io::io_error(name, "the tile cache holds more than the tile's points");
+  if (i != n)
+    throw io::io_error(name, "truncated or corrupt tile cache (" + std::to_string(i) + " of the tile's " +
+                                 std::to_string(n) + " points)");
   return t;
 }
 

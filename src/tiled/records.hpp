@@ -190,10 +190,12 @@ struct cache_coder {
   }
 };
 
-/// Tile id's points from its cache records (`bytes` from `offset` on, `n`
-/// records); io_error naming `name` when they are not n whole records.
-tile_points points_from_cache(const tile_plan& p, std::uint64_t id, std::size_t n, const std::string& bytes,
-                              std::size_t offset, const std::string& name);
+/// Tile id's points from its cache records: the records of each piece
+/// (`pieces`, each from `offset` on, coded afresh: cache_coder starts anew
+/// in each), `n` between them; io_error naming `name` when they are not n
+/// whole records.
+tile_points points_from_cache(const tile_plan& p, std::uint64_t id, std::size_t n,
+                              const std::vector<std::string>& pieces, std::size_t offset, const std::string& name);
 
 /// Decodes n records at `p` into points [at, at + n) of `c` and the index
 /// arrays; returns the end of the records.

@@ -59,8 +59,7 @@ tile_part detect_and_keep(const tile_plan& plan, const std::string& work_dir, co
                           unsigned threads) {
   tile_part part = detect_tile(plan, pts, threads);
   write_part_as(part_file(work_dir, pts.tile), plan, part.plan, part);  // detect_tile's digest
-  std::error_code ec;
-  fs::remove(cache_file(work_dir, pts.tile), ec);
+  remove_cached(plan, work_dir, pts.tile);
   // The resume tests' hook: die like a killed process after so many tiles.
   static std::atomic<long> detected{0};
   if (const char* kill_after = std::getenv("CED_TEST_KILL_AFTER_TILES"))
@@ -132,6 +131,31 @@ tile_plan prepare_tiled(const tiled_request& request, const tiled_run_options& o
   if (ec) throw io::io_error(parts.string(), "cannot create the parts directory: " + ec.message());
   if (o.planned && !announced) o.planned(plan);
   return plan;
+}
+
+std::string begin_cache_shares(const tiled_request& request, const tiled_run_options& o, unsigned shares,
+                               tile_plan& plan) {
+  if (o.work_dir.empty()) throw std::invalid_argument("tiled run: no work directory");
+  const fs::path dir(o.work_dir);
+  std::error_code ec;
+  claim_work_dir(o.work_dir);
+  if (!fs::exists(dir / "plan.json", ec)) {
+    std::optional<tile_plan> p;
+    try {
+      p = plan_for_shares(request, shares);
+    } catch (...) {
+      remove_work_dir(o.work_dir);
+      throw;
+    }
+    if (p) {
+      clear_tiles(dir);  // a run stopped before its plan was written: its cache is incomplete
+      fs::create_directories(dir / "cache", ec);
+      if (ec) throw io::io_error((dir / "cache").string(), "cannot create the tile cache directory: " + ec.message());
+      return p->to_json();
+    }
+  }
+  plan = prepare_tiled(request, o);
+  return {};
 }
 
 tile_part detect_cached_tile(const tile_plan& plan, const std::string& work_dir, std::uint64_t id, unsigned threads,

@@ -7,11 +7,15 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <exception>
 #include <future>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <system_error>
 #include <unordered_map>
@@ -22,6 +26,7 @@
 #include "core/raw_vector.hpp"
 #include "tiled/chunks.hpp"
 #include "tiled/modalities.hpp"
+#include "tiled/plan_file.hpp"
 #include "tiled/planning.hpp"
 #include "tiled/records.hpp"
 #include "tiled/work_dir.hpp"
@@ -51,8 +56,10 @@ class cache_writer {
   /// `tiles`: the grid's cells (tile ids are below it). A tile's buffer
   /// grows to budget / tiles bytes (16 KiB, or the budget when smaller, to
   /// 4 MiB), so that they fit the budget together.
-  cache_writer(std::string work_dir, std::size_t budget, unsigned shards, std::uint64_t tiles)
-      : m_work_dir(std::move(work_dir)), m_budget(budget), m_buffers(shards) {
+  /// `piece`: the files are pieces of the tiles' caches (cache_piece()), of a share of a pass.
+  cache_writer(std::string work_dir, std::size_t budget, unsigned shards, std::uint64_t tiles,
+               std::optional<unsigned> piece = std::nullopt)
+      : m_work_dir(std::move(work_dir)), m_budget(budget), m_piece(piece), m_buffers(shards) {
     m_capacity = std::clamp<std::uint64_t>(budget / std::max<std::uint64_t>(tiles, 1),
                                            std::min<std::uint64_t>(budget, 16 << 10), 4 << 20);
     if (tiles <= (1u << 20)) m_slots.assign(tiles, nullptr);  // else looked up in the maps
@@ -107,7 +114,7 @@ class cache_writer {
  private:
   std::size_t write(std::uint64_t t, tile_buffer& tb) {
     if (tb.used == 0) return 0;
-    const std::string path = cache_file(m_work_dir, t);
+    const std::string path = m_piece ? cache_piece(m_work_dir, t, *m_piece) : cache_file(m_work_dir, t);
     std::FILE* f = std::fopen(path.c_str(), "ab");
     if (!f) throw io::io_error(path, std::string("cannot write the tile cache: ") + std::strerror(errno));
     const bool ok = std::fwrite(tb.b.data(), 1, tb.used, f) == tb.used;
@@ -118,6 +125,7 @@ class cache_writer {
   }
   std::string m_work_dir;
   std::size_t m_budget, m_capacity, m_held = 0;
+  std::optional<unsigned> m_piece;
   std::vector<std::unordered_map<std::uint64_t, tile_buffer>> m_buffers;
   std::vector<tile_buffer*> m_slots;  ///< by tile id, on grids of up to 2^20 cells
 };
@@ -250,6 +258,19 @@ std::string cache_file(const std::string& work_dir, std::uint64_t id) {
   return (fs::path(work_dir) / "cache" / ("t" + std::to_string(id) + ".bin")).string();
 }
 
+std::string cache_piece(const std::string& work_dir, std::uint64_t id, unsigned share) {
+  return (fs::path(work_dir) / "cache" / ("t" + std::to_string(id) + "s" + std::to_string(share) + ".bin")).string();
+}
+
+void remove_cached(const tile_plan& plan, const std::string& work_dir, std::uint64_t id) {
+  std::error_code ec;
+  if (plan.cache_shares <= 1) {
+    fs::remove(cache_file(work_dir, id), ec);
+    return;
+  }
+  for (unsigned k = 0; k < plan.cache_shares; ++k) fs::remove(cache_piece(work_dir, id, k), ec);
+}
+
 namespace {
 
 /// The cache of `plan` from one pass over `s`: every point into the cache
@@ -345,21 +366,226 @@ tile_plan build_cache(const tiled_request& request, const tiled_run_options& o, 
       fs::create_directories(cache, ec);
     }
   }
+  return build_cache_by_passes(request, o, dir, announced);
+}
+
+tile_plan build_cache_by_passes(const tiled_request& request, const tiled_run_options& o, const fs::path& dir,
+                                bool& announced) {
   auto s = io::open_point_stream(request.input, request.read);
   tile_plan plan = plan_grid(request, *s, o.progress);
   plan.tile_fields = detection_fields(plan);
-  if (plan.tile_fields) s = slim_stream(plan);
+  if (plan.tile_fields) {
+    io::read_options slim = request.read;
+    slim.fields = field_selection::only(*plan.tile_fields);
+    s = io::open_point_stream(request.input, slim);
+  }
   fill_cache(plan, *s, o, dir, announced, nullptr);
   sample_fields(plan, o.progress);
-  io::write_text_file_atomic(plan_path.string(), plan.to_json());
+  io::write_text_file_atomic((dir / "plan.json").string(), plan.to_json());
   return plan;
 }
 
+std::optional<tile_plan> plan_for_shares(const tiled_request& request, unsigned shares) {
+  if (shares < 2 || request.scan || request.memory_limit > 0) return std::nullopt;
+  auto s = io::open_point_stream(request.input, request.read);
+  std::optional<tile_plan> plan = plan_from_header(request, *s);
+  // Runs to share out. (Where one process counts the tiles first, so as to
+  // cache only the tiles that own points, the shares cache every tile that
+  // reads points, and the others' pieces go once all are counted.)
+  if (!plan || s->chunk_runs().empty()) return std::nullopt;
+  plan->cache_shares = shares;
+  return plan;
+}
+
+namespace {
+
+/// The share of the point at `first` of `total` among `shares` blocks of as many points (the last fewer).
+unsigned share_of(std::uint64_t first, std::uint64_t total, unsigned shares) {
+  const std::uint64_t block = total / shares + (total % shares != 0);
+  return static_cast<unsigned>(first / block);
+}
+
+}  // namespace
+
+}  // namespace tiled_detail
+
+std::string fill_cache_share(const std::string& begun, unsigned share, const tiled_run_options& o) {
+  const tile_plan plan = plan_from_json(begun, "the plan from the headers", false);
+  if (share >= plan.cache_shares)
+    throw std::invalid_argument("fill_cache_share: share " + std::to_string(share) + " of " +
+                                std::to_string(plan.cache_shares));
+  auto s = io::open_point_stream(plan.request.input, plan.request.read);
+  if (s->declared_points() != plan.file_points)
+    throw io::io_error(plan.request.input, "the file changed since the plan was made (" +
+                                               std::to_string(s->declared_points()) + " points; the plan says " +
+                                               std::to_string(plan.file_points) + ")");
+  std::vector<io::point_stream::point_run> mine;
+  for (const auto& r : s->chunk_runs())
+    if (share_of(r.first, plan.file_points, plan.cache_shares) == share) mine.push_back(r);
+  // The tile fields, and the flags, which the points decide.
+  const std::vector<plan_field> tile_fields = tile_fields_of(plan);
+  std::vector<std::string> names, flags;
+  for (const plan_field& f : tile_fields) names.push_back(f.name);
+  for (const plan_field& f : plan.fields)
+    if (is_las_flag(f.name)) {
+      flags.push_back(f.name);
+      if (std::find(names.begin(), names.end(), f.name) == names.end()) names.push_back(f.name);
+    }
+  const unsigned shards = std::min(4u, resolve_threads(o.threads));
+  std::size_t budget = std::size_t(64) << 20;
+  if (const char* b = std::getenv("CED_TEST_CACHE_BUDGET"))
+    budget = std::max<std::size_t>(1, std::strtoull(b, nullptr, 10));
+  const tile_owners all;
+  cache_filler fill{plan, all, tile_counter(plan.grid.count()),
+                    cache_writer(o.work_dir, budget, shards, plan.grid.count(), share)};
+  fill.tile_fields = tile_fields;
+  scan_result scan;
+  std::uint64_t total = 0;
+  for (const auto& r : mine) total += r.count;
+  float lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+  for_each_run_group(*s, mine, names, plan.origin, [&](const point_cloud& c, std::size_t r0, std::size_t) {
+    fill.file_index = fill.index = mine[r0].first;  // (every point of a file planned from its header is finite)
+    if (scan.file_points == 0 && c.size() > 0)
+      for (std::size_t k = 0; k < 3; ++k) lo[k] = hi[k] = c.position(0)[k];
+    scan_chunk(c, scan);
+    for (std::size_t i = 0; i < c.size(); ++i)
+      for (std::size_t k = 0; k < 3; ++k) {
+        lo[k] = std::min(lo[k], c.position(i)[k]);
+        hi[k] = std::max(hi[k], c.position(i)[k]);
+      }
+    fill.add(c);
+    if (o.progress) o.progress("reading (a share of the tile cache)", double(scan.file_points) / double(total));
+  });
+  fill.writer.flush();
+  nlohmann::json j;
+  j["share"] = share;
+  j["points"] = scan.file_points;
+  if (scan.file_points > 0) j["box"] = {lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]};
+  auto& set = j["flags"] = nlohmann::json::array();
+  for (const std::string& f : flags) {
+    const auto it = scan.ranges.find(f);
+    if (it != scan.ranges.end() && it->second.second && it->second.first.hi > 0) set.push_back(f);
+  }
+  auto& ranges = j["ranges"] = nlohmann::json::object();
+  for (const plan_field& f : tile_fields) {
+    const auto it = scan.ranges.find(f.name);
+    if (it != scan.ranges.end() && it->second.second) ranges[f.name] = {it->second.first.lo, it->second.first.hi};
+  }
+  auto& tiles = j["tiles"] = nlohmann::json::array();
+  const tile_counter& n = fill.counts;
+  if (n.dense) {
+    for (std::uint64_t t = 0; t < n.all_v.size(); ++t)
+      if (n.all_v[t]) tiles.push_back({t, n.core_v[t], n.all_v[t]});
+  } else {
+    for (const auto& [t, v] : n.sparse) tiles.push_back({t, v.first, v.second});
+  }
+  return j.dump();
+}
+
+tile_plan finish_cache_shares(const std::string& begun, const std::vector<std::string>& learnt,
+                              const tiled_run_options& o) {
+  tile_plan plan = plan_from_json(begun, "the plan from the headers", false);
+  if (learnt.size() != plan.cache_shares)
+    throw std::invalid_argument("finish_cache_shares: " + std::to_string(learnt.size()) + " reports of " +
+                                std::to_string(plan.cache_shares) + " shares");
+  const fs::path dir(o.work_dir);
+  std::uint64_t points = 0;
+  double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+  bool any = false;
+  std::vector<std::string> set;
+  std::map<std::string, value_range> ranges;
+  std::map<std::uint64_t, std::pair<std::uint64_t, std::uint64_t>> counts;
+  for (std::size_t k = 0; k < learnt.size(); ++k) {
+    const auto j = nlohmann::json::parse(learnt[k]);
+    if (j.at("share").get<std::size_t>() != k)
+      throw std::invalid_argument("finish_cache_shares: the reports are not in share order");
+    points += j.at("points").get<std::uint64_t>();
+    if (j.contains("box")) {
+      const auto& b = j.at("box");
+      for (std::size_t d = 0; d < 3; ++d) {
+        const double a = b.at(d).get<double>() + plan.origin[d], z = b.at(3 + d).get<double>() + plan.origin[d];
+        lo[d] = any ? std::min(lo[d], a) : a;
+        hi[d] = any ? std::max(hi[d], z) : z;
+      }
+      any = true;
+    }
+    for (const auto& f : j.at("flags"))
+      if (std::find(set.begin(), set.end(), f.get<std::string>()) == set.end()) set.push_back(f.get<std::string>());
+    for (const auto& [name, r] : j.at("ranges").items()) {
+      const value_range v{r.at(0).get<double>(), r.at(1).get<double>()};
+      const auto it = ranges.find(name);
+      ranges[name] = it == ranges.end() ? v : value_range{std::min(it->second.lo, v.lo), std::max(it->second.hi, v.hi)};
+    }
+    for (const auto& t : j.at("tiles")) {
+      auto& c = counts[t.at(0).get<std::uint64_t>()];
+      c.first += t.at(1).get<std::uint64_t>();
+      c.second += t.at(2).get<std::uint64_t>();
+    }
+  }
+  // What a pass of one process checks (settle_header_plan): every point, in
+  // the grid and within the headers' bounds grown by 1 % (so that a whole
+  // read takes the plan's origin; a margin covers the float positions).
+  bool stands = any && points == plan.file_points;
+  double box[6];
+  stands = stands && io::open_point_stream(plan.request.input, plan.request.read)->header_box(0.01, box);
+  for (std::size_t k = 0; stands && k < 3; ++k) {
+    const double g0 = plan.origin[k] + plan.grid.lo[k], g1 = g0 + plan.grid.dims[k] * plan.grid.size;
+    const double margin = 1e-6 * std::max({std::fabs(box[k] - plan.origin[k]), std::fabs(box[3 + k] - plan.origin[k]),
+                                           box[3 + k] - box[k], 1.0});
+    stands = lo[k] >= g0 && hi[k] <= g1 && lo[k] >= box[k] + margin && hi[k] <= box[3 + k] - margin;
+  }
+  const auto unset_flag = [&](const std::string& name) {
+    return is_las_flag(name) && std::find(set.begin(), set.end(), name) == set.end();
+  };
+  for (const plan_field& f : tile_fields_of(plan)) stands = stands && !unset_flag(f.name);
+  std::error_code ec;
+  bool announced = false;
+  if (!stands) {
+    // The headers were not the points': the passes, in this process.
+    clear_tiles(dir);
+    fs::create_directories(dir / "cache", ec);
+    plan = build_cache_by_passes(plan.request, o, dir, announced);
+  } else {
+    plan.fields.erase(
+        std::remove_if(plan.fields.begin(), plan.fields.end(), [&](const plan_field& f) { return unset_flag(f.name); }),
+        plan.fields.end());
+    for (plan_field& f : plan.fields)
+      if (ranges.count(f.name)) f.range = ranges.at(f.name);  // the tile fields' (as settle_header_plan)
+    plan.tiles.clear();
+    for (const auto& [t, c] : counts)
+      if (c.first)
+        plan.tiles.push_back({t, c.first, c.second});
+      else
+        remove_cached(plan, o.work_dir, t);  // read points, owns none: not a tile of the plan
+    sample_fields(plan, o.progress);
+    io::write_text_file_atomic((dir / "plan.json").string(), plan.to_json());
+  }
+  fs::create_directories(dir / "parts", ec);
+  if (ec) throw io::io_error((dir / "parts").string(), "cannot create the parts directory: " + ec.message());
+  if (o.planned && !announced) o.planned(plan);
+  return plan;
+}
+
+namespace tiled_detail {
+
 tile_points load_cached(const tile_plan& plan, const std::string& work_dir, std::uint64_t id) {
-  const std::string file = cache_file(work_dir, id);
-  const std::string bytes = io::detail::read_whole_file(file);
-  check_tiled_header(bytes.data(), bytes.size(), bytes.size(), cache_kind, file);
-  return points_from_cache(plan, id, static_cast<std::size_t>(plan.tile(id).points), bytes, tiled_header_bytes, file);
+  const std::size_t n = static_cast<std::size_t>(plan.tile(id).points);
+  if (plan.cache_shares <= 1) {
+    const std::string file = cache_file(work_dir, id);
+    const std::string bytes = io::detail::read_whole_file(file);
+    check_tiled_header(bytes.data(), bytes.size(), bytes.size(), cache_kind, file);
+    return points_from_cache(plan, id, n, {bytes}, tiled_header_bytes, file);
+  }
+  // The pieces of the shares that read points of the tile, in share order.
+  std::vector<std::string> pieces;
+  std::error_code ec;
+  for (unsigned k = 0; k < plan.cache_shares; ++k) {
+    const std::string file = cache_piece(work_dir, id, k);
+    if (!fs::exists(file, ec)) continue;
+    pieces.push_back(io::detail::read_whole_file(file));
+    check_tiled_header(pieces.back().data(), pieces.back().size(), pieces.back().size(), cache_kind, file);
+  }
+  return points_from_cache(plan, id, n, pieces, tiled_header_bytes, cache_piece(work_dir, id, 0));
 }
 
 }  // namespace tiled_detail

@@ -42,8 +42,13 @@ bool ced_file_name(std::string name, const std::string& base, const std::string&
   if (name.size() < 1 + suffix.size() + 1 || name[0] != 't' ||
       name.compare(name.size() - suffix.size(), suffix.size(), suffix) != 0)
     return false;
+  // t<id><suffix>, or a piece of a tile cache filled in shares: t<id>s<share><suffix>.
   const std::string id = name.substr(1, name.size() - 1 - suffix.size());
-  return id.find_first_not_of("0123456789") == std::string::npos;
+  const std::size_t s = id.find('s');
+  const auto digits = [](const std::string& d) {
+    return !d.empty() && d.find_first_not_of("0123456789") == std::string::npos;
+  };
+  return s == std::string::npos ? digits(id) : digits(id.substr(0, s)) && digits(id.substr(s + 1));
 }
 
 /// Removes ced's files (names ced_file_name() accepts) from `dir`, and
