@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -436,4 +437,83 @@ TEST(Catalogue, TheCacheFilledInSharesGivesTheWholeCatalogue) {
   ced::tile_plan plan;
   EXPECT_EQ(run_in_shares(r, 3, plan), std::vector<std::uint64_t>(lied.begin(), lied.end()));
   EXPECT_EQ(plan.cache_shares, 1u);
+}
+
+/// A georeferenced strip of ground (4 m by 0.9 m, bumps and a colour pattern)
+/// cut across x at whole metres into LAS, LAZ, COPC and LAS files.
+std::vector<std::string> make_strip(std::uint32_t seed, const std::string& stem) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> jitter(-0.004f, 0.004f);
+  std::vector<ced::point_cloud> parts(4);
+  std::vector<std::vector<double>> red(4), green(4), blue(4);
+  for (auto& p : parts) p.set_origin({512345.0, 4012345.0, 120.0});
+  for (int i = 0; i < 200; ++i)
+    for (int j = 0; j < 45; ++j) {
+      const float x = 0.02f * float(i) + jitter(rng), y = 0.02f * float(j) + jitter(rng);
+      const float z = 0.05f * std::sin(5.0f * x) * std::cos(7.0f * y) + (std::fmod(x, 0.5f) < 0.1f ? 0.03f : 0.0f);
+      const std::size_t k = std::min<std::size_t>(3, std::size_t(x));
+      parts[k].push_back(x, y, z);
+      red[k].push_back(std::fmod(3.0f * x, 1.0f) < 0.5f ? 60000 : 5000);
+      green[k].push_back(std::fmod(4.0f * y, 1.0f) < 0.5f ? 50000 : 9000);
+      blue[k].push_back(20000);
+    }
+  const char* ext[4] = {".las", ".laz", ".copc.laz", ".las"};
+  std::vector<std::string> files;
+  for (std::size_t k = 0; k < 4; ++k) {
+    parts[k].add_field("red", ced::scalar_type::uint16, red[k]);
+    parts[k].add_field("green", ced::scalar_type::uint16, green[k]);
+    parts[k].add_field("blue", ced::scalar_type::uint16, blue[k]);
+    files.push_back(temp_file(stem + "_strip" + std::to_string(k) + ext[k]));
+    write_las_like(files.back(), parts[k], {512000.0, 4012000.0, 100.0});
+  }
+  return files;
+}
+
+// #61: `ced plan` of a catalogue of LAS, LAZ and COPC files from their
+// headers alone, when its tiles are large against the files (a tile then
+// decodes the files its core and halo meet, the COPC file through its
+// index): the whole catalogue's keypoints; a header that misses its points
+// stops the tile that finds it. Small tiles are planned by passes.
+TEST(Catalogue, APlanFromTheHeadersWhenTheTilesAreLarge) {
+  const std::vector<std::string> files = make_strip(29, "headers");
+  const std::string list = temp_file("headers.list");
+  {
+    std::ofstream out(list);
+    for (const auto& f : files) out << fs::path(f).filename().string() << "\n";
+  }
+  ced::tiled_request r;
+  r.input = "@" + list;
+  r.params.radius = r.params.nms_radius = 0.05;
+  r.modalities = {"xyz:0.2", "rgb:0.1"};
+  const auto whole = ced::detect(ced::io::read_catalogue(files), r.params, ced_test::specs(r.modalities)).keypoints;
+  ASSERT_GT(whole.size(), 20u);
+  r.tile_size = 0.3;
+  EXPECT_FALSE(ced::plan_tiles(r).indexed);  // each tile would decode most files: passes
+  r.tile_size = 1.0;
+  const ced::tile_plan plan = ced::tile_plan::from_json(ced::plan_tiles(r).to_json(), "plan.json");
+  ASSERT_TRUE(plan.indexed);
+  EXPECT_TRUE(plan.runs.empty());
+  ASSERT_GT(plan.tiles.size(), 2u);
+  std::vector<ced::tile_part> parts;
+  for (const ced::tile_entry& t : plan.tiles) {
+    const ced::tile_points pts = ced::read_tile(plan, t.id);
+    EXPECT_TRUE(pts.indexed);
+    EXPECT_LT(pts.decoded, 9000u);  // not every file
+    parts.push_back(ced::detect_tile(plan, pts));
+  }
+  EXPECT_EQ(ced::merge_parts(plan, std::move(parts)).index, std::vector<std::uint64_t>(whole.begin(), whole.end()));
+  // A header narrowed to half its points' x: the plan from the headers
+  // still covers them (the next file's bounds do), and a tile that reads the
+  // file stops.
+  narrow_header(files[1 - 1]);
+  const ced::tile_plan lied = ced::plan_tiles(r);
+  ASSERT_TRUE(lied.indexed);
+  bool stopped = false;
+  for (const ced::tile_entry& t : lied.tiles) try {
+      ced::read_tile(lied, t.id);
+    } catch (const ced::io::io_error& e) {
+      EXPECT_NE(std::string(e.what()).find("its file's header bounds"), std::string::npos) << e.what();
+      stopped = true;
+    }
+  EXPECT_TRUE(stopped);
 }

@@ -139,7 +139,10 @@ using tiled_progress = std::function<void(const std::string& step, double fracti
 /// planned from the index instead (tile_plan::indexed), without a pass over
 /// the points, unless the request asks to `scan` or gives a memory limit, a
 /// modality does not say which fields it reads, or the grid has more than
-/// 2^20 tiles (such a plan lists every tile of the grid). Throws std::invalid_argument for a bad
+/// 2^20 tiles (such a plan lists every tile of the grid). So is a catalogue
+/// of LAS, LAZ and COPC files, from their headers (and indexes), when its
+/// tiles would decode at most 3 points a point: a tile decodes every file
+/// without an index whose header's box its core and halo meet. Throws std::invalid_argument for a bad
 /// request (tile size, limit, modalities), io_error for the input.
 tile_plan plan_tiles(const tiled_request& request, const tiled_progress& progress = {});
 

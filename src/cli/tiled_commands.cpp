@@ -177,9 +177,10 @@ void report_plan(const ced::tile_plan& p, bool quiet, bool grows_reach) {
                  static_cast<unsigned long long>(owned));
   if (p.indexed)
     std::fprintf(stderr,
-                 "ced: planned from %s's COPC index and header, without a pass over the points: the tiles' counts "
-                 "below are estimates (ced plan --scan counts them)\n",
-                 p.request.input.c_str());
+                 "ced: planned from %s's %s, without a pass over the points: the tiles' counts below are estimates "
+                 "(ced plan --scan counts them)\n",
+                 p.request.input.c_str(),
+                 ced::io::names_catalogue(p.request.input) ? "headers (and COPC indexes)" : "COPC index and header");
   if (!p.runs.empty()) {
     const std::string what = p.details.rfind("LAZ", 0) == 0
                                  ? std::string("LAZ chunks")
@@ -400,11 +401,13 @@ int run_detect_plan_tile(const detect_options& o) {
   const ced::tile_part part = ced::detect_tile(plan, pts, static_cast<unsigned>(std::max(0, o.threads)));
   ced::write_part(o.output, plan, part);
   if (!o.quiet) {
-    const std::string how = pts.runs_read ? ", " + std::to_string(pts.runs_read) + " of the file's " +
-                                                std::to_string(plan.runs.size()) + " runs"
-                            : pts.indexed                    ? ", through the file's COPC index"
-                            : pts.decoded > plan.file_points ? ": two passes over the file"
-                                                             : ": one pass over the file";
+    const std::string how =
+        pts.runs_read
+            ? ", " + std::to_string(pts.runs_read) + " of the file's " + std::to_string(plan.runs.size()) + " runs"
+        : pts.indexed && ced::io::names_catalogue(plan.request.input) ? ", through the files' COPC indexes and headers"
+        : pts.indexed                                                 ? ", through the file's COPC index"
+        : pts.decoded > plan.file_points                              ? ": two passes over the file"
+                                                                      : ": one pass over the file";
     std::fprintf(stderr, "ced: tile %lld: %zu points read (%llu decoded%s), %zu keypoints; %.1f ms\n", o.tile,
                  pts.cloud.size(), static_cast<unsigned long long>(pts.decoded), how.c_str(), part.index.size(),
                  ms_since(t0));

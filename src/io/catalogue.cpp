@@ -476,11 +476,23 @@ class catalogue_stream final : public point_stream {
     if (!m_counted) return std::nullopt;
     std::vector<index_node> all;
     for (std::size_t f = 0; f < m_files.size(); ++f) {
-      const auto nodes = open_point_stream(m_files[f], m_options)->index_nodes();
-      if (!nodes) return std::nullopt;
-      for (index_node n : *nodes) {
-        n.run.first += m_first[f];
-        all.push_back(n);
+      const auto s = open_point_stream(m_files[f], m_options);
+      if (const auto nodes = s->index_nodes()) {
+        for (index_node n : *nodes) {
+          n.run.first += m_first[f];
+          all.push_back(n);
+        }
+        continue;
+      }
+      // A file without an index: its runs, each in the header's box.
+      double box[6];
+      const auto runs = s->chunk_runs();
+      if (runs.empty() || !s->header_box(0, box)) return std::nullopt;
+      for (const point_run& r : runs) {
+        index_node& n = all.emplace_back();
+        std::copy_n(box, 6, n.box.begin());
+        n.run = {r.first + m_first[f], r.count};
+        n.whole_file = true;
       }
     }
     return all;

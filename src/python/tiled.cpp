@@ -157,8 +157,8 @@ void bind_tiled(py::module_& m) {
       .def_property_readonly("digest", &ced::tile_plan::digest)
       .def_property_readonly(
           "indexed", [](const ced::tile_plan& p) { return p.indexed; },
-          "True when planned from the file's COPC index without a pass over the points (tile counts are "
-          "estimates)")
+          "True when planned from the file's COPC index, or a catalogue's headers, without a pass over the "
+          "points (tile counts are estimates)")
       .def_property_readonly(
           "tiles",
           [](const ced::tile_plan& p) {
@@ -280,7 +280,8 @@ void bind_tiled(py::module_& m) {
       py::arg("search") = "grid", py::arg("keypoint_share") = py::none(),
       "Plans the tiles of a cloud file (two passes over it), as `ced plan`. A COPC file is planned from its "
       "index and header without a pass over the points (plan.indexed), unless scan=True or memory_limit is "
-      "given. modalities: spec strings or a preset "
+      "given; so is a folder or @LIST of LAS, LAZ and COPC files, from their headers, when its tiles are large "
+      "against the files (docs/CLI.md). modalities: spec strings or a preset "
       "name (default: ced6d when the file has colour, else ced3d). refine: keypoint refinement (None: the "
       "preset's, on for robust3d, robust6d, corner3d). max_keypoints: the merge keeps the strongest of all tiles' "
       "keypoints, as detect(max_keypoints=...) (0: no limit); keypoint_share likewise (None: the preset's, 0.01 "

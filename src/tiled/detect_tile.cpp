@@ -120,7 +120,10 @@ std::optional<tile_points> read_tile_indexed(const tile_plan& plan, std::uint64_
     const field_bytes fields = plan_fields_of(plan, c, tile_fields, converted);
     for (std::size_t i = 0; i < c.size(); ++i) {
       const std::uint64_t index = n.run.first + i;
-      check_within(plan, c.position(i), n.box.data(), margin, index, "the box of the index node that holds it");
+      check_within(plan, c.position(i), n.box.data(), margin, index,
+                   n.whole_file
+                       ? "its file's header bounds, from which the plan took its tiles: make a plan with --scan"
+                       : "the box of the index node that holds it");
       if (plan.indexed)
         check_within(plan, c.position(i), header, 0, index,
                      "the header's bounds (by more than 0.5 % of their extent), from which the plan took its tiles: "

@@ -128,6 +128,28 @@ using index_node = io::point_stream::index_node;
 
 /// The most tiles a plan from a spatial index may have (it lists them all).
 constexpr std::uint64_t k_max_indexed_tiles = std::uint64_t(1) << 20;
+/// A catalogue's files without an index are planned from their headers only
+/// when its tiles would decode at most this many points a point.
+constexpr double k_most_decoded = 3;
+
+/// The points that the tiles of a plan from `nodes` decode, per point, when
+/// some are files without an index (index_node::whole_file: every tile whose
+/// core and halo meet such a file decodes all of it); 0 when none is.
+double decoded_per_point(const tile_plan& p, const std::vector<io::point_stream::index_node>& nodes) {
+  const tile_grid& g = p.grid;
+  double decoded = 0;
+  bool any = false;
+  for (const auto& n : nodes) {
+    any = any || n.whole_file;
+    double tiles = 1;
+    for (std::size_t k = 0; k < 3; ++k) {
+      const auto cell = [&](double x) { return std::clamp(std::floor((x - g.lo[k]) / g.size), 0.0, g.dims[k] - 1.0); };
+      tiles *= cell(n.box[3 + k] - p.origin[k] + g.halo) - cell(n.box[k] - p.origin[k] - g.halo) + 1;
+    }
+    decoded += tiles * double(n.run.count);
+  }
+  return any ? decoded / double(std::max<std::uint64_t>(p.file_points, 1)) : 0;
+}
 
 /// The part of [a, b] (edge-extended: -inf/+inf at the grid's ends) that the
 /// interval [lo, hi] covers, as a fraction of it.
@@ -236,6 +258,7 @@ std::optional<tile_plan> plan_from_index(const tiled_request& request, io::point
                                           std::to_string(p->file_points));
   // Twice the margin a tile read allows a point outside its node: listing errs on the safe side.
   p->tiles = tiles_of_nodes(*p, *nodes, 2 * io::point_stream::index_margin(*nodes));
+  if (decoded_per_point(*p, *nodes) > k_most_decoded) return std::nullopt;
   tile_field_ranges(*p, progress);
   return p;
 }

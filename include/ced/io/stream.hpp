@@ -64,10 +64,16 @@ class point_stream {
   struct index_node {
     std::array<double, 6> box{};
     point_run run;
+    /// A run of a file without an index, in a catalogue: its box is the
+    /// file's header bounds (las_header_box(), one scale step wider).
+    bool whole_file = false;
   };
   /// Files with a spatial index (COPC): every node of it that holds points,
-  /// read from the index alone. Other files: none (std::nullopt). io_error
-  /// for an index that is damaged or does not match the file's chunks.
+  /// read from the index alone. Catalogues (ced/io/catalogue.hpp) of LAS,
+  /// LAZ and COPC files: their COPC files' nodes, and each other file's runs
+  /// (chunk_runs()) as nodes of its header's box (whole_file). Other files:
+  /// none (std::nullopt). io_error for an index that is damaged or does not
+  /// match the file's chunks.
   virtual std::optional<std::vector<index_node>> index_nodes() { return std::nullopt; }
   /// Files with a spatial index: the runs of points, ascending and apart,
   /// of the nodes that meet the absolute box [lo, hi] (and so hold every
