@@ -181,6 +181,20 @@ void report_plan(const ced::tile_plan& p, bool quiet, bool grows_reach) {
                  "(ced plan --scan counts them)\n",
                  p.request.input.c_str(),
                  ced::io::names_catalogue(p.request.input) ? "headers (and COPC indexes)" : "COPC index and header");
+  if (p.indexed && p.tile_fields && !p.tile_fields->empty()) {
+    // The statistics a plan from the headers still needs the points for.
+    std::string names, sampled;
+    for (const auto& f : p.fields) {
+      if (std::find(p.tile_fields->begin(), p.tile_fields->end(), f.name) == p.tile_fields->end()) continue;
+      names += (names.empty() ? "" : ", ") + f.name;
+      if (f.sample) sampled += (sampled.empty() ? "" : ", ") + f.name;
+    }
+    std::fprintf(stderr,
+                 "ced: one pass read %s alone, for their ranges over every point (8-bit colour in 16 bits, "
+                 "range=auto)%s%s\n",
+                 names.c_str(), sampled.empty() ? "" : ", and the sample of ",
+                 sampled.empty() ? "" : (sampled + " (range=zscore, percentiles, pca=)").c_str());
+  }
   if (!p.runs.empty()) {
     const std::string what = p.details.rfind("LAZ", 0) == 0
                                  ? std::string("LAZ chunks")
