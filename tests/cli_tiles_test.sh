@@ -301,6 +301,15 @@ if [ -n "$MPI" ] && command -v mpirun > /dev/null; then
     --work-dir "$T/cat_wdm" --indices "$T/cat_mk.txt" --resume -q > /dev/null 2>&1
   check "catalogue: ced-mpi killed and resumed" cmp -s "$T/cat_whole.txt" "$T/cat_mk.txt"
   check "catalogue: ced-mpi's work directory removed" test ! -e "$T/cat_wdm"
+  # A header whose bounds miss its points (max x set to min x): the ranks'
+  # shared pass finds them outside, and rank 0 plans and caches by passes.
+  cp "$T/cat/a.las" "$T/lying.las"
+  dd if="$T/lying.las" of="$T/lying.las" bs=1 skip=187 seek=179 count=8 conv=notrunc 2> /dev/null
+  "$CED" detect "$T/lying.las" --preset ced6d --indices "$T/lying_whole.txt" -q
+  mpirun --allow-run-as-root --oversubscribe -np 3 "$MPI" detect "$T/lying.las" --preset ced6d --tile-size 0.5 \
+    --indices "$T/lying_mpi.txt" -q > /dev/null 2>&1
+  check "ced-mpi: a header that misses its points, planned again by passes, the whole run's keypoints" \
+    cmp -s "$T/lying_whole.txt" "$T/lying_mpi.txt"
 fi
 expect_exit 2 "give several files as a folder or @LIST" "several files with tiles" -- \
   detect "$T/cat/a.las" "$T/cat/b.laz" --preset ced6d --tile-size 0.5 --indices "$T/cat_x.txt"
