@@ -411,3 +411,66 @@ TEST(TiledRun, LasIsPlannedFromItsHeaderInOnePassWhenTheHeaderHolds) {
   r.scan = true;
   EXPECT_TRUE(run_and_watch(r, "header_scan_work").first_pass);
 }
+
+// A LAZ input (tile_plan::bytes_hash): a merge of positions alone checks the
+// file's bytes, not the decoded keypoints, and gives the same keypoints as a
+// merge that fetches their records; a byte changed where the fingerprint
+// does not look is refused. Also through the shares of ced-mpi.
+TEST(TiledRun, ACompressedInputIsCheckedByItsBytes) {
+  ced::tiled_request r = room_request(40000, 18, "bytes_room.las", 0.2, {512000.0, 4012000.0, 100.0});
+  const std::string laz = ced_test::temp_file("bytes_room.laz");
+  ced::io::write_cloud(laz, ced::io::read_cloud(r.input));
+  r.input = laz;
+  const auto whole = ced::detect(ced::io::read_cloud(laz), r.params, ced_test::specs(r.modalities)).keypoints;
+  ASSERT_GT(whole.size(), 10u);
+  for (unsigned shares : {1u, 3u}) {
+    SCOPED_TRACE(std::to_string(shares) + " share(s)");
+    ced::tiled_run_options o;
+    o.work_dir = ced_test::temp_file("bytes_work");
+    ced::tile_plan plan;
+    const std::string begun = ced::begin_cache_shares(r, o, shares, plan);
+    if (!begun.empty()) {
+      std::vector<std::string> learnt(shares);
+      for (unsigned k = 0; k < shares; ++k) learnt[k] = ced::fill_cache_share(begun, k, o);
+      plan = ced::finish_cache_shares(begun, learnt, o);
+    }
+    EXPECT_EQ(plan.bytes_hash.size(), 16u);
+    EXPECT_EQ(plan.cache_shares, shares);
+    for (const auto& t : plan.tiles) ced::detect_cached_tile(plan, o.work_dir, t.id);
+    auto merged = [&](bool records) {
+      std::vector<std::uint64_t> index;
+      std::vector<float> xyz;
+      ced::merge_sink sink;
+      sink.records = records;
+      sink.chunk = [&](const ced::tile_part& c) {
+        index.insert(index.end(), c.index.begin(), c.index.end());
+        xyz.insert(xyz.end(), c.keypoints.positions().begin(), c.keypoints.positions().end());
+      };
+      ced::finish_tiled(plan, o.work_dir, &sink, true);
+      return std::make_pair(index, xyz);
+    };
+    const auto with = merged(true), without = merged(false);
+    EXPECT_EQ(with.first, std::vector<std::uint64_t>(whole.begin(), whole.end()));
+    EXPECT_EQ(without.first, with.first);
+    EXPECT_EQ(without.second, with.second);
+    // One byte of the compressed points, away from the fingerprint's samples.
+    const std::string bytes = ced_test::read_bytes(laz);
+    std::string changed = bytes;
+    const std::size_t step = bytes.size() / 65, at = step * 30 + 4096 + (step - 4096) / 2;  // between two samples
+    ASSERT_GT(step, 4096u);
+    ASSERT_TRUE(at > 65536 && at + 65536 < bytes.size());
+    changed[at] = static_cast<char>(changed[at] ^ 0x10);
+    ced_test::write_bytes(laz, changed);
+    EXPECT_NO_THROW(ced::check_plan_input(plan));
+    try {
+      merged(false);
+      ADD_FAILURE() << "a changed LAZ file was merged";
+    } catch (const ced::io::io_error& e) {
+      EXPECT_NE(std::string(e.what()).find("the file changed since the plan was made (its bytes hash to"),
+                std::string::npos)
+          << e.what();
+    }
+    ced_test::write_bytes(laz, bytes);
+    ced::remove_work_dir(o.work_dir);
+  }
+}

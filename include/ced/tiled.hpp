@@ -119,6 +119,12 @@ struct tile_plan {
   /// (ced-mpi's ranks: fill_cache_share()): each tile's cache file is then
   /// in as many pieces. 1 for every other plan.
   unsigned cache_shares = 1;
+  /// Compressed inputs (every file LAZ or COPC) of a run with a tile cache:
+  /// a hash of every byte of the input, taken when the cache was filled.
+  /// A merge that needs only the keypoints' positions then checks these
+  /// bytes again (the same bytes decode to the same points) instead of
+  /// decoding the chunks that hold the keypoints. Empty otherwise.
+  std::string bytes_hash;
 
   std::string to_json() const;
   /// Throws io_error naming `name` for anything malformed.

@@ -22,7 +22,9 @@ namespace ced::tiled_detail {
 /// records), only their records, or the LAZ chunks that hold them
 /// (point_stream::read_points). Every keypoint's index and position must be
 /// the input's, and the input's counts the plan's: else io_error, the input
-/// changed since the plan.
+/// changed since the plan. For the positions alone of a plan with a
+/// bytes_hash (LAZ, COPC), the input's bytes are checked against it
+/// instead, and the parts' positions taken.
 class record_fetcher {
  public:
   /// With `fields` false, the keypoints' positions only (still checked).
@@ -43,7 +45,9 @@ class record_fetcher {
   [[noreturn]] void not_the_keypoint(std::uint64_t file_index, std::uint64_t index) const;
   const tile_plan& m_plan;
   std::unique_ptr<io::point_stream> m_stream;
-  bool m_records = false;                  ///< reading only the keypoints' records
+  bool m_records = false;  ///< reading only the keypoints' records
+  /// Positions only, of an input whose bytes are the plan's (tile_plan::bytes_hash): the parts' own.
+  bool m_bytes_checked = false;
   std::vector<std::string> m_field_names;  ///< of the plan; none when only positions are fetched
   std::uint64_t m_last = 0;                ///< records: file index past the last keypoint fetched
   point_cloud m_chunk, m_next;

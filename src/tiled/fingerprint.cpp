@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <string>
 #include <system_error>
@@ -113,6 +114,56 @@ std::string fingerprint_of(const std::string& path, std::uint64_t& bytes) {
   for (std::uint64_t k = 1; k <= 64; ++k) block(bytes / 65 * k, 4096);
   block(bytes > 65536 ? bytes - 65536 : 0, 65536);
   return hex(h);
+}
+
+}  // namespace tiled_detail
+
+namespace tiled_detail {
+
+bool compressed_input(const std::string& path, const io::read_options& read) {
+  const std::vector<std::string> files =
+      io::names_catalogue(path) ? io::catalogue_files({path}) : std::vector<std::string>{path};
+  for (const std::string& f : files) {
+    const io::file_format fmt = read.format == io::file_format::automatic ? io::format_of(f) : read.format;
+    if (fmt != io::file_format::laz && fmt != io::file_format::copc) return false;
+  }
+  return !files.empty();
+}
+
+std::uint64_t file_bytes_hash(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw io::io_error(path, "cannot open");
+  // Eight bytes at a time (a multiply and a rotation each), the tail and the
+  // size through FNV-1a: several GB a second.
+  std::uint64_t h = detail::fnv1a_offset, size = 0;
+  std::vector<char> buf(std::size_t(4) << 20);
+  for (;;) {
+    in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
+    const auto got = static_cast<std::size_t>(in.gcount());
+    std::size_t i = 0;
+    for (; i + 8 <= got; i += 8) {
+      std::uint64_t w;
+      std::memcpy(&w, buf.data() + i, 8);
+      h = (h ^ w) * 0x9E3779B97F4A7C15ull;
+      h = (h << 31) | (h >> 33);
+    }
+    h = detail::fnv1a(buf.data() + i, got - i, h);
+    size += got;
+    if (got < buf.size()) break;
+  }
+  if (in.bad()) throw io::io_error(path, "cannot read it");
+  std::string size_le;
+  append_le(size_le, size);
+  return detail::fnv1a(size_le, h);
+}
+
+std::string bytes_hash_of(const std::string& path, const std::vector<std::uint64_t>& hashes) {
+  if (!io::names_catalogue(path)) return hex(hashes.empty() ? file_bytes_hash(path) : hashes.front());
+  std::string all;
+  const std::vector<std::string> files = io::catalogue_files({path});
+  for (std::size_t i = 0; i < files.size(); ++i)
+    all += hex(i < hashes.size() ? hashes[i] : file_bytes_hash(files[i])) + '\n';
+  return hex(detail::fnv1a(all));
 }
 
 }  // namespace tiled_detail

@@ -27,5 +27,13 @@ std::uint64_t hash_points(const point_cloud& c, std::size_t first, std::size_t n
 std::array<float, 6> run_box(const point_cloud& c, std::size_t first, std::size_t n);
 /// The file's size (into `bytes`), and a hash of it (check_plan_input()).
 std::string fingerprint_of(const std::string& path, std::uint64_t& bytes);
+/// Whether every file of the input (a file, or a folder or @LIST of them)
+/// is LAZ or COPC: the decoding costs far more than reading its bytes.
+bool compressed_input(const std::string& path, const io::read_options& read);
+/// A hash of every byte of file `path` (tile_plan::bytes_hash).
+std::uint64_t file_bytes_hash(const std::string& path);
+/// tile_plan::bytes_hash of the input: of its files' file_bytes_hash(), in
+/// order (`hashes`: theirs when known, else computed here).
+std::string bytes_hash_of(const std::string& path, const std::vector<std::uint64_t>& hashes = {});
 
 }  // namespace ced::tiled_detail

@@ -120,6 +120,10 @@ void input_from_json(const nlohmann::json& in, tile_plan& p, const std::string& 
   p.finite_points = count_of<std::uint64_t>(in, "finite_points");
   p.streamed = in.at("streamed").get<bool>();
   p.indexed = in.value("indexed", false);
+  p.bytes_hash = in.value("bytes_hash", std::string());
+  if (!p.bytes_hash.empty() &&
+      (p.bytes_hash.size() != 16 || p.bytes_hash.find_first_not_of("0123456789abcdef") != std::string::npos))
+    throw io::io_error(name, "invalid tile plan: 'bytes_hash' must be 16 hex digits");
   if (p.indexed && p.finite_points != p.file_points)
     throw io::io_error(name, "invalid tile plan: a plan from a spatial index counts every point finite");
   if (p.finite_points == 0 || p.finite_points > p.file_points ||
@@ -281,6 +285,7 @@ std::string tile_plan::to_json() const {
                 {"points", file_points}, {"finite_points", finite_points}, {"streamed", streamed}};
   if (!content.empty()) j["input"]["content"] = content;
   if (indexed) j["input"]["indexed"] = true;
+  if (!bytes_hash.empty()) j["input"]["bytes_hash"] = bytes_hash;
   j["origin"] = origin;
   j["grid"] = {{"lo", grid.lo}, {"size", grid.size}, {"dims", grid.dims}, {"halo", grid.halo}};
   auto& fl = j["fields"] = nlohmann::json::array();

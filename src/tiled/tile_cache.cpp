@@ -22,9 +22,11 @@
 #include <utility>
 #include <vector>
 
+#include "ced/io/catalogue.hpp"
 #include "ced/io/output_file.hpp"
 #include "core/raw_vector.hpp"
 #include "tiled/chunks.hpp"
+#include "tiled/fingerprint.hpp"
 #include "tiled/modalities.hpp"
 #include "tiled/plan_file.hpp"
 #include "tiled/planning.hpp"
@@ -339,6 +341,8 @@ bool settle_header_plan(tile_plan& plan, const io::point_stream& s, const scan_r
 
 tile_plan build_cache(const tiled_request& request, const tiled_run_options& o, const fs::path& dir, bool& announced) {
   const fs::path plan_path = dir / "plan.json", cache = dir / "cache";
+  // LAZ and COPC: their bytes, before the pass that decodes them (tile_plan::bytes_hash).
+  const std::string bytes = compressed_input(request.input, request.read) ? bytes_hash_of(request.input) : "";
   std::error_code ec;
   fs::create_directories(cache, ec);
   if (ec) throw io::io_error(cache.string(), "cannot create the tile cache directory: " + ec.message());
@@ -359,6 +363,7 @@ tile_plan build_cache(const tiled_request& request, const tiled_run_options& o, 
       fill_cache(*plan, *s, o, dir, announced, &scan);
       if (settle_header_plan(*plan, *s, scan)) {
         sample_fields(*plan, o.progress);
+        plan->bytes_hash = bytes;
         io::write_text_file_atomic(plan_path.string(), plan->to_json());
         return std::move(*plan);
       }
@@ -366,11 +371,11 @@ tile_plan build_cache(const tiled_request& request, const tiled_run_options& o, 
       fs::create_directories(cache, ec);
     }
   }
-  return build_cache_by_passes(request, o, dir, announced);
+  return build_cache_by_passes(request, o, dir, announced, bytes);
 }
 
 tile_plan build_cache_by_passes(const tiled_request& request, const tiled_run_options& o, const fs::path& dir,
-                                bool& announced) {
+                                bool& announced, const std::string& bytes) {
   auto s = io::open_point_stream(request.input, request.read);
   tile_plan plan = plan_grid(request, *s, o.progress);
   plan.tile_fields = detection_fields(plan);
@@ -381,6 +386,7 @@ tile_plan build_cache_by_passes(const tiled_request& request, const tiled_run_op
   }
   fill_cache(plan, *s, o, dir, announced, nullptr);
   sample_fields(plan, o.progress);
+  plan.bytes_hash = bytes;
   io::write_text_file_atomic((dir / "plan.json").string(), plan.to_json());
   return plan;
 }
@@ -419,6 +425,15 @@ std::string fill_cache_share(const std::string& begun, unsigned share, const til
     throw io::io_error(plan.request.input, "the file changed since the plan was made (" +
                                                std::to_string(s->declared_points()) + " points; the plan says " +
                                                std::to_string(plan.file_points) + ")");
+  // LAZ and COPC: its share of the files' bytes, before the pass that decodes them (tile_plan::bytes_hash).
+  nlohmann::json file_hashes = nlohmann::json::array();
+  if (compressed_input(plan.request.input, plan.request.read)) {
+    const std::vector<std::string> files = io::names_catalogue(plan.request.input)
+                                               ? io::catalogue_files({plan.request.input})
+                                               : std::vector<std::string>{plan.request.input};
+    for (std::size_t f = share; f < files.size(); f += plan.cache_shares)
+      file_hashes.push_back({f, hex(file_bytes_hash(files[f]))});
+  }
   std::vector<io::point_stream::point_run> mine;
   for (const auto& r : s->chunk_runs())
     if (share_of(r.first, plan.file_points, plan.cache_shares) == share) mine.push_back(r);
@@ -459,6 +474,7 @@ std::string fill_cache_share(const std::string& begun, unsigned share, const til
   fill.writer.flush();
   nlohmann::json j;
   j["share"] = share;
+  if (!file_hashes.empty()) j["file_hashes"] = file_hashes;
   j["points"] = scan.file_points;
   if (scan.file_points > 0) j["box"] = {lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]};
   auto& set = j["flags"] = nlohmann::json::array();
@@ -495,8 +511,12 @@ tile_plan finish_cache_shares(const std::string& begun, const std::vector<std::s
   std::vector<std::string> set;
   std::map<std::string, value_range> ranges;
   std::map<std::uint64_t, std::pair<std::uint64_t, std::uint64_t>> counts;
+  std::map<std::size_t, std::uint64_t> file_hashes;
   for (std::size_t k = 0; k < learnt.size(); ++k) {
     const auto j = nlohmann::json::parse(learnt[k]);
+    if (j.contains("file_hashes"))
+      for (const auto& h : j.at("file_hashes"))
+        file_hashes[h.at(0).get<std::size_t>()] = std::stoull(h.at(1).get<std::string>(), nullptr, 16);
     if (j.at("share").get<std::size_t>() != k)
       throw std::invalid_argument("finish_cache_shares: the reports are not in share order");
     points += j.at("points").get<std::uint64_t>();
@@ -544,7 +564,9 @@ tile_plan finish_cache_shares(const std::string& begun, const std::vector<std::s
     // The headers were not the points': the passes, in this process.
     clear_tiles(dir);
     fs::create_directories(dir / "cache", ec);
-    plan = build_cache_by_passes(plan.request, o, dir, announced);
+    const std::string bytes =
+        compressed_input(plan.request.input, plan.request.read) ? bytes_hash_of(plan.request.input) : "";
+    plan = build_cache_by_passes(plan.request, o, dir, announced, bytes);
   } else {
     plan.fields.erase(
         std::remove_if(plan.fields.begin(), plan.fields.end(), [&](const plan_field& f) { return unset_flag(f.name); }),
@@ -558,6 +580,11 @@ tile_plan finish_cache_shares(const std::string& begun, const std::vector<std::s
       else
         remove_cached(plan, o.work_dir, t);  // read points, owns none: not a tile of the plan
     sample_fields(plan, o.progress);
+    if (compressed_input(plan.request.input, plan.request.read)) {
+      std::vector<std::uint64_t> hashes;
+      for (std::size_t f = 0; file_hashes.count(f); ++f) hashes.push_back(file_hashes.at(f));
+      plan.bytes_hash = bytes_hash_of(plan.request.input, hashes);  // (any file missing: hashed here)
+    }
     io::write_text_file_atomic((dir / "plan.json").string(), plan.to_json());
   }
   fs::create_directories(dir / "parts", ec);

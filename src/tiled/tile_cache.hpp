@@ -18,7 +18,7 @@ namespace fs = std::filesystem;
 tile_plan build_cache(const tiled_request& request, const tiled_run_options& o, const fs::path& dir, bool& announced);
 /// build_cache() by passes (plan_grid()), whatever the header says.
 tile_plan build_cache_by_passes(const tiled_request& request, const tiled_run_options& o, const fs::path& dir,
-                                bool& announced);
+                                bool& announced, const std::string& bytes_hash);
 /// The plan from the headers for a cache filled in `shares` shares
 /// (fill_cache_share()); none when the input cannot be planned so (no
 /// header plan, or no runs), or shares < 2.
