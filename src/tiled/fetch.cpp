@@ -82,11 +82,7 @@ bool record_fetcher::advance() {
   return true;
 }
 
-void record_fetcher::fetch_records(tile_part& c) {
-  if (c.index.empty()) {
-    c.keypoints = keypoint_records(m_plan, 0);
-    return;
-  }
+void record_fetcher::check_places(const tile_part& c) {
   for (std::size_t j = 0; j < c.index.size(); ++j) {
     if (c.file_index[j] < m_last) changed("keypoints out of order");
     if (c.file_index[j] >= m_plan.file_points)
@@ -94,6 +90,14 @@ void record_fetcher::fetch_records(tile_part& c) {
     if (c.index[j] != c.file_index[j]) not_the_keypoint(c.file_index[j], c.index[j]);
     m_last = c.file_index[j] + 1;
   }
+}
+
+void record_fetcher::fetch_records(tile_part& c) {
+  if (c.index.empty()) {
+    c.keypoints = keypoint_records(m_plan, 0);
+    return;
+  }
+  check_places(c);
   point_cloud read;
   m_stream->read_points(c.file_index, m_field_names, m_plan.origin, read);
   for (std::size_t j = 0; j < c.index.size(); ++j) {
@@ -120,14 +124,8 @@ void record_fetcher::fetch_records(tile_part& c) {
 void record_fetcher::fetch(tile_part& c) {
   if (m_records) return fetch_records(c);
   if (m_bytes_checked) {
+    check_places(c);
     point_cloud at = position_cloud(m_plan, c.index.size());
-    for (std::size_t j = 0; j < c.index.size(); ++j) {
-      if (c.file_index[j] < m_last) changed("keypoints out of order");
-      if (c.file_index[j] >= m_plan.file_points)
-        changed("it has fewer points than the plan's " + std::to_string(m_plan.file_points));
-      if (c.index[j] != c.file_index[j]) not_the_keypoint(c.file_index[j], c.index[j]);
-      m_last = c.file_index[j] + 1;
-    }
     std::copy_n(c.keypoints.positions().data(), 3 * c.index.size(), at.positions().data());
     c.keypoints = std::move(at);
     return;

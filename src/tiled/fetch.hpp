@@ -40,6 +40,9 @@ class record_fetcher {
  private:
   bool advance();
   void fetch_records(tile_part& c);
+  /// Every point finite (records, or bytes checked): c's keypoints follow
+  /// the last call's, lie in the file and have index = file index.
+  void check_places(const tile_part& c);
   [[noreturn]] void changed(const std::string& what) const;
   /// changed(): file point `file_index` is not keypoint `index` as detected.
   [[noreturn]] void not_the_keypoint(std::uint64_t file_index, std::uint64_t index) const;

@@ -14,6 +14,7 @@
 #include <exception>
 #include <future>
 #include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -275,6 +276,26 @@ void remove_cached(const tile_plan& plan, const std::string& work_dir, std::uint
 
 namespace {
 
+/// The cache writer of a pass (`piece`: of a share of it). The threads
+/// locate and code while the next chunk is read: as many as asked, at most
+/// 4 (each codes its shard from the whole chunk).
+cache_writer cache_writer_of(const tile_plan& plan, const tiled_run_options& o, const std::string& work_dir,
+                             std::optional<unsigned> piece = std::nullopt) {
+  std::size_t budget = std::size_t(64) << 20;
+  // The tests' hook: buffers that fill and flush on small clouds.
+  if (const char* b = std::getenv("CED_TEST_CACHE_BUDGET"))
+    budget = std::max<std::size_t>(1, std::strtoull(b, nullptr, 10));
+  return cache_writer(work_dir, budget, std::min(4u, resolve_threads(o.threads)), plan.grid.count(), piece);
+}
+
+/// The input as the cache reads it: only what detection reads (the merge
+/// fetches the keypoints' records), by a stream that decodes only that.
+std::unique_ptr<io::point_stream> slim_stream(const tiled_request& request, const tile_plan& p) {
+  io::read_options slim = request.read;
+  if (p.tile_fields) slim.fields = field_selection::only(*p.tile_fields);
+  return io::open_point_stream(request.input, slim);
+}
+
 /// The cache of `plan` from one pass over `s`: every point into the cache
 /// of each tile that reads it; the plan gets the tiles' counts. `scan`,
 /// when given, learns the fields' ranges on the way.
@@ -291,16 +312,7 @@ void fill_cache(tile_plan& plan, io::point_stream& s, const tiled_run_options& o
     if (o.planned && !scan) o.planned(plan);
     announced = !scan;
   }
-  // Every point into the cache file of each tile that reads it. The threads
-  // locate and code while the next chunk is read: as many as asked, at
-  // most 4 (each codes its shard from the whole chunk).
-  const unsigned shards = std::min(4u, resolve_threads(o.threads));
-  std::size_t budget = std::size_t(64) << 20;
-  // The tests' hook: buffers that fill and flush on small clouds.
-  if (const char* b = std::getenv("CED_TEST_CACHE_BUDGET"))
-    budget = std::max<std::size_t>(1, std::strtoull(b, nullptr, 10));
-  cache_filler fill{plan, owners, tile_counter(plan.grid.count()),
-                    cache_writer(dir.string(), budget, shards, plan.grid.count())};
+  cache_filler fill{plan, owners, tile_counter(plan.grid.count()), cache_writer_of(plan, o, dir.string())};
   fill.tile_fields = tile_fields_of(plan);
   for_each_chunk(s, plan.origin, [&](const point_cloud& c) {
     if (scan) scan_chunk(c, *scan);
@@ -346,19 +358,12 @@ tile_plan build_cache(const tiled_request& request, const tiled_run_options& o, 
   std::error_code ec;
   fs::create_directories(cache, ec);
   if (ec) throw io::io_error(cache.string(), "cannot create the tile cache directory: " + ec.message());
-  // The cache carries only what detection reads (the merge fetches the
-  // keypoints' records), read by a stream that decodes only that.
-  const auto slim_stream = [&](const tile_plan& p) {
-    io::read_options slim = request.read;
-    if (p.tile_fields) slim.fields = field_selection::only(*p.tile_fields);
-    return io::open_point_stream(request.input, slim);
-  };
   // LAS and LAZ: the plan from the header, and one pass, which fills the
   // cache and checks what the header said.
   if (!request.scan && request.memory_limit == 0) {
     auto s = io::open_point_stream(request.input, request.read);
     if (std::optional<tile_plan> plan = plan_from_header(request, *s)) {
-      s = slim_stream(*plan);
+      s = slim_stream(request, *plan);
       scan_result scan;
       fill_cache(*plan, *s, o, dir, announced, &scan);
       if (settle_header_plan(*plan, *s, scan)) {
@@ -379,11 +384,7 @@ tile_plan build_cache_by_passes(const tiled_request& request, const tiled_run_op
   auto s = io::open_point_stream(request.input, request.read);
   tile_plan plan = plan_grid(request, *s, o.progress);
   plan.tile_fields = detection_fields(plan);
-  if (plan.tile_fields) {
-    io::read_options slim = request.read;
-    slim.fields = field_selection::only(*plan.tile_fields);
-    s = io::open_point_stream(request.input, slim);
-  }
+  if (plan.tile_fields) s = slim_stream(request, plan);
   fill_cache(plan, *s, o, dir, announced, nullptr);
   sample_fields(plan, o.progress);
   plan.bytes_hash = bytes;
@@ -446,13 +447,8 @@ std::string fill_cache_share(const std::string& begun, unsigned share, const til
       flags.push_back(f.name);
       if (std::find(names.begin(), names.end(), f.name) == names.end()) names.push_back(f.name);
     }
-  const unsigned shards = std::min(4u, resolve_threads(o.threads));
-  std::size_t budget = std::size_t(64) << 20;
-  if (const char* b = std::getenv("CED_TEST_CACHE_BUDGET"))
-    budget = std::max<std::size_t>(1, std::strtoull(b, nullptr, 10));
   const tile_owners all;
-  cache_filler fill{plan, all, tile_counter(plan.grid.count()),
-                    cache_writer(o.work_dir, budget, shards, plan.grid.count(), share)};
+  cache_filler fill{plan, all, tile_counter(plan.grid.count()), cache_writer_of(plan, o, o.work_dir, share)};
   fill.tile_fields = tile_fields;
   scan_result scan;
   std::uint64_t total = 0;
@@ -558,14 +554,19 @@ tile_plan finish_cache_shares(const std::string& begun, const std::vector<std::s
     return is_las_flag(name) && std::find(set.begin(), set.end(), name) == set.end();
   };
   for (const plan_field& f : tile_fields_of(plan)) stands = stands && !unset_flag(f.name);
+  // LAZ and COPC: the files' bytes as the shares hashed them before their pass (any missing: hashed here).
+  std::string bytes;
+  if (compressed_input(plan.request.input, plan.request.read)) {
+    std::vector<std::uint64_t> hashes;
+    for (std::size_t f = 0; file_hashes.count(f); ++f) hashes.push_back(file_hashes.at(f));
+    bytes = bytes_hash_of(plan.request.input, hashes);
+  }
   std::error_code ec;
   bool announced = false;
   if (!stands) {
     // The headers were not the points': the passes, in this process.
     clear_tiles(dir);
     fs::create_directories(dir / "cache", ec);
-    const std::string bytes =
-        compressed_input(plan.request.input, plan.request.read) ? bytes_hash_of(plan.request.input) : "";
     plan = build_cache_by_passes(plan.request, o, dir, announced, bytes);
   } else {
     plan.fields.erase(
@@ -580,11 +581,7 @@ tile_plan finish_cache_shares(const std::string& begun, const std::vector<std::s
       else
         remove_cached(plan, o.work_dir, t);  // read points, owns none: not a tile of the plan
     sample_fields(plan, o.progress);
-    if (compressed_input(plan.request.input, plan.request.read)) {
-      std::vector<std::uint64_t> hashes;
-      for (std::size_t f = 0; file_hashes.count(f); ++f) hashes.push_back(file_hashes.at(f));
-      plan.bytes_hash = bytes_hash_of(plan.request.input, hashes);  // (any file missing: hashed here)
-    }
+    plan.bytes_hash = bytes;
     io::write_text_file_atomic((dir / "plan.json").string(), plan.to_json());
   }
   fs::create_directories(dir / "parts", ec);
